@@ -1,0 +1,38 @@
+//! Numerics of aircraft magnetic compensation.
+//!
+//! ```
+//! use tolles_core::design::{Design, TermSet};
+//! use tolles_core::vector::VectorSeries;
+//!
+//! // Four samples of a fluxgate (nT, body frame FRD).
+//! let flux = VectorSeries::new(
+//!     vec![20_000.0, 20_010.0, 20_030.0, 20_060.0],
+//!     vec![-3_000.0, -2_990.0, -2_970.0, -2_940.0],
+//!     vec![45_000.0, 45_005.0, 45_010.0, 45_015.0],
+//! );
+//! let design = Design::new(TermSet::magnav_default());
+//! let a = design.matrix(&flux);
+//! assert_eq!(a.ncols(), 18);
+//! ```
+//!
+//! Crate layout, one concept per module:
+//! - [`conventions`]: frames, axes, units (read this first);
+//! - [`terms`]: which Tolles-Lawson terms a model uses;
+//! - [`design`]: the Tolles-Lawson design matrix (permanent, induced and eddy-current columns);
+//! - [`filter`]: Butterworth second-order sections and zero-phase filtering;
+//! - [`fit`]: ridge least squares of the scalar signal on the design matrix;
+//! - [`compensate`]: applying a fitted model;
+//! - [`metrics`]: noise level, improvement ratio, fourth difference;
+//! - [`interpret`]: coefficients as physical fields and in the patent's nomenclature.
+//!
+//! No module here reads files or writes to a terminal.
+
+pub mod compensate;
+pub mod conventions;
+pub mod design;
+pub mod filter;
+pub mod fit;
+pub mod interpret;
+pub mod metrics;
+pub mod terms;
+pub mod vector;
