@@ -1,1 +1,66 @@
-fn main() {}
+//! `tolles`: remove an aircraft's own magnetic field from airborne magnetometer data.
+//!
+//! This crate is only the command line; the numerics live in `tolles-core` and the file formats
+//! in `tolles-io`.
+
+mod cmd;
+mod input;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+const ABOUT: &str = "Aircraft magnetic compensation (Tolles-Lawson): learn the aircraft's \
+permanent, induced and eddy-current field from a calibration flight and remove it from survey data.";
+
+const EXAMPLES: &str = "\
+Examples:
+  # Learn a model from a calibration flight and apply it to a survey:
+  tolles fit cal.csv --scalar mag_1_uc --vector flux_a --out model.json
+  tolles compensate survey.csv --model model.json --out survey_c.csv
+
+  # Reproduce MagNav.jl's procedure exactly:
+  tolles fit cal.csv --scalar mag_1_uc --vector flux_a \\
+      --terms permanent,induced,eddy --lambda 0.001 --band 0.1,0.9 --order 4 --trim 20
+
+  # See it work on a simulated flight, no files needed:
+  tolles demo";
+
+#[derive(Parser)]
+#[command(name = "tolles", version, about = ABOUT, after_help = EXAMPLES)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    Fit(cmd::fit::Args),
+    Compensate(cmd::compensate::Args),
+    Demo(cmd::demo::Args),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Fit(args) => cmd::fit::run(args),
+        Command::Compensate(args) => cmd::compensate::run(args),
+        Command::Demo(args) => cmd::demo::run(args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) if is_broken_pipe(&e) => ExitCode::SUCCESS,
+        Err(e) => {
+            // One line: the whole cause chain, no backtrace.
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// A reader that closed our standard output early (`tolles compensate … | head`) is not an error.
+fn is_broken_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+    })
+}

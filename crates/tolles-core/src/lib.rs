@@ -34,5 +34,6 @@ pub mod filter;
 pub mod fit;
 pub mod interpret;
 pub mod metrics;
+pub mod segment;
 pub mod terms;
 pub mod vector;

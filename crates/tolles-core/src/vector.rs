@@ -1,1 +1,67 @@
-//! vector
+//! A time series of 3-component vectors, such as a fluxgate's readings.
+
+/// Three equally long component series (body frame FRD unless stated otherwise).
+///
+/// ```
+/// use tolles_core::vector::VectorSeries;
+/// let b = VectorSeries::new(vec![3.0], vec![4.0], vec![12.0]);
+/// assert_eq!(b.magnitude(0), 13.0);
+/// ```
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct VectorSeries {
+    /// x (forward) component, nT.
+    pub x: Vec<f64>,
+    /// y (right) component, nT.
+    pub y: Vec<f64>,
+    /// z (down) component, nT.
+    pub z: Vec<f64>,
+}
+
+impl VectorSeries {
+    /// Builds a series from its components (nT).
+    ///
+    /// # Panics
+    /// If the three components differ in length: that is a programming error, not bad input.
+    pub fn new(x: Vec<f64>, y: Vec<f64>, z: Vec<f64>) -> Self {
+        assert!(
+            x.len() == y.len() && y.len() == z.len(),
+            "vector components must have equal lengths"
+        );
+        Self { x, y, z }
+    }
+
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.x.len()
+    }
+
+    /// True when there are no samples.
+    pub fn is_empty(&self) -> bool {
+        self.x.is_empty()
+    }
+
+    /// Sample `k` as an array `[x, y, z]` (nT).
+    pub fn at(&self, k: usize) -> [f64; 3] {
+        [self.x[k], self.y[k], self.z[k]]
+    }
+
+    /// Euclidean magnitude of sample `k` (nT).
+    pub fn magnitude(&self, k: usize) -> f64 {
+        let [x, y, z] = self.at(k);
+        (x * x + y * y + z * z).sqrt()
+    }
+
+    /// True when all three components of sample `k` are finite.
+    pub fn is_finite(&self, k: usize) -> bool {
+        self.at(k).iter().all(|v| v.is_finite())
+    }
+
+    /// The samples in `range` as a new series.
+    pub fn slice(&self, range: std::ops::Range<usize>) -> Self {
+        Self {
+            x: self.x[range.clone()].to_vec(),
+            y: self.y[range.clone()].to_vec(),
+            z: self.z[range].to_vec(),
+        }
+    }
+}

@@ -1,0 +1,110 @@
+//! `tolles compensate`: apply a model to survey data.
+
+use crate::input::Flight;
+use anyhow::{bail, Context, Result};
+use std::io::Write;
+use std::path::PathBuf;
+use tolles_core::compensate::{compensate, Level};
+use tolles_core::fit::check_flux_magnitude;
+use tolles_io::model::ModelFile;
+use tolles_io::table::write_with_column;
+
+const EXAMPLES: &str = "\
+Examples:
+  tolles compensate survey.csv --model model.json --out survey_c.csv
+  tolles compensate survey.csv --model model.json | head";
+
+/// Remove the aircraft's field from survey data with a model from `tolles fit`.
+///
+/// Writes every input row and column unchanged plus the compensated scalar, named after the
+/// scalar with `_uc` replaced by `_c` (mag_1_uc → mag_1_c). The correction's mean over the file is
+/// kept in the data, as MagNav.jl does. Rows that cannot be compensated (missing values) get an
+/// empty cell and are counted on stderr.
+#[derive(clap::Args)]
+#[command(after_help = EXAMPLES)]
+pub struct Args {
+    /// Survey data: CSV with a header row and the model's scalar and fluxgate columns
+    pub survey: PathBuf,
+    /// Model file written by `tolles fit`
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Output CSV; standard output if omitted
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Sample rate of the survey in Hz, if it has no `tt` column (default: the model's)
+    #[arg(long)]
+    pub fs: Option<f64>,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let model = ModelFile::read(&args.model)?;
+    let mut extra = Vec::new();
+    let mut table = None;
+    for scalar_model in &model.fits {
+        let vector = &scalar_model.vectors[0];
+        let flight = Flight::read(&args.survey, &scalar_model.scalar, vector)?;
+        check_flux_magnitude(&flight.flux)
+            .map_err(|e| flight.explain(e, &scalar_model.scalar, vector))?;
+        let fs_hz = match (args.fs, &flight.tt) {
+            (None, None) => scalar_model.fit.fs_hz,
+            (fs, _) => flight.sample_rate(fs)?,
+        };
+        let fit = &scalar_model.fit;
+        let result = compensate(
+            &flight.scalar,
+            &flight.flux,
+            flight.tt.as_deref(),
+            &fit.settings.design,
+            &fit.coefficients,
+            fs_hz / fit.fs_hz,
+            Level::FileMean,
+        );
+        if result.uncomputable > 0 {
+            eprintln!(
+                "warning: {}: {} of {} rows have no {} (missing scalar or fluxgate values); their cells are empty",
+                args.survey.display(),
+                result.uncomputable,
+                flight.scalar.len(),
+                scalar_model.output_column
+            );
+        }
+        let name = output_name(&flight.table, &scalar_model.output_column);
+        extra.push((name, result.compensated));
+        table = Some(flight.table);
+    }
+    let Some(table) = table else {
+        bail!("{}: the model holds no fits", args.model.display())
+    };
+    match &args.out {
+        Some(path) => {
+            let file = std::fs::File::create(path)
+                .with_context(|| format!("{}: cannot create", path.display()))?;
+            let mut out = std::io::BufWriter::new(file);
+            write_with_column(&table, &extra, &mut out)
+                .and_then(|_| out.flush())
+                .with_context(|| format!("{}: cannot write", path.display()))
+        }
+        None => {
+            let stdout = std::io::stdout();
+            let mut out = std::io::BufWriter::new(stdout.lock());
+            write_with_column(&table, &extra, &mut out)
+                .and_then(|_| out.flush())
+                .context("writing to standard output")
+        }
+    }
+}
+
+/// The compensated column's name; if the input already has that column (SGL files carry their
+/// own `mag_1_c`), ours becomes `NAME_tolles` so no input column is overwritten.
+fn output_name(table: &tolles_io::table::Table, wanted: &str) -> String {
+    if table.has(wanted) {
+        let renamed = format!("{wanted}_tolles");
+        eprintln!(
+            "warning: {} already has a column {wanted:?}; writing ours as {renamed:?}",
+            table.path().display()
+        );
+        renamed
+    } else {
+        wanted.to_string()
+    }
+}

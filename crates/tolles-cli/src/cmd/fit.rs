@@ -1,0 +1,121 @@
+//! `tolles fit`: learn a model from a calibration flight.
+
+use crate::input::{parse_band, Flight};
+use anyhow::{Context, Result};
+use std::io::Write;
+use std::path::PathBuf;
+use tolles_core::design::Design;
+use tolles_core::fit::{fit, Band, FitSettings};
+use tolles_core::terms::TermSet;
+use tolles_io::model::{ModelFile, ScalarModel};
+
+/// Default terms: the 16 a scalar magnetometer can identify (see `--terms`).
+pub const DEFAULT_TERMS: &str = "permanent,i5,e8";
+
+const EXAMPLES: &str = "\
+Examples:
+  tolles fit cal.csv --scalar mag_1_uc --vector flux_a --out model.json
+  # MagNav.jl's exact procedure:
+  tolles fit cal.csv --scalar mag_1_uc --vector flux_a --out model.json \\
+      --terms permanent,induced,eddy --lambda 0.001 --band 0.1,0.9 --order 4 --trim 20";
+
+/// Learn the aircraft's field from a calibration flight (CSV with a header row).
+///
+/// The fluxgate gives the earth field's direction in the aircraft; every design column and the
+/// scalar are band-passed with a zero-phase Butterworth filter, trimmed, and fitted by ridge
+/// least squares. Prints a summary to stderr; writes the model to --out (or stdout).
+#[derive(clap::Args)]
+#[command(after_help = EXAMPLES)]
+pub struct Args {
+    /// Calibration flight: CSV with a header row; time column `tt` (s) if present
+    pub cal: PathBuf,
+    /// Uncompensated scalar magnetometer column (nT), e.g. mag_1_uc
+    #[arg(long)]
+    pub scalar: String,
+    /// Fluxgate column prefix: `flux_a` reads flux_a_x, flux_a_y, flux_a_z (nT, body frame FRD)
+    #[arg(long)]
+    pub vector: String,
+    /// Where to write the model (JSON); standard output if omitted
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Terms: permanent|p, induced|i, i5, i3, eddy|e, e8, e3, bias|b. The default is the 16
+    /// terms a scalar magnetometer can identify; MagNav.jl's is permanent,induced,eddy
+    #[arg(long, default_value = DEFAULT_TERMS)]
+    pub terms: TermSet,
+    /// Ridge strength λ added to AᵀA (unscaled columns, as MagNav's linreg)
+    #[arg(long, default_value_t = 0.001)]
+    pub lambda: f64,
+    /// Pass band LO,HI in Hz; an edge ≤ 0 or ≥ fs/2 turns band-pass into low- or high-pass,
+    /// both invalid means no filtering
+    #[arg(long, default_value = "0.1,0.9")]
+    pub band: String,
+    /// Butterworth order (per band edge)
+    #[arg(long, default_value_t = 4)]
+    pub order: usize,
+    /// Samples dropped at each end after filtering
+    #[arg(long, default_value_t = 20)]
+    pub trim: usize,
+    /// Sample rate in Hz (required when the file has no `tt` column)
+    #[arg(long)]
+    pub fs: Option<f64>,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let flight = Flight::read(&args.cal, &args.scalar, &args.vector)?;
+    let fs_hz = flight.sample_rate(args.fs)?;
+    let (pass1_hz, pass2_hz) = parse_band(&args.band)?;
+    let settings = FitSettings {
+        design: Design::new(args.terms),
+        lambda: args.lambda,
+        band: Band { pass1_hz, pass2_hz },
+        order: args.order,
+        trim: args.trim,
+    };
+    let fitted = fit(&flight.scalar, &flight.flux, fs_hz, flight.tt.as_deref(), &settings)
+        .map_err(|e| flight.explain(e, &args.scalar, &args.vector))?;
+    let model = ScalarModel::new(&args.scalar, &args.vector, fitted);
+    print_summary(&model, &args)?;
+    let file = ModelFile::new(vec![model]);
+    match &args.out {
+        Some(path) => file.write(path)?,
+        None => writeln!(std::io::stdout(), "{}", file.to_json()).context("writing the model")?,
+    }
+    Ok(())
+}
+
+fn print_summary(model: &ScalarModel, args: &Args) -> Result<()> {
+    let d = &model.fit.diagnostics;
+    let mut err = std::io::stderr().lock();
+    writeln!(
+        err,
+        "fit {} ~ {} ({}) on {}: {} of {} samples used",
+        model.scalar,
+        model.vectors.join(","),
+        model.fit.settings.design.terms,
+        args.cal.display(),
+        d.samples_used,
+        d.samples_total
+    )?;
+    if d.samples_nonfinite > 0 {
+        writeln!(err, "  skipped {} samples with missing or non-finite values", d.samples_nonfinite)?;
+    }
+    if d.samples_in_short_runs > 0 {
+        writeln!(err, "  skipped {} samples in runs too short to filter", d.samples_in_short_runs)?;
+    }
+    writeln!(
+        err,
+        "  filtered scalar {:.4} nT -> residual {:.4} nT (improvement ×{:.2}), cond(AᵀA+λI) = {:.3e}",
+        d.filtered_std_before_nt, d.residual_std_nt, d.improvement_ratio, d.condition_number
+    )?;
+    writeln!(err, "  {:<12} {:>14} {:>12}", "term", "coefficient", "std error")?;
+    for ((name, beta), se) in model.fit.columns.iter().zip(&model.fit.coefficients).zip(&d.std_errors) {
+        writeln!(err, "  {name:<12} {beta:>14.6} {se:>12.4}")?;
+    }
+    let p = &model.patent;
+    writeln!(
+        err,
+        "  patent terms: perm T {:.3} L {:.3} V {:.3} nT; induced VV-TT {:.5} VV-LL {:.5} TL+LT {:.5} TV+VT {:.5} LV+VL {:.5}",
+        p.perm_nt.t, p.perm_nt.l, p.perm_nt.v, p.induced.vv_tt, p.induced.vv_ll, p.induced.tl_lt, p.induced.tv_vt, p.induced.lv_vl
+    )?;
+    Ok(())
+}

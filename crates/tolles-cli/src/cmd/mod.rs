@@ -1,0 +1,5 @@
+//! One module per subcommand.
+
+pub mod compensate;
+pub mod demo;
+pub mod fit;

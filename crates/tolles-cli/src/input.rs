@@ -1,0 +1,102 @@
+//! Reading flight tables and turning core errors into messages that name the file and line.
+
+use anyhow::{anyhow, bail, Context, Result};
+use std::path::Path;
+use tolles_core::fit::FitError;
+use tolles_core::segment::{first_non_increasing, median_step};
+use tolles_core::vector::VectorSeries;
+use tolles_io::table::Table;
+
+/// The time column; when present it gives the sample rate and marks gaps.
+pub const TIME_COLUMN: &str = "tt";
+
+/// A flight table with the columns one scalar model needs.
+pub struct Flight {
+    pub table: Table,
+    pub scalar: Vec<f64>,
+    pub flux: VectorSeries,
+    pub tt: Option<Vec<f64>>,
+}
+
+impl Flight {
+    /// Reads `path` and the columns `scalar` and `vector_x/_y/_z`.
+    pub fn read(path: &Path, scalar: &str, vector: &str) -> Result<Self> {
+        let table = Table::read_csv(path)?;
+        let scalar = table.numeric(scalar)?;
+        let flux = table.vector(vector)?;
+        let tt = match table.has(TIME_COLUMN) {
+            true => Some(table.numeric(TIME_COLUMN)?),
+            false => None,
+        };
+        if let Some(tt) = &tt {
+            if let Some(k) = first_non_increasing(tt) {
+                bail!(
+                    "{}: line {}, column {TIME_COLUMN:?}: time does not increase ({} after {}); sort the file or remove repeated rows",
+                    path.display(),
+                    table.line_of(k),
+                    tt[k],
+                    tt[..k].iter().rev().find(|t| t.is_finite()).copied().unwrap_or(f64::NAN)
+                );
+            }
+        }
+        Ok(Self {
+            table,
+            scalar,
+            flux,
+            tt,
+        })
+    }
+
+    /// The sample rate (Hz): `--fs` if given, else 1 / median step of `tt`.
+    pub fn sample_rate(&self, fs: Option<f64>) -> Result<f64> {
+        let from_time = self.tt.as_deref().and_then(median_step).map(|dt| 1.0 / dt);
+        match (fs, from_time) {
+            (Some(fs), _) if !(fs.is_finite() && fs > 0.0) => {
+                bail!("--fs must be a positive number of hertz, got {fs}")
+            }
+            (Some(fs), Some(t)) if ((fs - t) / t).abs() > 0.01 => {
+                eprintln!(
+                    "warning: --fs {fs} Hz differs from the {t:.6} Hz of column {TIME_COLUMN:?}; using --fs"
+                );
+                Ok(fs)
+            }
+            (Some(fs), _) => Ok(fs),
+            (None, Some(t)) => Ok(t),
+            (None, None) => Err(anyhow!(
+                "{}: no time column {TIME_COLUMN:?} to take the sample rate from; give it with --fs HZ",
+                self.table.path().display()
+            )),
+        }
+    }
+
+    /// Adds file and line to a core fit error.
+    pub fn explain(&self, error: FitError, scalar: &str, vector: &str) -> anyhow::Error {
+        let file = self.table.path().display();
+        match error {
+            FitError::FluxMagnitude { index, magnitude } => anyhow!(
+                "{file}: line {}: fluxgate {vector} magnitude {magnitude:.1} nT is outside 1,000–100,000 nT; are columns {vector}_x/_y/_z in nT?",
+                self.table.line_of(index)
+            ),
+            FitError::ConstantScalar => {
+                anyhow!("{file}: column {scalar:?} is constant: there is nothing to fit")
+            }
+            FitError::ConstantFlux => anyhow!(
+                "{file}: columns {vector}_x/_y/_z are constant: the aircraft did not maneuver, so no term can be fitted"
+            ),
+            other => anyhow::Error::new(other).context(format!("{file}")),
+        }
+    }
+}
+
+/// Parses `LO,HI` in hertz.
+pub fn parse_band(text: &str) -> Result<(f64, f64)> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    let [lo, hi] = parts[..] else {
+        bail!("--band takes two frequencies in Hz as LO,HI (e.g. 0.1,0.9), got {text:?}")
+    };
+    let parse = |s: &str| {
+        s.parse::<f64>()
+            .with_context(|| format!("--band: {s:?} is not a frequency in Hz"))
+    };
+    Ok((parse(lo)?, parse(hi)?))
+}

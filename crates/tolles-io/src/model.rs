@@ -1,0 +1,187 @@
+//! The model file: everything needed to apply a fitted model later, as versioned JSON.
+//!
+//! ```
+//! use tolles_io::model::{ModelFile, FORMAT, VERSION};
+//! let file = ModelFile::new(vec![]);
+//! let text = file.to_json();
+//! assert!(text.contains(FORMAT));
+//! assert_eq!(ModelFile::from_json(&text, "m.json").unwrap().version, VERSION);
+//! ```
+//!
+//! Layout (version 1):
+//! ```json
+//! { "format": "tolles-model", "version": 1, "created_by": "tolles 0.1.0",
+//!   "fits": [ { "scalar": "mag_1_uc", "vectors": ["flux_a"], "output_column": "mag_1_c",
+//!               "settings": {...}, "fs_hz": 10.0, "columns": [...], "coefficients": [...],
+//!               "level_nt": ..., "diagnostics": {...},
+//!               "physical": {...}, "patent": {"perm_nT": {...}, "induced": {...}, "eddy_s": {...}} } ] }
+//! ```
+//! A later release reads every earlier version; a file from a newer release is refused with a
+//! message saying so.
+
+use crate::error::IoError;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+use tolles_core::fit::Fit;
+use tolles_core::interpret::{AircraftField, PatentTerms};
+
+/// The `format` tag of a model file.
+pub const FORMAT: &str = "tolles-model";
+/// The newest model file version this release writes and reads.
+pub const VERSION: u32 = 1;
+
+/// A model file: one fit per scalar magnetometer.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ModelFile {
+    /// Always [`FORMAT`].
+    pub format: String,
+    /// File layout version.
+    pub version: u32,
+    /// The program that wrote it.
+    pub created_by: String,
+    /// One model per scalar.
+    pub fits: Vec<ScalarModel>,
+}
+
+/// The model of one scalar magnetometer.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ScalarModel {
+    /// Input column of the uncompensated scalar (nT).
+    pub scalar: String,
+    /// Fluxgate column prefixes (`flux_a` → `flux_a_x`, `flux_a_y`, `flux_a_z`, nT).
+    pub vectors: Vec<String>,
+    /// Name of the compensated column that `compensate` adds.
+    pub output_column: String,
+    /// Coefficients, settings and diagnostics.
+    #[serde(flatten)]
+    pub fit: Fit,
+    /// The coefficients as permanent (nT), induced (1) and eddy (s) fields.
+    pub physical: AircraftField,
+    /// The 16 terms in the patent's nomenclature.
+    pub patent: PatentTerms,
+}
+
+impl ScalarModel {
+    /// Wraps a fit of `scalar` against the fluxgate `vector`.
+    pub fn new(scalar: &str, vector: &str, fit: Fit) -> Self {
+        let physical =
+            AircraftField::from_coefficients(&fit.settings.design, &fit.coefficients, fit.fs_hz);
+        Self {
+            scalar: scalar.to_string(),
+            vectors: vec![vector.to_string()],
+            output_column: compensated_name(scalar),
+            patent: physical.patent_terms(),
+            physical,
+            fit,
+        }
+    }
+}
+
+/// `mag_1_uc` → `mag_1_c`; a name without `_uc` gets `_c` appended.
+pub fn compensated_name(scalar: &str) -> String {
+    match scalar.strip_suffix("_uc") {
+        Some(stem) => format!("{stem}_c"),
+        None => format!("{scalar}_c"),
+    }
+}
+
+impl ModelFile {
+    /// A current-version file holding `fits`.
+    pub fn new(fits: Vec<ScalarModel>) -> Self {
+        Self {
+            format: FORMAT.to_string(),
+            version: VERSION,
+            created_by: format!("tolles {}", env!("CARGO_PKG_VERSION")),
+            fits,
+        }
+    }
+
+    /// Pretty JSON text.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).expect("a model always serialises")
+    }
+
+    /// Parses JSON text; `name` is used in error messages.
+    pub fn from_json(text: &str, name: impl AsRef<Path>) -> Result<Self, IoError> {
+        let path = name.as_ref().to_path_buf();
+        let fail = |message: String| IoError::Model {
+            path: path.clone(),
+            message,
+        };
+        let value: serde_json::Value =
+            serde_json::from_str(text).map_err(|e| fail(format!("invalid JSON ({e})")))?;
+        if value.get("format").and_then(|f| f.as_str()) != Some(FORMAT) {
+            return Err(fail(format!("missing \"format\": \"{FORMAT}\"")));
+        }
+        match value.get("version").and_then(|v| v.as_u64()) {
+            Some(v) if v >= 1 && v <= VERSION as u64 => {}
+            Some(v) => {
+                return Err(fail(format!(
+                    "version {v} is newer than this tolles understands ({VERSION}); upgrade tolles"
+                )))
+            }
+            None => return Err(fail("missing \"version\"".to_string())),
+        }
+        let file: ModelFile =
+            serde_json::from_value(value).map_err(|e| fail(format!("bad contents ({e})")))?;
+        file.check().map_err(fail)?;
+        Ok(file)
+    }
+
+    fn check(&self) -> Result<(), String> {
+        for fit in &self.fits {
+            let width = fit.fit.settings.design.width();
+            if fit.fit.coefficients.len() != width {
+                return Err(format!(
+                    "fit of {} has {} coefficients for {} terms",
+                    fit.scalar,
+                    fit.fit.coefficients.len(),
+                    width
+                ));
+            }
+            if fit.vectors.len() != 1 {
+                return Err(format!("fit of {} must name exactly one fluxgate", fit.scalar));
+            }
+        }
+        Ok(())
+    }
+
+    /// Reads a model file.
+    pub fn read(path: &Path) -> Result<Self, IoError> {
+        let text = std::fs::read_to_string(path).map_err(|source| IoError::Open {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Self::from_json(&text, path)
+    }
+
+    /// Writes a model file.
+    pub fn write(&self, path: &Path) -> Result<(), IoError> {
+        std::fs::write(path, self.to_json() + "\n").map_err(|source| IoError::Write {
+            path: path.to_path_buf(),
+            source,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn output_names() {
+        assert_eq!(compensated_name("mag_1_uc"), "mag_1_c");
+        assert_eq!(compensated_name("mag3"), "mag3_c");
+    }
+
+    #[test]
+    fn newer_and_foreign_files_are_refused_clearly() {
+        let newer = r#"{"format":"tolles-model","version":99,"created_by":"x","fits":[]}"#;
+        let err = ModelFile::from_json(newer, "m.json").unwrap_err().to_string();
+        assert!(err.contains("upgrade tolles"), "{err}");
+        let foreign = r#"{"hello":1}"#;
+        let err = ModelFile::from_json(foreign, "m.json").unwrap_err().to_string();
+        assert!(err.starts_with("m.json: not a tolles model file"), "{err}");
+        assert!(ModelFile::from_json("{", "m.json").is_err());
+    }
+}

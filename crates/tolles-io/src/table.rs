@@ -1,0 +1,308 @@
+//! Flight data as a table of named columns, read from CSV with a header row.
+//!
+//! ```
+//! use tolles_io::table::Table;
+//! let csv = "tt,mag_1_uc,flux_a_x,flux_a_y,flux_a_z\n0.0,50000,30000,0,40000\n0.1,,30001,1,40000\n";
+//! let table = Table::from_reader(csv.as_bytes(), "example.csv").unwrap();
+//! let mag = table.numeric("mag_1_uc").unwrap();
+//! assert_eq!(mag[0], 50_000.0);
+//! assert!(mag[1].is_nan()); // an empty cell is a missing value, not an error
+//! assert_eq!(table.vector("flux_a").unwrap().x[1], 30_001.0);
+//! ```
+//!
+//! Cells are kept as text so that a file can be written back with every column unchanged.
+//! An empty cell, `NaN` or `nan` is a missing value; anything else that does not parse as a
+//! number is an error naming the line and column.
+
+use crate::error::IoError;
+use std::io::Read;
+use std::path::{Path, PathBuf};
+use tolles_core::vector::VectorSeries;
+
+/// A CSV table held in memory.
+#[derive(Debug, Clone)]
+pub struct Table {
+    path: PathBuf,
+    headers: Vec<String>,
+    rows: Vec<csv::StringRecord>,
+}
+
+impl Table {
+    /// Reads a CSV file with a header row.
+    pub fn read_csv(path: &Path) -> Result<Self, IoError> {
+        let file = std::fs::File::open(path).map_err(|source| IoError::Open {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Self::from_reader(std::io::BufReader::new(file), path)
+    }
+
+    /// Reads CSV text from any reader; `name` is used in error messages.
+    pub fn from_reader(reader: impl Read, name: impl AsRef<Path>) -> Result<Self, IoError> {
+        let path = name.as_ref().to_path_buf();
+        let mut csv = csv::ReaderBuilder::new()
+            .has_headers(true)
+            .trim(csv::Trim::All)
+            .from_reader(reader);
+        let headers: Vec<String> = csv
+            .headers()
+            .map_err(|e| csv_error(&path, e))?
+            .iter()
+            .map(str::to_string)
+            .collect();
+        if headers.is_empty() || headers.iter().all(String::is_empty) {
+            return Err(IoError::Empty { path });
+        }
+        check_unique(&path, &headers)?;
+        let mut rows = Vec::new();
+        for record in csv.records() {
+            rows.push(record.map_err(|e| csv_error(&path, e))?);
+        }
+        if rows.is_empty() {
+            return Err(IoError::NoRows { path });
+        }
+        Ok(Self {
+            path,
+            headers,
+            rows,
+        })
+    }
+
+    /// The file this table came from.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Column names in file order.
+    pub fn headers(&self) -> &[String] {
+        &self.headers
+    }
+
+    /// Number of data rows.
+    pub fn len(&self) -> usize {
+        self.rows.len()
+    }
+
+    /// True when there are no data rows (never, for a table that was read successfully).
+    pub fn is_empty(&self) -> bool {
+        self.rows.is_empty()
+    }
+
+    /// The raw cells of data row `k` (0-based).
+    pub fn row(&self, k: usize) -> &csv::StringRecord {
+        &self.rows[k]
+    }
+
+    /// The file line of data row `k` (0-based), for messages.
+    pub fn line_of(&self, k: usize) -> u64 {
+        self.rows
+            .get(k)
+            .and_then(|r| r.position())
+            .map_or(k as u64 + 2, |p| p.line())
+    }
+
+    /// True when the table has a column named `name`.
+    pub fn has(&self, name: &str) -> bool {
+        self.headers.iter().any(|h| h == name)
+    }
+
+    /// The index of column `name`, or an error that suggests near names.
+    pub fn index_of(&self, name: &str) -> Result<usize, IoError> {
+        self.headers
+            .iter()
+            .position(|h| h == name)
+            .ok_or_else(|| IoError::MissingColumn {
+                path: self.path.clone(),
+                column: name.to_string(),
+                hint: self.suggest(name),
+            })
+    }
+
+    /// Column `name` as numbers; missing values are NaN.
+    pub fn numeric(&self, name: &str) -> Result<Vec<f64>, IoError> {
+        let index = self.index_of(name)?;
+        self.rows
+            .iter()
+            .enumerate()
+            .map(|(k, row)| {
+                let cell = row.get(index).unwrap_or("");
+                parse_cell(cell).ok_or_else(|| IoError::NotANumber {
+                    path: self.path.clone(),
+                    line: self.line_of(k),
+                    column: name.to_string(),
+                    value: cell.to_string(),
+                })
+            })
+            .collect()
+    }
+
+    /// Columns `PREFIX_x`, `PREFIX_y`, `PREFIX_z` as a vector series.
+    pub fn vector(&self, prefix: &str) -> Result<VectorSeries, IoError> {
+        let component = |axis: &str| self.numeric(&format!("{prefix}_{axis}"));
+        Ok(VectorSeries::new(
+            component("x")?,
+            component("y")?,
+            component("z")?,
+        ))
+    }
+
+    fn suggest(&self, name: &str) -> String {
+        let stem = name.trim_end_matches(['x', 'y', 'z']).trim_end_matches('_');
+        let near: Vec<&str> = self
+            .headers
+            .iter()
+            .filter(|h| {
+                let h = h.to_ascii_lowercase();
+                let n = name.to_ascii_lowercase();
+                h.contains(&n) || n.contains(&h) || (!stem.is_empty() && h.starts_with(stem))
+            })
+            .map(String::as_str)
+            .take(6)
+            .collect();
+        if near.is_empty() {
+            let shown: Vec<&str> = self.headers.iter().map(String::as_str).take(12).collect();
+            format!("; the header has: {}", shown.join(", "))
+        } else {
+            format!("; did you mean {}?", near.join(", "))
+        }
+    }
+}
+
+/// Parses one cell: empty or NaN is missing (NaN); otherwise a number or `None`.
+pub fn parse_cell(cell: &str) -> Option<f64> {
+    let cell = cell.trim();
+    if cell.is_empty() || cell.eq_ignore_ascii_case("nan") {
+        return Some(f64::NAN);
+    }
+    cell.parse::<f64>().ok()
+}
+
+fn check_unique(path: &Path, headers: &[String]) -> Result<(), IoError> {
+    for (k, h) in headers.iter().enumerate() {
+        if headers[..k].contains(h) {
+            return Err(IoError::DuplicateColumn {
+                path: path.to_path_buf(),
+                column: h.clone(),
+            });
+        }
+    }
+    Ok(())
+}
+
+fn csv_error(path: &Path, error: csv::Error) -> IoError {
+    let line = error.position().map_or(0, |p| p.line());
+    match error.into_kind() {
+        csv::ErrorKind::UnequalLengths {
+            expected_len, len, ..
+        } => IoError::Ragged {
+            path: path.to_path_buf(),
+            line,
+            expected: expected_len as usize,
+            found: len as usize,
+        },
+        csv::ErrorKind::Io(source) => IoError::Open {
+            path: path.to_path_buf(),
+            source,
+        },
+        other => IoError::Malformed {
+            path: path.to_path_buf(),
+            line,
+            message: format!("{other:?}"),
+        },
+    }
+}
+
+/// Writes `table` with one extra column `name` holding `values` (empty cell for NaN) as CSV.
+///
+/// Every input row is written, in order, with its cells unchanged.
+pub fn write_with_column(
+    table: &Table,
+    extra: &[(String, Vec<f64>)],
+    out: impl std::io::Write,
+) -> std::io::Result<()> {
+    let mut writer = csv::WriterBuilder::new().from_writer(out);
+    let mut header: Vec<&str> = table.headers().iter().map(String::as_str).collect();
+    header.extend(extra.iter().map(|(name, _)| name.as_str()));
+    writer.write_record(&header).map_err(into_io)?;
+    let mut cell = String::new();
+    for k in 0..table.len() {
+        let mut record = table.row(k).clone();
+        for (_, values) in extra {
+            cell.clear();
+            format_value(values[k], &mut cell);
+            record.push_field(&cell);
+        }
+        writer.write_record(&record).map_err(into_io)?;
+    }
+    writer.flush()
+}
+
+/// Shortest text that reads back as the same f64; empty for a missing value.
+pub fn format_value(v: f64, out: &mut String) {
+    use std::fmt::Write;
+    if v.is_finite() {
+        let _ = write!(out, "{v}");
+    }
+}
+
+fn into_io(e: csv::Error) -> std::io::Error {
+    match e.into_kind() {
+        csv::ErrorKind::Io(io) => io,
+        other => std::io::Error::other(format!("{other:?}")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn read(text: &str) -> Result<Table, IoError> {
+        Table::from_reader(text.as_bytes(), "t.csv")
+    }
+
+    #[test]
+    fn ragged_row_names_its_line() {
+        let err = read("a,b\n1,2\n3\n").unwrap_err().to_string();
+        assert_eq!(err, "t.csv: line 3: 1 fields, but the header has 2");
+    }
+
+    #[test]
+    fn non_numeric_cell_names_line_and_column() {
+        let t = read("a,b\n1,2\n3,x7\n").unwrap();
+        let err = t.numeric("b").unwrap_err().to_string();
+        assert_eq!(err, "t.csv: line 3, column \"b\": \"x7\" is not a number");
+    }
+
+    #[test]
+    fn missing_column_suggests_near_names() {
+        let t = read("tt,flux_b_x,flux_b_y,flux_b_z\n1,2,3,4\n").unwrap();
+        let err = t.vector("flux_a").unwrap_err().to_string();
+        assert!(err.contains("no column \"flux_a_x\""), "{err}");
+        let err = t.numeric("mag").unwrap_err().to_string();
+        assert!(err.contains("the header has: tt, flux_b_x"), "{err}");
+    }
+
+    #[test]
+    fn empty_and_header_only_files_are_errors() {
+        assert!(matches!(read(""), Err(IoError::Empty { .. })));
+        assert!(matches!(read("a,b\n"), Err(IoError::NoRows { .. })));
+        assert!(matches!(read("a,a\n1,2\n"), Err(IoError::DuplicateColumn { .. })));
+    }
+
+    #[test]
+    fn written_table_keeps_every_cell_and_row() {
+        let t = read("a,b\n1.50,x\n,2\n").unwrap();
+        let mut out = Vec::new();
+        write_with_column(&t, &[("c".into(), vec![0.1, f64::NAN])], &mut out).unwrap();
+        assert_eq!(String::from_utf8(out).unwrap(), "a,b,c\n1.50,x,0.1\n,2,\n");
+    }
+
+    #[test]
+    fn format_value_round_trips() {
+        for v in [0.1, 1e-300, 50_123.456_789_012_34, -3.0] {
+            let mut s = String::new();
+            format_value(v, &mut s);
+            assert_eq!(s.parse::<f64>().unwrap(), v);
+        }
+    }
+}
