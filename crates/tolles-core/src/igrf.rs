@@ -132,7 +132,12 @@ pub struct GeocentricField {
 ///
 /// `lat_deg` is the geodetic latitude in degrees (-90..=90), `lon_deg` the longitude in degrees
 /// east (any finite value), `alt_m` the altitude in metres above the WGS84 ellipsoid and
-/// `year` a decimal year in 1900.0..=2030.0. Components are in nT, angles in degrees.
+/// `year` a decimal year in 1900.0..=2030.0. Components are in nT, angles in degrees. The result
+/// is finite at the poles (see the module documentation for what X, Y and D mean there).
+///
+/// # Errors
+/// [`IgrfError`] for a date outside 1900.0..=2030.0, a latitude outside -90..=90, or a
+/// non-finite longitude or altitude.
 ///
 /// ```
 /// use tolles_core::igrf::field;
@@ -172,7 +177,8 @@ pub fn field(
 ///
 /// `colat_deg` is the geocentric colatitude in degrees (0..=180), `lon_deg` the longitude in
 /// degrees east, `radius_m` the distance from the earth's centre in metres and `year` a
-/// decimal year in 1900.0..=2030.0. Components are in nT.
+/// decimal year in 1900.0..=2030.0. Components are in nT. A colatitude outside 0..=180 is
+/// reported as [`IgrfError::InvalidLatitude`] of `90 − colat_deg`.
 ///
 /// ```
 /// use tolles_core::igrf::geocentric_field;
@@ -405,10 +411,21 @@ impl Legendre {
     /// recursion in n (it is linear and has no θ-dependent coefficient other than cos θ),
     /// started from `P_m^m / sin θ`, which needs no division.
     fn new(theta: f64) -> Self {
+        let zero = [[0.0; MAX_DEGREE + 1]; MAX_DEGREE + 1];
+        let mut leg = Self {
+            p: zero,
+            dp: zero,
+            p_over_sin: zero,
+        };
         let (s, c) = theta.sin_cos();
-        let mut p = [[0.0; MAX_DEGREE + 1]; MAX_DEGREE + 1];
-        let mut dp = p;
-        let mut q = p;
+        leg.fill_sectoral(s, c);
+        leg.fill_by_degree(s, c);
+        leg
+    }
+
+    /// The diagonal m = n, from `P_0^0 = 1`.
+    fn fill_sectoral(&mut self, s: f64, c: f64) {
+        let (p, dp, q) = (&mut self.p, &mut self.dp, &mut self.p_over_sin);
         p[0][0] = 1.0;
         for m in 1..=MAX_DEGREE {
             // √((2m−1)/(2m)) for m ≥ 2; 1 for m = 1 because m = 0 is not √2-normalised.
@@ -421,21 +438,25 @@ impl Legendre {
             p[m][m] = s * q[m][m];
             dp[m][m] = k * (c * p[m - 1][m - 1] + s * dp[m - 1][m - 1]);
         }
+    }
+
+    /// Every n > m from the diagonal, by the three-term recursion in n.
+    fn fill_by_degree(&mut self, s: f64, c: f64) {
+        let (p, dp, q) = (&mut self.p, &mut self.dp, &mut self.p_over_sin);
+        // Entry n − 2 of column m; zero above the diagonal and before n = 2, where its weight
+        // is zero anyway.
+        let two_back = |t: &[[f64; MAX_DEGREE + 1]; MAX_DEGREE + 1], n: usize, m: usize| {
+            n.checked_sub(2).map_or(0.0, |k| t[k][m])
+        };
         for m in 0..MAX_DEGREE {
             for n in (m + 1)..=MAX_DEGREE {
                 let (a, b) = recursion_weights(n, m);
-                let (p1, p2) = (p[n - 1][m], if n >= m + 2 { p[n - 2][m] } else { 0.0 });
-                let (d1, d2) = (dp[n - 1][m], if n >= m + 2 { dp[n - 2][m] } else { 0.0 });
-                let (q1, q2) = (q[n - 1][m], if n >= m + 2 { q[n - 2][m] } else { 0.0 });
+                let (p1, p2) = (p[n - 1][m], two_back(p, n, m));
                 p[n][m] = a * c * p1 - b * p2;
-                dp[n][m] = a * (c * d1 - s * p1) - b * d2;
-                q[n][m] = if m == 0 { 0.0 } else { a * c * q1 - b * q2 };
+                dp[n][m] = a * (c * dp[n - 1][m] - s * p1) - b * two_back(dp, n, m);
+                // P/sin θ is only needed (and only started) for m ≥ 1.
+                q[n][m] = a * c * q[n - 1][m] - b * two_back(q, n, m);
             }
-        }
-        Self {
-            p,
-            dp,
-            p_over_sin: q,
         }
     }
 }
