@@ -24,6 +24,7 @@
 //! - [`compensate`]: applying a fitted model;
 //! - [`metrics`]: noise level, improvement ratio, fourth difference;
 //! - [`interpret`]: coefficients as physical fields and in the patent's nomenclature.
+//! - [`igrf`]: IGRF-14 reference field of the earth.
 //!
 //! No module here reads files or writes to a terminal.
 
@@ -32,6 +33,7 @@ pub mod conventions;
 pub mod design;
 pub mod filter;
 pub mod fit;
+pub mod igrf;
 pub mod interpret;
 pub mod metrics;
 pub mod segment;
