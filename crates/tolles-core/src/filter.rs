@@ -55,14 +55,19 @@ pub enum Response {
 /// Errors from filter design or application.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum FilterError {
+    /// The Butterworth order (number of poles per edge) was 0.
     #[error("filter order must be at least 1, got {0}")]
     InvalidOrder(usize),
+    /// The sample rate (Hz) was not positive and finite.
     #[error("sample rate must be positive and finite, got {0} Hz")]
     InvalidSampleRate(f64),
+    /// A cutoff or band edge (Hz) was not strictly inside (0, Nyquist).
     #[error("cutoff {cutoff_hz} Hz must lie strictly between 0 and the Nyquist frequency {nyquist_hz} Hz")]
     InvalidCutoff { cutoff_hz: f64, nyquist_hz: f64 },
+    /// Band edges (Hz) were not ordered low < high.
     #[error("band edges must satisfy low < high, got {low_hz} Hz and {high_hz} Hz")]
     InvalidBand { low_hz: f64, high_hz: f64 },
+    /// The signal had `len <= padlen` samples, too few for edge padding.
     #[error("signal of {len} samples is too short for this filter: forward-backward filtering needs more than {padlen} samples")]
     TooShort { len: usize, padlen: usize },
 }
@@ -106,7 +111,8 @@ impl Butterworth {
         })
     }
 
-    /// Second-order sections `[b0, b1, b2, a0, a1, a2]` with `a0 = 1`.
+    /// Second-order sections `[b0, b1, b2, a0, a1, a2]` with `a0 = 1`: dimensionless
+    /// coefficients of `z^0, z^-1, z^-2`, one delay being one sample. Applied in order.
     pub fn sections(&self) -> &[[f64; 6]] {
         &self.sections
     }
