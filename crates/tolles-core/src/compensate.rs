@@ -27,6 +27,9 @@ use serde::{Deserialize, Serialize};
 pub enum Level {
     /// Subtract the mean of `A·β` over this data (MagNav's choice; needs the whole file).
     FileMean,
+    /// Subtract the least-squares straight line (in sample index) through `A·β` over this data,
+    /// MagNav's `detrend`, which also keeps a slow drift of the correction in the data.
+    FileLinearTrend,
     /// Subtract this level (nT), e.g. the calibration flight's mean stored in the model, as a
     /// streaming compensator must.
     Fixed(f64),
@@ -39,7 +42,7 @@ pub struct Compensation {
     pub compensated: Vec<f64>,
     /// The removed aircraft field `A·β − level` (nT); NaN where the fluxgate is not usable.
     pub correction: Vec<f64>,
-    /// The level that was subtracted from `A·β` (nT).
+    /// The level that was subtracted from `A·β` (nT); for a linear trend, the mean of `A·β`.
     pub level_nt: f64,
     /// Samples whose compensated value is NaN.
     pub uncomputable: usize,
@@ -60,11 +63,17 @@ pub fn compensate(
     level: Level,
 ) -> Compensation {
     let correction = aircraft_field(flux, tt, design, coefficients, fs_ratio);
-    let level_nt = match level {
-        Level::Fixed(v) => v,
-        Level::FileMean => finite_mean(&correction),
+    let (correction, level_nt) = match level {
+        Level::Fixed(v) => (correction.iter().map(|c| c - v).collect(), v),
+        Level::FileMean => {
+            let mean = finite_mean(&correction);
+            (correction.iter().map(|c| c - mean).collect(), mean)
+        }
+        Level::FileLinearTrend => {
+            let mean = finite_mean(&correction);
+            (detrend(&correction), mean)
+        }
     };
-    let correction: Vec<f64> = correction.iter().map(|c| c - level_nt).collect();
     let compensated: Vec<f64> = scalar
         .iter()
         .zip(&correction)
@@ -109,6 +118,28 @@ fn rescale_eddy(design: &Design, coefficients: &[f64], fs_ratio: f64) -> Vec<f64
         .collect()
 }
 
+/// `x` minus its least-squares straight line `a + b·k` over the sample index k, fitted to the
+/// finite values (MagNav's `detrend`). Non-finite values stay as they are.
+pub fn detrend(x: &[f64]) -> Vec<f64> {
+    let points = || x.iter().enumerate().filter(|(_, v)| v.is_finite());
+    let n = points().count() as f64;
+    if n < 2.0 {
+        let mean = finite_mean(x);
+        return x.iter().map(|v| v - mean).collect();
+    }
+    let k_mean = points().map(|(k, _)| k as f64).sum::<f64>() / n;
+    let x_mean = points().map(|(_, v)| *v).sum::<f64>() / n;
+    let (sxy, sxx) = points().fold((0.0, 0.0), |(sxy, sxx), (k, v)| {
+        let dk = k as f64 - k_mean;
+        (sxy + dk * (v - x_mean), sxx + dk * dk)
+    });
+    let slope = sxy / sxx;
+    x.iter()
+        .enumerate()
+        .map(|(k, v)| v - x_mean - slope * (k as f64 - k_mean))
+        .collect()
+}
+
 /// Mean of the finite values (NaN if none).
 pub fn finite_mean(x: &[f64]) -> f64 {
     let (sum, n) = x
@@ -150,6 +181,15 @@ mod tests {
         let out = compensate(&[5.0; 4], &flux4(), None, &design, &[2.0], 1.0, Level::Fixed(0.5));
         assert_eq!(out.correction[0], 1.5);
         assert_eq!(out.compensated[0], 3.5);
+    }
+
+    #[test]
+    fn detrend_removes_a_line_exactly() {
+        let x: Vec<f64> = (0..10).map(|k| 3.0 + 0.5 * k as f64).collect();
+        assert!(detrend(&x).iter().all(|v| v.abs() < 1e-12));
+        let with_hole = [1.0, f64::NAN, 3.0, 4.0];
+        let d = detrend(&with_hole);
+        assert!(d[1].is_nan() && d[0].abs() < 1e-12 && d[3].abs() < 1e-12);
     }
 
     #[test]

@@ -223,7 +223,7 @@ mod tests {
         for k in 0..3 {
             b.induced[k][k] += 0.1;
         }
-        assert_eq!(a.patent_terms().induced.vv_tt, 0.03);
+        assert!((a.patent_terms().induced.vv_tt - 0.03).abs() < 1e-15);
         let (ta, tb) = (a.patent_terms().induced, b.patent_terms().induced);
         assert!((ta.vv_tt - tb.vv_tt).abs() < 1e-15 && (ta.vv_ll - tb.vv_ll).abs() < 1e-15);
     }

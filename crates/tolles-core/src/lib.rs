@@ -28,6 +28,7 @@
 //!
 //! No module here reads files or writes to a terminal.
 
+pub mod attitude;
 pub mod compensate;
 pub mod conventions;
 pub mod design;
@@ -36,6 +37,8 @@ pub mod fit;
 pub mod igrf;
 pub mod interpret;
 pub mod metrics;
+pub mod plan;
 pub mod segment;
+pub mod sim;
 pub mod terms;
 pub mod vector;

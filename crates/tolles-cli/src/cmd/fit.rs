@@ -60,6 +60,24 @@ pub struct Args {
     pub fs: Option<f64>,
 }
 
+impl Args {
+    /// The arguments `tolles fit CAL --scalar S --vector V [--out OUT]` parse to.
+    pub fn defaults(cal: PathBuf, scalar: &str, vector: &str, out: Option<PathBuf>) -> Self {
+        use clap::Parser;
+        #[derive(Parser)]
+        struct Wrapper {
+            #[command(flatten)]
+            args: Args,
+        }
+        let mut argv = vec!["fit".into(), cal.into_os_string()];
+        argv.extend(["--scalar", scalar, "--vector", vector].map(Into::into));
+        if let Some(out) = out {
+            argv.extend(["--out".into(), out.into_os_string()]);
+        }
+        Wrapper::parse_from(argv).args
+    }
+}
+
 pub fn run(args: Args) -> Result<()> {
     let flight = Flight::read(&args.cal, &args.scalar, &args.vector)?;
     let fs_hz = flight.sample_rate(args.fs)?;
