@@ -72,7 +72,10 @@ mod tests {
 
     #[test]
     fn heading_north_level_is_identity() {
-        assert!(close(Attitude::default().to_body([1.0, 2.0, 3.0]), [1.0, 2.0, 3.0]));
+        assert!(close(
+            Attitude::default().to_body([1.0, 2.0, 3.0]),
+            [1.0, 2.0, 3.0]
+        ));
     }
 
     #[test]

@@ -74,11 +74,7 @@ pub fn compensate(
             (detrend(&correction), mean)
         }
     };
-    let compensated: Vec<f64> = scalar
-        .iter()
-        .zip(&correction)
-        .map(|(s, c)| s - c)
-        .collect();
+    let compensated: Vec<f64> = scalar.iter().zip(&correction).map(|(s, c)| s - c).collect();
     let uncomputable = compensated.iter().filter(|v| !v.is_finite()).count();
     Compensation {
         compensated,
@@ -169,7 +165,15 @@ mod tests {
     fn holes_in_the_fluxgate_are_marked_not_dropped() {
         let design = Design::new("p,e".parse().unwrap());
         let beta = vec![1.0; design.width()];
-        let out = compensate(&[1.0; 4], &flux4(), None, &design, &beta, 1.0, Level::FileMean);
+        let out = compensate(
+            &[1.0; 4],
+            &flux4(),
+            None,
+            &design,
+            &beta,
+            1.0,
+            Level::FileMean,
+        );
         assert_eq!(out.compensated.len(), 4);
         assert!(out.compensated[2].is_nan());
         assert_eq!(out.uncomputable, 1);
@@ -178,7 +182,15 @@ mod tests {
     #[test]
     fn fixed_level_is_subtracted_as_given() {
         let design = Design::new("b".parse().unwrap());
-        let out = compensate(&[5.0; 4], &flux4(), None, &design, &[2.0], 1.0, Level::Fixed(0.5));
+        let out = compensate(
+            &[5.0; 4],
+            &flux4(),
+            None,
+            &design,
+            &[2.0],
+            1.0,
+            Level::Fixed(0.5),
+        );
         assert_eq!(out.correction[0], 1.5);
         assert_eq!(out.compensated[0], 3.5);
     }

@@ -21,8 +21,8 @@
 //!
 //! The column order is MagNav.jl's `create_TL_A` (see [`crate::terms`]).
 
-pub use crate::terms::TermSet;
 use crate::terms::Column;
+pub use crate::terms::TermSet;
 use crate::vector::VectorSeries;
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
@@ -93,7 +93,11 @@ impl Design {
     /// `A·β` for one contiguous series, without storing `A` (nT).
     pub fn apply(&self, flux: &VectorSeries, coefficients: &[f64]) -> Vec<f64> {
         let columns = self.columns();
-        assert_eq!(columns.len(), coefficients.len(), "one coefficient per column");
+        assert_eq!(
+            columns.len(),
+            coefficients.len(),
+            "one coefficient per column"
+        );
         let mut out = vec![0.0; flux.len()];
         let mut row = vec![0.0; columns.len()];
         self.for_each_row(flux, |k, b, db| {
@@ -166,9 +170,16 @@ mod tests {
 
     #[test]
     fn permanent_columns_are_the_unit_vector() {
-        let flux = VectorSeries::new(vec![0.0, 0.0], vec![0.0, 48_000.0], vec![50_000.0, 14_000.0]);
+        let flux = VectorSeries::new(
+            vec![0.0, 0.0],
+            vec![0.0, 48_000.0],
+            vec![50_000.0, 14_000.0],
+        );
         let a = Design::new("p".parse().unwrap()).matrix(&flux);
-        assert_eq!(a.row(0).iter().copied().collect::<Vec<_>>(), [0.0, 0.0, 1.0]);
+        assert_eq!(
+            a.row(0).iter().copied().collect::<Vec<_>>(),
+            [0.0, 0.0, 1.0]
+        );
         assert!((a[(1, 1)] - 0.96).abs() < 1e-15 && (a[(1, 2)] - 0.28).abs() < 1e-15);
     }
 }

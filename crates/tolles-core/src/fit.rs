@@ -34,12 +34,14 @@
 //! into contiguous runs (also at time gaps, see [`crate::segment`]) and each run is designed,
 //! filtered and trimmed on its own, so no derivative or filter reaches across a hole.
 
+use crate::crossval::{cross_validate, penalty, CrossValidation, DEFAULT_FOLDS, LAMBDA_GRID};
 use crate::design::Design;
 use crate::filter::{magnav_bandpass, Butterworth, FilterError};
+use crate::ridge::{Ridge, RidgeError, RidgeSolution};
 use crate::segment::contiguous_runs;
 use crate::terms::Column;
 use crate::vector::VectorSeries;
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 use std::ops::Range;
 use thiserror::Error;
@@ -59,13 +61,33 @@ pub struct Band {
     pub pass2_hz: f64,
 }
 
+/// How strongly to regularise the least-squares solve.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Lambda {
+    /// Add this λ to every diagonal entry of `AᵀA`, columns unscaled: MagNav's `linreg`.
+    Fixed(f64),
+    /// Choose `λ_rel` by blocked cross-validation over time in `folds` contiguous folds and add
+    /// `λ_rel·diag(AᵀA)` (a ridge on standardised columns); see [`crate::crossval`].
+    CrossValidated { folds: usize },
+}
+
+impl Lambda {
+    /// Cross-validation with the default number of folds.
+    pub fn auto() -> Self {
+        Lambda::CrossValidated {
+            folds: DEFAULT_FOLDS,
+        }
+    }
+}
+
 /// How to fit.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FitSettings {
     /// Terms and `Bt_scale`.
     pub design: Design,
-    /// Ridge strength λ added to `AᵀA` (units of the squared design columns).
-    pub lambda: f64,
+    /// Ridge regularisation.
+    pub lambda: Lambda,
     /// Pass band of the filter applied to every column and the scalar.
     pub band: Band,
     /// Butterworth order (per edge for band-pass, as scipy and DSP.jl count).
@@ -75,12 +97,22 @@ pub struct FitSettings {
 }
 
 impl FitSettings {
+    /// What `tolles fit` does by default: the 16 identifiable terms, λ by cross-validation,
+    /// otherwise MagNav's filter and trim.
+    pub fn recommended() -> Self {
+        Self {
+            design: Design::new(crate::terms::TermSet::identifiable()),
+            lambda: Lambda::auto(),
+            ..Self::magnav()
+        }
+    }
+
     /// MagNav.jl's procedure as its tests run it: 18 terms, λ = 0.001, 0.1–0.9 Hz, order 4,
     /// trim 20, `Bt_scale` 50 000.
     pub fn magnav() -> Self {
         Self {
             design: Design::new(crate::terms::TermSet::magnav_default()),
-            lambda: 0.001,
+            lambda: Lambda::Fixed(0.001),
             band: Band {
                 pass1_hz: 0.1,
                 pass2_hz: 0.9,
@@ -100,6 +132,10 @@ pub enum FitError {
     SampleRate(f64),
     #[error("ridge strength λ must be finite and ≥ 0, got {0}")]
     Lambda(f64),
+    #[error("cross-validation needs at least 2 folds, got {0}")]
+    Folds(usize),
+    #[error("no ridge strength could be fitted on every cross-validation fold (too little data for {terms} terms); give --lambda or use fewer terms")]
+    CrossValidation { terms: usize },
     #[error("fluxgate magnitude {magnitude:.1} nT at sample {index} is outside 1,000–100,000 nT: is the fluxgate in nT?")]
     FluxMagnitude { index: usize, magnitude: f64 },
     #[error("the scalar magnetometer is constant: there is nothing to fit")]
@@ -108,8 +144,8 @@ pub enum FitError {
     ConstantFlux,
     #[error("only {usable} usable samples after filtering and trimming, fewer than the {terms} terms; use a longer flight, fewer terms or a smaller --trim")]
     TooFewSamples { usable: usize, terms: usize },
-    #[error("the design matrix is singular (column {column} is a combination of others); add --lambda or use fewer terms")]
-    Singular { column: String },
+    #[error(transparent)]
+    Ridge(#[from] RidgeError),
     #[error(transparent)]
     Filter(#[from] FilterError),
 }
@@ -138,6 +174,10 @@ pub struct Diagnostics {
     /// Fraction of the Nyquist band the filter passes; residuals are correlated over about
     /// `1/fraction` samples, so the standard errors are inflated by `1/√fraction`.
     pub effective_sample_fraction: f64,
+    /// The diagonal penalty added to `AᵀA`, one value per column (squared column units).
+    pub penalty: Vec<f64>,
+    /// How λ was chosen, when it was cross-validated.
+    pub cross_validation: Option<CrossValidation>,
     /// Standard error of each coefficient (coefficient units), from the ridge sandwich
     /// covariance `σ²·G⁻¹AᵀAG⁻¹`, `G = AᵀA + λI`.
     pub std_errors: Vec<f64>,
@@ -186,46 +226,89 @@ pub fn fit(
         fs_hz,
     )?;
     let columns = settings.design.columns();
-    let mut solver = Ridge::new(columns.len());
+    let runs = contiguous_runs(&usable, tt);
+    let mut prepared = Vec::new();
     let mut short = 0;
-    let mut runs_used = 0;
-    let mut before = RunningStd::default();
-    for run in contiguous_runs(&usable, tt) {
+    for run in runs {
         match prepare_run(scalar, flux, run.clone(), filter.as_ref(), settings)? {
-            Some((a, y)) => {
-                y.iter().for_each(|v| before.push(*v));
-                solver.push(&a, &y);
-                runs_used += 1;
-            }
+            Some(rows) => prepared.push(rows),
             None => short += run.len(),
         }
     }
-    if solver.rows < columns.len() {
+    let folds = fold_problems(&prepared, columns.len(), settings.lambda);
+    let rows: usize = folds.iter().map(Ridge::rows).sum();
+    if rows < columns.len() {
         return Err(FitError::TooFewSamples {
-            usable: solver.rows,
+            usable: rows,
             terms: columns.len(),
         });
     }
-    let solution = solver.solve(settings.lambda, &columns)?;
+    let (solution, cross_validation) = solve(&folds, settings.lambda, &columns)?;
+    let mut before = RunningStd::default();
+    prepared
+        .iter()
+        .flat_map(|(_, y)| y)
+        .for_each(|v| before.push(*v));
     let level_nt = mean_correction(flux, &usable, tt, &settings.design, &solution.coefficients);
-    let fraction = passband_fraction(settings.band, fs_hz);
-    let samples_nonfinite = usable.iter().filter(|u| !**u).count();
-    let diagnostics = solution.diagnostics(DiagnosticCounts {
-        total: scalar.len(),
-        nonfinite: samples_nonfinite,
-        short,
-        runs_used,
-        before_std: before.std(),
-        fraction,
-    });
+    let diagnostics = diagnostics(
+        &solution,
+        DiagnosticCounts {
+            total: scalar.len(),
+            nonfinite: usable.iter().filter(|u| !**u).count(),
+            short,
+            runs_used: prepared.len(),
+            before_std: before.std(),
+            fraction: passband_fraction(settings.band, fs_hz),
+        },
+        cross_validation,
+    );
     Ok(Fit {
         settings: settings.clone(),
         fs_hz,
         columns: columns.iter().map(Column::to_string).collect(),
-        coefficients: solution.coefficients.clone(),
+        coefficients: solution.coefficients,
         level_nt,
         diagnostics,
     })
+}
+
+/// Splits the prepared rows, in time order, into contiguous folds (one fold for a fixed λ).
+fn fold_problems(prepared: &[Rows], p: usize, lambda: Lambda) -> Vec<Ridge> {
+    let count = match lambda {
+        Lambda::Fixed(_) => 1,
+        Lambda::CrossValidated { folds } => folds,
+    };
+    let total: usize = prepared.iter().map(|(_, y)| y.len()).sum();
+    let mut folds = vec![Ridge::new(p); count];
+    let mut r = 0;
+    for (a, y) in prepared {
+        for (k, target) in y.iter().enumerate() {
+            folds[r * count / total.max(1)].push_row(a.row(k).iter().copied(), *target);
+            r += 1;
+        }
+    }
+    folds
+}
+
+/// The final solve on all rows, with λ fixed or cross-validated.
+fn solve(
+    folds: &[Ridge],
+    lambda: Lambda,
+    columns: &[Column],
+) -> Result<(RidgeSolution, Option<CrossValidation>), FitError> {
+    let mut all = folds[0].clone();
+    folds[1..].iter().for_each(|f| all.merge(f));
+    match lambda {
+        Lambda::Fixed(lambda) => Ok((all.solve(lambda, columns)?, None)),
+        Lambda::CrossValidated { .. } => {
+            let cv =
+                cross_validate(folds, &LAMBDA_GRID, columns).ok_or(FitError::CrossValidation {
+                    terms: columns.len(),
+                })?;
+            let weights = penalty(cv.chosen_lambda_rel, &all.column_sums_of_squares());
+            Ok((all.solve_penalised(&weights, columns)?, Some(cv)))
+        }
+    }
 }
 
 fn check_inputs(
@@ -243,8 +326,10 @@ fn check_inputs(
     if !(fs_hz.is_finite() && fs_hz > 0.0) {
         return Err(FitError::SampleRate(fs_hz));
     }
-    if !(settings.lambda.is_finite() && settings.lambda >= 0.0) {
-        return Err(FitError::Lambda(settings.lambda));
+    match settings.lambda {
+        Lambda::Fixed(l) if !(l.is_finite() && l >= 0.0) => return Err(FitError::Lambda(l)),
+        Lambda::CrossValidated { folds } if folds < 2 => return Err(FitError::Folds(folds)),
+        _ => {}
     }
     check_flux_magnitude(flux)
 }
@@ -265,7 +350,11 @@ pub fn check_flux_magnitude(flux: &VectorSeries) -> Result<(), FitError> {
     Ok(())
 }
 
-fn check_not_constant(scalar: &[f64], flux: &VectorSeries, usable: &[bool]) -> Result<(), FitError> {
+fn check_not_constant(
+    scalar: &[f64],
+    flux: &VectorSeries,
+    usable: &[bool],
+) -> Result<(), FitError> {
     let varies = |x: &[f64]| {
         let mut values = x.iter().zip(usable).filter(|(_, u)| **u).map(|(v, _)| *v);
         let first = values.next();
@@ -280,6 +369,9 @@ fn check_not_constant(scalar: &[f64], flux: &VectorSeries, usable: &[bool]) -> R
     Ok(())
 }
 
+/// Filtered, trimmed design rows and their scalar targets.
+type Rows = (DMatrix<f64>, Vec<f64>);
+
 /// Design, filter and trim one run; `None` if it is too short.
 fn prepare_run(
     scalar: &[f64],
@@ -287,7 +379,7 @@ fn prepare_run(
     run: Range<usize>,
     filter: Option<&Butterworth>,
     settings: &FitSettings,
-) -> Result<Option<(DMatrix<f64>, Vec<f64>)>, FitError> {
+) -> Result<Option<Rows>, FitError> {
     let trim = if filter.is_some() { settings.trim } else { 0 };
     let needed = filter.map_or(0, |f| f.padlen() + 1).max(2 * trim + 1);
     if run.len() < needed {
@@ -334,201 +426,17 @@ fn mean_correction(
 fn passband_fraction(band: Band, fs_hz: f64) -> f64 {
     let nyquist = fs_hz / 2.0;
     let valid = |f: f64| f > 0.0 && f < nyquist;
-    let lo = if valid(band.pass1_hz) { band.pass1_hz } else { 0.0 };
-    let hi = if valid(band.pass2_hz) { band.pass2_hz } else { nyquist };
+    let lo = if valid(band.pass1_hz) {
+        band.pass1_hz
+    } else {
+        0.0
+    };
+    let hi = if valid(band.pass2_hz) {
+        band.pass2_hz
+    } else {
+        nyquist
+    };
     ((hi - lo) / nyquist).clamp(f64::EPSILON, 1.0)
-}
-
-/// Rows added to a ridge problem before the QR is updated (keeps memory bounded).
-const BLOCK_ROWS: usize = 4096;
-
-/// Incremental least squares by blocked Householder QR of `[A | y]`.
-///
-/// Holds only the `(p+1)×(p+1)` triangular factor, so rows can be pushed from any number of runs
-/// or files.
-#[derive(Debug, Clone)]
-pub struct Ridge {
-    p: usize,
-    r: DMatrix<f64>,
-    pending: Vec<f64>,
-    pending_rows: usize,
-    rows: usize,
-    yy: f64,
-}
-
-impl Ridge {
-    /// An empty problem with `p` unknowns.
-    pub fn new(p: usize) -> Self {
-        Self {
-            p,
-            r: DMatrix::zeros(0, p + 1),
-            pending: Vec::new(),
-            pending_rows: 0,
-            rows: 0,
-            yy: 0.0,
-        }
-    }
-
-    /// Rows pushed so far.
-    pub fn rows(&self) -> usize {
-        self.rows
-    }
-
-    /// Adds the rows of `a` (n×p) with right-hand side `y` (n).
-    pub fn push(&mut self, a: &DMatrix<f64>, y: &[f64]) {
-        assert_eq!(a.ncols(), self.p, "design width");
-        assert_eq!(a.nrows(), y.len(), "one target per row");
-        for (k, target) in y.iter().enumerate() {
-            self.pending.extend(a.row(k).iter());
-            self.pending.push(*target);
-            self.yy += target * target;
-            self.pending_rows += 1;
-            if self.pending_rows == BLOCK_ROWS {
-                self.flush();
-            }
-        }
-        self.rows += y.len();
-    }
-
-    fn flush(&mut self) {
-        if self.pending_rows == 0 {
-            return;
-        }
-        let width = self.p + 1;
-        let block = DMatrix::from_row_slice(self.pending_rows, width, &self.pending);
-        let stacked = stack(&self.r, &block);
-        self.r = upper_factor(stacked);
-        self.pending.clear();
-        self.pending_rows = 0;
-    }
-
-    /// Solves `(AᵀA + λI)·β = Aᵀy`; `columns` name the unknowns in errors.
-    pub fn solve(mut self, lambda: f64, columns: &[Column]) -> Result<RidgeSolution, FitError> {
-        self.flush();
-        let p = self.p;
-        let mut penalty = DMatrix::zeros(p, p + 1);
-        for j in 0..p {
-            penalty[(j, j)] = lambda.sqrt();
-        }
-        let r = upper_factor(stack(&self.r, &penalty));
-        let r_a = r.view((0, 0), (p, p)).into_owned();
-        let qty = r.view((0, p), (p, 1)).column(0).into_owned();
-        check_rank(&r_a, columns)?;
-        let beta = r_a
-            .solve_upper_triangular(&qty)
-            .expect("nonsingular after rank check");
-        // [A | y] = Q·R0, so ‖y − Aβ‖ = ‖R0·[β; −1]‖ without touching the data again.
-        let mut beta_ext = DVector::from_element(p + 1, -1.0);
-        beta_ext.rows_mut(0, p).copy_from(&beta);
-        let rss = if self.r.nrows() == 0 { 0.0 } else { (&self.r * beta_ext).norm_squared() };
-        Ok(RidgeSolution {
-            coefficients: beta.iter().copied().collect(),
-            r_a,
-            lambda,
-            rss,
-            rows: self.rows,
-        })
-    }
-}
-
-fn stack(top: &DMatrix<f64>, bottom: &DMatrix<f64>) -> DMatrix<f64> {
-    let mut m = DMatrix::zeros(top.nrows() + bottom.nrows(), top.ncols());
-    m.rows_mut(0, top.nrows()).copy_from(top);
-    m.rows_mut(top.nrows(), bottom.nrows()).copy_from(bottom);
-    m
-}
-
-/// The upper-triangular factor R of a QR decomposition, `min(rows, cols) × cols`.
-fn upper_factor(m: DMatrix<f64>) -> DMatrix<f64> {
-    m.qr().r()
-}
-
-fn check_rank(r_a: &DMatrix<f64>, columns: &[Column]) -> Result<(), FitError> {
-    let largest = r_a.diagonal().iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let tolerance = largest * f64::EPSILON * r_a.nrows() as f64 * 10.0;
-    match r_a.diagonal().iter().position(|v| v.abs() <= tolerance) {
-        Some(j) => Err(FitError::Singular {
-            column: columns.get(j).map_or(format!("#{j}"), Column::to_string),
-        }),
-        None => Ok(()),
-    }
-}
-
-/// The solution of a ridge problem and what is needed for its diagnostics.
-#[derive(Debug, Clone)]
-pub struct RidgeSolution {
-    /// β.
-    pub coefficients: Vec<f64>,
-    /// Triangular factor of `AᵀA + λI = RᵀR`.
-    r_a: DMatrix<f64>,
-    lambda: f64,
-    /// Residual sum of squares `‖y − Aβ‖²`.
-    pub rss: f64,
-    /// Rows in the problem.
-    pub rows: usize,
-}
-
-struct DiagnosticCounts {
-    total: usize,
-    nonfinite: usize,
-    short: usize,
-    runs_used: usize,
-    before_std: f64,
-    fraction: f64,
-}
-
-impl RidgeSolution {
-    /// Condition number (2-norm) of `AᵀA + λI`.
-    pub fn condition_number(&self) -> f64 {
-        let s = self.r_a.clone().singular_values();
-        let (max, min) = s
-            .iter()
-            .fold((0.0f64, f64::INFINITY), |(a, b), v| (a.max(*v), b.min(*v)));
-        (max / min).powi(2)
-    }
-
-    /// Standard errors of β for residual variance `sigma2` (nT²).
-    pub fn std_errors(&self, sigma2: f64) -> Vec<f64> {
-        let p = self.r_a.nrows();
-        let r_inv = self
-            .r_a
-            .clone()
-            .try_inverse()
-            .unwrap_or_else(|| DMatrix::from_element(p, p, f64::NAN));
-        let g_inv = &r_inv * r_inv.transpose();
-        let covariance = &g_inv - (&g_inv * &g_inv) * self.lambda;
-        (0..p)
-            .map(|j| (sigma2 * covariance[(j, j)].max(0.0)).sqrt())
-            .collect()
-    }
-
-    fn diagnostics(&self, c: DiagnosticCounts) -> Diagnostics {
-        let p = self.coefficients.len();
-        let dof = self.rows.saturating_sub(p).max(1) as f64;
-        let residual_std = (self.rss / self.rows as f64).sqrt();
-        let sigma2 = self.rss / dof / c.fraction;
-        Diagnostics {
-            samples_total: c.total,
-            samples_nonfinite: c.nonfinite,
-            samples_in_short_runs: c.short,
-            samples_used: self.rows,
-            runs_used: c.runs_used,
-            filtered_std_before_nt: c.before_std,
-            residual_std_nt: residual_std,
-            improvement_ratio: c.before_std / residual_std,
-            condition_number: self.condition_number(),
-            effective_sample_fraction: c.fraction,
-            std_errors: self.std_errors(sigma2),
-        }
-    }
-}
-
-/// Solves `(AᵀA + λI)·β = Aᵀy` for a ready-made (already filtered) design matrix.
-pub fn ridge(a: &DMatrix<f64>, y: &[f64], lambda: f64) -> Result<RidgeSolution, FitError> {
-    let mut solver = Ridge::new(a.ncols());
-    solver.push(a, y);
-    let names: Vec<Column> = Vec::new();
-    solver.solve(lambda, &names)
 }
 
 /// Population standard deviation accumulated one value at a time (Welford).
@@ -555,58 +463,84 @@ impl RunningStd {
     }
 }
 
+struct DiagnosticCounts {
+    total: usize,
+    nonfinite: usize,
+    short: usize,
+    runs_used: usize,
+    before_std: f64,
+    fraction: f64,
+}
+
+fn diagnostics(
+    solution: &RidgeSolution,
+    c: DiagnosticCounts,
+    cross_validation: Option<CrossValidation>,
+) -> Diagnostics {
+    let p = solution.coefficients.len();
+    let dof = solution.rows.saturating_sub(p).max(1) as f64;
+    let residual_std = (solution.rss / solution.rows as f64).sqrt();
+    let sigma2 = solution.rss / dof / c.fraction;
+    Diagnostics {
+        samples_total: c.total,
+        samples_nonfinite: c.nonfinite,
+        samples_in_short_runs: c.short,
+        samples_used: solution.rows,
+        runs_used: c.runs_used,
+        filtered_std_before_nt: c.before_std,
+        residual_std_nt: residual_std,
+        improvement_ratio: c.before_std / residual_std,
+        condition_number: solution.condition_number(),
+        effective_sample_fraction: c.fraction,
+        penalty: solution.penalty().to_vec(),
+        cross_validation,
+        std_errors: solution.std_errors(sigma2),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
-    fn ridge_matches_normal_equations_on_a_small_problem() {
-        let a = DMatrix::from_row_slice(4, 2, &[1.0, 0.0, 1.0, 1.0, 1.0, 2.0, 1.0, 3.0]);
-        let y = [1.0, 3.0, 5.2, 6.9];
-        let lambda = 0.5;
-        let got = ridge(&a, &y, lambda).unwrap().coefficients;
-        let g = a.transpose() * &a + DMatrix::identity(2, 2) * lambda;
-        let want = g.lu().solve(&(a.transpose() * DVector::from_column_slice(&y))).unwrap();
-        for (u, v) in got.iter().zip(want.iter()) {
-            assert!((u - v).abs() < 1e-12, "{u} vs {v}");
-        }
-    }
-
-    #[test]
-    fn blocks_give_the_same_answer_as_one_solve() {
-        let n = 3 * BLOCK_ROWS + 17;
-        let a = DMatrix::from_fn(n, 3, |i, j| ((i * (j + 3)) as f64 * 0.37).sin());
-        let y: Vec<f64> = (0..n).map(|i| (i as f64 * 0.11).cos()).collect();
-        let whole = ridge(&a, &y, 0.0).unwrap();
-        let mut split = Ridge::new(3);
-        split.push(&a.rows(0, 100).into_owned(), &y[..100]);
-        split.push(&a.rows(100, n - 100).into_owned(), &y[100..]);
-        let split = split.solve(0.0, &[]).unwrap();
-        for (u, v) in whole.coefficients.iter().zip(&split.coefficients) {
-            assert!((u - v).abs() < 1e-10);
-        }
-        let resid: f64 = (0..n)
-            .map(|i| {
-                let fit: f64 = (0..3).map(|j| a[(i, j)] * whole.coefficients[j]).sum();
-                (y[i] - fit).powi(2)
-            })
-            .sum();
-        assert!((resid - whole.rss).abs() < 1e-8 * resid.max(1.0));
-    }
-
-    #[test]
-    fn exactly_collinear_columns_without_ridge_are_singular() {
-        let a = DMatrix::from_fn(50, 2, |i, _| i as f64);
-        let y: Vec<f64> = (0..50).map(|i| i as f64).collect();
-        assert!(matches!(ridge(&a, &y, 0.0), Err(FitError::Singular { .. })));
-        assert!(ridge(&a, &y, 1e-3).is_ok());
-    }
-
-    #[test]
     fn passband_fraction_follows_the_fallbacks() {
-        let band = |a, b| Band { pass1_hz: a, pass2_hz: b };
+        let band = |a, b| Band {
+            pass1_hz: a,
+            pass2_hz: b,
+        };
         assert!((passband_fraction(band(0.1, 0.9), 10.0) - 0.16).abs() < 1e-12);
         assert!((passband_fraction(band(0.0, 1.0), 10.0) - 0.2).abs() < 1e-12);
         assert_eq!(passband_fraction(band(0.0, 99.0), 10.0), 1.0);
+    }
+
+    #[test]
+    fn folds_are_contiguous_and_cover_every_row() {
+        let a = DMatrix::from_fn(10, 1, |i, _| i as f64);
+        let y: Vec<f64> = (0..10).map(|i| i as f64).collect();
+        let folds = fold_problems(&[(a.clone(), y.clone()), (a, y)], 1, Lambda::auto());
+        assert_eq!(
+            folds.iter().map(Ridge::rows).collect::<Vec<_>>(),
+            [4, 4, 4, 4, 4]
+        );
+    }
+
+    #[test]
+    fn settings_are_validated() {
+        let flux = VectorSeries::new(vec![30_000.0; 3], vec![0.0; 3], vec![40_000.0; 3]);
+        let mut s = FitSettings::magnav();
+        s.lambda = Lambda::Fixed(-1.0);
+        assert_eq!(
+            fit(&[1.0; 3], &flux, 10.0, None, &s).unwrap_err(),
+            FitError::Lambda(-1.0)
+        );
+        s.lambda = Lambda::CrossValidated { folds: 1 };
+        assert_eq!(
+            fit(&[1.0; 3], &flux, 10.0, None, &s).unwrap_err(),
+            FitError::Folds(1)
+        );
+        assert_eq!(
+            fit(&[1.0; 3], &flux, 0.0, None, &s).unwrap_err(),
+            FitError::SampleRate(0.0)
+        );
     }
 }

@@ -217,8 +217,10 @@ mod tests {
 
     #[test]
     fn patent_terms_ignore_the_trace() {
-        let mut a = AircraftField::default();
-        a.induced = [[0.01, 0.0, 0.0], [0.0, 0.02, 0.0], [0.0, 0.0, 0.05]];
+        let a = AircraftField {
+            induced: [[0.01, 0.0, 0.0], [0.0, 0.02, 0.0], [0.0, 0.0, 0.05]],
+            ..AircraftField::default()
+        };
         let mut b = a;
         for k in 0..3 {
             b.induced[k][k] += 0.1;

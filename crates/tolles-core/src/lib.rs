@@ -20,10 +20,16 @@
 //! - [`terms`]: which Tolles-Lawson terms a model uses;
 //! - [`design`]: the Tolles-Lawson design matrix (permanent, induced and eddy-current columns);
 //! - [`filter`]: Butterworth second-order sections and zero-phase filtering;
-//! - [`fit`]: ridge least squares of the scalar signal on the design matrix;
+//! - [`ridge`]: numerically stable ridge least squares (blocked QR);
+//! - [`crossval`]: choosing the ridge strength by blocked cross-validation over time;
+//! - [`fit`]: the whole fit: filter, trim, solve, diagnose;
 //! - [`compensate`]: applying a fitted model;
 //! - [`metrics`]: noise level, improvement ratio, fourth difference;
-//! - [`interpret`]: coefficients as physical fields and in the patent's nomenclature.
+//! - [`interpret`]: coefficients as physical fields and in the patent's nomenclature;
+//! - [`segment`]: contiguous runs of usable samples;
+//! - [`attitude`]: rotations between the navigation and body frames;
+//! - [`plan`]: flight plans (compensation box, survey lines);
+//! - [`sim`]: simulated flights with known truth;
 //! - [`igrf`]: IGRF-14 reference field of the earth.
 //!
 //! No module here reads files or writes to a terminal.
@@ -31,6 +37,7 @@
 pub mod attitude;
 pub mod compensate;
 pub mod conventions;
+pub mod crossval;
 pub mod design;
 pub mod filter;
 pub mod fit;
@@ -38,6 +45,7 @@ pub mod igrf;
 pub mod interpret;
 pub mod metrics;
 pub mod plan;
+pub mod ridge;
 pub mod segment;
 pub mod sim;
 pub mod terms;

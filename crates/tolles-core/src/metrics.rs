@@ -61,7 +61,9 @@ mod tests {
         let mut state = 12345u64;
         let x: Vec<f64> = (0..200_000)
             .map(|_| {
-                state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
                 ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 12f64.sqrt()
             })
             .collect();

@@ -112,7 +112,9 @@ impl Segment {
             }
             Motion::Hold { roll_deg } => {
                 // Quarter of the time to roll in, half held, quarter to roll out.
-                let ramp = ((4.0 * u).min(1.0).min(4.0 * (1.0 - u)) * PI / 2.0).sin().powi(2);
+                let ramp = ((4.0 * u).min(1.0).min(4.0 * (1.0 - u)) * PI / 2.0)
+                    .sin()
+                    .powi(2);
                 roll = roll_deg * ramp;
             }
             Motion::Turbulent {

@@ -188,7 +188,8 @@ pub fn simulate(plan: &Plan, scenario: &Scenario) -> SimulatedFlight {
         out.line.push(plan.segments()[plan.segment_at(t)].line);
         out.roll_deg.push(attitude.roll.to_degrees());
         out.pitch_deg.push(attitude.pitch.to_degrees());
-        out.yaw_deg.push(attitude.yaw.to_degrees().rem_euclid(360.0));
+        out.yaw_deg
+            .push(attitude.yaw.to_degrees().rem_euclid(360.0));
         out.earth_nt.push(norm(b));
         out.interference_nt.push(norm(total) - norm(b));
         out.scalar.push(norm(total) + scalar_noise.sample(&mut rng));
@@ -264,7 +265,10 @@ mod tests {
         aircraft.eddy_s[2][1] = 1e-3;
         let flight = simulate(&BoxPlan::default().build(), &Scenario::new(aircraft, 4));
         assert!(flight.interference_nt[5].abs() < 1e-9); // straight and level
-        let peak = flight.interference_nt.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let peak = flight
+            .interference_nt
+            .iter()
+            .fold(0.0f64, |m, v| m.max(v.abs()));
         assert!(peak > 1.0, "{peak}");
     }
 }

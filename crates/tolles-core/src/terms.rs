@@ -145,7 +145,9 @@ impl TermSet {
             None => &[],
         };
         cols.extend(induced.iter().map(|&(i, j)| Column::Induced(i, j)));
-        let all_pairs = Axis::ALL.into_iter().flat_map(|i| Axis::ALL.map(|j| (i, j)));
+        let all_pairs = Axis::ALL
+            .into_iter()
+            .flat_map(|i| Axis::ALL.map(|j| (i, j)));
         let eddy: Vec<(Axis, Axis)> = match self.eddy {
             Some(EddyTerms::Nine) => all_pairs.collect(),
             Some(EddyTerms::Eight) => all_pairs.take(8).collect(),
@@ -303,7 +305,12 @@ mod tests {
 
     #[test]
     fn display_round_trips() {
-        for s in ["permanent,induced,eddy", "permanent,i5,e8,bias", "i3,e3", "bias"] {
+        for s in [
+            "permanent,induced,eddy",
+            "permanent,i5,e8,bias",
+            "i3,e3",
+            "bias",
+        ] {
             assert_eq!(s.parse::<TermSet>().unwrap().to_string(), s);
         }
     }

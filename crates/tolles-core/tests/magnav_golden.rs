@@ -6,7 +6,8 @@ use common::{magnav, magnav_vector, std};
 use nalgebra::DMatrix;
 use tolles_core::compensate::{compensate, Level};
 use tolles_core::design::Design;
-use tolles_core::fit::{fit, ridge, FitSettings};
+use tolles_core::fit::{fit, FitSettings};
+use tolles_core::ridge::ridge;
 use tolles_core::terms::TermSet;
 use tolles_core::vector::VectorSeries;
 
@@ -49,9 +50,22 @@ fn compensation_with_stored_coefficients_matches_mag_1_c_up_to_a_constant() {
     let coefficients = magnav_vector("TL_a_1");
     let uc = magnav_vector("mag_1_uc");
     let design = Design::new(TermSet::magnav_default());
-    let ours = compensate(&uc, &flux(), None, &design, &coefficients, 1.0, Level::FileMean);
+    let ours = compensate(
+        &uc,
+        &flux(),
+        None,
+        &design,
+        &coefficients,
+        1.0,
+        Level::FileMean,
+    );
     let reference = magnav_vector("mag_1_c");
-    let diff: Vec<f64> = ours.compensated.iter().zip(&reference).map(|(a, b)| a - b).collect();
+    let diff: Vec<f64> = ours
+        .compensated
+        .iter()
+        .zip(&reference)
+        .map(|(a, b)| a - b)
+        .collect();
     assert!(std(&diff) < 1e-9, "std = {:e}", std(&diff));
 }
 
@@ -62,10 +76,26 @@ fn end_to_end_fit_and_compensation_are_within_magnav_tolerance() {
     let settings = FitSettings::magnav();
     let model = fit(&uc, &flux(), fs, None, &settings).unwrap();
     assert_eq!(model.diagnostics.samples_used, 960);
-    for (name, level) in [("mag_1_c", Level::FileMean), ("mag_1_c_d", Level::FileLinearTrend)] {
-        let ours = compensate(&uc, &flux(), None, &settings.design, &model.coefficients, 1.0, level);
+    for (name, level) in [
+        ("mag_1_c", Level::FileMean),
+        ("mag_1_c_d", Level::FileLinearTrend),
+    ] {
+        let ours = compensate(
+            &uc,
+            &flux(),
+            None,
+            &settings.design,
+            &model.coefficients,
+            1.0,
+            level,
+        );
         let reference = magnav_vector(name);
-        let diff: Vec<f64> = ours.compensated.iter().zip(&reference).map(|(a, b)| a - b).collect();
+        let diff: Vec<f64> = ours
+            .compensated
+            .iter()
+            .zip(&reference)
+            .map(|(a, b)| a - b)
+            .collect();
         let s = std(&diff);
         assert!(s < 0.1, "std(ours − {name}) = {s} nT");
         eprintln!("std(ours − {name}) = {s:.4} nT");
@@ -84,7 +114,9 @@ fn fit_equals_magnav_procedure_with_scipy_filter() {
         .collect();
     let uc = magnav_vector("mag_1_uc");
     let fs = magnav_vector("fs")[0];
-    let got = fit(&uc, &flux(), fs, None, &FitSettings::magnav()).unwrap().coefficients;
+    let got = fit(&uc, &flux(), fs, None, &FitSettings::magnav())
+        .unwrap()
+        .coefficients;
     let scale = want.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     for (k, (g, w)) in got.iter().zip(&want).enumerate() {
         // Normal equations in numpy lose digits at cond ≈ 1e7; 1e-6 of the largest is ample.

@@ -140,7 +140,10 @@ impl ModelFile {
                 ));
             }
             if fit.vectors.len() != 1 {
-                return Err(format!("fit of {} must name exactly one fluxgate", fit.scalar));
+                return Err(format!(
+                    "fit of {} must name exactly one fluxgate",
+                    fit.scalar
+                ));
             }
         }
         Ok(())
@@ -177,10 +180,14 @@ mod tests {
     #[test]
     fn newer_and_foreign_files_are_refused_clearly() {
         let newer = r#"{"format":"tolles-model","version":99,"created_by":"x","fits":[]}"#;
-        let err = ModelFile::from_json(newer, "m.json").unwrap_err().to_string();
+        let err = ModelFile::from_json(newer, "m.json")
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("upgrade tolles"), "{err}");
         let foreign = r#"{"hello":1}"#;
-        let err = ModelFile::from_json(foreign, "m.json").unwrap_err().to_string();
+        let err = ModelFile::from_json(foreign, "m.json")
+            .unwrap_err()
+            .to_string();
         assert!(err.starts_with("m.json: not a tolles model file"), "{err}");
         assert!(ModelFile::from_json("{", "m.json").is_err());
     }

@@ -317,7 +317,10 @@ mod tests {
     fn empty_and_header_only_files_are_errors() {
         assert!(matches!(read(""), Err(IoError::Empty { .. })));
         assert!(matches!(read("a,b\n"), Err(IoError::NoRows { .. })));
-        assert!(matches!(read("a,a\n1,2\n"), Err(IoError::DuplicateColumn { .. })));
+        assert!(matches!(
+            read("a,a\n1,2\n"),
+            Err(IoError::DuplicateColumn { .. })
+        ));
     }
 
     #[test]

@@ -18,9 +18,14 @@ const VECTOR: &str = "flux_a";
 
 /// Simulate a calibration box and a survey, fit, compensate and compare with the truth.
 ///
+/// Example: `tolles demo --out /tmp/tolles-demo`
+///
 /// The aircraft is a cabin installation (a strong field of tens of nT); everything is written
 /// to --out so each step can be repeated by hand with `tolles fit` and `tolles compensate`.
 #[derive(clap::Args)]
+#[command(
+    after_help = "Example:\n  tolles demo --out /tmp/tolles-demo\n  tolles fit /tmp/tolles-demo/calibration.csv --scalar mag_1_uc --vector flux_a"
+)]
 pub struct Args {
     /// Directory for the simulated flights, the model and the compensated survey
     #[arg(long, default_value = "tolles-demo")]
@@ -39,14 +44,30 @@ pub fn run(args: Args) -> Result<()> {
     let model_path = args.out.join("model.json");
     let compensated_path = args.out.join("survey_compensated.csv");
     let cal = fly(&BoxPlan::default().build(), truth, args.seed, &cal_path)?;
-    let survey = fly(&SurveyPlan::default().build(), truth, args.seed + 1, &survey_path)?;
+    let survey = fly(
+        &SurveyPlan::default().build(),
+        truth,
+        args.seed + 1,
+        &survey_path,
+    )?;
     println!(
         "Simulated a cabin installation at 10 Hz: a calibration box (N, E, S, W; roll ±10°, pitch ±5°, yaw ±5°) of {} samples and a survey of 4 lines, {} samples.",
         cal.tt.len(),
         survey.tt.len()
     );
-    println!("\n$ tolles fit {} --scalar {SCALAR} --vector {VECTOR} --out {}", cal_path.display(), model_path.display());
-    cmd::fit::run(cmd::fit::Args::defaults(cal_path, SCALAR, VECTOR, Some(model_path.clone())))?;
+    std::io::stdout().flush()?;
+    println!(
+        "\n$ tolles fit {} --scalar {SCALAR} --vector {VECTOR} --out {}",
+        cal_path.display(),
+        model_path.display()
+    );
+    cmd::fit::run(cmd::fit::Args::defaults(
+        cal_path,
+        SCALAR,
+        VECTOR,
+        Some(model_path.clone()),
+    ))?;
+    std::io::stdout().flush()?;
     println!(
         "\n$ tolles compensate {} --model {} --out {}",
         survey_path.display(),
@@ -59,6 +80,7 @@ pub fn run(args: Args) -> Result<()> {
         out: Some(compensated_path.clone()),
         fs: None,
     })?;
+    std::io::stdout().flush()?;
     report(&survey, &compensated_path, &model_path, &truth)
 }
 
@@ -84,12 +106,21 @@ fn fly(plan: &Plan, truth: AircraftField, seed: u64, path: &Path) -> Result<Simu
     Ok(flight)
 }
 
-fn report(survey: &SimulatedFlight, compensated: &Path, model: &Path, truth: &AircraftField) -> Result<()> {
+fn report(
+    survey: &SimulatedFlight,
+    compensated: &Path,
+    model: &Path,
+    truth: &AircraftField,
+) -> Result<()> {
     let table = Table::read_csv(compensated)?;
     let clean = table.numeric("mag_1_c")?;
-    let error = |x: &[f64]| -> Vec<f64> { x.iter().zip(&survey.earth_nt).map(|(a, b)| a - b).collect() };
+    let error =
+        |x: &[f64]| -> Vec<f64> { x.iter().zip(&survey.earth_nt).map(|(a, b)| a - b).collect() };
     let filter = magnav_bandpass(0.1, 0.9, 4, 10.0)?;
-    let (before, after) = (noise_level(&survey.scalar, filter.as_ref())?, noise_level(&clean, filter.as_ref())?);
+    let (before, after) = (
+        noise_level(&survey.scalar, filter.as_ref())?,
+        noise_level(&clean, filter.as_ref())?,
+    );
     let mut out = std::io::stdout().lock();
     writeln!(out, "\nSurvey result against the simulator's truth:")?;
     writeln!(
@@ -104,11 +135,17 @@ fn report(survey: &SimulatedFlight, compensated: &Path, model: &Path, truth: &Ai
         improvement_ratio(before, after)
     )?;
     let found = &ModelFile::read(model)?.fits[0].patent;
-    writeln!(out, "\nThe aircraft's field in the Tolles patent's terms (L = forward, T = right, V = down):")?;
+    writeln!(
+        out,
+        "\nThe aircraft's field in the Tolles patent's terms (L = forward, T = right, V = down):"
+    )?;
     writeln!(out, "  {:<7} {:>12} {:>12}", "term", "true", "fitted")?;
     for ((name, t), (_, f)) in truth.patent_terms().named().iter().zip(found.named()) {
         writeln!(out, "  {name:<7} {t:>12.4e} {f:>12.4e}")?;
     }
-    writeln!(out, "  (perm in nT, induced dimensionless, eddy in seconds)")?;
+    writeln!(
+        out,
+        "  (perm in nT, induced dimensionless, eddy in seconds)"
+    )?;
     Ok(())
 }

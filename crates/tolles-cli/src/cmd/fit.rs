@@ -5,7 +5,7 @@ use anyhow::{Context, Result};
 use std::io::Write;
 use std::path::PathBuf;
 use tolles_core::design::Design;
-use tolles_core::fit::{fit, Band, FitSettings};
+use tolles_core::fit::{fit, Band, FitSettings, Lambda};
 use tolles_core::terms::TermSet;
 use tolles_io::model::{ModelFile, ScalarModel};
 
@@ -42,9 +42,10 @@ pub struct Args {
     /// terms a scalar magnetometer can identify; MagNav.jl's is permanent,induced,eddy
     #[arg(long, default_value = DEFAULT_TERMS)]
     pub terms: TermSet,
-    /// Ridge strength λ added to AᵀA (unscaled columns, as MagNav's linreg)
-    #[arg(long, default_value_t = 0.001)]
-    pub lambda: f64,
+    /// Ridge strength: `auto` chooses λ·diag(AᵀA) by 5-fold blocked cross-validation over time;
+    /// a number X adds X·I to AᵀA with unscaled columns, exactly as MagNav's linreg
+    #[arg(long, default_value = "auto", value_parser = parse_lambda)]
+    pub lambda: Lambda,
     /// Pass band LO,HI in Hz; an edge ≤ 0 or ≥ fs/2 turns band-pass into low- or high-pass,
     /// both invalid means no filtering
     #[arg(long, default_value = "0.1,0.9")]
@@ -78,6 +79,16 @@ impl Args {
     }
 }
 
+fn parse_lambda(text: &str) -> Result<Lambda, String> {
+    if text.eq_ignore_ascii_case("auto") {
+        return Ok(Lambda::auto());
+    }
+    match text.parse::<f64>() {
+        Ok(x) if x.is_finite() && x >= 0.0 => Ok(Lambda::Fixed(x)),
+        _ => Err(format!("expected `auto` or a number ≥ 0, got {text:?}")),
+    }
+}
+
 pub fn run(args: Args) -> Result<()> {
     let flight = Flight::read(&args.cal, &args.scalar, &args.vector)?;
     let fs_hz = flight.sample_rate(args.fs)?;
@@ -89,8 +100,14 @@ pub fn run(args: Args) -> Result<()> {
         order: args.order,
         trim: args.trim,
     };
-    let fitted = fit(&flight.scalar, &flight.flux, fs_hz, flight.tt.as_deref(), &settings)
-        .map_err(|e| flight.explain(e, &args.scalar, &args.vector))?;
+    let fitted = fit(
+        &flight.scalar,
+        &flight.flux,
+        fs_hz,
+        flight.tt.as_deref(),
+        &settings,
+    )
+    .map_err(|e| flight.explain(e, &args.scalar, &args.vector))?;
     let model = ScalarModel::new(&args.scalar, &args.vector, fitted);
     print_summary(&model, &args)?;
     let file = ModelFile::new(vec![model]);
@@ -115,18 +132,43 @@ fn print_summary(model: &ScalarModel, args: &Args) -> Result<()> {
         d.samples_total
     )?;
     if d.samples_nonfinite > 0 {
-        writeln!(err, "  skipped {} samples with missing or non-finite values", d.samples_nonfinite)?;
+        writeln!(
+            err,
+            "  skipped {} samples with missing or non-finite values",
+            d.samples_nonfinite
+        )?;
     }
     if d.samples_in_short_runs > 0 {
-        writeln!(err, "  skipped {} samples in runs too short to filter", d.samples_in_short_runs)?;
+        writeln!(
+            err,
+            "  skipped {} samples in runs too short to filter",
+            d.samples_in_short_runs
+        )?;
     }
     writeln!(
         err,
         "  filtered scalar {:.4} nT -> residual {:.4} nT (improvement ×{:.2}), cond(AᵀA+λI) = {:.3e}",
         d.filtered_std_before_nt, d.residual_std_nt, d.improvement_ratio, d.condition_number
     )?;
-    writeln!(err, "  {:<12} {:>14} {:>12}", "term", "coefficient", "std error")?;
-    for ((name, beta), se) in model.fit.columns.iter().zip(&model.fit.coefficients).zip(&d.std_errors) {
+    if let Some(cv) = &d.cross_validation {
+        writeln!(
+            err,
+            "  ridge: λ = {:.0e}·diag(AᵀA) chosen by {}-fold blocked cross-validation; expected residual on new data {:.4} nT",
+            cv.chosen_lambda_rel, cv.folds, cv.expected_heldout_rms_nt
+        )?;
+    }
+    writeln!(
+        err,
+        "  {:<12} {:>14} {:>12}",
+        "term", "coefficient", "std error"
+    )?;
+    for ((name, beta), se) in model
+        .fit
+        .columns
+        .iter()
+        .zip(&model.fit.coefficients)
+        .zip(&d.std_errors)
+    {
         writeln!(err, "  {name:<12} {beta:>14.6} {se:>12.4}")?;
     }
     let p = &model.patent;
