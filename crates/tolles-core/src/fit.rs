@@ -2,7 +2,7 @@
 //!
 //! ```
 //! use tolles_core::design::Design;
-//! use tolles_core::fit::{fit, FitSettings};
+//! use tolles_core::fit::{fit, FitSettings, Lambda};
 //! use tolles_core::vector::VectorSeries;
 //!
 //! // A fluxgate swinging through ±20° at 0.2 Hz, and a scalar that sees a 40 nT permanent field
@@ -16,7 +16,11 @@
 //!     vec![45_000.0; n],
 //! );
 //! let scalar: Vec<f64> = (0..n).map(|k| 50_000.0 + 40.0 * flux.x[k] / flux.magnitude(k)).collect();
-//! let settings = FitSettings { design: Design::new("p".parse().unwrap()), lambda: 0.0, ..FitSettings::magnav() };
+//! let settings = FitSettings {
+//!     design: Design::new("p".parse().unwrap()),
+//!     lambda: Lambda::Fixed(0.0),
+//!     ..FitSettings::magnav()
+//! };
 //! let model = fit(&scalar, &flux, fs, None, &settings).unwrap();
 //! assert!((model.coefficients[0] - 40.0).abs() < 1e-6);
 //! ```
