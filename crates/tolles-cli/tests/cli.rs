@@ -340,6 +340,11 @@ fn missing_values_in_a_survey_keep_every_row_and_are_counted() {
     assert_eq!(compensated.len(), 400);
     assert!(compensated[49].is_none() && compensated[79].is_none());
     assert_eq!(compensated.iter().filter(|v| v.is_none()).count(), 2);
+    // A fit on the same file skips the two holes and says so.
+    let out = tolles().args(fit_args(&survey)).output().unwrap();
+    assert!(out.status.success());
+    let stderr = String::from_utf8(out.stderr).unwrap();
+    assert!(stderr.contains("skipped 2 samples with missing or non-finite values"), "{stderr}");
     // The input's own cells are written back as they were.
     assert_eq!(csv.lines().nth(80).unwrap().split(',').nth(1), Some("NaN"));
 }
