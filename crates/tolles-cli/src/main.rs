@@ -22,6 +22,9 @@ Examples:
   tolles fit cal.csv --scalar mag_1_uc --vector flux_a \\
       --terms permanent,induced,eddy --lambda 0.001 --band 0.1,0.9 --order 4 --trim 20
 
+  # Simulate a flight whose truth is known:
+  tolles simulate --plan box --seed 1 --out box.csv
+
   # See it work on a simulated flight, no files needed:
   tolles demo";
 
@@ -37,6 +40,7 @@ enum Command {
     Fit(cmd::fit::Args),
     Compensate(cmd::compensate::Args),
     Demo(cmd::demo::Args),
+    Simulate(cmd::simulate::Args),
 }
 
 fn main() -> ExitCode {
@@ -45,6 +49,7 @@ fn main() -> ExitCode {
         Command::Fit(args) => cmd::fit::run(args),
         Command::Compensate(args) => cmd::compensate::run(args),
         Command::Demo(args) => cmd::demo::run(args),
+        Command::Simulate(args) => cmd::simulate::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

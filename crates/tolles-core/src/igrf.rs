@@ -4,7 +4,7 @@
 //! use tolles_core::igrf::{decimal_year, field};
 //!
 //! // London, at sea level, on 1 July 2025.
-//! let b = field(51.5, -0.1, 0.0, decimal_year(2025, 7, 1)).unwrap();
+//! let b = field(51.5, -0.1, 0.0, decimal_year(2025, 7, 1).unwrap()).unwrap();
 //! assert!((b.f - 49_080.0).abs() < 50.0); // total intensity, nT
 //! assert!(b.inclination > 60.0 && b.declination.abs() < 3.0); // degrees
 //! ```
@@ -71,6 +71,9 @@ pub enum IgrfError {
     /// The altitude or radius (metres) is not finite, or puts the point at the earth's centre.
     #[error("altitude or radius {0} m is not finite or reaches the earth's centre")]
     InvalidAltitude(f64),
+    /// The calendar date does not exist.
+    #[error("{year}-{month:02}-{day:02} is not a calendar date")]
+    InvalidDate { year: i32, month: u32, day: u32 },
 }
 
 /// The geomagnetic field at one point, in the local geodetic north-east-down frame.
@@ -214,23 +217,25 @@ pub fn geocentric_field(
 /// ```
 /// use tolles_core::igrf::decimal_year;
 ///
-/// assert_eq!(decimal_year(2025, 1, 1), 2025.0);
-/// assert_eq!(decimal_year(2024, 12, 31), 2024.0 + 365.0 / 366.0);
+/// assert_eq!(decimal_year(2025, 1, 1), Ok(2025.0));
+/// assert_eq!(decimal_year(2024, 12, 31), Ok(2024.0 + 365.0 / 366.0));
+/// assert!(decimal_year(2025, 2, 29).is_err());
 /// ```
 ///
-/// # Panics
-/// If `month` is not in 1..=12 or `day` is not a day of that month.
-pub fn decimal_year(year: i32, month: u32, day: u32) -> f64 {
-    assert!((1..=12).contains(&month), "month {month} is not in 1..=12");
+/// # Errors
+/// [`IgrfError::InvalidDate`] if `month` is not in 1..=12 or `day` is not a day of that month.
+pub fn decimal_year(year: i32, month: u32, day: u32) -> Result<f64, IgrfError> {
+    let invalid = IgrfError::InvalidDate { year, month, day };
+    if !(1..=12).contains(&month) {
+        return Err(invalid);
+    }
     let lengths = month_lengths(year);
-    let month_len = lengths[month as usize - 1];
-    assert!(
-        (1..=month_len).contains(&day),
-        "day {day} is not in 1..={month_len}"
-    );
+    if !(1..=lengths[month as usize - 1]).contains(&day) {
+        return Err(invalid);
+    }
     let before: u32 = lengths[..month as usize - 1].iter().sum();
     let year_len: u32 = lengths.iter().sum();
-    f64::from(year) + f64::from(before + day - 1) / f64::from(year_len)
+    Ok(f64::from(year) + f64::from(before + day - 1) / f64::from(year_len))
 }
 
 fn month_lengths(year: i32) -> [u32; 12] {
@@ -602,15 +607,17 @@ mod tests {
 
     #[test]
     fn decimal_year_handles_leap_years() {
-        assert_eq!(decimal_year(2000, 3, 1), 2000.0 + 60.0 / 366.0);
-        assert_eq!(decimal_year(1900, 3, 1), 1900.0 + 59.0 / 365.0);
-        assert_eq!(decimal_year(2025, 7, 2), 2025.0 + 182.0 / 365.0);
+        assert_eq!(decimal_year(2000, 3, 1), Ok(2000.0 + 60.0 / 366.0));
+        assert_eq!(decimal_year(1900, 3, 1), Ok(1900.0 + 59.0 / 365.0));
+        assert_eq!(decimal_year(2025, 7, 2), Ok(2025.0 + 182.0 / 365.0));
     }
 
     #[test]
-    #[should_panic(expected = "day 29")]
-    fn decimal_year_refuses_february_29_of_common_year() {
-        decimal_year(2023, 2, 29);
+    fn decimal_year_refuses_dates_that_do_not_exist() {
+        assert!(decimal_year(2023, 2, 29).is_err());
+        assert!(decimal_year(2024, 2, 29).is_ok());
+        assert!(decimal_year(2024, 13, 1).is_err());
+        assert!(decimal_year(2024, 4, 31).is_err());
     }
 
     #[test]

@@ -29,6 +29,8 @@
 //! - [`segment`]: contiguous runs of usable samples;
 //! - [`attitude`]: rotations between the navigation and body frames;
 //! - [`plan`]: flight plans (compensation box, survey lines);
+//! - [`environment`]: the earth's field along a flight (IGRF, geology, diurnal);
+//! - [`sensor`]: fluxgate and magnetometer error models;
 //! - [`sim`]: simulated flights with known truth;
 //! - [`igrf`]: IGRF-14 reference field of the earth.
 //!
@@ -39,6 +41,7 @@ pub mod compensate;
 pub mod conventions;
 pub mod crossval;
 pub mod design;
+pub mod environment;
 pub mod filter;
 pub mod fit;
 pub mod igrf;
@@ -47,6 +50,7 @@ pub mod metrics;
 pub mod plan;
 pub mod ridge;
 pub mod segment;
+pub mod sensor;
 pub mod sim;
 pub mod terms;
 pub mod vector;

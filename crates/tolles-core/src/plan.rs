@@ -260,6 +260,110 @@ impl BoxPlan {
     }
 }
 
+/// The patent's harmonic maneuvers (US 2,692,970): rolls on the cardinal and intercardinal
+/// headings, pitches on the cardinal headings, large wing-ups on east and west, and a cloverleaf
+/// to verify the compensation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PatentPlan {
+    /// Roll amplitude (degrees); the patent uses 15°.
+    pub roll_deg: f64,
+    /// Pitch amplitude (degrees).
+    pub pitch_deg: f64,
+    /// Period of the harmonic maneuvers (s).
+    pub period_s: f64,
+    /// Cycles of each harmonic maneuver.
+    pub cycles: u32,
+    /// Wing-up bank (degrees); the patent asks for 35–45°.
+    pub wingup_deg: f64,
+    /// Duration of each wing-up, entry and exit included (s).
+    pub wingup_s: f64,
+    /// Straight flight between maneuvers (s).
+    pub straight_s: f64,
+    /// Duration of each 45° turn between headings (s).
+    pub turn_s: f64,
+    /// Fly the cloverleaf at the end.
+    pub cloverleaf: bool,
+}
+
+impl Default for PatentPlan {
+    /// 15° rolls, 10° pitches, 6 s period, 3 cycles, 40° wing-ups, with a cloverleaf.
+    fn default() -> Self {
+        Self {
+            roll_deg: 15.0,
+            pitch_deg: 10.0,
+            period_s: 6.0,
+            cycles: 3,
+            wingup_deg: 40.0,
+            wingup_s: 20.0,
+            straight_s: 8.0,
+            turn_s: 15.0,
+            cloverleaf: true,
+        }
+    }
+}
+
+impl PatentPlan {
+    /// The plan, heading N, NE, E, … NW in turn; each segment gets its own line id.
+    ///
+    /// On east a right wing-up (negative roll), on west a left wing-up (positive roll), as in
+    /// the patent. The cloverleaf is four 270° right turns banked 30°, each after a straight leg.
+    pub fn build(&self) -> Plan {
+        let mut b = Builder::default();
+        for k in 0..8 {
+            let heading = 45.0 * k as f64;
+            if k > 0 {
+                b.turn_to(heading, self.turn_s);
+            }
+            b.push(self.straight_s, Motion::Straight);
+            b.push(self.maneuver_s(), self.harmonic(Axis::Roll, self.roll_deg));
+            if k % 2 == 0 {
+                b.push(self.straight_s, Motion::Straight);
+                b.push(
+                    self.maneuver_s(),
+                    self.harmonic(Axis::Pitch, self.pitch_deg),
+                );
+            }
+            let wingup = match k {
+                2 => Some(-self.wingup_deg),
+                6 => Some(self.wingup_deg),
+                _ => None,
+            };
+            if let Some(roll_deg) = wingup {
+                b.push(self.straight_s, Motion::Straight);
+                b.push(self.wingup_s, Motion::Hold { roll_deg });
+            }
+        }
+        b.push(self.straight_s, Motion::Straight);
+        if self.cloverleaf {
+            b.turn_to(0.0, self.turn_s);
+            for _ in 0..4 {
+                b.push(self.straight_s, Motion::Straight);
+                b.push(
+                    4.0 * self.turn_s,
+                    Motion::Turn {
+                        change_deg: 270.0,
+                        bank_deg: 30.0,
+                    },
+                );
+            }
+            b.push(self.straight_s, Motion::Straight);
+        }
+        b.plan()
+    }
+
+    fn maneuver_s(&self) -> f64 {
+        self.period_s * self.cycles as f64
+    }
+
+    fn harmonic(&self, axis: Axis, amplitude_deg: f64) -> Motion {
+        Motion::Harmonic {
+            axis,
+            amplitude_deg,
+            period_s: self.period_s,
+        }
+    }
+}
+
 /// Straight survey lines flown back and forth through light turbulence.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SurveyPlan {
@@ -361,20 +465,34 @@ impl Builder {
     }
 }
 
-/// A deterministic source of turbulence waves (SplitMix64, so plans need no RNG crate).
-struct WaveSource(u64);
+/// A small deterministic generator (SplitMix64): plans and geology are pure functions of a seed.
+pub(crate) struct SplitMix(u64);
 
-impl WaveSource {
-    fn new(seed: u64) -> Self {
+impl SplitMix {
+    pub(crate) fn new(seed: u64) -> Self {
         Self(seed ^ 0x9E37_79B9_7F4A_7C15)
     }
 
-    fn uniform(&mut self) -> f64 {
+    /// Uniform in [0, 1].
+    pub(crate) fn uniform(&mut self) -> f64 {
         self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
         let mut z = self.0;
         z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
         z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
         (z ^ (z >> 31)) as f64 / u64::MAX as f64
+    }
+}
+
+/// Turbulence waves from a seed.
+struct WaveSource(SplitMix);
+
+impl WaveSource {
+    fn new(seed: u64) -> Self {
+        Self(SplitMix::new(seed))
+    }
+
+    fn uniform(&mut self) -> f64 {
+        self.0.uniform()
     }
 
     /// Five waves between 0.05 and 0.5 Hz whose amplitudes add to about `amplitude_deg` RMS.
@@ -435,6 +553,33 @@ mod tests {
         let mid = plan.attitude(5.0);
         assert!((mid.roll.to_degrees() - 20.0).abs() < 1e-9);
         assert!((mid.yaw.to_degrees() - 45.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn patent_plan_flies_its_maneuvers() {
+        let plan = PatentPlan::default().build();
+        let count = |axis: Axis| {
+            plan.segments()
+                .iter()
+                .filter(|s| matches!(s.motion, Motion::Harmonic { axis: a, .. } if a == axis))
+                .count()
+        };
+        assert_eq!(count(Axis::Roll), 8);
+        assert_eq!(count(Axis::Pitch), 4);
+        let holds: Vec<(f64, f64)> = plan
+            .segments()
+            .iter()
+            .filter_map(|s| match s.motion {
+                Motion::Hold { roll_deg } => Some((s.heading_deg, roll_deg)),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(holds, [(90.0, -40.0), (270.0, 40.0)]);
+        for &start in &plan.starts()[1..] {
+            let (a, b) = (plan.attitude(start - 1e-9), plan.attitude(start + 1e-9));
+            let dyaw = (a.yaw - b.yaw).rem_euclid(2.0 * PI);
+            assert!(dyaw.min(2.0 * PI - dyaw) < 1e-6 && (a.roll - b.roll).abs() < 1e-6);
+        }
     }
 
     #[test]

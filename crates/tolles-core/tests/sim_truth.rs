@@ -50,7 +50,7 @@ fn errors(found: &AircraftField, truth: &AircraftField) -> [f64; 3] {
 #[test]
 fn box_fit_recovers_the_cabin_aircraft_field() {
     let truth = Installation::Cabin.aircraft();
-    let flight = simulate(&BoxPlan::default().build(), &Scenario::new(truth, 11));
+    let flight = simulate(&BoxPlan::default().build(), &Scenario::new(truth, 11)).unwrap();
     let s = settings("permanent,i5,e8", Lambda::Fixed(0.0));
     let model = fit_flight(&flight, &s);
     let found = AircraftField::from_coefficients(&s.design, &model.coefficients, 10.0);
@@ -65,8 +65,8 @@ fn box_fit_recovers_the_cabin_aircraft_field() {
 #[test]
 fn survey_compensated_with_a_box_model_is_the_earth_field_within_noise() {
     let truth = Installation::TailStinger.aircraft();
-    let cal = simulate(&BoxPlan::default().build(), &Scenario::new(truth, 21));
-    let survey = simulate(&SurveyPlan::default().build(), &Scenario::new(truth, 22));
+    let cal = simulate(&BoxPlan::default().build(), &Scenario::new(truth, 21)).unwrap();
+    let survey = simulate(&SurveyPlan::default().build(), &Scenario::new(truth, 22)).unwrap();
     let s = settings("permanent,i5,e8", Lambda::Fixed(0.0));
     let model = fit_flight(&cal, &s);
     let out = compensate(
@@ -101,7 +101,8 @@ fn zero_interference_is_left_alone() {
     let cal = simulate(
         &BoxPlan::default().build(),
         &Scenario::new(AircraftField::default(), 31),
-    );
+    )
+    .unwrap();
     let s = settings("permanent,i5,e8", Lambda::Fixed(0.0));
     let model = fit_flight(&cal, &s);
     let out = compensate(
@@ -128,11 +129,12 @@ fn zero_interference_is_left_alone() {
 }
 
 fn survey_error(truth: AircraftField, s: &FitSettings, seed: u64) -> (f64, f64) {
-    let cal = simulate(&BoxPlan::default().build(), &Scenario::new(truth, seed));
+    let cal = simulate(&BoxPlan::default().build(), &Scenario::new(truth, seed)).unwrap();
     let survey = simulate(
         &SurveyPlan::default().build(),
         &Scenario::new(truth, seed + 1),
-    );
+    )
+    .unwrap();
     let model = fit_flight(&cal, s);
     let out = compensate(
         &survey.scalar,
@@ -181,8 +183,8 @@ proptest! {
     #[test]
     fn any_aircraft_field_is_recovered_from_noiseless_data(truth in arbitrary_aircraft()) {
         let mut scenario = Scenario::new(truth, 0);
-        scenario.sensors = Sensors { scalar_noise_nt: 0.0, flux_noise_nt: 0.0 };
-        let flight = simulate(&BoxPlan::default().build(), &scenario);
+        scenario.sensors = Sensors { scalar_noise_nt: 0.0, flux_noise_nt: 0.0, ..Sensors::default() };
+        let flight = simulate(&BoxPlan::default().build(), &scenario).unwrap();
         let s = settings("permanent,i5,e8", Lambda::Fixed(0.0));
         let model = fit_flight(&flight, &s);
         let found = AircraftField::from_coefficients(&s.design, &model.coefficients, 10.0);

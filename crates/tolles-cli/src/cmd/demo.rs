@@ -11,10 +11,8 @@ use tolles_core::metrics::{improvement_ratio, noise_level, std_dev};
 use tolles_core::plan::{BoxPlan, Plan, SurveyPlan};
 use tolles_core::sim::{simulate, Installation, Scenario, SimulatedFlight};
 use tolles_io::model::ModelFile;
-use tolles_io::table::{write_columns_to, Table};
-
-const SCALAR: &str = "mag_1_uc";
-const VECTOR: &str = "flux_a";
+use tolles_io::simulation::{write_flight, Sidecar, SCALAR, VECTOR};
+use tolles_io::table::Table;
 
 /// Simulate a calibration box and a survey, fit, compensate and compare with the truth.
 ///
@@ -38,20 +36,24 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("{}: cannot create directory", args.out.display()))?;
-    let truth = Installation::Cabin.aircraft();
+    let installation = Installation::Cabin;
+    let truth = installation.aircraft();
     let cal_path = args.out.join("calibration.csv");
     let survey_path = args.out.join("survey.csv");
     let model_path = args.out.join("model.json");
     let compensated_path = args.out.join("survey_compensated.csv");
-    let cal = fly(&BoxPlan::default().build(), truth, args.seed, &cal_path)?;
-    let survey = fly(
-        &SurveyPlan::default().build(),
-        truth,
-        args.seed + 1,
-        &survey_path,
+    let box_plan = BoxPlan::default().build();
+    let cal = fly(
+        "box",
+        &box_plan,
+        &installation.scenario(args.seed),
+        &cal_path,
     )?;
+    let survey_plan = SurveyPlan::default().build();
+    let survey_scenario = installation.scenario(args.seed + 1);
+    let survey = fly("survey", &survey_plan, &survey_scenario, &survey_path)?;
     println!(
-        "Simulated a cabin installation at 10 Hz: a calibration box (N, E, S, W; roll ±10°, pitch ±5°, yaw ±5°) of {} samples and a survey of 4 lines, {} samples.",
+        "Simulated a cabin installation at 10 Hz over IGRF-14 with geology and diurnal variation: a calibration box (N, E, S, W; roll ±10°, pitch ±5°, yaw ±5°) of {} samples and a survey of 4 lines, {} samples.",
         cal.tt.len(),
         survey.tt.len()
     );
@@ -84,25 +86,11 @@ pub fn run(args: Args) -> Result<()> {
     report(&survey, &compensated_path, &model_path, &truth)
 }
 
-/// Simulates `plan` and writes it as a flight CSV with truth columns.
-fn fly(plan: &Plan, truth: AircraftField, seed: u64, path: &Path) -> Result<SimulatedFlight> {
-    let flight = simulate(plan, &Scenario::new(truth, seed));
-    write_columns_to(
-        path,
-        &[
-            ("tt", &flight.tt),
-            ("line", &flight.line),
-            ("ins_roll", &flight.roll_deg),
-            ("ins_pitch", &flight.pitch_deg),
-            ("ins_yaw", &flight.yaw_deg),
-            (SCALAR, &flight.scalar),
-            ("flux_a_x", &flight.flux.x),
-            ("flux_a_y", &flight.flux.y),
-            ("flux_a_z", &flight.flux.z),
-            ("truth_earth", &flight.earth_nt),
-            ("truth_aircraft", &flight.interference_nt),
-        ],
-    )?;
+/// Simulates `plan` and writes it as a flight CSV with truth columns, plus its sidecar.
+fn fly(name: &str, plan: &Plan, scenario: &Scenario, path: &Path) -> Result<SimulatedFlight> {
+    let flight = simulate(plan, scenario)?;
+    write_flight(path, &flight)?;
+    Sidecar::new(name, plan, scenario).write(&cmd::simulate::sidecar_path(path))?;
     Ok(flight)
 }
 

@@ -147,13 +147,13 @@ fn print_summary(model: &ScalarModel, args: &Args) -> Result<()> {
     }
     writeln!(
         err,
-        "  filtered scalar {:.4} nT -> residual {:.4} nT (improvement ×{:.2}), cond(AᵀA+λI) = {:.3e}",
+        "  filtered scalar {:.4} nT -> residual {:.4} nT (improvement ×{:.2}), cond(AᵀA+Λ) = {:.3e}",
         d.filtered_std_before_nt, d.residual_std_nt, d.improvement_ratio, d.condition_number
     )?;
     if let Some(cv) = &d.cross_validation {
         writeln!(
             err,
-            "  ridge: λ = {:.0e}·diag(AᵀA) chosen by {}-fold blocked cross-validation; expected residual on new data {:.4} nT",
+            "  ridge: λ = {}·diag(AᵀA) chosen by {}-fold blocked cross-validation; expected residual on new data {:.4} nT",
             cv.chosen_lambda_rel, cv.folds, cv.expected_heldout_rms_nt
         )?;
     }
