@@ -32,7 +32,8 @@
 //! - [`environment`]: the earth's field along a flight (IGRF, geology, diurnal);
 //! - [`sensor`]: fluxgate and magnetometer error models;
 //! - [`sim`]: simulated flights with known truth;
-//! - [`igrf`]: IGRF-14 reference field of the earth.
+//! - [`igrf`]: IGRF-14 reference field of the earth;
+//! - [`identifiability`]: how well a flight's maneuvers determine each term.
 //!
 //! No module here reads files or writes to a terminal.
 
@@ -44,6 +45,7 @@ pub mod design;
 pub mod environment;
 pub mod filter;
 pub mod fit;
+pub mod identifiability;
 pub mod igrf;
 pub mod interpret;
 pub mod metrics;

@@ -193,7 +193,7 @@ impl Plan {
 }
 
 /// The standard compensation box: on each heading, rolls, pitches and yaws of a few cycles,
-/// joined by straight legs and turns.
+/// joined by straight legs and turns. A maneuver whose amplitude is zero is left out.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct BoxPlan {
     /// Headings flown, in order (degrees clockwise from north).
@@ -242,6 +242,10 @@ impl BoxPlan {
                 (Axis::Pitch, self.pitch_deg),
                 (Axis::Yaw, self.yaw_deg),
             ] {
+                // An amplitude of zero leaves the maneuver out of the box.
+                if amplitude == 0.0 {
+                    continue;
+                }
                 b.push(
                     self.period_s * self.cycles as f64,
                     Motion::Harmonic {
