@@ -41,6 +41,7 @@ enum Command {
     Compensate(cmd::compensate::Args),
     Demo(cmd::demo::Args),
     Simulate(cmd::simulate::Args),
+    Plan(cmd::plan::Args),
 }
 
 fn main() -> ExitCode {
@@ -50,6 +51,7 @@ fn main() -> ExitCode {
         Command::Compensate(args) => cmd::compensate::run(args),
         Command::Demo(args) => cmd::demo::run(args),
         Command::Simulate(args) => cmd::simulate::run(args),
+        Command::Plan(args) => cmd::plan::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -3,4 +3,5 @@
 pub mod compensate;
 pub mod demo;
 pub mod fit;
+pub mod plan;
 pub mod simulate;
