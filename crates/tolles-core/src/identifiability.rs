@@ -131,7 +131,7 @@ pub fn analyse_mapped(
                 name: names[j].clone(),
                 std_error: noise_nt * variance.sqrt(),
                 vif,
-                collinear: !(vif <= COLLINEAR_VIF),
+                collinear: vif.is_nan() || vif > COLLINEAR_VIF,
                 partners: covariance
                     .as_ref()
                     .map_or_else(Vec::new, |c| partners(c, names, j)),
