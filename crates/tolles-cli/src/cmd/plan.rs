@@ -248,13 +248,8 @@ fn print_table(out: &mut impl Write, analysis: &Identifiability) -> Result<()> {
     )?;
     writeln!(
         out,
-        "  {:<6} {:>14} {:>9}  {:<9}  {:<44}  {}",
-        "term",
-        "std error",
-        "VIF",
-        "status",
-        "carried mostly by (variance ×, without it)",
-        "confounded with"
+        "  {:<6} {:>14} {:>9}  {:<9}  {:<44}  confounded with",
+        "term", "std error", "VIF", "status", "carried mostly by (variance ×, without it)"
     )?;
     for t in &analysis.terms {
         let carriers: Vec<String> = t
