@@ -21,7 +21,7 @@ pub struct Flight {
 impl Flight {
     /// Reads `path` and the columns `scalar` and `vector_x/_y/_z`.
     pub fn read(path: &Path, scalar: &str, vector: &str) -> Result<Self> {
-        let table = Table::read_csv(path)?;
+        let table = read_table(path)?;
         let scalar = table.numeric(scalar)?;
         let flux = table.vector(vector)?;
         let tt = match table.has(TIME_COLUMN) {
@@ -86,6 +86,19 @@ impl Flight {
             other => anyhow::Error::new(other).context(format!("{file}")),
         }
     }
+}
+
+/// Reads a CSV table, with a progress bar over its bytes on a terminal.
+pub fn read_table(path: &Path) -> Result<Table> {
+    let file = std::fs::File::open(path).map_err(|source| tolles_io::IoError::Open {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let size = file.metadata().map_or(0, |m| m.len());
+    let bar = crate::progress::bytes(size, "reading");
+    let table = Table::from_reader(std::io::BufReader::new(bar.wrap_read(file)), path);
+    bar.finish_and_clear();
+    Ok(table?)
 }
 
 /// Parses `LO,HI` in hertz.

@@ -5,6 +5,7 @@
 
 mod cmd;
 mod input;
+mod progress;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;

@@ -274,6 +274,18 @@ const DERIVATIVE_STEP_S: f64 = 1e-4;
 
 /// Flies `plan` through `scenario`, one sample every `1/fs` seconds from t = 0.
 pub fn simulate(plan: &Plan, scenario: &Scenario) -> Result<SimulatedFlight, SimError> {
+    simulate_with_progress(plan, scenario, &mut |_, _| {})
+}
+
+/// Samples between two calls of a progress callback.
+const PROGRESS_EVERY: usize = 4096;
+
+/// [`simulate`], calling `progress(done, total)` (samples) now and then.
+pub fn simulate_with_progress(
+    plan: &Plan,
+    scenario: &Scenario,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<SimulatedFlight, SimError> {
     check(plan, scenario)?;
     let n = (plan.duration_s() * scenario.fs_hz).floor() as usize + 1;
     let dt = 1.0 / scenario.fs_hz;
@@ -284,6 +296,9 @@ pub fn simulate(plan: &Plan, scenario: &Scenario) -> Result<SimulatedFlight, Sim
     let (mut north, mut east) = (0.0, 0.0);
     let mut out = SimulatedFlight::default();
     for k in 0..n {
+        if k % PROGRESS_EVERY == 0 {
+            progress(k, n);
+        }
         let t = k as f64 * dt;
         let attitude = plan.attitude(t);
         let ned = env.field_ned(north, east, t)?;
@@ -324,6 +339,7 @@ pub fn simulate(plan: &Plan, scenario: &Scenario) -> Result<SimulatedFlight, Sim
         north += scenario.speed_mps * dt * attitude.yaw.cos();
         east += scenario.speed_mps * dt * attitude.yaw.sin();
     }
+    progress(n, n);
     Ok(out)
 }
 

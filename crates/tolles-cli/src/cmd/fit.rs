@@ -100,14 +100,16 @@ pub fn run(args: Args) -> Result<()> {
         order: args.order,
         trim: args.trim,
     };
+    let spinner = crate::progress::spinner("fitting");
     let fitted = fit(
         &flight.scalar,
         &flight.flux,
         fs_hz,
         flight.tt.as_deref(),
         &settings,
-    )
-    .map_err(|e| flight.explain(e, &args.scalar, &args.vector))?;
+    );
+    spinner.finish_and_clear();
+    let fitted = fitted.map_err(|e| flight.explain(e, &args.scalar, &args.vector))?;
     let model = ScalarModel::new(&args.scalar, &args.vector, fitted);
     print_summary(&model, &args)?;
     let file = ModelFile::new(vec![model]);
@@ -154,7 +156,9 @@ fn print_summary(model: &ScalarModel, args: &Args) -> Result<()> {
         writeln!(
             err,
             "  ridge: λ = {}·diag(AᵀA) chosen by {}-fold blocked cross-validation; expected residual on new data {:.4} nT",
-            cv.chosen_lambda_rel, cv.folds, cv.expected_heldout_rms_nt
+            short_number(cv.chosen_lambda_rel),
+            cv.folds,
+            cv.expected_heldout_rms_nt
         )?;
     }
     writeln!(
@@ -178,4 +182,13 @@ fn print_summary(model: &ScalarModel, args: &Args) -> Result<()> {
         p.perm_nt.t, p.perm_nt.l, p.perm_nt.v, p.induced.vv_tt, p.induced.vv_ll, p.induced.tl_lt, p.induced.tv_vt, p.induced.lv_vl
     )?;
     Ok(())
+}
+
+/// `0`, `1e-8`, `0.001`: the shortest honest text for a ridge strength.
+fn short_number(x: f64) -> String {
+    if x == 0.0 || (1e-3..1e3).contains(&x.abs()) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
 }

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use tolles_core::environment::{Diurnal, Environment, Geology, Location};
 use tolles_core::igrf::decimal_year;
 use tolles_core::plan::{BoxPlan, PatentPlan, Plan, SurveyPlan};
-use tolles_core::sim::{simulate, EarthField, Installation, Scenario};
+use tolles_core::sim::{simulate_with_progress, EarthField, Installation, Scenario};
 use tolles_io::simulation::{write_flight, Sidecar};
 
 const EXAMPLES: &str = "\
@@ -140,7 +140,13 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     let plan = plan(&args);
     let scenario = scenario(&args)?;
-    let flight = simulate(&plan, &scenario).context("simulating the flight")?;
+    let bar = crate::progress::bar(0, "simulating");
+    let flight = simulate_with_progress(&plan, &scenario, &mut |done, total| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+    })
+    .context("simulating the flight")?;
+    bar.finish_and_clear();
     write_flight(&args.out, &flight)?;
     let sidecar = sidecar_path(&args.out);
     Sidecar::new(args.plan.name(), &plan, &scenario).write(&sidecar)?;

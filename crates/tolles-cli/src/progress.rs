@@ -1,0 +1,34 @@
+//! Progress bars on standard error, drawn only when it is a terminal (indicatif hides them
+//! otherwise, so pipes, files and CI logs stay clean).
+
+use indicatif::{ProgressBar, ProgressStyle};
+use std::time::Duration;
+
+/// A bar for `total` units of work described by `message`.
+pub fn bar(total: u64, message: &str) -> ProgressBar {
+    let bar = ProgressBar::new(total).with_message(message.to_string());
+    bar.set_style(
+        ProgressStyle::with_template("{msg:>12} [{bar:30}] {percent:>3}% {elapsed}/{duration}")
+            .expect("a valid template")
+            .progress_chars("=> "),
+    );
+    bar
+}
+
+/// A bar over the bytes of a file being read.
+pub fn bytes(total: u64, message: &str) -> ProgressBar {
+    let bar = ProgressBar::new(total).with_message(message.to_string());
+    bar.set_style(
+        ProgressStyle::with_template("{msg:>12} [{bar:30}] {bytes}/{total_bytes} {elapsed}")
+            .expect("a valid template")
+            .progress_chars("=> "),
+    );
+    bar
+}
+
+/// A spinner for work of unknown length.
+pub fn spinner(message: &str) -> ProgressBar {
+    let spinner = ProgressBar::new_spinner().with_message(message.to_string());
+    spinner.enable_steady_tick(Duration::from_millis(120));
+    spinner
+}
