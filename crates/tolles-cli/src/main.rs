@@ -23,7 +23,10 @@ Examples:
       --terms permanent,induced,eddy --lambda 0.001 --band 0.1,0.9 --order 4 --trim 20
 
   # See it work on a simulated flight, no files needed:
-  tolles demo";
+  tolles demo
+
+  # The Tolles patent's roll and pitch tables, computed:
+  tolles tables --amplitude 15 --heading 45 --dip 68";
 
 #[derive(Parser)]
 #[command(name = "tolles", version, about = ABOUT, after_help = EXAMPLES)]
@@ -37,6 +40,7 @@ enum Command {
     Fit(cmd::fit::Args),
     Compensate(cmd::compensate::Args),
     Demo(cmd::demo::Args),
+    Tables(cmd::tables::Args),
 }
 
 fn main() -> ExitCode {
@@ -45,6 +49,7 @@ fn main() -> ExitCode {
         Command::Fit(args) => cmd::fit::run(args),
         Command::Compensate(args) => cmd::compensate::run(args),
         Command::Demo(args) => cmd::demo::run(args),
+        Command::Tables(args) => cmd::tables::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -598,8 +598,8 @@ static PITCH_TABLE: [PrintedRow; 12] = [
     ),
     PrintedRow {
         misprint: Some(
-            "printed as 'tl'; a pitch leaves the transverse component constant, so tl gives no \
-             signal: the row is lt (equation 7: −lt cos X cos Z)",
+            "a pitch leaves t = cos X constant, so tl gives no signal; the row is lt \
+             (equation 7: −lt cos X cos Z)",
         ),
         ..row!(
             Pitch,
@@ -613,7 +613,9 @@ static PITCH_TABLE: [PrintedRow; 12] = [
         )
     },
     PrintedRow {
-        misprint: Some("printed as 'vv−tl'; the row is vv−ll (equation 7: (vv − ll) cos Y cos Z)"),
+        misprint: Some(
+            "there is no term vv−tl; the row is vv−ll (equation 7: (vv − ll) cos Y cos Z)",
+        ),
         ..row!(
             Pitch,
             "vv-tl",
