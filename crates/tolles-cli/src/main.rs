@@ -27,7 +27,10 @@ Examples:
   tolles simulate --plan box --seed 1 --out box.csv
 
   # See it work on a simulated flight, no files needed:
-  tolles demo";
+  tolles demo
+
+  # The Tolles patent's roll and pitch tables, computed:
+  tolles tables --amplitude 15 --heading 45 --dip 68";
 
 #[derive(Parser)]
 #[command(name = "tolles", version, about = ABOUT, after_help = EXAMPLES)]
@@ -43,6 +46,7 @@ enum Command {
     Demo(cmd::demo::Args),
     Simulate(cmd::simulate::Args),
     Plan(cmd::plan::Args),
+    Tables(cmd::tables::Args),
 }
 
 fn main() -> ExitCode {
@@ -53,6 +57,7 @@ fn main() -> ExitCode {
         Command::Demo(args) => cmd::demo::run(args),
         Command::Simulate(args) => cmd::simulate::run(args),
         Command::Plan(args) => cmd::plan::run(args),
+        Command::Tables(args) => cmd::tables::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -45,3 +45,18 @@
 //! the eddy field), e.g. `tl = E[x][y]`, `vt = E[y][z]`, `vv−tt = E[z][z] − E[y][y]`.
 //! The trace of `I` and of `E` is not observable by a scalar magnetometer: it adds `|B|` and
 //! `d|B|/dt` times a constant, which carry no attitude signal.
+//!
+//! # The patent's angles
+//! The patent writes the field's direction cosines (its equations 4 for rolls and 5 for
+//! pitches) in its own angles. Matched against [`crate::attitude::Attitude::to_body`] (tested
+//! in [`crate::patent`]):
+//! - heading θp = −yaw: the patent counts its heading counter-clockwise from magnetic north;
+//! - roll ψ = roll: right wing down positive in both;
+//! - pitch λ = −pitch: the patent's pitch is nose-down positive;
+//! - cos X = B̂_y (T), cos Y = B̂_x (L), cos Z = B̂_z (V), with the dip φ positive down.
+//!
+//! (Keeping the patent's angles and pointing its T axis to the left would fit equations 4 and 5
+//! as well; we keep T = y and convert the angles instead.) The patent's eddy-current equations
+//! 6 and 7, and its tables, equal `−B̂·E·dB̂/dt`: its eddy coefficients carry the opposite
+//! sign to `E` (Lenz's), `ab (patent) = −E[b][a]`, while [`crate::interpret`] reports `E[b][a]`
+//! under the patent's letters. [`crate::patent::closed_form`] converts angles and signs.

@@ -5,3 +5,4 @@ pub mod demo;
 pub mod fit;
 pub mod plan;
 pub mod simulate;
+pub mod tables;
