@@ -195,8 +195,8 @@ pub fn fom(
         fom_nt: maneuvers
             .iter()
             .filter(|m| m.counted && m.peak_to_peak_nt.is_finite())
-            .map(|m| m.peak_to_peak_nt)
-            .sum(),
+            // A fold from +0: an empty f64 sum is −0, which prints as "-0.000".
+            .fold(0.0, |sum, m| sum + m.peak_to_peak_nt),
         missing: Slot::all()
             .into_iter()
             .filter(|s| !found.contains(s))
@@ -369,6 +369,6 @@ mod tests {
         let before = fom(&x, &m, 10.0, &FomSettings::default()).unwrap();
         let after = fom(&burst(0.3), &m, 10.0, &FomSettings::default()).unwrap();
         assert!((improvement_ratio(&before, &after) - 10.0).abs() < 1e-6);
-        assert_eq!(peak_to_peak(&[f64::NAN]).is_nan(), true);
+        assert!(peak_to_peak(&[f64::NAN]).is_nan());
     }
 }

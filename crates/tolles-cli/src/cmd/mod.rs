@@ -3,3 +3,4 @@
 pub mod compensate;
 pub mod demo;
 pub mod fit;
+pub mod fom;
