@@ -26,15 +26,21 @@
 //!   slow change of heading and its sustained bank are not mistaken for an oscillation; yaw is
 //!   unwrapped first so that crossing north is not a 360° jump;
 //! - the high-passed signal is cut at its sign changes into *lobes* (half-cycles); a maneuver
-//!   is a chain of at least [`ManeuverSettings::min_half_cycles`] lobes of alternating sign, each
-//!   reaching the axis's minimum amplitude and lasting half a period within the allowed range,
-//!   with consecutive durations alike (turbulence is both too weak and too irregular);
+//!   is a chain of lobes of alternating sign, each lasting half a period within the allowed range,
+//!   with consecutive durations alike;
+//! - half-cycles at the ends of a chain whose excursion or duration is unlike the rest (the end of
+//!   a turn's bank just before a roll, a gust, a hesitant entry) are trimmed off; what remains
+//!   must have at least [`ManeuverSettings::min_half_cycles`] lobes and a median excursion of the
+//!   *unfiltered* angle of at least the axis's minimum amplitude;
 //! - a chain whose heading drifts (mean heading over its first full cycle against its last) or
 //!   that is flown banked is a turn, not a maneuver;
-//! - the ends are then placed where the *unfiltered* angle leaves and rejoins its mean over the
+//! - the maneuver's axis must stand out: turbulence moves all three axes, a maneuver mainly one
+//!   ([`ManeuverSettings::min_dominance`]); turbulence stronger than the minimum amplitudes can
+//!   still be mistaken for a maneuver now and then, which only the thresholds can prevent;
+//! - the ends are then placed where the unfiltered angle leaves and rejoins its mean over the
 //!   maneuver, so the window matches the maneuver itself, not the filter's smearing of it;
-//! - where maneuvers on two axes overlap (a roll makes some yaw), the one standing furthest above
-//!   its axis's threshold wins.
+//! - where maneuvers on two axes overlap, the one standing furthest above its axis's threshold
+//!   wins.
 //!
 //! Angles are in degrees, times in seconds, indices are sample indices into the input.
 
@@ -142,12 +148,17 @@ pub struct ManeuverSettings {
     pub highpass_hz: f64,
     /// Order of that high-pass (poles; applied forward and backward).
     pub highpass_order: usize,
+    /// A maneuver's amplitude, in multiples of its axis's minimum, must be at least this many
+    /// times that of each other axis (√2 × RMS of its high-passed angle over the maneuver, in
+    /// multiples of that axis's minimum): turbulence moves all axes, a maneuver mainly one.
+    pub min_dominance: f64,
 }
 
 impl Default for ManeuverSettings {
     /// Roll 3°, pitch 1.5°, yaw 1.5° (about 2°, 1°, 1° RMS); periods 2.5–12 s; 1.5 cycles;
     /// 15° heading drift; 5° mean bank; cardinal within 20°; 2nd-order high-pass at 0.06 Hz
-    /// (a 12 s period keeps 80 % of its amplitude, a 90° turn over 30 s leaves well under 1°).
+    /// (a 12 s period keeps 80 % of its amplitude, a 90° turn over 30 s leaves well under 1°);
+    /// dominance 2.
     fn default() -> Self {
         Self {
             min_roll_deg: 3.0,
@@ -161,6 +172,7 @@ impl Default for ManeuverSettings {
             cardinal_tolerance_deg: 20.0,
             highpass_hz: 0.06,
             highpass_order: 2,
+            min_dominance: 2.0,
         }
     }
 }
@@ -243,20 +255,27 @@ pub fn detect_harmonic_maneuvers(
         if run.len() <= highpass.padlen() {
             continue;
         }
+        let angles = [
+            roll_deg[run.clone()].to_vec(),
+            pitch_deg[run.clone()].to_vec(),
+            unwrap_deg(&yaw_deg[run.clone()]),
+        ];
+        let Ok(filtered) = angles
+            .iter()
+            .map(|a| highpass.filtfilt(a))
+            .collect::<Result<Vec<_>, _>>()
+        else {
+            continue;
+        };
         let piece = Piece {
             offset: run.start,
             fs_hz,
             tt: &tt[run.clone()],
-            roll: &roll_deg[run.clone()],
-            yaw: unwrap_deg(&yaw_deg[run.clone()]),
+            angles,
+            filtered,
         };
         for kind in ManeuverKind::ALL {
-            let angle: &[f64] = match kind {
-                ManeuverKind::Roll => piece.roll,
-                ManeuverKind::Pitch => &pitch_deg[run.clone()],
-                ManeuverKind::Yaw => &piece.yaw,
-            };
-            candidates.extend(piece.maneuvers(kind, angle, &highpass, settings));
+            candidates.extend(piece.maneuvers(kind, settings));
         }
     }
     resolve_overlaps(candidates)
@@ -274,27 +293,25 @@ struct Piece<'a> {
     offset: usize,
     fs_hz: f64,
     tt: &'a [f64],
-    roll: &'a [f64],
-    /// Unwrapped yaw (degrees).
-    yaw: Vec<f64>,
+    /// Roll, pitch and unwrapped yaw (degrees), indexed by [`axis`].
+    angles: [Vec<f64>; 3],
+    /// The same, high-passed.
+    filtered: Vec<Vec<f64>>,
+}
+
+/// Index of `kind` in [`ManeuverKind::ALL`].
+fn axis(kind: ManeuverKind) -> usize {
+    kind as usize
 }
 
 impl Piece<'_> {
-    fn maneuvers(
-        &self,
-        kind: ManeuverKind,
-        angle: &[f64],
-        highpass: &Butterworth,
-        settings: &ManeuverSettings,
-    ) -> Vec<Candidate> {
-        let Ok(filtered) = highpass.filtfilt(angle) else {
-            return Vec::new();
-        };
+    fn maneuvers(&self, kind: ManeuverKind, settings: &ManeuverSettings) -> Vec<Candidate> {
+        let (angle, filtered) = (&self.angles[axis(kind)], &self.filtered[axis(kind)]);
         let min_amplitude = settings.min_amplitude_deg(kind);
         let half_period = |l: &Lobe| l.len() as f64 / self.fs_hz;
-        let strong: Vec<Lobe> = lobes(&filtered)
+        let strong: Vec<Lobe> = lobes(filtered)
             .into_iter()
-            .filter(|l| l.peak >= min_amplitude)
+            .filter(|l| l.peak >= LOBE_FRACTION * min_amplitude)
             .filter(|l| {
                 let h = half_period(l);
                 h >= settings.min_period_s / 2.0 && h <= settings.max_period_s / 2.0
@@ -302,7 +319,8 @@ impl Piece<'_> {
             .collect();
         chains(&strong)
             .into_iter()
-            .filter(|chain| chain.len() >= settings.min_half_cycles)
+            .map(|chain| consistent_core(angle, chain))
+            .filter(|chain| chain.len() >= settings.min_half_cycles.max(1))
             .filter(|chain| self.is_level_and_straight(chain, settings))
             .map(|chain| {
                 let maneuver = self.refine(kind, angle, chain);
@@ -310,7 +328,23 @@ impl Piece<'_> {
                 Candidate { maneuver, score }
             })
             .filter(|c| c.maneuver.amplitude_deg >= min_amplitude)
+            .filter(|c| self.dominates(&c.maneuver, settings))
             .collect()
+    }
+
+    /// The maneuver's axis stands out above the others (turbulence moves all three).
+    fn dominates(&self, m: &Maneuver, settings: &ManeuverSettings) -> bool {
+        let window = m.start - self.offset..m.end - self.offset;
+        let own = m.amplitude_deg / settings.min_amplitude_deg(m.kind);
+        ManeuverKind::ALL
+            .into_iter()
+            .filter(|&k| k != m.kind)
+            .all(|k| {
+                let x = &self.filtered[axis(k)][window.clone()];
+                let rms = (x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64).sqrt();
+                let other = std::f64::consts::SQRT_2 * rms / settings.min_amplitude_deg(k);
+                own >= settings.min_dominance * other
+            })
     }
 
     /// A turn changes heading between the first cycle and the last, or is flown banked.
@@ -319,28 +353,20 @@ impl Piece<'_> {
         let two = 1.min(chain.len() - 1);
         let first = chain[0].start..chain[two].end;
         let last = chain[chain.len() - 1 - two].start..chain[chain.len() - 1].end;
-        let drift = mean(&self.yaw[last.clone()]) - mean(&self.yaw[first.clone()]);
-        let bank = mean(&self.roll[first])
-            .abs()
-            .max(mean(&self.roll[last]).abs());
+        let (roll, yaw) = (
+            &self.angles[axis(ManeuverKind::Roll)],
+            &self.angles[axis(ManeuverKind::Yaw)],
+        );
+        let drift = mean(&yaw[last.clone()]) - mean(&yaw[first.clone()]);
+        let bank = mean(&roll[first]).abs().max(mean(&roll[last]).abs());
         drift.abs() <= settings.max_heading_drift_deg && bank <= settings.max_mean_bank_deg
     }
 
     /// The maneuver with its ends placed on the unfiltered angle.
     fn refine(&self, kind: ManeuverKind, angle: &[f64], chain: &[Lobe]) -> Maneuver {
         let (first, last) = (&chain[0], &chain[chain.len() - 1]);
-        let coarse = first.start..last.end;
-        let level = mean(&angle[coarse.clone()]);
-        let excursions: Vec<f64> = chain
-            .iter()
-            .map(|l| {
-                angle[l.start..l.end]
-                    .iter()
-                    .map(|a| (a - level) * l.sign)
-                    .fold(0.0, f64::max)
-            })
-            .collect();
-        let amplitude = median(&excursions);
+        let level = mean(&angle[first.start..last.end]);
+        let amplitude = median(&excursions(angle, level, chain));
         // The angle is back at its level within this fraction of the amplitude.
         let tolerance = END_TOLERANCE * amplitude;
         let outside = |k: usize, sign: f64| (angle[k] - level) * sign <= tolerance;
@@ -358,7 +384,7 @@ impl Piece<'_> {
             end += 1;
         }
         end = (end + 1).min(highest);
-        let heading = circular_mean_deg(&self.yaw[start..end]);
+        let heading = circular_mean_deg(&self.angles[axis(ManeuverKind::Yaw)][start..end]);
         // The ends are the crossings themselves, so the duration is between them.
         let duration_s = self.tt[end - 1] - self.tt[start];
         Maneuver {
@@ -375,6 +401,16 @@ impl Piece<'_> {
         }
     }
 }
+
+/// A lobe of the high-passed angle reaching this fraction of the minimum amplitude may belong to
+/// a maneuver: the high-pass and the ends of a maneuver shave some amplitude off, and the
+/// maneuver as a whole must still reach the minimum on the unfiltered angle.
+const LOBE_FRACTION: f64 = 0.5;
+
+/// Within a maneuver, the half-cycles at either end whose peak excursion or duration differs from
+/// the median by more than this factor (either way) are not part of it: the end of a turn's bank,
+/// a gust, a hesitant entry.
+const CONSISTENCY_FACTOR: f64 = 1.6;
 
 /// Fraction of the amplitude within which the angle counts as back at its mean level.
 const END_TOLERANCE: f64 = 0.05;
@@ -439,6 +475,49 @@ fn lobes(x: &[f64]) -> Vec<Lobe> {
     }
     out.extend(current);
     out
+}
+
+/// Peak excursion of the unfiltered `angle` from `level` in the direction of each lobe (degrees).
+fn excursions(angle: &[f64], level: f64, chain: &[Lobe]) -> Vec<f64> {
+    chain
+        .iter()
+        .map(|l| {
+            angle[l.start..l.end]
+                .iter()
+                .map(|a| (a - level) * l.sign)
+                .fold(0.0, f64::max)
+        })
+        .collect()
+}
+
+/// `chain` without the end lobes that do not look like the rest (see [`CONSISTENCY_FACTOR`]);
+/// the mean level is recomputed after each removal, since an odd lobe also biases it.
+fn consistent_core<'c>(angle: &[f64], chain: &'c [Lobe]) -> &'c [Lobe] {
+    let mut core = chain;
+    while core.len() >= 3 {
+        let level = mean(&angle[core[0].start..core[core.len() - 1].end]);
+        let peaks = excursions(angle, level, core);
+        let (typical_peak, typical_len) = (
+            median(&peaks),
+            median(&core.iter().map(|l| l.len() as f64).collect::<Vec<_>>()),
+        );
+        // How many times off the typical lobe a lobe is; 0 when alike.
+        let oddness = |k: usize| {
+            let off = |ratio: f64| (ratio.ln().abs() - CONSISTENCY_FACTOR.ln()).max(0.0);
+            off(peaks[k].max(f64::MIN_POSITIVE) / typical_peak)
+                + off(core[k].len() as f64 / typical_len)
+        };
+        let (head, tail) = (oddness(0), oddness(core.len() - 1));
+        if head == 0.0 && tail == 0.0 {
+            break;
+        }
+        core = if head >= tail {
+            &core[1..]
+        } else {
+            &core[..core.len() - 1]
+        };
+    }
+    core
 }
 
 /// Splits strong lobes into chains of alternating sign, alike durations and small gaps.
@@ -647,6 +726,51 @@ mod tests {
         let found = detect(&data);
         assert_eq!(found.len(), 2, "{found:?}");
         assert!(found.iter().all(|m| !m.range().contains(&hole)));
+    }
+
+    /// 20 s level, 18 s of 6 s sines of amplitudes `[roll, pitch, yaw]` together, 20 s level.
+    fn together(amplitudes: [f64; 3]) -> [Vec<f64>; 4] {
+        let mut out = [vec![], vec![], vec![], vec![]];
+        for k in 0..580 {
+            let u = k as f64 / 10.0 - 20.0;
+            let wave = if (0.0..18.0).contains(&u) {
+                (2.0 * PI * u / 6.0).sin()
+            } else {
+                0.0
+            };
+            out[0].push(k as f64 / 10.0);
+            out[1].push(amplitudes[0] * wave);
+            out[2].push(amplitudes[1] * wave);
+            out[3].push((180.0 + amplitudes[2] * wave).rem_euclid(360.0));
+        }
+        out
+    }
+
+    #[test]
+    fn one_axis_must_stand_out() {
+        // All three axes alike (in multiples of their thresholds), as in turbulence: none.
+        assert!(detect(&together([6.0, 3.0, 3.0])).is_empty());
+        // A roll with some adverse yaw is a roll.
+        let found = detect(&together([10.0, 0.0, 1.5]));
+        assert_eq!(found.len(), 1, "{found:?}");
+        assert_eq!(
+            (found[0].kind, found[0].heading_deg),
+            (ManeuverKind::Roll, 180.0)
+        );
+    }
+
+    #[test]
+    fn odd_half_cycles_at_the_ends_are_trimmed() {
+        // A 6 s, 10° roll of three cycles, preceded by one 12°-excursion lobe twice as long.
+        let mut angle = vec![0.0; 50];
+        angle.extend((0..60).map(|k| 20.0 * (PI * k as f64 / 60.0).sin()));
+        angle.extend((0..180).map(|k| -10.0 * (2.0 * PI * k as f64 / 60.0).sin()));
+        angle.extend(vec![0.0; 50]);
+        let chain = lobes(&angle);
+        assert_eq!(chain.len(), 7);
+        let core = consistent_core(&angle, &chain);
+        assert_eq!(core.len(), 6);
+        assert_eq!(core[0].start, 111);
     }
 
     #[test]

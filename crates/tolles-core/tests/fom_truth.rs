@@ -177,6 +177,29 @@ fn turbulence_and_attitude_noise_change_neither_detection_nor_fom() {
 }
 
 #[test]
+fn quick_turns_short_legs_and_faint_slow_maneuvers_are_found_exactly() {
+    // The bank of a 12 s turn ends 2 s before the roll starts: it must not join the roll.
+    let tight = BoxPlan {
+        turn_s: 12.0,
+        straight_s: 2.0,
+        ..BoxPlan::default()
+    }
+    .build();
+    assert_within_5_percent(check_box(&tight, 10.0, |f| f.scalar.clone()));
+    // Barely above the thresholds (3°, 1.5°, 1.5°), at the longest usual period.
+    let faint = BoxPlan {
+        roll_deg: 4.0,
+        pitch_deg: 2.0,
+        yaw_deg: 2.0,
+        period_s: 10.0,
+        cycles: 2,
+        ..BoxPlan::default()
+    }
+    .build();
+    assert_within_5_percent(check_box(&faint, 160.0, |f| f.interference_nt.clone()));
+}
+
+#[test]
 fn a_box_without_yaws_reports_the_four_yaw_slots_missing() {
     let plan = BoxPlan {
         yaw_deg: 0.0,
