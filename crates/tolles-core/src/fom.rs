@@ -17,7 +17,7 @@
 //!     &flight.yaw_deg,
 //!     &ManeuverSettings::default(),
 //! );
-//! let report = fom(&flight.scalar, &maneuvers, 10.0, &FomSettings::default()).unwrap();
+//! let report = fom(&flight.scalar, Some(&flight.tt), &maneuvers, 10.0, &FomSettings::default()).unwrap();
 //! assert!(report.missing.is_empty());
 //! assert!(report.fom_nt > 10.0); // an uncompensated cabin installation: far from the 1–2 nT goal
 //! assert_eq!(report.band_hz, (0.05, 1.0));
@@ -154,8 +154,11 @@ pub enum FomError {
 }
 
 /// The FOM of `signal_nt` (nT, sampled at `fs_hz` Hz) over `maneuvers` (sample windows into it).
+///
+/// `tt` (s), when given, marks time gaps: the band-pass never reaches across one.
 pub fn fom(
     signal_nt: &[f64],
+    tt: Option<&[f64]>,
     maneuvers: &[Maneuver],
     fs_hz: f64,
     settings: &FomSettings,
@@ -170,7 +173,7 @@ pub fn fom(
             len: signal_nt.len(),
         });
     }
-    let filtered = bandpassed(signal_nt, fs_hz, settings)?;
+    let filtered = bandpassed(signal_nt, tt, fs_hz, settings)?;
     let counted = counted_flags(maneuvers);
     let maneuvers: Vec<ManeuverFom> = maneuvers
         .iter()
@@ -213,10 +216,12 @@ pub fn improvement_ratio(before: &FomReport, after: &FomReport) -> f64 {
     before.fom_nt / after.fom_nt
 }
 
-/// `signal_nt` (nT) band-passed with zero phase, run by run of finite samples; samples in runs
-/// too short to filter, and non-finite samples, are NaN.
+/// `signal_nt` (nT) band-passed with zero phase, run by run of finite samples (runs also end at
+/// time gaps in `tt`, seconds); samples in runs too short to filter, and non-finite samples, are
+/// NaN.
 pub fn bandpassed(
     signal_nt: &[f64],
+    tt: Option<&[f64]>,
     fs_hz: f64,
     settings: &FomSettings,
 ) -> Result<Vec<f64>, FomError> {
@@ -230,7 +235,7 @@ pub fn bandpassed(
     )?;
     let usable: Vec<bool> = signal_nt.iter().map(|v| v.is_finite()).collect();
     let mut out = vec![f64::NAN; signal_nt.len()];
-    for run in contiguous_runs(&usable, None) {
+    for run in contiguous_runs(&usable, tt) {
         if let Ok(part) = filter.filtfilt(&signal_nt[run.clone()]) {
             out[run].copy_from_slice(&part);
         }
@@ -312,7 +317,7 @@ mod tests {
     #[test]
     fn peak_to_peak_of_a_passband_sine_is_twice_its_amplitude() {
         let m = [maneuver(ManeuverKind::Roll, 0.0, 100, 160, 10.0)];
-        let r = fom(&burst(3.0), &m, 10.0, &FomSettings::default()).unwrap();
+        let r = fom(&burst(3.0), None, &m, 10.0, &FomSettings::default()).unwrap();
         assert!((r.fom_nt - 6.0).abs() < 0.6, "{}", r.fom_nt);
         assert_eq!(r.missing.len(), 11);
         assert!(!r.missing.contains(&Slot {
@@ -329,7 +334,7 @@ mod tests {
             maneuver(ManeuverKind::Roll, 0.0, 200, 260, 9.0),
             maneuver(ManeuverKind::Roll, 45.0, 100, 160, 9.0),
         ];
-        let r = fom(&x, &m, 10.0, &FomSettings::default()).unwrap();
+        let r = fom(&x, None, &m, 10.0, &FomSettings::default()).unwrap();
         let counted: Vec<bool> = r.maneuvers.iter().map(|m| m.counted).collect();
         assert_eq!(counted, [false, true, false]);
         assert!(
@@ -344,7 +349,7 @@ mod tests {
         let mut x = burst(3.0);
         x[130] = f64::NAN;
         let m = [maneuver(ManeuverKind::Pitch, 90.0, 100, 160, 5.0)];
-        let r = fom(&x, &m, 10.0, &FomSettings::default()).unwrap();
+        let r = fom(&x, None, &m, 10.0, &FomSettings::default()).unwrap();
         assert_eq!(r.maneuvers[0].unfiltered_samples, 1);
         assert!(r.fom_nt.is_finite() && r.fom_nt > 1.0);
     }
@@ -354,20 +359,39 @@ mod tests {
         let x = burst(1.0);
         let m = [maneuver(ManeuverKind::Yaw, 0.0, 390, 410, 5.0)];
         assert!(matches!(
-            fom(&x, &m, 10.0, &FomSettings::default()),
+            fom(&x, None, &m, 10.0, &FomSettings::default()),
             Err(FomError::OutOfRange { .. })
         ));
         let mut s = FomSettings::default();
         s.band.pass2_hz = 6.0;
-        assert!(matches!(fom(&x, &[], 10.0, &s), Err(FomError::Filter(_))));
+        assert!(matches!(
+            fom(&x, None, &[], 10.0, &s),
+            Err(FomError::Filter(_))
+        ));
+    }
+
+    #[test]
+    fn the_band_pass_does_not_reach_across_a_time_gap() {
+        // Two quiet stretches at different levels, a minute apart.
+        let x: Vec<f64> = (0..400)
+            .map(|k| if k < 200 { 50_000.0 } else { 50_100.0 })
+            .collect();
+        let tt: Vec<f64> = (0..400)
+            .map(|k| k as f64 / 10.0 + if k < 200 { 0.0 } else { 60.0 })
+            .collect();
+        let m = [maneuver(ManeuverKind::Roll, 0.0, 200, 260, 10.0)];
+        let split = fom(&x, Some(&tt), &m, 10.0, &FomSettings::default()).unwrap();
+        let joined = fom(&x, None, &m, 10.0, &FomSettings::default()).unwrap();
+        assert!(split.fom_nt < 1e-6, "{}", split.fom_nt);
+        assert!(joined.fom_nt > 10.0, "{}", joined.fom_nt);
     }
 
     #[test]
     fn improvement_ratio_divides_the_foms() {
         let x = burst(3.0);
         let m = [maneuver(ManeuverKind::Roll, 0.0, 100, 160, 10.0)];
-        let before = fom(&x, &m, 10.0, &FomSettings::default()).unwrap();
-        let after = fom(&burst(0.3), &m, 10.0, &FomSettings::default()).unwrap();
+        let before = fom(&x, None, &m, 10.0, &FomSettings::default()).unwrap();
+        let after = fom(&burst(0.3), None, &m, 10.0, &FomSettings::default()).unwrap();
         assert!((improvement_ratio(&before, &after) - 10.0).abs() < 1e-6);
         assert!(peak_to_peak(&[f64::NAN]).is_nan());
     }

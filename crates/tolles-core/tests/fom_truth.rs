@@ -67,9 +67,9 @@ fn check_box(plan: &Plan, fs_hz: f64, signal: impl Fn(&SimulatedFlight) -> Vec<f
         assert!(o > 0.95, "overlap {o} of {m:?} with {}..{}", t.start, t.end);
     }
     let x = signal(&flight);
-    let report = fom(&x, &found, fs_hz, &FomSettings::default()).unwrap();
+    let report = fom(&x, Some(&flight.tt), &found, fs_hz, &FomSettings::default()).unwrap();
     assert!(report.missing.is_empty());
-    let filtered = bandpassed(&x, fs_hz, &FomSettings::default()).unwrap();
+    let filtered = bandpassed(&x, Some(&flight.tt), fs_hz, &FomSettings::default()).unwrap();
     let from_truth: f64 = truth
         .iter()
         .map(|t| peak_to_peak(&filtered[t.start..t.end]))
@@ -167,8 +167,21 @@ fn turbulence_and_attitude_noise_change_neither_detection_nor_fom() {
         let o = overlap((m.start, m.end), (t.start, t.end));
         assert!(o > 0.9, "overlap {o} of {m:?} with {}..{}", t.start, t.end);
     }
-    let report = fom(&flight.scalar, &found, 10.0, &FomSettings::default()).unwrap();
-    let filtered = bandpassed(&flight.scalar, 10.0, &FomSettings::default()).unwrap();
+    let report = fom(
+        &flight.scalar,
+        Some(&flight.tt),
+        &found,
+        10.0,
+        &FomSettings::default(),
+    )
+    .unwrap();
+    let filtered = bandpassed(
+        &flight.scalar,
+        Some(&flight.tt),
+        10.0,
+        &FomSettings::default(),
+    )
+    .unwrap();
     let from_truth: f64 = truth
         .iter()
         .map(|t| peak_to_peak(&filtered[t.start..t.end]))
@@ -210,7 +223,14 @@ fn a_box_without_yaws_reports_the_four_yaw_slots_missing() {
     let found = detect(&flight);
     assert_eq!(found.len(), 8, "{found:#?}");
     assert!(found.iter().all(|m| m.kind != ManeuverKind::Yaw));
-    let report = fom(&flight.scalar, &found, 10.0, &FomSettings::default()).unwrap();
+    let report = fom(
+        &flight.scalar,
+        Some(&flight.tt),
+        &found,
+        10.0,
+        &FomSettings::default(),
+    )
+    .unwrap();
     let yaws: Vec<Slot> = [0, 90, 180, 270]
         .map(|h| Slot {
             heading_deg: h,

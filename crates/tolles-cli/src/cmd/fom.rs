@@ -90,7 +90,8 @@ pub fn run(args: Args) -> Result<()> {
     if maneuvers.is_empty() {
         eprintln!("warning: {file}: no roll, pitch or yaw maneuvers found in columns {ROLL}, {PITCH}, {YAW}; is this a compensation flight?");
     }
-    let before = fom(&scalar, &maneuvers, fs_hz, &settings).with_context(|| file.clone())?;
+    let before =
+        fom(&scalar, Some(&tt), &maneuvers, fs_hz, &settings).with_context(|| file.clone())?;
     let after = match &model {
         None => None,
         Some(model) => {
@@ -105,7 +106,7 @@ pub fn run(args: Args) -> Result<()> {
                 );
             }
             Some(
-                fom(&result.compensated, &maneuvers, fs_hz, &settings)
+                fom(&result.compensated, Some(&tt), &maneuvers, fs_hz, &settings)
                     .with_context(|| file.clone())?,
             )
         }
