@@ -21,24 +21,14 @@ pub struct Flight {
 impl Flight {
     /// Reads `path` and the columns `scalar` and `vector_x/_y/_z`.
     pub fn read(path: &Path, scalar: &str, vector: &str) -> Result<Self> {
-        let table = read_table(path)?;
+        Self::from_table(read_table(path)?, scalar, vector)
+    }
+
+    /// The columns `scalar` and `vector_x/_y/_z` of an already read table.
+    pub fn from_table(table: Table, scalar: &str, vector: &str) -> Result<Self> {
         let scalar = table.numeric(scalar)?;
         let flux = table.vector(vector)?;
-        let tt = match table.has(TIME_COLUMN) {
-            true => Some(table.numeric(TIME_COLUMN)?),
-            false => None,
-        };
-        if let Some(tt) = &tt {
-            if let Some(k) = first_non_increasing(tt) {
-                bail!(
-                    "{}: line {}, column {TIME_COLUMN:?}: time does not increase ({} after {}); sort the file or remove repeated rows",
-                    path.display(),
-                    table.line_of(k),
-                    tt[k],
-                    tt[..k].iter().rev().find(|t| t.is_finite()).copied().unwrap_or(f64::NAN)
-                );
-            }
-        }
+        let tt = time_column(&table)?;
         Ok(Self {
             table,
             scalar,
@@ -49,24 +39,7 @@ impl Flight {
 
     /// The sample rate (Hz): `--fs` if given, else 1 / median step of `tt`.
     pub fn sample_rate(&self, fs: Option<f64>) -> Result<f64> {
-        let from_time = self.tt.as_deref().and_then(median_step).map(|dt| 1.0 / dt);
-        match (fs, from_time) {
-            (Some(fs), _) if !(fs.is_finite() && fs > 0.0) => {
-                bail!("--fs must be a positive number of hertz, got {fs}")
-            }
-            (Some(fs), Some(t)) if ((fs - t) / t).abs() > 0.01 => {
-                eprintln!(
-                    "warning: --fs {fs} Hz differs from the {t:.6} Hz of column {TIME_COLUMN:?}; using --fs"
-                );
-                Ok(fs)
-            }
-            (Some(fs), _) => Ok(fs),
-            (None, Some(t)) => Ok(t),
-            (None, None) => Err(anyhow!(
-                "{}: no time column {TIME_COLUMN:?} to take the sample rate from; give it with --fs HZ",
-                self.table.path().display()
-            )),
-        }
+        sample_rate(&self.table, self.tt.as_deref(), fs)
     }
 
     /// Adds file and line to a core fit error.
@@ -99,6 +72,46 @@ pub fn read_table(path: &Path) -> Result<Table> {
     let table = Table::from_reader(std::io::BufReader::new(bar.wrap_read(file)), path);
     bar.finish_and_clear();
     Ok(table?)
+}
+
+/// The time column of `table` (s), if it has one; an error if time does not increase.
+pub fn time_column(table: &Table) -> Result<Option<Vec<f64>>> {
+    if !table.has(TIME_COLUMN) {
+        return Ok(None);
+    }
+    let tt = table.numeric(TIME_COLUMN)?;
+    if let Some(k) = first_non_increasing(&tt) {
+        bail!(
+            "{}: line {}, column {TIME_COLUMN:?}: time does not increase ({} after {}); sort the file or remove repeated rows",
+            table.path().display(),
+            table.line_of(k),
+            tt[k],
+            tt[..k].iter().rev().find(|t| t.is_finite()).copied().unwrap_or(f64::NAN)
+        );
+    }
+    Ok(Some(tt))
+}
+
+/// The sample rate (Hz) of `table`: `fs` (from `--fs`) if given, else 1 / median step of `tt`.
+pub fn sample_rate(table: &Table, tt: Option<&[f64]>, fs: Option<f64>) -> Result<f64> {
+    let from_time = tt.and_then(median_step).map(|dt| 1.0 / dt);
+    match (fs, from_time) {
+        (Some(fs), _) if !(fs.is_finite() && fs > 0.0) => {
+            bail!("--fs must be a positive number of hertz, got {fs}")
+        }
+        (Some(fs), Some(t)) if ((fs - t) / t).abs() > 0.01 => {
+            eprintln!(
+                "warning: --fs {fs} Hz differs from the {t:.6} Hz of column {TIME_COLUMN:?}; using --fs"
+            );
+            Ok(fs)
+        }
+        (Some(fs), _) => Ok(fs),
+        (None, Some(t)) => Ok(t),
+        (None, None) => Err(anyhow!(
+            "{}: no time column {TIME_COLUMN:?} to take the sample rate from; give it with --fs HZ",
+            table.path().display()
+        )),
+    }
 }
 
 /// Parses `LO,HI` in hertz.

@@ -18,6 +18,7 @@ Examples:
   # Learn a model from a calibration flight and apply it to a survey:
   tolles fit cal.csv --scalar mag_1_uc --vector flux_a --out model.json
   tolles compensate survey.csv --model model.json --out survey_c.csv
+  tolles fom cal.csv --scalar mag_1_uc --model model.json
 
   # Reproduce MagNav.jl's procedure exactly:
   tolles fit cal.csv --scalar mag_1_uc --vector flux_a \\
@@ -43,6 +44,7 @@ struct Cli {
 enum Command {
     Fit(cmd::fit::Args),
     Compensate(cmd::compensate::Args),
+    Fom(cmd::fom::Args),
     Demo(cmd::demo::Args),
     Simulate(cmd::simulate::Args),
     Plan(cmd::plan::Args),
@@ -54,6 +56,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Fit(args) => cmd::fit::run(args),
         Command::Compensate(args) => cmd::compensate::run(args),
+        Command::Fom(args) => cmd::fom::run(args),
         Command::Demo(args) => cmd::demo::run(args),
         Command::Simulate(args) => cmd::simulate::run(args),
         Command::Plan(args) => cmd::plan::run(args),

@@ -4,9 +4,9 @@ use crate::input::Flight;
 use anyhow::{bail, Context, Result};
 use std::io::Write;
 use std::path::PathBuf;
-use tolles_core::compensate::{compensate, Level};
+use tolles_core::compensate::{compensate, Compensation, Level};
 use tolles_core::fit::check_flux_magnitude;
-use tolles_io::model::ModelFile;
+use tolles_io::model::{ModelFile, ScalarModel};
 use tolles_io::table::write_with_column;
 
 const EXAMPLES: &str = "\
@@ -43,22 +43,7 @@ pub fn run(args: Args) -> Result<()> {
     for scalar_model in &model.fits {
         let vector = &scalar_model.vectors[0];
         let flight = Flight::read(&args.survey, &scalar_model.scalar, vector)?;
-        check_flux_magnitude(&flight.flux)
-            .map_err(|e| flight.explain(e, &scalar_model.scalar, vector))?;
-        let fs_hz = match (args.fs, &flight.tt) {
-            (None, None) => scalar_model.fit.fs_hz,
-            (fs, _) => flight.sample_rate(fs)?,
-        };
-        let fit = &scalar_model.fit;
-        let result = compensate(
-            &flight.scalar,
-            &flight.flux,
-            flight.tt.as_deref(),
-            &fit.settings.design,
-            &fit.coefficients,
-            fs_hz / fit.fs_hz,
-            Level::FileMean,
-        );
+        let result = compensate_flight(&flight, scalar_model, args.fs)?;
         if result.uncomputable > 0 {
             eprintln!(
                 "warning: {}: {} of {} rows have no {} (missing scalar or fluxgate values); their cells are empty",
@@ -92,6 +77,33 @@ pub fn run(args: Args) -> Result<()> {
                 .context("writing to standard output")
         }
     }
+}
+
+/// `scalar_model` applied to `flight` as `tolles compensate` does: the correction's mean over the
+/// file kept in the data, eddy terms rescaled to the flight's sample rate (`--fs` if given, else
+/// from its time column, else the model's).
+pub fn compensate_flight(
+    flight: &Flight,
+    scalar_model: &ScalarModel,
+    fs: Option<f64>,
+) -> Result<Compensation> {
+    let vector = &scalar_model.vectors[0];
+    check_flux_magnitude(&flight.flux)
+        .map_err(|e| flight.explain(e, &scalar_model.scalar, vector))?;
+    let fs_hz = match (fs, &flight.tt) {
+        (None, None) => scalar_model.fit.fs_hz,
+        (fs, _) => flight.sample_rate(fs)?,
+    };
+    let fit = &scalar_model.fit;
+    Ok(compensate(
+        &flight.scalar,
+        &flight.flux,
+        flight.tt.as_deref(),
+        &fit.settings.design,
+        &fit.coefficients,
+        fs_hz / fit.fs_hz,
+        Level::FileMean,
+    ))
 }
 
 /// The compensated column's name; if the input already has that column (SGL files carry their

@@ -3,6 +3,7 @@
 pub mod compensate;
 pub mod demo;
 pub mod fit;
+pub mod fom;
 pub mod plan;
 pub mod simulate;
 pub mod tables;
