@@ -344,7 +344,10 @@ fn missing_values_in_a_survey_keep_every_row_and_are_counted() {
     let out = tolles().args(fit_args(&survey)).output().unwrap();
     assert!(out.status.success());
     let stderr = String::from_utf8(out.stderr).unwrap();
-    assert!(stderr.contains("skipped 2 samples with missing or non-finite values"), "{stderr}");
+    assert!(
+        stderr.contains("skipped 2 samples with missing or non-finite values"),
+        "{stderr}"
+    );
     // The input's own cells are written back as they were.
     assert_eq!(csv.lines().nth(80).unwrap().split(',').nth(1), Some("NaN"));
 }

@@ -30,7 +30,8 @@
 //! - [`attitude`]: rotations between the navigation and body frames;
 //! - [`plan`]: flight plans (compensation box, survey lines);
 //! - [`sim`]: simulated flights with known truth;
-//! - [`igrf`]: IGRF-14 reference field of the earth.
+//! - [`igrf`]: IGRF-14 reference field of the earth;
+//! - [`spectrum`]: power spectral density by Welch's method.
 //!
 //! No module here reads files or writes to a terminal.
 
@@ -48,5 +49,6 @@ pub mod plan;
 pub mod ridge;
 pub mod segment;
 pub mod sim;
+pub mod spectrum;
 pub mod terms;
 pub mod vector;
