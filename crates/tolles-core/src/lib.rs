@@ -37,7 +37,8 @@
 //! - [`sensor`]: fluxgate and magnetometer error models;
 //! - [`sim`]: simulated flights with known truth;
 //! - [`igrf`]: IGRF-14 reference field of the earth;
-//! - [`identifiability`]: how well a flight's maneuvers determine each term.
+//! - [`identifiability`]: how well a flight's maneuvers determine each term;
+//! - [`spectrum`]: power spectral density by Welch's method.
 //!
 //! No module here reads files or writes to a terminal.
 
@@ -62,5 +63,6 @@ pub mod ridge;
 pub mod segment;
 pub mod sensor;
 pub mod sim;
+pub mod spectrum;
 pub mod terms;
 pub mod vector;

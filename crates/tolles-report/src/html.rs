@@ -1,0 +1,194 @@
+//! HTML text: escaping, the page's style sheet and its self-check.
+//!
+//! ```
+//! use tolles_report::html::escape;
+//! assert_eq!(escape("<b>\"σ\" & 'x'</b>"), "&lt;b&gt;&quot;σ&quot; &amp; &#39;x&#39;&lt;/b&gt;");
+//! ```
+
+/// `text` made safe for HTML element content and quoted attribute values.
+pub fn escape(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for c in text.chars() {
+        match c {
+            '&' => out.push_str("&amp;"),
+            '<' => out.push_str("&lt;"),
+            '>' => out.push_str("&gt;"),
+            '"' => out.push_str("&quot;"),
+            '\'' => out.push_str("&#39;"),
+            _ => out.push(c),
+        }
+    }
+    out
+}
+
+/// Whether a table or key–value cell reads as a number (so it is right-aligned in tabular
+/// figures): an optional sign, digits, and at most a short unit or percent after a space.
+pub fn is_numeric(cell: &str) -> bool {
+    let cell = cell.trim();
+    let number = cell.split_whitespace().next().unwrap_or("");
+    let number = number
+        .trim_end_matches('%')
+        .replace(['\u{2009}', '\u{202f}'], "");
+    let number = number.replace('−', "-").replace('×', "*");
+    let words = cell.split_whitespace().count();
+    !number.is_empty() && words <= 2 && (number.parse::<f64>().is_ok() || is_scientific(&number))
+}
+
+fn is_scientific(s: &str) -> bool {
+    // "1.2*10⁻³" as printed by `format_tick`.
+    s.split_once("*10")
+        .is_some_and(|(m, e)| m.parse::<f64>().is_ok() && !e.is_empty())
+}
+
+/// Turns `heading` into an id usable in a URL fragment or a file name.
+pub fn slug(heading: &str) -> String {
+    let mut out = String::new();
+    for c in heading.chars().flat_map(char::to_lowercase) {
+        if c.is_ascii_alphanumeric() {
+            out.push(c);
+        } else if !out.ends_with('-') && !out.is_empty() {
+            out.push('-');
+        }
+        if out.len() >= 40 {
+            break;
+        }
+    }
+    let out = out.trim_end_matches('-').to_string();
+    if out.is_empty() {
+        "plot".to_string()
+    } else {
+        out
+    }
+}
+
+/// The page's style sheet: system fonts only, nothing fetched.
+pub const STYLE: &str = r#"
+:root {
+  --ink: #1f2328; --muted: #5f6872; --line: #e3e6ea; --wash: #f6f8fa;
+  --accent: #0072b2; --head: #16324f;
+}
+* { box-sizing: border-box; }
+html { -webkit-text-size-adjust: 100%; }
+body {
+  margin: 0; color: var(--ink); background: #fff;
+  font: 16px/1.55 system-ui, -apple-system, "Segoe UI", Roboto, "Noto Sans", "Liberation Sans",
+    "DejaVu Sans", Arial, sans-serif;
+}
+.wrap { max-width: 1060px; margin: 0 auto; padding: 0 28px; }
+header.masthead { background: var(--head); color: #fff; padding: 34px 0 30px; }
+.kicker { margin: 0 0 4px; font-size: 13px; letter-spacing: .12em; text-transform: uppercase;
+  color: #9fc3e6; font-weight: 600; }
+header h1 { margin: 0; font-size: 32px; line-height: 1.2; font-weight: 650; }
+header .subtitle { margin: 8px 0 0; color: #cfdbe7; max-width: 70ch; }
+.summary { display: grid; grid-template-columns: repeat(auto-fill, minmax(180px, 1fr));
+  gap: 12px; margin: 24px 0 0; }
+.summary div { background: rgba(255,255,255,.08); border: 1px solid rgba(255,255,255,.14);
+  border-radius: 8px; padding: 10px 14px; }
+.summary dt { font-size: 12px; color: #b8cde0; text-transform: uppercase; letter-spacing: .06em; }
+.summary dd { margin: 2px 0 0; font-size: 21px; font-weight: 600;
+  font-variant-numeric: tabular-nums; }
+nav.toc { border-bottom: 1px solid var(--line); background: var(--wash); font-size: 14px; }
+nav.toc ol { list-style: none; margin: 0; padding: 10px 0; display: flex; flex-wrap: wrap; gap: 4px 22px; }
+nav.toc a { color: var(--muted); text-decoration: none; }
+nav.toc a:hover { color: var(--accent); }
+main { padding: 8px 0 40px; }
+h2 { font-size: 23px; margin: 40px 0 12px; padding-bottom: 6px; border-bottom: 2px solid var(--line);
+  color: var(--head); }
+p { margin: 10px 0; max-width: 80ch; }
+dl.kv { display: grid; grid-template-columns: max-content auto; gap: 0; margin: 14px 0;
+  border: 1px solid var(--line); border-radius: 8px; overflow: hidden; width: fit-content;
+  min-width: 420px; }
+dl.kv dt, dl.kv dd { margin: 0; padding: 7px 16px; border-bottom: 1px solid var(--line); }
+dl.kv dt { color: var(--muted); background: var(--wash); }
+dl.kv dd.num { text-align: right; font-variant-numeric: tabular-nums; }
+dl.kv dt:nth-last-of-type(1), dl.kv dd:last-of-type { border-bottom: 0; }
+.table-wrap { overflow-x: auto; margin: 14px 0; border: 1px solid var(--line); border-radius: 8px;
+  width: fit-content; max-width: 100%; min-width: 420px; }
+table { border-collapse: collapse; width: 100%; font-size: 15px; }
+th, td { padding: 7px 20px; text-align: left; white-space: nowrap; }
+thead th { background: var(--wash); color: var(--muted); font-weight: 600; font-size: 13px;
+  text-transform: uppercase; letter-spacing: .04em; border-bottom: 1px solid var(--line); }
+tbody tr + tr td { border-top: 1px solid var(--line); }
+tbody tr:hover { background: #fafbfc; }
+td.num, th.num { text-align: right; font-variant-numeric: tabular-nums; }
+figure.plot { margin: 22px 0 30px; border: 1px solid var(--line); border-radius: 10px;
+  padding: 14px 16px 10px; }
+figure.plot h3 { margin: 0; font-size: 17px; }
+ul.legend { list-style: none; margin: 6px 0 4px; padding: 0; display: flex; flex-wrap: wrap;
+  gap: 4px 18px; font-size: 14px; color: var(--muted); }
+ul.legend li::before { content: ""; display: inline-block; width: 18px; height: 4px;
+  border-radius: 2px; margin: 0 7px 3px 0; vertical-align: middle; background: var(--swatch); }
+figure img { display: block; width: 100%; height: auto; }
+figure .note { margin: 4px 0 0; font-size: 13px; color: var(--muted); }
+figure .caption { margin: 8px 0 0; font-size: 14px; }
+footer { border-top: 1px solid var(--line); color: var(--muted); font-size: 13px; padding: 16px 0 30px; }
+@media print { header.masthead { background: #fff; color: var(--ink); }
+  .summary div { border-color: var(--line); } nav.toc { display: none; } }
+"#;
+
+/// Runs when the page has loaded: every `<img>` must have decoded and every inline `<svg>`
+/// must have a size. The verdict goes into `#tolles-check` ("ok N images" or
+/// "broken: …"), which `scripts/check-report` reads from a headless browser.
+pub const SELF_CHECK: &str = r#"
+window.addEventListener("load", function () {
+  var broken = [];
+  var images = document.images;
+  for (var i = 0; i < images.length; i++) {
+    var im = images[i];
+    if (!(im.complete && im.naturalWidth > 0)) broken.push(im.getAttribute("src"));
+  }
+  var svgs = document.querySelectorAll("svg");
+  for (var k = 0; k < svgs.length; k++) {
+    var r = svgs[k].getBoundingClientRect();
+    if (!(r.width > 0 && r.height > 0)) broken.push("inline svg #" + (k + 1));
+  }
+  document.getElementById("tolles-check").textContent = broken.length
+    ? "broken: " + broken.join(" ")
+    : "ok " + images.length + " images " + svgs.length + " inline svg";
+});
+"#;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn escaping_covers_every_special_character() {
+        assert_eq!(
+            escape("a<b>&\"c\"'d'"),
+            "a&lt;b&gt;&amp;&quot;c&quot;&#39;d&#39;"
+        );
+        assert_eq!(
+            escape("</script><script>alert(1)</script>"),
+            "&lt;/script&gt;&lt;script&gt;alert(1)&lt;/script&gt;"
+        );
+        assert_eq!(escape("nT² · σ"), "nT² · σ");
+    }
+
+    #[test]
+    fn numbers_are_recognised_with_units_but_prose_is_not() {
+        for yes in [
+            "1.5",
+            "-3",
+            "1e-4",
+            "12 nT",
+            "87 %",
+            "45%",
+            "−0.2",
+            "1 234",
+            "4.2×10⁻³",
+        ] {
+            assert!(is_numeric(yes), "{yes}");
+        }
+        for no in ["", "mag_1_uc", "n/a", "line 1002.0 east", "nT", "auto"] {
+            assert!(!is_numeric(no), "{no}");
+        }
+    }
+
+    #[test]
+    fn slugs_are_safe_file_names() {
+        assert_eq!(slug("Noise spectrum (nT²/Hz)"), "noise-spectrum-nt-hz");
+        assert_eq!(slug("../../etc/passwd"), "etc-passwd");
+        assert_eq!(slug("σ"), "plot");
+    }
+}

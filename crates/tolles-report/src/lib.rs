@@ -1,0 +1,608 @@
+//! Self-contained HTML reports: headings, prose, key–value lists, tables, line plots and bar
+//! charts, written as `DIR/index.html` with every plot an SVG file in `DIR/plots/`.
+//!
+//! ```
+//! use tolles_report::{Report, plot::{LinePlot, Series, Colour}};
+//! let dir = std::env::temp_dir().join(format!("tolles-report-doc-{}", std::process::id()));
+//! let t: Vec<f64> = (0..1000).map(|k| k as f64 * 0.1).collect();
+//! let index = Report::new("Calibration flight 1002")
+//!     .summary(&[("noise before", "4.1 nT"), ("noise after", "0.08 nT")])
+//!     .section("Signals")
+//!     .paragraph("Scalar magnetometer before and after compensation.")
+//!     .line_plot(LinePlot {
+//!         title: "Scalar field".into(),
+//!         x_label: "time (s)".into(),
+//!         y_label: "anomaly (nT)".into(),
+//!         series: vec![Series::new("compensated", t.clone(), t.iter().map(|v| v.sin()).collect())
+//!             .colour(Colour::COMPENSATED)],
+//!         ..LinePlot::default()
+//!     })
+//!     .table(&["term", "value (nT)"], &[vec!["permanent x".into(), "12.5".into()]])
+//!     .write(&dir)
+//!     .unwrap();
+//! assert!(index.ends_with("index.html"));
+//! assert!(dir.join("plots/01-scalar-field.svg").is_file());
+//! # std::fs::remove_dir_all(&dir).unwrap();
+//! ```
+//!
+//! The page needs no network: the style sheet and a small self-check script are inline, fonts
+//! are the system's, and plots are local files. Every text is HTML-escaped. Long series are
+//! thinned per pixel column ([`decimate`]) so each SVG stays small; gaps (NaN) break lines.
+//! The self-check writes `ok N images` (or `broken: …`) into `<div id="tolles-check">` once
+//! the page has loaded; `scripts/check-report` reads it from headless Chromium.
+
+pub mod decimate;
+pub mod html;
+pub mod plot;
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use html::{escape, is_numeric, slug};
+use plot::{BarChart, LinePlot, RenderedPlot};
+
+/// Why a report could not be written.
+#[derive(Debug, thiserror::Error)]
+pub enum ReportError {
+    /// A file or directory could not be created or written.
+    #[error("cannot write {path}: {source}")]
+    Io {
+        /// The path that failed.
+        path: PathBuf,
+        /// The operating system's reason.
+        source: std::io::Error,
+    },
+    /// A series has a different number of x and y values (or of values and categories).
+    #[error("plot '{plot}', series '{series}': {x} x values (or categories) but {y} values")]
+    SeriesLength {
+        /// Title of the plot.
+        plot: String,
+        /// Name of the series.
+        series: String,
+        /// Number of x values (line plot) or categories (bar chart).
+        x: usize,
+        /// Number of y values.
+        y: usize,
+    },
+    /// The plotting library failed.
+    #[error("plot '{title}': {message}")]
+    Plot {
+        /// Title of the plot.
+        title: String,
+        /// What went wrong.
+        message: String,
+    },
+}
+
+/// One element of the page, in order.
+#[derive(Debug, Clone, PartialEq)]
+enum Block {
+    Section(String),
+    Paragraph(String),
+    KeyValues(Vec<(String, String)>),
+    Table {
+        headers: Vec<String>,
+        rows: Vec<Vec<String>>,
+    },
+    LinePlot(LinePlot),
+    BarChart(BarChart),
+    Image {
+        src: String,
+        alt: String,
+    },
+}
+
+/// A report being assembled; [`Report::write`] renders it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Report {
+    title: String,
+    subtitle: Option<String>,
+    summary: Vec<(String, String)>,
+    blocks: Vec<Block>,
+}
+
+fn owned_pairs(pairs: &[(&str, &str)]) -> Vec<(String, String)> {
+    pairs
+        .iter()
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect()
+}
+
+impl Report {
+    /// An empty report titled `title`.
+    pub fn new(title: impl Into<String>) -> Self {
+        Report {
+            title: title.into(),
+            subtitle: None,
+            summary: Vec::new(),
+            blocks: Vec::new(),
+        }
+    }
+
+    /// A line of prose under the title.
+    pub fn subtitle(mut self, text: impl Into<String>) -> Self {
+        self.subtitle = Some(text.into());
+        self
+    }
+
+    /// Headline figures shown as cards in the page header, `(label, value with units)`.
+    pub fn summary(mut self, items: &[(&str, &str)]) -> Self {
+        self.summary.extend(owned_pairs(items));
+        self
+    }
+
+    /// Starts a section headed `heading` (listed in the table of contents).
+    pub fn section(mut self, heading: impl Into<String>) -> Self {
+        self.blocks.push(Block::Section(heading.into()));
+        self
+    }
+
+    /// A paragraph of plain text.
+    pub fn paragraph(mut self, text: impl Into<String>) -> Self {
+        self.blocks.push(Block::Paragraph(text.into()));
+        self
+    }
+
+    /// A two-column list of `(name, value with units)`.
+    pub fn key_values(mut self, items: &[(&str, &str)]) -> Self {
+        self.blocks.push(Block::KeyValues(owned_pairs(items)));
+        self
+    }
+
+    /// A table; numeric cells are right-aligned.
+    pub fn table(mut self, headers: &[&str], rows: &[Vec<String>]) -> Self {
+        self.blocks.push(Block::Table {
+            headers: headers.iter().map(|h| h.to_string()).collect(),
+            rows: rows.to_vec(),
+        });
+        self
+    }
+
+    /// A line plot (see [`LinePlot`]).
+    pub fn line_plot(mut self, plot: LinePlot) -> Self {
+        self.blocks.push(Block::LinePlot(plot));
+        self
+    }
+
+    /// A bar chart (see [`BarChart`]).
+    pub fn bar_chart(mut self, chart: BarChart) -> Self {
+        self.blocks.push(Block::BarChart(chart));
+        self
+    }
+
+    /// An image the caller places in the report directory, referenced by the relative URL
+    /// `src` (e.g. `figures/map.png`); `alt` describes it for readers who cannot see it.
+    pub fn image(mut self, src: impl Into<String>, alt: impl Into<String>) -> Self {
+        self.blocks.push(Block::Image {
+            src: src.into(),
+            alt: alt.into(),
+        });
+        self
+    }
+
+    /// Writes `dir/index.html` and `dir/plots/NN-title.svg` (creating the directories) and
+    /// returns the path of `index.html`. Existing files of the same names are replaced; other
+    /// files in `dir` are left alone.
+    pub fn write(&self, dir: impl AsRef<Path>) -> Result<PathBuf, ReportError> {
+        let dir = dir.as_ref();
+        let plots_dir = dir.join("plots");
+        create_dir(&plots_dir)?;
+        let mut body = String::new();
+        let mut plot_number = 0;
+        for block in &self.blocks {
+            match block {
+                Block::LinePlot(p) => {
+                    plot_number += 1;
+                    let rendered = p.to_svg()?;
+                    let file = write_svg(&plots_dir, plot_number, &p.title, &rendered)?;
+                    figure(&mut body, &p.title, &file, &rendered, p.caption.as_deref());
+                }
+                Block::BarChart(c) => {
+                    plot_number += 1;
+                    let rendered = c.to_svg()?;
+                    let file = write_svg(&plots_dir, plot_number, &c.title, &rendered)?;
+                    figure(&mut body, &c.title, &file, &rendered, c.caption.as_deref());
+                }
+                other => render_block(&mut body, other),
+            }
+        }
+        let index = dir.join("index.html");
+        write_file(&index, &self.page(&body))?;
+        Ok(index)
+    }
+
+    fn page(&self, body: &str) -> String {
+        let mut out = String::new();
+        let title = escape(&self.title);
+        let _ = write!(
+            out,
+            "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
+             <meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n\
+             <title>{title}</title>\n<style>{}</style>\n</head>\n<body>\n\
+             <header class=\"masthead\"><div class=\"wrap\">\n<p class=\"kicker\">tolles report</p>\n\
+             <h1>{title}</h1>\n",
+            html::STYLE
+        );
+        if let Some(s) = &self.subtitle {
+            let _ = writeln!(out, "<p class=\"subtitle\">{}</p>", escape(s));
+        }
+        if !self.summary.is_empty() {
+            out.push_str("<dl class=\"summary\">\n");
+            for (k, v) in &self.summary {
+                let _ = writeln!(
+                    out,
+                    "<div><dt>{}</dt><dd>{}</dd></div>",
+                    escape(k),
+                    escape(v)
+                );
+            }
+            out.push_str("</dl>\n");
+        }
+        out.push_str("</div></header>\n");
+        out.push_str(&self.table_of_contents());
+        let _ = write!(
+            out,
+            "<main class=\"wrap\">\n{body}</main>\n\
+             <footer><div class=\"wrap\">Written by tolles-report. This page and its plots open \
+             without a network connection.</div></footer>\n\
+             <div id=\"tolles-check\" hidden>pending</div>\n<script>{}</script>\n</body>\n</html>\n",
+            html::SELF_CHECK
+        );
+        out
+    }
+
+    fn table_of_contents(&self) -> String {
+        let headings: Vec<&String> = self
+            .blocks
+            .iter()
+            .filter_map(|b| match b {
+                Block::Section(h) => Some(h),
+                _ => None,
+            })
+            .collect();
+        if headings.len() < 2 {
+            return String::new();
+        }
+        let mut out = String::from("<nav class=\"toc\"><div class=\"wrap\"><ol>");
+        for h in headings {
+            let _ = write!(out, "<li><a href=\"#{}\">{}</a></li>", slug(h), escape(h));
+        }
+        out.push_str("</ol></div></nav>\n");
+        out
+    }
+}
+
+fn render_block(out: &mut String, block: &Block) {
+    match block {
+        Block::Section(h) => {
+            let _ = writeln!(out, "<h2 id=\"{}\">{}</h2>", slug(h), escape(h));
+        }
+        Block::Paragraph(p) => {
+            let _ = writeln!(out, "<p>{}</p>", escape(p));
+        }
+        Block::KeyValues(items) => {
+            out.push_str("<dl class=\"kv\">\n");
+            for (k, v) in items {
+                let _ = writeln!(
+                    out,
+                    "<dt>{}</dt><dd{}>{}</dd>",
+                    escape(k),
+                    numeric_class(v),
+                    escape(v)
+                );
+            }
+            out.push_str("</dl>\n");
+        }
+        Block::Table { headers, rows } => table(out, headers, rows),
+        Block::Image { src, alt } => {
+            let _ = writeln!(
+                out,
+                "<figure class=\"plot\"><img src=\"{}\" alt=\"{}\"></figure>",
+                escape(src),
+                escape(alt)
+            );
+        }
+        Block::LinePlot(_) | Block::BarChart(_) => {}
+    }
+}
+
+fn numeric_class(cell: &str) -> &'static str {
+    if is_numeric(cell) {
+        " class=\"num\""
+    } else {
+        ""
+    }
+}
+
+fn table(out: &mut String, headers: &[String], rows: &[Vec<String>]) {
+    // A column is numeric when all its non-empty cells are, so header and cells align alike.
+    let numeric: Vec<bool> = (0..headers.len())
+        .map(|c| {
+            let cells = || {
+                rows.iter()
+                    .filter_map(|r| r.get(c))
+                    .filter(|v| !v.trim().is_empty())
+            };
+            cells().count() > 0 && cells().all(|v| is_numeric(v))
+        })
+        .collect();
+    let class = |c: usize| {
+        if numeric.get(c).copied().unwrap_or(false) {
+            " class=\"num\""
+        } else {
+            ""
+        }
+    };
+    out.push_str("<div class=\"table-wrap\"><table>\n<thead><tr>");
+    for (c, h) in headers.iter().enumerate() {
+        let _ = write!(out, "<th{}>{}</th>", class(c), escape(h));
+    }
+    out.push_str("</tr></thead>\n<tbody>\n");
+    for row in rows {
+        out.push_str("<tr>");
+        for (c, cell) in row.iter().enumerate() {
+            let _ = write!(out, "<td{}>{}</td>", class(c), escape(cell));
+        }
+        out.push_str("</tr>\n");
+    }
+    out.push_str("</tbody></table></div>\n");
+}
+
+fn figure(out: &mut String, title: &str, file: &str, plot: &RenderedPlot, caption: Option<&str>) {
+    let _ = write!(out, "<figure class=\"plot\">\n<h3>{}</h3>\n", escape(title));
+    if plot.legend.len() > 1 || plot.legend.iter().any(|(n, _)| !n.is_empty()) {
+        out.push_str("<ul class=\"legend\">");
+        for (name, colour) in &plot.legend {
+            let _ = write!(
+                out,
+                "<li style=\"--swatch: {}\">{}</li>",
+                colour.css(),
+                escape(name)
+            );
+        }
+        out.push_str("</ul>\n");
+    }
+    let _ = writeln!(
+        out,
+        "<img src=\"plots/{}\" width=\"{}\" height=\"{}\" alt=\"{}\">",
+        escape(file),
+        plot::PLOT_WIDTH,
+        plot::PLOT_HEIGHT,
+        escape(title)
+    );
+    for note in &plot.notes {
+        let _ = writeln!(out, "<p class=\"note\">{}</p>", escape(note));
+    }
+    if let Some(c) = caption {
+        let _ = writeln!(out, "<p class=\"caption\">{}</p>", escape(c));
+    }
+    out.push_str("</figure>\n");
+}
+
+fn write_svg(
+    dir: &Path,
+    number: usize,
+    title: &str,
+    plot: &RenderedPlot,
+) -> Result<String, ReportError> {
+    let name = format!("{number:02}-{}.svg", slug(title));
+    write_file(&dir.join(&name), &plot.svg)?;
+    Ok(name)
+}
+
+fn create_dir(path: &Path) -> Result<(), ReportError> {
+    std::fs::create_dir_all(path).map_err(|source| ReportError::Io {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+fn write_file(path: &Path, text: &str) -> Result<(), ReportError> {
+    std::fs::write(path, text).map_err(|source| ReportError::Io {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::plot::{BarSeries, Colour, Series};
+    use super::*;
+
+    fn sine_plot(n: usize) -> LinePlot {
+        let x: Vec<f64> = (0..n).map(|k| k as f64 * 0.1).collect();
+        let y: Vec<f64> = x.iter().map(|v| 50_000.0 + 3.0 * (v * 0.7).sin()).collect();
+        LinePlot {
+            title: "Scalar <field>".into(),
+            x_label: "time (s)".into(),
+            y_label: "field (nT)".into(),
+            series: vec![Series::new("raw", x, y).colour(Colour::UNCOMPENSATED)],
+            ..LinePlot::default()
+        }
+    }
+
+    fn every_element() -> Report {
+        Report::new("Flight <1002> & \"friends\"")
+            .subtitle("a 'subtitle'")
+            .summary(&[("noise", "0.1 nT")])
+            .section("One")
+            .paragraph("<script>alert(1)</script>")
+            .key_values(&[("λ", "1e-3"), ("name", "mag_1_uc")])
+            .section("Two")
+            .table(
+                &["term", "value (nT)"],
+                &[
+                    vec!["<x>".into(), "1.5".into()],
+                    vec!["y".into(), "-2".into()],
+                ],
+            )
+            .line_plot(sine_plot(1000))
+            .bar_chart(BarChart {
+                title: "Noise".into(),
+                y_label: "nT".into(),
+                categories: vec!["a".into(), "b".into()],
+                series: vec![BarSeries::new("before", vec![3.0, 4.0])],
+                caption: None,
+            })
+    }
+
+    #[test]
+    fn write_creates_the_page_and_one_svg_per_plot() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("nested/report");
+        let index = every_element().write(&out).unwrap();
+        assert_eq!(index, out.join("index.html"));
+        let page = std::fs::read_to_string(&index).unwrap();
+        for file in ["01-scalar-field.svg", "02-noise.svg"] {
+            let svg = std::fs::read_to_string(out.join("plots").join(file)).unwrap();
+            assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+            assert!(
+                page.contains(&format!("<img src=\"plots/{file}\"")),
+                "{file}"
+            );
+        }
+        assert!(page.contains("<div id=\"tolles-check\" hidden>pending</div>"));
+        // Works offline: nothing is fetched from anywhere.
+        assert!(!page.contains("http://") && !page.contains("https://"));
+        assert!(!page.contains("@import") && !page.contains("url("));
+    }
+
+    #[test]
+    fn all_inserted_text_is_escaped() {
+        let dir = tempfile::tempdir().unwrap();
+        let page = std::fs::read_to_string(every_element().write(dir.path()).unwrap()).unwrap();
+        assert!(page.contains("<title>Flight &lt;1002&gt; &amp; &quot;friends&quot;</title>"));
+        assert!(page.contains("&lt;script&gt;alert(1)&lt;/script&gt;"));
+        assert!(page.contains("<td>&lt;x&gt;</td>"));
+        assert!(page.contains("a &#39;subtitle&#39;"));
+        assert!(page.contains("<h3>Scalar &lt;field&gt;</h3>"));
+        assert_eq!(
+            page.matches("<script>").count(),
+            1,
+            "only the self-check runs"
+        );
+    }
+
+    #[test]
+    fn numeric_columns_are_right_aligned() {
+        let dir = tempfile::tempdir().unwrap();
+        let page = std::fs::read_to_string(every_element().write(dir.path()).unwrap()).unwrap();
+        assert!(page.contains("<th>term</th><th class=\"num\">value (nT)</th>"));
+        assert!(page.contains("<td class=\"num\">-2</td>"));
+        assert!(page.contains("<dd class=\"num\">1e-3</dd>"));
+        assert!(page.contains("<dd>mag_1_uc</dd>"));
+    }
+
+    #[test]
+    fn unwritable_directory_is_an_error_naming_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("a-file");
+        std::fs::write(&file, "not a directory").unwrap();
+        let err = every_element().write(file.join("report")).unwrap_err();
+        assert!(matches!(err, ReportError::Io { .. }));
+        assert!(err.to_string().contains("a-file"), "{err}");
+    }
+
+    #[test]
+    fn mismatched_series_lengths_are_an_error() {
+        let mut plot = sine_plot(10);
+        plot.series[0].y.pop();
+        let err = Report::new("t")
+            .line_plot(plot)
+            .write(tempfile::tempdir().unwrap().path())
+            .unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "plot 'Scalar <field>', series 'raw': 10 x values (or categories) but 9 values"
+        );
+    }
+
+    #[test]
+    fn nan_breaks_the_drawn_line() {
+        let mut plot = sine_plot(200);
+        let whole = plot.to_svg().unwrap();
+        assert_eq!(whole.svg.matches("<polyline").count() - axes(&whole.svg), 1);
+        plot.series[0].y[50] = f64::NAN;
+        plot.series[0].y[120] = f64::NAN;
+        let broken = plot.to_svg().unwrap();
+        assert_eq!(
+            broken.svg.matches("<polyline").count() - axes(&broken.svg),
+            3
+        );
+        assert!(!broken.svg.contains("NaN"));
+        assert!(broken.notes.iter().any(|n| n.contains("2 non-finite")));
+    }
+
+    /// Polylines that are axes, not data (drawn in the axis colour).
+    fn axes(svg: &str) -> usize {
+        svg.lines()
+            .filter(|l| l.starts_with("<polyline") && l.contains("stroke=\"#666666\""))
+            .count()
+    }
+
+    #[test]
+    fn a_million_points_make_a_small_svg() {
+        // Noise is the worst case: every pixel column has four distinct points.
+        let mut plot = sine_plot(1_000_000);
+        let mut state = 1u64;
+        for y in plot.series[0].y.iter_mut() {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1);
+            *y += (state >> 40) as f64 / (1u64 << 24) as f64;
+        }
+        let rendered = plot.to_svg().unwrap();
+        assert!(rendered.svg.len() < 100_000, "{} bytes", rendered.svg.len());
+        assert!(rendered.notes[0].starts_with("1\u{2009}000\u{2009}000 points drawn as"));
+    }
+
+    #[test]
+    fn log_axis_skips_non_positive_values_and_uses_whole_decades() {
+        let x: Vec<f64> = (0..100).map(f64::from).collect();
+        let y: Vec<f64> = x
+            .iter()
+            .map(|v| if *v == 10.0 { 0.0 } else { 0.02 + v * 3.0 })
+            .collect();
+        let plot = LinePlot {
+            title: "spectrum".into(),
+            series: vec![Series::new("psd", x, y)],
+            log_y: true,
+            ..LinePlot::default()
+        };
+        let rendered = plot.to_svg().unwrap();
+        assert!(rendered.svg.contains("10⁻¹") && rendered.svg.contains("10³"));
+        assert!(rendered.notes.iter().any(|n| n.contains("non-positive")));
+    }
+
+    #[test]
+    fn plots_without_data_say_so() {
+        let plot = LinePlot {
+            title: "empty".into(),
+            series: vec![Series::new("nothing", vec![1.0], vec![f64::NAN])],
+            ..LinePlot::default()
+        };
+        let rendered = plot.to_svg().unwrap();
+        assert!(rendered.svg.contains("no data"));
+        assert_eq!(
+            rendered.notes,
+            vec!["No finite values to plot.".to_string()]
+        );
+    }
+
+    #[test]
+    fn a_single_category_bar_chart_draws_one_bar() {
+        let chart = BarChart {
+            title: "one".into(),
+            y_label: "nT".into(),
+            categories: vec!["only".into()],
+            series: vec![BarSeries::new("s", vec![2.5])],
+            caption: None,
+        };
+        let svg = chart.to_svg().unwrap().svg;
+        assert!(
+            svg.contains(">\nonly\n<") || svg.contains(">only<"),
+            "{svg}"
+        );
+        assert_eq!(svg.matches(&format!("fill=\"{}\"", "#0072B2")).count(), 1);
+    }
+}
