@@ -48,6 +48,7 @@ enum Command {
     Demo(cmd::demo::Args),
     Simulate(cmd::simulate::Args),
     Plan(cmd::plan::Args),
+    Report(cmd::report::Args),
     Tables(cmd::tables::Args),
 }
 
@@ -60,6 +61,7 @@ fn main() -> ExitCode {
         Command::Demo(args) => cmd::demo::run(args),
         Command::Simulate(args) => cmd::simulate::run(args),
         Command::Plan(args) => cmd::plan::run(args),
+        Command::Report(args) => cmd::report::run(args),
         Command::Tables(args) => cmd::tables::run(args),
     };
     match result {

@@ -150,3 +150,28 @@ fn a_simulated_box_fits_and_compensates() {
     let l = json["fits"][0]["patent"]["perm_nT"]["L"].as_f64().unwrap();
     assert!((l - 4.0).abs() < 0.5, "perm L {l} vs 4 nT");
 }
+
+#[test]
+fn a_report_without_a_model_shows_the_uncompensated_flight() {
+    let dir = TempDir::new().unwrap();
+    simulate(&dir, "box.csv", &["--plan", "box"]);
+    let out = dir.path().join("report");
+    tolles()
+        .args([
+            "report",
+            dir.path().join("box.csv").to_str().unwrap(),
+            "--scalar",
+            "mag_1_uc",
+            "--out",
+        ])
+        .arg(&out)
+        .assert()
+        .success();
+    let html = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert!(html.contains("FOM before") && !html.contains("FOM after"));
+    assert!(html.contains("12 of 12"));
+    assert!(
+        !html.contains("http://") && !html.contains("https://"),
+        "the report must not need the network"
+    );
+}

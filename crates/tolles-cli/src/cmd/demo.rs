@@ -64,7 +64,7 @@ pub fn run(args: Args) -> Result<()> {
         model_path.display()
     );
     cmd::fit::run(cmd::fit::Args::defaults(
-        cal_path,
+        cal_path.clone(),
         SCALAR,
         VECTOR,
         Some(model_path.clone()),
@@ -83,7 +83,49 @@ pub fn run(args: Args) -> Result<()> {
         fs: None,
     })?;
     std::io::stdout().flush()?;
-    report(&survey, &compensated_path, &model_path, &truth)
+    report(&survey, &compensated_path, &model_path, &truth)?;
+    figure_of_merit(&cal_path, &model_path)?;
+    let report_dir = args.out.join("report");
+    println!(
+        "\n$ tolles report {} --scalar {SCALAR} --model {} --out {}",
+        cal_path.display(),
+        model_path.display(),
+        report_dir.display()
+    );
+    let index = cmd::report::write(&cmd::report::Args {
+        flight: cal_path,
+        scalar: SCALAR.into(),
+        model: Some(model_path),
+        out: report_dir,
+        band: "0.05,1".into(),
+        fs: None,
+    })?;
+    println!(
+        "Open {} in a browser (it needs no network).",
+        index.display()
+    );
+    Ok(())
+}
+
+/// Prints the FOM of the calibration box before and after compensation.
+fn figure_of_merit(cal: &Path, model: &Path) -> Result<()> {
+    let model_file = ModelFile::read(model)?;
+    let table = crate::input::read_table(cal)?;
+    let settings = tolles_core::fom::FomSettings::default();
+    let outcome = cmd::fom::evaluate(table, SCALAR, Some(&model_file.fits[0]), None, &settings)?;
+    let after = outcome.after.as_ref().expect("a model was given");
+    let (lo, hi) = outcome.before.band_hz;
+    println!(
+        "\nFigure of merit of the calibration box ({} of 12 maneuvers found, band {lo}–{hi} Hz):",
+        12 - outcome.before.missing.len()
+    );
+    println!(
+        "  FOM before {:8.3} nT   after {:7.3} nT   improvement ×{:.0}",
+        outcome.before.fom_nt,
+        after.fom_nt,
+        outcome.before.fom_nt / after.fom_nt
+    );
+    Ok(())
 }
 
 /// Simulates `plan` and writes it as a flight CSV with truth columns, plus its sidecar.

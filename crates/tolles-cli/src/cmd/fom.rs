@@ -10,6 +10,7 @@ use tolles_core::fit::Band;
 use tolles_core::fom::{fom, improvement_ratio, FomReport, FomSettings, ManeuverFom, Slot};
 use tolles_core::maneuver::{detect_maneuvers, Maneuver, ManeuverSettings};
 use tolles_io::model::{ModelFile, ScalarModel};
+use tolles_io::table::Table;
 
 /// Attitude columns (degrees) the maneuvers are found in.
 const ROLL: &str = "ins_roll";
@@ -61,10 +62,21 @@ pub struct Args {
 }
 
 /// What the command found and computed.
-struct Outcome {
-    maneuvers: Vec<Maneuver>,
-    before: FomReport,
-    after: Option<FomReport>,
+pub struct Outcome {
+    /// Time (s), from the file or made from the sample rate.
+    pub tt: Vec<f64>,
+    /// Sample rate (Hz).
+    pub fs_hz: f64,
+    /// The uncompensated scalar (nT).
+    pub scalar: Vec<f64>,
+    /// The compensated scalar (nT), with a model.
+    pub compensated: Option<Vec<f64>>,
+    /// The maneuvers found.
+    pub maneuvers: Vec<Maneuver>,
+    /// FOM of the uncompensated scalar.
+    pub before: FomReport,
+    /// FOM of the compensated scalar, with a model.
+    pub after: Option<FomReport>,
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -74,48 +86,12 @@ pub fn run(args: Args) -> Result<()> {
         order: args.order,
     };
     let model = args.model.as_deref().map(ModelFile::read).transpose()?;
+    let scalar_model = model
+        .as_ref()
+        .map(|m| model_for(m, args.model.as_deref(), &args.scalar))
+        .transpose()?;
     let table = crate::input::read_table(&args.flight)?;
-    let (roll, pitch, yaw) = (
-        table.numeric(ROLL)?,
-        table.numeric(PITCH)?,
-        table.numeric(YAW)?,
-    );
-    let scalar = table.numeric(&args.scalar)?;
-    let tt = time_column(&table)?;
-    let fs_hz = sample_rate(&table, tt.as_deref(), args.fs)?;
-    let tt = tt.unwrap_or_else(|| (0..table.len()).map(|k| k as f64 / fs_hz).collect());
-    let maneuvers = detect_maneuvers(&tt, &roll, &pitch, &yaw, &ManeuverSettings::default());
-    let file = args.flight.display().to_string();
-    if maneuvers.is_empty() {
-        eprintln!("warning: {file}: no roll, pitch or yaw maneuvers found in columns {ROLL}, {PITCH}, {YAW}; is this a compensation flight?");
-    }
-    let before =
-        fom(&scalar, Some(&tt), &maneuvers, fs_hz, &settings).with_context(|| file.clone())?;
-    let after = match &model {
-        None => None,
-        Some(model) => {
-            let scalar_model = model_for(model, &args)?;
-            let flight = Flight::from_table(table, &scalar_model.scalar, &scalar_model.vectors[0])?;
-            let result = compensate_flight(&flight, scalar_model, args.fs)?;
-            if result.uncomputable > 0 {
-                eprintln!(
-                    "warning: {file}: {} of {} rows cannot be compensated (missing scalar or fluxgate values)",
-                    result.uncomputable,
-                    result.compensated.len()
-                );
-            }
-            Some(
-                fom(&result.compensated, Some(&tt), &maneuvers, fs_hz, &settings)
-                    .with_context(|| file.clone())?,
-            )
-        }
-    };
-    let outcome = Outcome {
-        maneuvers,
-        before,
-        after,
-    };
-    warn_about_gaps(&file, &outcome);
+    let outcome = evaluate(table, &args.scalar, scalar_model, args.fs, &settings)?;
     let mut out = std::io::stdout().lock();
     if args.json {
         writeln!(out, "{}", serde_json::to_string_pretty(&to_json(&outcome))?)?;
@@ -126,25 +102,81 @@ pub fn run(args: Args) -> Result<()> {
     Ok(())
 }
 
-/// The model's fit for `--scalar`.
-fn model_for<'m>(model: &'m ModelFile, args: &Args) -> Result<&'m ScalarModel> {
-    let path = args
-        .model
-        .as_deref()
-        .unwrap_or(std::path::Path::new(""))
-        .display();
+/// Finds the box maneuvers of a flight and its FOM before and (given a model) after
+/// compensation, warning on stderr about what is missing.
+pub fn evaluate(
+    table: Table,
+    scalar_name: &str,
+    scalar_model: Option<&ScalarModel>,
+    fs: Option<f64>,
+    settings: &FomSettings,
+) -> Result<Outcome> {
+    let (roll, pitch, yaw) = (
+        table.numeric(ROLL)?,
+        table.numeric(PITCH)?,
+        table.numeric(YAW)?,
+    );
+    let scalar = table.numeric(scalar_name)?;
+    let tt = time_column(&table)?;
+    let fs_hz = sample_rate(&table, tt.as_deref(), fs)?;
+    let tt = tt.unwrap_or_else(|| (0..table.len()).map(|k| k as f64 / fs_hz).collect());
+    let maneuvers = detect_maneuvers(&tt, &roll, &pitch, &yaw, &ManeuverSettings::default());
+    let file = table.path().display().to_string();
+    if maneuvers.is_empty() {
+        eprintln!("warning: {file}: no roll, pitch or yaw maneuvers found in columns {ROLL}, {PITCH}, {YAW}; is this a compensation flight?");
+    }
+    let before =
+        fom(&scalar, Some(&tt), &maneuvers, fs_hz, settings).with_context(|| file.clone())?;
+    let compensated = match scalar_model {
+        None => None,
+        Some(scalar_model) => {
+            let flight = Flight::from_table(table, &scalar_model.scalar, &scalar_model.vectors[0])?;
+            let result = compensate_flight(&flight, scalar_model, fs)?;
+            if result.uncomputable > 0 {
+                eprintln!(
+                    "warning: {file}: {} of {} rows cannot be compensated (missing scalar or fluxgate values)",
+                    result.uncomputable,
+                    result.compensated.len()
+                );
+            }
+            Some(result.compensated)
+        }
+    };
+    let after = compensated
+        .as_ref()
+        .map(|c| fom(c, Some(&tt), &maneuvers, fs_hz, settings).with_context(|| file.clone()))
+        .transpose()?;
+    let outcome = Outcome {
+        tt,
+        fs_hz,
+        scalar,
+        compensated,
+        maneuvers,
+        before,
+        after,
+    };
+    warn_about_gaps(&file, &outcome);
+    Ok(outcome)
+}
+
+/// The model's fit for the scalar `scalar`; `path` names the model file in messages.
+pub fn model_for<'m>(
+    model: &'m ModelFile,
+    path: Option<&std::path::Path>,
+    scalar: &str,
+) -> Result<&'m ScalarModel> {
+    let path = path.unwrap_or(std::path::Path::new("")).display();
     if model.fits.is_empty() {
         bail!("{path}: the model holds no fits");
     }
     model
         .fits
         .iter()
-        .find(|f| f.scalar == args.scalar)
+        .find(|f| f.scalar == scalar)
         .ok_or_else(|| {
             let names: Vec<&str> = model.fits.iter().map(|f| f.scalar.as_str()).collect();
             anyhow!(
-                "{path}: no fit for scalar {:?}; the model has fits for: {}",
-                args.scalar,
+                "{path}: no fit for scalar {scalar:?}; the model has fits for: {}",
                 names.join(", ")
             )
         })

@@ -5,5 +5,6 @@ pub mod demo;
 pub mod fit;
 pub mod fom;
 pub mod plan;
+pub mod report;
 pub mod simulate;
 pub mod tables;
