@@ -80,3 +80,42 @@ fn a_bad_maneuver_list_is_a_one_line_error() {
         "{stderr}"
     );
 }
+
+#[test]
+fn a_flown_box_is_evaluated_from_its_detected_maneuvers() {
+    let dir = tempfile::TempDir::new().unwrap();
+    let fly = |name: &str, yaw: &str| {
+        let path = dir.path().join(name);
+        Command::cargo_bin("tolles")
+            .unwrap()
+            .args([
+                "simulate",
+                "--plan",
+                "box",
+                "--preset",
+                "tail-stinger",
+                "--yaw",
+                yaw,
+                "--out",
+            ])
+            .arg(&path)
+            .assert()
+            .success();
+        plan(&[path.to_str().unwrap(), "--vector", "flux_a"])
+    };
+    let full = fly("box.csv", "5");
+    let no_yaw = fly("noyaw.csv", "0");
+    let lt = |r: &Value| term(r, "lt").clone();
+    assert!(
+        carriers(&lt(&full))
+            .iter()
+            .any(|c| c.starts_with("yaw on 090°")),
+        "{:?}",
+        carriers(&lt(&full))
+    );
+    assert!(carriers(&lt(&no_yaw)).iter().all(|c| !c.starts_with("yaw")));
+    assert!(
+        lt(&no_yaw)["std_error"].as_f64().unwrap()
+            > 1.05 * lt(&full)["std_error"].as_f64().unwrap()
+    );
+}

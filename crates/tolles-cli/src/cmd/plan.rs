@@ -19,7 +19,9 @@ Examples:
   tolles plan --plan box
   tolles plan --plan box --without yaw
   # Any list of maneuvers (kind@heading; kinds roll, pitch, yaw, wingup):
-  tolles plan --maneuvers roll@0,roll@90,pitch@0,pitch@90,wingup@90 --inclination 60 --json";
+  tolles plan --maneuvers roll@0,roll@90,pitch@0,pitch@90,wingup@90 --inclination 60 --json
+  # A flight already flown: maneuvers found in ins_roll/ins_pitch/ins_yaw, fluxgate flux_a:
+  tolles plan cal.csv --vector flux_a";
 
 /// A built-in plan to evaluate.
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -38,16 +40,24 @@ pub enum Kind {
     Yaw,
 }
 
-/// Evaluate how well a planned set of maneuvers determines each of the 16 Tolles terms.
+/// Evaluate how well a planned (or flown) set of maneuvers determines each of the 16 Tolles terms.
 ///
 /// For every term (perm T, L, V; induced VV-TT, VV-LL, TL+LT, TV+VT, LV+VL; eddy vv-tt, vv-ll,
 /// tl, tv, lt, lv, vl, vt) it reports the standard error the flight would give, its variance
 /// inflation (how much other terms can mimic it), the maneuvers that carry its information, the
 /// terms it is confounded with, and for poorly determined terms the standard maneuver that would
-/// help most. The plan is simulated without noise; the noise level sets the error scale.
+/// help most. A plan is simulated without noise; the noise level sets the error scale. Given a
+/// flight file instead, its harmonic maneuvers are found in the attitude columns and its own
+/// fluxgate gives the information each carries (the dip for candidate maneuvers is taken from
+/// the fluxgate during level flight).
 #[derive(clap::Args)]
 #[command(after_help = EXAMPLES)]
 pub struct Args {
+    /// A flown calibration flight (CSV with tt, ins_roll, ins_pitch, ins_yaw and the fluxgate)
+    pub flight: Option<std::path::PathBuf>,
+    /// Fluxgate prefix of the flight (flux_a reads flux_a_x, flux_a_y, flux_a_z)
+    #[arg(long, requires = "flight")]
+    pub vector: Option<String>,
     /// A built-in plan
     #[arg(long, value_enum, default_value = "box", conflicts_with = "maneuvers")]
     pub plan: PlanName,
@@ -78,19 +88,36 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let plan = match &args.maneuvers {
-        Some(list) => plan_from_list(list)?,
-        None => builtin(&args),
-    };
+    let design = Design::new(args.terms);
     let mut scenario = Scenario::new(AircraftField::default(), 0);
-    scenario.environment = Environment::uniform(EarthField {
+    let mut earth = EarthField {
         intensity_nt: args.intensity,
         inclination_deg: args.inclination,
         declination_deg: args.declination,
-    });
-    let design = Design::new(args.terms);
+    };
+    let blocks = match &args.flight {
+        Some(path) => {
+            let vector = args.vector.as_deref().ok_or_else(|| {
+                anyhow::anyhow!("a flight needs --vector PREFIX (its fluxgate columns)")
+            })?;
+            let flown = flown_blocks(path, vector, &design)?;
+            scenario.fs_hz = flown.fs_hz;
+            earth.inclination_deg = flown.dip_deg;
+            earth.intensity_nt = flown.intensity_nt;
+            flown.blocks
+        }
+        None => {
+            scenario.environment = Environment::uniform(earth);
+            let plan = match &args.maneuvers {
+                Some(list) => plan_from_list(list)?,
+                None => builtin(&args),
+            };
+            let filter = magnav_bandpass(0.1, 0.9, 4, scenario.fs_hz)?;
+            planned_blocks(&plan, &scenario, &design, filter.as_ref())?
+        }
+    };
+    scenario.environment = Environment::uniform(earth);
     let filter = magnav_bandpass(0.1, 0.9, 4, scenario.fs_hz)?;
-    let blocks = planned_blocks(&plan, &scenario, &design, filter.as_ref())?;
     let candidates = candidate_blocks(&scenario, &design, filter.as_ref())?;
     report(
         &blocks,
@@ -100,6 +127,89 @@ pub fn run(args: Args) -> Result<()> {
         args.noise,
         args.json,
     )
+}
+
+/// What a flown flight contributes: one block per detected maneuver, and the field it flew in.
+struct Flown {
+    blocks: Vec<Block>,
+    fs_hz: f64,
+    dip_deg: f64,
+    intensity_nt: f64,
+}
+
+fn flown_blocks(path: &std::path::Path, vector: &str, design: &Design) -> Result<Flown> {
+    use tolles_core::maneuver::{detect_harmonic_maneuvers, ManeuverSettings};
+    let table = crate::input::read_table(path)?;
+    let flux = table.vector(vector)?;
+    let tt = crate::input::time_column(&table)?
+        .ok_or_else(|| anyhow::anyhow!("{}: needs a time column tt", path.display()))?;
+    let fs_hz = crate::input::sample_rate(&table, Some(&tt), None)?;
+    let (roll, pitch, yaw) = (
+        table.numeric("ins_roll")?,
+        table.numeric("ins_pitch")?,
+        table.numeric("ins_yaw")?,
+    );
+    if let Some(k) = (0..flux.len()).find(|&k| !flux.is_finite(k)) {
+        bail!(
+            "{}: line {}: the fluxgate has a missing value; identifiability needs a complete fluxgate record",
+            path.display(),
+            table.line_of(k)
+        );
+    }
+    let maneuvers =
+        detect_harmonic_maneuvers(&tt, &roll, &pitch, &yaw, &ManeuverSettings::default());
+    if maneuvers.is_empty() {
+        bail!(
+            "{}: no harmonic maneuvers found in ins_roll, ins_pitch, ins_yaw",
+            path.display()
+        );
+    }
+    let windows: Vec<(String, std::ops::Range<usize>)> = maneuvers
+        .iter()
+        .map(|m| {
+            (
+                format!(
+                    "{} on {:03.0}° at {:.0} s",
+                    m.kind, m.heading_deg_measured, m.start_tt
+                ),
+                m.range(),
+            )
+        })
+        .collect();
+    let filter = magnav_bandpass(0.1, 0.9, 4, fs_hz)?;
+    let blocks =
+        tolles_core::identifiability::flight_blocks(&flux, design, filter.as_ref(), &windows)?;
+    let (dip_deg, intensity_nt) = level_field(&flux, &roll, &pitch);
+    Ok(Flown {
+        blocks,
+        fs_hz,
+        dip_deg,
+        intensity_nt,
+    })
+}
+
+/// Dip (degrees) and intensity (nT) of the fluxgate over the samples flown within 2° of level.
+fn level_field(
+    flux: &tolles_core::vector::VectorSeries,
+    roll: &[f64],
+    pitch: &[f64],
+) -> (f64, f64) {
+    let level: Vec<usize> = (0..flux.len())
+        .filter(|&k| roll[k].abs() < 2.0 && pitch[k].abs() < 2.0)
+        .collect();
+    let chosen: Vec<usize> = if level.is_empty() {
+        (0..flux.len()).collect()
+    } else {
+        level
+    };
+    let n = chosen.len().max(1) as f64;
+    let intensity = chosen.iter().map(|&k| flux.magnitude(k)).sum::<f64>() / n;
+    let dip = chosen
+        .iter()
+        .map(|&k| (flux.z[k] / flux.magnitude(k)).asin())
+        .sum::<f64>()
+        / n;
+    (dip.to_degrees(), intensity)
 }
 
 fn builtin(args: &Args) -> Plan {
