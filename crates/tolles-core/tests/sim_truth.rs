@@ -65,32 +65,7 @@ fn box_fit_recovers_the_cabin_aircraft_field() {
 #[test]
 fn survey_compensated_with_a_box_model_is_the_earth_field_within_noise() {
     let truth = Installation::TailStinger.aircraft();
-    let cal = simulate(&BoxPlan::default().build(), &Scenario::new(truth, 21)).unwrap();
-    let survey = simulate(&SurveyPlan::default().build(), &Scenario::new(truth, 22)).unwrap();
-    let s = settings("permanent,i5,e8", Lambda::Fixed(0.0));
-    let model = fit_flight(&cal, &s);
-    let out = compensate(
-        &survey.scalar,
-        &survey.flux,
-        Some(&survey.tt),
-        &s.design,
-        &model.coefficients,
-        1.0,
-        Level::FileMean,
-    );
-    let error: Vec<f64> = out
-        .compensated
-        .iter()
-        .zip(&survey.earth_nt)
-        .map(|(c, e)| c - e)
-        .collect();
-    let before: Vec<f64> = survey
-        .scalar
-        .iter()
-        .zip(&survey.earth_nt)
-        .map(|(c, e)| c - e)
-        .collect();
-    let (after, before) = (std_dev(&error), std_dev(&before));
+    let (before, after) = survey_error(truth, &settings("permanent,i5,e8", Lambda::Fixed(0.0)), 21);
     eprintln!("survey error vs truth: before {before:.4} nT, after {after:.4} nT");
     assert!(after < 0.03, "after {after}");
     assert!(before > 10.0 * after);
