@@ -35,7 +35,9 @@
 //! - [`sensor`]: fluxgate and magnetometer error models;
 //! - [`sim`]: simulated flights with known truth;
 //! - [`igrf`]: IGRF-14 reference field of the earth;
-//! - [`identifiability`]: how well a flight's maneuvers determine each term.
+//! - [`identifiability`]: how well a flight's maneuvers determine each term;
+//! - [`demodulate`]: a maneuver's frequency and phase, and any series demodulated on them;
+//! - [`procedure`]: the patent's step-by-step compensation procedure, digitised.
 //!
 //! No module here reads files or writes to a terminal.
 
@@ -43,6 +45,7 @@ pub mod attitude;
 pub mod compensate;
 pub mod conventions;
 pub mod crossval;
+pub mod demodulate;
 pub mod design;
 pub mod environment;
 pub mod filter;
@@ -54,6 +57,7 @@ pub mod interpret;
 pub mod metrics;
 pub mod patent;
 pub mod plan;
+pub mod procedure;
 pub mod ridge;
 pub mod segment;
 pub mod sensor;

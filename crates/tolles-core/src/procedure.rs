@@ -1,0 +1,1216 @@
+//! The Tolles patent's compensation procedure (US 2,692,970), digitised: one maneuver family at
+//! a time identifies a few terms, with the terms found before cancelled.
+//!
+//! ```
+//! use tolles_core::plan::PatentPlan;
+//! use tolles_core::procedure::{windows_from_plan, Geometry, ProcedureInput, run};
+//! use tolles_core::sim::{simulate, Installation, Scenario};
+//!
+//! let plan = PatentPlan::default().build();
+//! let mut scenario = Scenario::new(Installation::Cabin.aircraft(), 1);
+//! scenario.sensors.flux_noise_nt = 0.0;
+//! let flight = simulate(&plan, &scenario).unwrap();
+//! let windows = windows_from_plan(&plan, scenario.fs_hz, -3.0); // declination −3°
+//! let geometry = Geometry::from_fluxgate(&flight.tt, &flight.flux);
+//! let report = run(&ProcedureInput {
+//!     tt: &flight.tt,
+//!     scalar: &flight.scalar,
+//!     roll_deg: &flight.roll_deg,
+//!     pitch_deg: &flight.pitch_deg,
+//!     geometry: &geometry,
+//!     windows: &windows,
+//! });
+//! let t = report.value("T").unwrap();
+//! assert!((t - scenario.aircraft.permanent_nt[1]).abs() < 2.0); // perm T = P_y (nT)
+//! assert!(report.undetermined.is_empty());
+//! ```
+//!
+//! # The sequence
+//! Each step uses one maneuver family and some harmonic components of the magnetometer signal
+//! on it ([`STEPS`]). For a roll or pitch `angle = A·sin ωτ`, perm and induced terms give only
+//! `sin ωτ, cos 2ωτ, sin 3ωτ, …` and eddy terms only `cos ωτ, sin 2ωτ, …` (the generating
+//! function of an eddy term is a function of the angle times its rate). So reading `cos ωτ` and
+//! `sin 2ωτ` silences perm and induced exactly: the patent's "temporary compensation" of them
+//! while the eddy terms are adjusted (steps 1–5). Steps 6–11 then read `sin ωτ` and `cos 2ωτ`
+//! (and the wing-ups' static change) for perm and induced terms. Where the patent compensates
+//! a term "temporarily" (T and V while adjusting TL+LT, TV+VT and LV+VL) that term is a nuisance
+//! unknown of the step, solved for and not reported.
+//!
+//! Within a step: every component of every used maneuver, minus the contributions of the terms
+//! already known, equals `Σ unknown × projection of its generating function`; the small system
+//! is solved by least squares weighted by the components' standard errors. The projections are
+//! computed from the maneuver as flown (measured attitude and dip, or the fluxgate), from the
+//! exact generating functions, not from the tables' small-angle closed forms.
+//!
+//! The patent repeats adjustments in flight until the indications vanish; we run the sequence
+//! twice: the second pass cancels every other term at its first-pass value, removing the
+//! cross-talk the first-order tables neglect (e.g. vt's O(b³) share of a north roll's
+//! `cos ωτ`, or VV−TT beside V in step 7).
+//!
+//! Headings are magnetic, clockwise from magnetic north (true heading minus declination); a
+//! window matches a step's heading within [`HEADING_TOLERANCE_DEG`].
+
+use crate::attitude::Attitude;
+use crate::demodulate::{fit_sinusoid, Basis, DemodulateError, Harmonics};
+use crate::filter::magnav_bandpass;
+use crate::metrics::std_dev;
+use crate::patent::{field_direction, Section, Term};
+use crate::plan::{Axis, Motion, Plan};
+use crate::vector::VectorSeries;
+use nalgebra::{DMatrix, DVector};
+use serde::ser::SerializeMap;
+use serde::{Deserialize, Serialize, Serializer};
+use std::ops::Range;
+
+/// A window matches a step's heading when they differ by at most this much (degrees).
+pub const HEADING_TOLERANCE_DEG: f64 = 20.0;
+
+/// Passes through the sequence (see the module documentation).
+pub const PASSES: usize = 2;
+
+/// What the aircraft does in a window.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ManeuverKind {
+    Roll,
+    Pitch,
+    Yaw,
+    /// A large bank held steady (the patent's wing-up, 35–45°).
+    WingUp,
+    /// Cloverleaf turns: verification only.
+    Cloverleaf,
+}
+
+impl ManeuverKind {
+    fn name(self) -> &'static str {
+        match self {
+            ManeuverKind::Roll => "roll",
+            ManeuverKind::Pitch => "pitch",
+            ManeuverKind::Yaw => "yaw",
+            ManeuverKind::WingUp => "wing-up",
+            ManeuverKind::Cloverleaf => "cloverleaf",
+        }
+    }
+}
+
+/// A maneuver found in a flight: its kind, magnetic heading and samples.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ManeuverWindow {
+    /// Roll, pitch, …
+    pub kind: ManeuverKind,
+    /// Heading (degrees, clockwise from magnetic north: true heading minus declination).
+    pub heading_deg: f64,
+    /// Sample indices.
+    pub range: Range<usize>,
+}
+
+/// `roll on 045°`: a maneuver on a heading (degrees, rounded).
+pub fn maneuver_name(kind: ManeuverKind, heading_deg: f64) -> String {
+    let heading = heading_deg.rem_euclid(360.0).round() as i64 % 360;
+    format!("{} on {heading:03}°", kind.name())
+}
+
+impl ManeuverWindow {
+    /// `roll on 045°`.
+    pub fn label(&self) -> String {
+        maneuver_name(self.kind, self.heading_deg)
+    }
+}
+
+/// The windows of a plan's maneuvers at sample rate `fs_hz` (Hz), headings made magnetic with
+/// `declination_deg` (degrees east). Turns of 180° or more are cloverleaf turns; other turns
+/// and straight legs are not maneuvers.
+pub fn windows_from_plan(plan: &Plan, fs_hz: f64, declination_deg: f64) -> Vec<ManeuverWindow> {
+    let samples = (plan.duration_s() * fs_hz).floor() as usize + 1;
+    plan.segments()
+        .iter()
+        .zip(plan.starts())
+        .filter_map(|(segment, start)| {
+            let kind = match &segment.motion {
+                Motion::Harmonic { axis, .. } => match axis {
+                    Axis::Roll => ManeuverKind::Roll,
+                    Axis::Pitch => ManeuverKind::Pitch,
+                    Axis::Yaw => ManeuverKind::Yaw,
+                },
+                Motion::Hold { .. } => ManeuverKind::WingUp,
+                Motion::Turn { change_deg, .. } if change_deg.abs() >= 180.0 => {
+                    ManeuverKind::Cloverleaf
+                }
+                _ => return None,
+            };
+            let first = (start * fs_hz).ceil() as usize;
+            let end = (((start + segment.duration_s) * fs_hz).floor() as usize + 1).min(samples);
+            Some(ManeuverWindow {
+                kind,
+                heading_deg: segment.heading_deg - declination_deg,
+                range: first..end,
+            })
+        })
+        .collect()
+}
+
+/// The earth field's direction in the body frame and its magnitude, sample by sample.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Geometry {
+    /// Unit direction `(l, t, v)` (body x, y, z); NaN where unknown.
+    pub direction: Vec<[f64; 3]>,
+    /// Its rate of change (1/s), by central differences in time.
+    pub rate: Vec<[f64; 3]>,
+    /// Field magnitude H (nT).
+    pub h_nt: Vec<f64>,
+}
+
+impl Geometry {
+    /// From the attitude (degrees: roll right wing down, pitch nose up, yaw clockwise from true
+    /// north), the dip and declination (degrees) and a field magnitude `h_nt` (nT).
+    pub fn from_attitude(
+        tt: &[f64],
+        roll_deg: &[f64],
+        pitch_deg: &[f64],
+        yaw_deg: &[f64],
+        dip_deg: f64,
+        declination_deg: f64,
+        h_nt: f64,
+    ) -> Self {
+        let direction: Vec<[f64; 3]> = (0..tt.len())
+            .map(|k| {
+                let attitude =
+                    Attitude::from_degrees(yaw_deg[k] - declination_deg, pitch_deg[k], roll_deg[k]);
+                field_direction(&attitude, dip_deg.to_radians())
+            })
+            .collect();
+        Self {
+            rate: rate_of_change(tt, &direction),
+            direction,
+            h_nt: vec![h_nt; tt.len()],
+        }
+    }
+
+    /// From a fluxgate (nT, body frame): `l, t, v = B̂x, B̂y, B̂z`, `H = |B|`.
+    pub fn from_fluxgate(tt: &[f64], flux: &VectorSeries) -> Self {
+        let h_nt: Vec<f64> = (0..flux.len()).map(|k| flux.magnitude(k)).collect();
+        let direction: Vec<[f64; 3]> = (0..flux.len())
+            .map(|k| flux.at(k).map(|b| b / h_nt[k]))
+            .collect();
+        Self {
+            rate: rate_of_change(tt, &direction),
+            direction,
+            h_nt,
+        }
+    }
+
+    /// Samples.
+    pub fn len(&self) -> usize {
+        self.direction.len()
+    }
+
+    /// No samples.
+    pub fn is_empty(&self) -> bool {
+        self.direction.is_empty()
+    }
+
+    /// `scale × g` of a term at every sample: nT per unit of the term (nT/nT for perm, nT for
+    /// induced, nT/s for eddy).
+    pub fn term_series(&self, term: Term) -> Vec<f64> {
+        (0..self.len())
+            .map(|k| term.scale(self.h_nt[k]) * term.generating(self.direction[k], self.rate[k]))
+            .collect()
+    }
+
+    /// The aircraft's signal (nT) predicted from term values in [`Term::OBSERVABLE`] order;
+    /// undetermined terms (`None`) contribute nothing.
+    pub fn aircraft_signal(&self, values: &[Option<f64>; 16]) -> Vec<f64> {
+        let mut out = vec![0.0; self.len()];
+        for (term, value) in Term::OBSERVABLE.iter().zip(values) {
+            if let Some(v) = value {
+                for (o, g) in out.iter_mut().zip(self.term_series(*term)) {
+                    *o += v * g;
+                }
+            }
+        }
+        out
+    }
+
+    /// The fluxgate this geometry implies, `H·(l, t, v)` (nT).
+    pub fn as_fluxgate(&self) -> VectorSeries {
+        let axis = |i: usize| -> Vec<f64> {
+            (0..self.len())
+                .map(|k| self.h_nt[k] * self.direction[k][i])
+                .collect()
+        };
+        VectorSeries::new(axis(0), axis(1), axis(2))
+    }
+}
+
+fn rate_of_change(tt: &[f64], c: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    let n = c.len();
+    (0..n)
+        .map(|k| {
+            let (a, b) = (k.saturating_sub(1), (k + 1).min(n.saturating_sub(1)));
+            let dt = tt[b] - tt[a];
+            [0, 1, 2].map(|i| {
+                if dt > 0.0 {
+                    (c[b][i] - c[a][i]) / dt
+                } else {
+                    f64::NAN
+                }
+            })
+        })
+        .collect()
+}
+
+/// A part of the magnetometer signal on one maneuver.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Component {
+    /// `sin ωτ`: perm and induced fundamental.
+    #[serde(rename = "sin wt")]
+    Sin1,
+    /// `cos ωτ`: eddy fundamental.
+    #[serde(rename = "cos wt")]
+    Cos1,
+    /// `sin 2ωτ`: eddy second harmonic.
+    #[serde(rename = "sin 2wt")]
+    Sin2,
+    /// `cos 2ωτ`: perm and induced second harmonic.
+    #[serde(rename = "cos 2wt")]
+    Cos2,
+    /// A wing-up's steady change from the level flight around it.
+    #[serde(rename = "static")]
+    Static,
+}
+
+impl Component {
+    /// Its name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Component::Sin1 => "sin ωt",
+            Component::Cos1 => "cos ωt",
+            Component::Sin2 => "sin 2ωt",
+            Component::Cos2 => "cos 2ωt",
+            Component::Static => "static",
+        }
+    }
+
+    fn of(self, h: &Harmonics) -> f64 {
+        match self {
+            Component::Sin1 => h.sin1,
+            Component::Cos1 => h.cos1,
+            Component::Sin2 => h.sin2,
+            Component::Cos2 => h.cos2,
+            Component::Static => f64::NAN,
+        }
+    }
+
+    /// RMS of a component of unit amplitude: 1/√2 for a sinusoid, 1 for a static change.
+    fn rms_factor(self) -> f64 {
+        match self {
+            Component::Static => 1.0,
+            _ => std::f64::consts::FRAC_1_SQRT_2,
+        }
+    }
+}
+
+/// One component of one maneuver: the magnetometer's and every term's.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ComponentData {
+    /// Which component.
+    pub component: Component,
+    /// The magnetometer's (nT).
+    pub measured_nt: f64,
+    /// Its standard error (nT).
+    pub std_error_nt: f64,
+    /// Each term's `scale × g` projected the same way (nT per unit term), [`Term::OBSERVABLE`]
+    /// order.
+    #[serde(skip)]
+    pub per_term: [f64; 16],
+}
+
+/// A maneuver, analysed.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ManeuverAnalysis {
+    /// The window.
+    pub window: ManeuverWindow,
+    /// `roll on 045°`.
+    pub label: String,
+    /// Start and end time (s).
+    pub time_s: (f64, f64),
+    /// Period (s) of a roll or pitch.
+    pub period_s: Option<f64>,
+    /// Amplitude (degrees) of a roll or pitch, or the held bank of a wing-up.
+    pub amplitude_deg: Option<f64>,
+    /// The components.
+    pub components: Vec<ComponentData>,
+}
+
+/// The flight the procedure reads.
+#[derive(Debug, Clone, Copy)]
+pub struct ProcedureInput<'a> {
+    /// Time (s).
+    pub tt: &'a [f64],
+    /// Uncompensated scalar magnetometer (nT).
+    pub scalar: &'a [f64],
+    /// Roll, right wing down (degrees): the channel a roll is demodulated on.
+    pub roll_deg: &'a [f64],
+    /// Pitch, nose up (degrees).
+    pub pitch_deg: &'a [f64],
+    /// Direction cosines and field magnitude.
+    pub geometry: &'a Geometry,
+    /// The maneuvers.
+    pub windows: &'a [ManeuverWindow],
+}
+
+/// Analyses one window: harmonic components for rolls and pitches, the static change for a
+/// wing-up; `None` for other kinds.
+pub fn analyse(
+    input: &ProcedureInput,
+    window: &ManeuverWindow,
+) -> Option<Result<ManeuverAnalysis, DemodulateError>> {
+    let r = window.range.start.min(input.tt.len())..window.range.end.min(input.tt.len());
+    let tt = &input.tt[r.clone()];
+    let time_s = (
+        tt.first().copied().unwrap_or(f64::NAN),
+        tt.last().copied().unwrap_or(f64::NAN),
+    );
+    let series: Vec<Vec<f64>> = Term::OBSERVABLE
+        .iter()
+        .map(|t| input.geometry.term_series(*t))
+        .collect();
+    let analysis = |period_s, amplitude_deg, components| ManeuverAnalysis {
+        window: window.clone(),
+        label: window.label(),
+        time_s,
+        period_s,
+        amplitude_deg,
+        components,
+    };
+    match window.kind {
+        ManeuverKind::Roll | ManeuverKind::Pitch => {
+            let angle = match window.kind {
+                ManeuverKind::Roll => &input.roll_deg[r.clone()],
+                _ => &input.pitch_deg[r.clone()],
+            };
+            let result = (|| {
+                let wave = fit_sinusoid(tt, angle)?;
+                let basis = Basis {
+                    omega: wave.omega,
+                    t0: wave.t0,
+                };
+                let measured = basis.demodulate(tt, &input.scalar[r.clone()])?;
+                let projected = series
+                    .iter()
+                    .map(|s| basis.project(tt, &s[r.clone()]))
+                    .collect::<Result<Vec<_>, _>>()?;
+                let components = [
+                    Component::Sin1,
+                    Component::Cos1,
+                    Component::Sin2,
+                    Component::Cos2,
+                ]
+                .map(|c| ComponentData {
+                    component: c,
+                    measured_nt: c.of(&measured.value),
+                    std_error_nt: c.of(&measured.std_error),
+                    per_term: std::array::from_fn(|k| c.of(&projected[k])),
+                })
+                .to_vec();
+                Ok(analysis(
+                    Some(wave.period_s()),
+                    Some(wave.amplitude),
+                    components,
+                ))
+            })();
+            Some(result)
+        }
+        ManeuverKind::WingUp => Some(wing_up(input, window, &series).map(
+            |(bank, component)| analysis(None, Some(bank), vec![component]),
+        )),
+        ManeuverKind::Yaw | ManeuverKind::Cloverleaf => None,
+    }
+}
+
+/// Level flight this long (s) before and after a wing-up is its reference.
+pub const WING_UP_REFERENCE_S: f64 = 10.0;
+
+/// Attitude within this many degrees of level counts as level flight.
+const LEVEL_DEG: f64 = 2.0;
+
+/// The static change of a wing-up: the mean over the held bank (|roll| within 5 % of its peak)
+/// minus the level flight around it (within [`WING_UP_REFERENCE_S`] of the window, |roll| and
+/// |pitch| under 2°), detrended by a straight line when there is level flight on both sides.
+fn wing_up(
+    input: &ProcedureInput,
+    window: &ManeuverWindow,
+    series: &[Vec<f64>],
+) -> Result<(f64, ComponentData), DemodulateError> {
+    let n = input.tt.len();
+    let r = window.range.start.min(n)..window.range.end.min(n);
+    let roll = input.roll_deg;
+    let peak = r
+        .clone()
+        .map(|k| roll[k])
+        .filter(|v| v.is_finite())
+        .fold(0.0f64, |m, v| if v.abs() > m.abs() { v } else { m });
+    let held: Vec<usize> = r
+        .clone()
+        .filter(|&k| roll[k] * peak.signum() >= 0.95 * peak.abs())
+        .collect();
+    let fs_guess = crate::segment::median_step(input.tt).map_or(1.0, |dt| 1.0 / dt);
+    let reach = (WING_UP_REFERENCE_S * fs_guess).round() as usize;
+    let level = |k: &usize| roll[*k].abs() < LEVEL_DEG && input.pitch_deg[*k].abs() < LEVEL_DEG;
+    let before: Vec<usize> = (r.start.saturating_sub(reach)..r.start).filter(level).collect();
+    let after: Vec<usize> = (r.end..(r.end + reach).min(n)).filter(level).collect();
+    const MIN: usize = 5;
+    if held.len() < MIN || before.len() + after.len() < MIN {
+        return Err(DemodulateError::TooShort {
+            needed: MIN,
+            got: held.len().min(before.len() + after.len()),
+        });
+    }
+    let line = before.len() >= MIN && after.len() >= MIN;
+    let reference: Vec<usize> = before.into_iter().chain(after).collect();
+    let change = |y: &[f64]| static_change(input.tt, y, &held, &reference, line);
+    let (measured, sigma) = change(input.scalar);
+    let se = sigma * (1.0 / held.len() as f64 + 1.0 / reference.len() as f64).sqrt();
+    let per_term = std::array::from_fn(|k| change(&series[k]).0);
+    Ok((
+        peak,
+        ComponentData {
+            component: Component::Static,
+            measured_nt: measured,
+            std_error_nt: se,
+            per_term,
+        },
+    ))
+}
+
+/// Mean of `y` over `held` minus the reference level there (mean, or straight line in time
+/// through the `reference` samples), and the reference's residual standard deviation.
+fn static_change(
+    tt: &[f64],
+    y: &[f64],
+    held: &[usize],
+    reference: &[usize],
+    line: bool,
+) -> (f64, f64) {
+    let m = reference.len() as f64;
+    let t_mean = reference.iter().map(|&k| tt[k]).sum::<f64>() / m;
+    let y_mean = reference.iter().map(|&k| y[k]).sum::<f64>() / m;
+    let slope = if line {
+        let (sxy, sxx) = reference.iter().fold((0.0, 0.0), |(sxy, sxx), &k| {
+            let dt = tt[k] - t_mean;
+            (sxy + dt * (y[k] - y_mean), sxx + dt * dt)
+        });
+        if sxx > 0.0 {
+            sxy / sxx
+        } else {
+            0.0
+        }
+    } else {
+        0.0
+    };
+    let level = |k: usize| y_mean + slope * (tt[k] - t_mean);
+    let change = held.iter().map(|&k| y[k] - level(k)).sum::<f64>() / held.len() as f64;
+    let dof = (m - if line { 2.0 } else { 1.0 }).max(1.0);
+    let sigma = (reference
+        .iter()
+        .map(|&k| (y[k] - level(k)).powi(2))
+        .sum::<f64>()
+        / dof)
+        .sqrt();
+    (change, sigma)
+}
+
+/// One step of the sequence.
+#[derive(Debug, Clone, Copy)]
+pub struct StepSpec {
+    /// What the step does, in the patent's words.
+    pub purpose: &'static str,
+    /// The maneuvers it uses: kind and magnetic heading (degrees).
+    pub maneuvers: &'static [(ManeuverKind, f64)],
+    /// Harmonic components read on rolls and pitches (wing-ups give their static change).
+    pub components: &'static [Component],
+    /// Terms it identifies.
+    pub identifies: &'static [Term],
+    /// Terms compensated temporarily: solved for, not reported.
+    pub temporary: &'static [Term],
+}
+
+use ManeuverKind::{Pitch as P, Roll as R, WingUp as W};
+
+const EDDY: &[Component] = &[Component::Cos1, Component::Sin2];
+
+/// The patent's sequence. Adjustments to its wording, where the mathematics asks for them:
+/// step 3 also uses the SE and SW rolls (vl's sign there is the same information); step 7 reads
+/// all eight roll headings with T and V as temporary unknowns, which is what the patent's
+/// "temporarily compensate T on north–south rolls and V on east–west rolls, then roll NE and
+/// NW" amounts to; step 10 also reads the rolls' `cos 2ωt`, where V and VV−TT differ.
+pub const STEPS: [StepSpec; 11] = [
+    StepSpec {
+        purpose: "eddy tl and tv from north and south rolls",
+        maneuvers: &[(R, 0.0), (R, 180.0)],
+        components: EDDY,
+        identifies: &[Term::EddyTL, Term::EddyTV],
+        temporary: &[],
+    },
+    StepSpec {
+        purpose: "eddy vv−tt and vt from east and west rolls",
+        maneuvers: &[(R, 90.0), (R, 270.0)],
+        components: EDDY,
+        identifies: &[Term::EddyVVTT, Term::EddyVT],
+        temporary: &[],
+    },
+    StepSpec {
+        purpose: "eddy vl from northeast and northwest (and southeast, southwest) rolls",
+        maneuvers: &[(R, 45.0), (R, 315.0), (R, 135.0), (R, 225.0)],
+        components: EDDY,
+        identifies: &[Term::EddyVL],
+        temporary: &[],
+    },
+    StepSpec {
+        purpose: "eddy vv−ll and lv from north and south pitches",
+        maneuvers: &[(P, 0.0), (P, 180.0)],
+        components: EDDY,
+        identifies: &[Term::EddyVVLL, Term::EddyLV],
+        temporary: &[],
+    },
+    StepSpec {
+        purpose: "eddy lt from east and west pitches",
+        maneuvers: &[(P, 90.0), (P, 270.0)],
+        components: EDDY,
+        identifies: &[Term::EddyLT],
+        temporary: &[],
+    },
+    StepSpec {
+        purpose: "induced TL+LT from north and south rolls (T temporarily)",
+        maneuvers: &[(R, 0.0), (R, 180.0)],
+        components: &[Component::Sin1],
+        identifies: &[Term::InducedTLLT],
+        temporary: &[Term::PermT],
+    },
+    StepSpec {
+        purpose: "induced LV+VL and TV+VT from northeast and northwest (and the other) rolls \
+                  (T and V temporarily)",
+        maneuvers: &[
+            (R, 45.0),
+            (R, 315.0),
+            (R, 135.0),
+            (R, 225.0),
+            (R, 0.0),
+            (R, 180.0),
+            (R, 90.0),
+            (R, 270.0),
+        ],
+        components: &[Component::Sin1],
+        identifies: &[Term::InducedLVVL, Term::InducedTVVT],
+        temporary: &[Term::PermT, Term::PermV],
+    },
+    StepSpec {
+        purpose: "perm T from north and south rolls",
+        maneuvers: &[(R, 0.0), (R, 180.0)],
+        components: &[Component::Sin1],
+        identifies: &[Term::PermT],
+        temporary: &[],
+    },
+    StepSpec {
+        purpose: "perm L from east and west pitches",
+        maneuvers: &[(P, 90.0), (P, 270.0)],
+        components: &[Component::Sin1],
+        identifies: &[Term::PermL],
+        temporary: &[],
+    },
+    StepSpec {
+        purpose: "perm V and induced VV−TT from east and west rolls and wing-ups",
+        maneuvers: &[(R, 90.0), (R, 270.0), (W, 90.0), (W, 270.0)],
+        components: &[Component::Sin1, Component::Cos2],
+        identifies: &[Term::PermV, Term::InducedVVTT],
+        temporary: &[],
+    },
+    StepSpec {
+        purpose: "induced VV−LL from north and south pitches",
+        maneuvers: &[(P, 0.0), (P, 180.0)],
+        components: &[Component::Sin1, Component::Cos2],
+        identifies: &[Term::InducedVVLL],
+        temporary: &[],
+    },
+];
+
+/// A term's value, or why there is none.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TermEstimate {
+    /// Patent name (`T`, `VV-TT`, `tl`, …).
+    pub term: &'static str,
+    /// nT (perm), dimensionless (induced), s (eddy); `None` when undetermined.
+    pub value: Option<f64>,
+    /// Standard error, same unit.
+    pub std_error: Option<f64>,
+}
+
+/// A component as used by a step.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct UsedComponent {
+    /// `roll on 000°`.
+    pub maneuver: String,
+    /// Which component.
+    pub component: Component,
+    /// As measured (nT).
+    pub measured_nt: f64,
+    /// Its standard error (nT).
+    pub std_error_nt: f64,
+    /// What is left after cancelling every term known at the end of the step (nT).
+    pub after_nt: f64,
+}
+
+/// A maneuver a step used.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct UsedManeuver {
+    /// `roll on 000°`.
+    pub label: String,
+    /// Start and end time (s).
+    pub time_s: (f64, f64),
+}
+
+/// The compensator adjustment equivalent to a term, as in the patent's Fig. 2.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CompensatorSetting {
+    /// Patent name of the term.
+    pub term: &'static str,
+    /// Which device and how it is wired.
+    pub device: String,
+    /// Its gain: nT (perm coil), fraction of the pickup's reading (induced mixer), seconds on
+    /// the pickup's rate (eddy mixer).
+    pub gain: f64,
+    /// Unit of the gain.
+    pub unit: &'static str,
+}
+
+/// What a step did.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct StepReport {
+    /// 1, 2, …
+    pub number: usize,
+    /// What it does.
+    pub purpose: &'static str,
+    /// Maneuvers used.
+    pub maneuvers: Vec<UsedManeuver>,
+    /// Maneuvers it asks for that the flight lacks (`roll on 045°`).
+    pub missing: Vec<String>,
+    /// Terms identified.
+    pub identified: Vec<TermEstimate>,
+    /// Terms compensated temporarily (solved for, not kept).
+    pub temporary: Vec<TermEstimate>,
+    /// The components it read.
+    pub components: Vec<UsedComponent>,
+    /// Harmonic (or static) RMS of those components before any cancelling (nT).
+    pub rms_before_nt: f64,
+    /// The same after cancelling every term known at the end of the step (nT).
+    pub rms_after_nt: f64,
+    /// Equivalent compensator settings of the identified terms.
+    pub settings: Vec<CompensatorSetting>,
+}
+
+/// Band-passed noise of the cloverleaf before and after compensating with the identified terms.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Verification {
+    /// Time span (s).
+    pub time_s: (f64, f64),
+    /// Pass band (Hz).
+    pub band_hz: (f64, f64),
+    /// Standard deviation of the band-passed scalar (nT).
+    pub before_nt: f64,
+    /// After subtracting the identified terms' signal (nT).
+    pub after_nt: f64,
+    /// before / after.
+    pub improvement: f64,
+}
+
+/// 16 optional term values serialised as the patent's three groups:
+/// `{"perm_nT": {"T": …}, "induced": {"VV-TT": …}, "eddy_s": {"vv-tt": …}}`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct TermValues(pub [Option<f64>; 16]);
+
+impl TermValues {
+    /// The value of the term named `name` (patent name).
+    pub fn get(&self, name: &str) -> Option<f64> {
+        Term::OBSERVABLE
+            .iter()
+            .position(|t| t.name() == name)
+            .and_then(|k| self.0[k])
+    }
+}
+
+struct Group<'a>(&'a TermValues, Section);
+
+impl Serialize for Group<'_> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut map = s.serialize_map(None)?;
+        for (term, value) in Term::OBSERVABLE.iter().zip(self.0 .0) {
+            if term.section() == self.1 {
+                map.serialize_entry(term.name(), &value)?;
+            }
+        }
+        map.end()
+    }
+}
+
+impl Serialize for TermValues {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut map = s.serialize_map(Some(3))?;
+        map.serialize_entry("perm_nT", &Group(self, Section::Perm))?;
+        map.serialize_entry("induced", &Group(self, Section::Induced))?;
+        map.serialize_entry("eddy_s", &Group(self, Section::Eddy))?;
+        map.end()
+    }
+}
+
+/// The whole procedure's result.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ProcedureReport {
+    /// The 16 terms (`None`: undetermined).
+    pub terms: TermValues,
+    /// Their standard errors.
+    pub std_errors: TermValues,
+    /// Step by step.
+    pub steps: Vec<StepReport>,
+    /// Maneuvers the sequence asks for that the flight lacks.
+    pub missing: Vec<String>,
+    /// Terms that could not be determined.
+    pub undetermined: Vec<&'static str>,
+    /// The cloverleaf check, if the flight has one.
+    pub cloverleaf: Option<Verification>,
+    /// Windows that could not be analysed, and why.
+    pub skipped: Vec<String>,
+    /// Every analysed maneuver.
+    pub maneuvers: Vec<ManeuverAnalysis>,
+}
+
+impl ProcedureReport {
+    /// A term's value by patent name.
+    pub fn value(&self, name: &str) -> Option<f64> {
+        self.terms.get(name)
+    }
+}
+
+fn index(term: Term) -> usize {
+    Term::OBSERVABLE
+        .iter()
+        .position(|t| *t == term)
+        .expect("an observable term")
+}
+
+fn heading_matches(a: f64, b: f64) -> bool {
+    let d = (a - b).rem_euclid(360.0);
+    d.min(360.0 - d) <= HEADING_TOLERANCE_DEG
+}
+
+/// A row of a step's system: a maneuver's component.
+struct Row<'a> {
+    maneuver: &'a ManeuverAnalysis,
+    data: &'a ComponentData,
+}
+
+/// Runs the patent's sequence on a flight.
+pub fn run(input: &ProcedureInput) -> ProcedureReport {
+    let mut maneuvers = Vec::new();
+    let mut skipped = Vec::new();
+    for window in input.windows {
+        match analyse(input, window) {
+            Some(Ok(a)) => maneuvers.push(a),
+            Some(Err(e)) => skipped.push(format!("{}: {e}", window.label())),
+            None => {}
+        }
+    }
+    let mut values: [Option<f64>; 16] = [None; 16];
+    let mut errors: [Option<f64>; 16] = [None; 16];
+    let mut steps = Vec::new();
+    for pass in 0..PASSES {
+        steps.clear();
+        for (k, spec) in STEPS.iter().enumerate() {
+            let step = run_step(k + 1, spec, &maneuvers, &mut values, &mut errors);
+            steps.push(step);
+        }
+        let _ = pass;
+    }
+    let mut missing: Vec<String> = Vec::new();
+    for m in steps.iter().flat_map(|s| &s.missing) {
+        if !missing.contains(m) {
+            missing.push(m.clone());
+        }
+    }
+    let undetermined = Term::OBSERVABLE
+        .iter()
+        .zip(values)
+        .filter(|(_, v)| v.is_none())
+        .map(|(t, _)| t.name())
+        .collect();
+    let terms = TermValues(values);
+    ProcedureReport {
+        cloverleaf: verify(input, &terms),
+        terms,
+        std_errors: TermValues(errors),
+        steps,
+        missing,
+        undetermined,
+        skipped,
+        maneuvers,
+    }
+}
+
+/// A column is negligible when its norm is below this fraction of the largest column of the
+/// same section (perm, induced or eddy) on the step's rows.
+const NEGLIGIBLE: f64 = 1e-3;
+
+fn run_step(
+    number: usize,
+    spec: &StepSpec,
+    maneuvers: &[ManeuverAnalysis],
+    values: &mut [Option<f64>; 16],
+    errors: &mut [Option<f64>; 16],
+) -> StepReport {
+    let mut used = Vec::new();
+    let mut missing = Vec::new();
+    let mut rows: Vec<Row> = Vec::new();
+    for &(kind, heading) in spec.maneuvers {
+        let found: Vec<&ManeuverAnalysis> = maneuvers
+            .iter()
+            .filter(|m| m.window.kind == kind && heading_matches(m.window.heading_deg, heading))
+            .collect();
+        if found.is_empty() {
+            missing.push(maneuver_name(kind, heading));
+        }
+        for m in found {
+            used.push(UsedManeuver {
+                label: m.label.clone(),
+                time_s: m.time_s,
+            });
+            for data in &m.components {
+                let wanted = match kind {
+                    ManeuverKind::WingUp => data.component == Component::Static,
+                    _ => spec.components.contains(&data.component),
+                };
+                if wanted {
+                    rows.push(Row { maneuver: m, data });
+                }
+            }
+        }
+    }
+    let unknowns: Vec<Term> = spec
+        .identifies
+        .iter()
+        .chain(spec.temporary)
+        .copied()
+        .collect();
+    let is_unknown = |k: usize| unknowns.iter().any(|t| index(*t) == k);
+    // Everything else known is cancelled.
+    let target: Vec<f64> = rows
+        .iter()
+        .map(|r| {
+            r.data.measured_nt
+                - (0..16)
+                    .filter(|&k| !is_unknown(k))
+                    .map(|k| values[k].unwrap_or(0.0) * r.data.per_term[k])
+                    .sum::<f64>()
+        })
+        .collect();
+    let solvable: Vec<Term> = unknowns
+        .iter()
+        .copied()
+        .filter(|&t| !negligible(t, &rows))
+        .collect();
+    let solution = solve(&rows, &target, &solvable);
+    let mut identified = Vec::new();
+    let mut temporary = Vec::new();
+    for &term in &unknowns {
+        let found = solvable
+            .iter()
+            .position(|t| *t == term)
+            .and_then(|j| solution.as_ref().map(|(v, e)| (v[j], e[j])));
+        let estimate = TermEstimate {
+            term: term.name(),
+            value: found.map(|f| f.0),
+            std_error: found.map(|f| f.1),
+        };
+        if spec.identifies.contains(&term) {
+            values[index(term)] = estimate.value;
+            errors[index(term)] = estimate.std_error;
+            identified.push(estimate);
+        } else {
+            temporary.push(estimate);
+        }
+    }
+    let temporary_value = |k: usize| {
+        temporary
+            .iter()
+            .find(|e| e.term == Term::OBSERVABLE[k].name())
+            .and_then(|e| e.value)
+    };
+    let components: Vec<UsedComponent> = rows
+        .iter()
+        .map(|r| {
+            let explained: f64 = (0..16)
+                .map(|k| {
+                    temporary_value(k).or(values[k]).unwrap_or(0.0) * r.data.per_term[k]
+                })
+                .sum();
+            UsedComponent {
+                maneuver: r.maneuver.label.clone(),
+                component: r.data.component,
+                measured_nt: r.data.measured_nt,
+                std_error_nt: r.data.std_error_nt,
+                after_nt: r.data.measured_nt - explained,
+            }
+        })
+        .collect();
+    let rms = |f: &dyn Fn(&UsedComponent) -> f64| {
+        if components.is_empty() {
+            return f64::NAN;
+        }
+        (components
+            .iter()
+            .map(|c| (c.component.rms_factor() * f(c)).powi(2))
+            .sum::<f64>()
+            / components.len() as f64)
+            .sqrt()
+    };
+    StepReport {
+        number,
+        purpose: spec.purpose,
+        maneuvers: used,
+        missing,
+        settings: identified
+            .iter()
+            .filter_map(|e| {
+                let term = Term::OBSERVABLE[Term::OBSERVABLE
+                    .iter()
+                    .position(|t| t.name() == e.term)?];
+                e.value.map(|v| compensator_setting(term, v))
+            })
+            .collect(),
+        identified,
+        temporary,
+        rms_before_nt: rms(&|c| c.measured_nt),
+        rms_after_nt: rms(&|c| c.after_nt),
+        components,
+    }
+}
+
+/// Whether `term`'s column on `rows` is negligible beside its section's largest.
+fn negligible(term: Term, rows: &[Row]) -> bool {
+    let norm = |k: usize| {
+        rows.iter()
+            .map(|r| r.data.per_term[k].powi(2))
+            .sum::<f64>()
+            .sqrt()
+    };
+    let largest = Term::OBSERVABLE
+        .iter()
+        .enumerate()
+        .filter(|(_, t)| t.section() == term.section())
+        .map(|(k, _)| norm(k))
+        .fold(0.0, f64::max);
+    let own = norm(index(term));
+    !(own.is_finite() && own > NEGLIGIBLE * largest && largest > 0.0)
+}
+
+/// Weighted least squares for `terms`: values and standard errors, or `None` when the rows do
+/// not determine them (too few, or collinear).
+fn solve(rows: &[Row], target: &[f64], terms: &[Term]) -> Option<(Vec<f64>, Vec<f64>)> {
+    let (m, p) = (rows.len(), terms.len());
+    if p == 0 || m < p {
+        return None;
+    }
+    // Weights 1/σ; a floor keeps a noise-free component from swamping the rest.
+    let floor = rows
+        .iter()
+        .map(|r| r.data.std_error_nt)
+        .filter(|s| s.is_finite() && *s > 0.0)
+        .fold(f64::INFINITY, f64::min)
+        .min(1.0)
+        .max(1e-9);
+    let weight: Vec<f64> = rows
+        .iter()
+        .map(|r| 1.0 / r.data.std_error_nt.max(floor))
+        .collect();
+    let a = DMatrix::from_fn(m, p, |i, j| weight[i] * rows[i].data.per_term[index(terms[j])]);
+    let y = DVector::from_fn(m, |i, _| weight[i] * target[i]);
+    if !a.iter().chain(y.iter()).all(|v| v.is_finite()) {
+        return None;
+    }
+    // Collinearity is judged on unit-norm columns.
+    let norms: Vec<f64> = (0..p).map(|j| a.column(j).norm()).collect();
+    let scaled = DMatrix::from_fn(m, p, |i, j| a[(i, j)] / norms[j]);
+    let svd = scaled.clone().svd(true, true);
+    let smallest = svd.singular_values.iter().copied().fold(f64::INFINITY, f64::min);
+    if !(smallest > 1e-6) {
+        return None;
+    }
+    let beta_scaled = svd.solve(&y, 1e-12).ok()?;
+    let residual = &y - &scaled * &beta_scaled;
+    let dof = m - p;
+    let chi2 = if dof > 0 {
+        (residual.norm_squared() / dof as f64).max(1.0)
+    } else {
+        1.0
+    };
+    let gram_inv = (scaled.transpose() * &scaled).try_inverse()?;
+    let values = (0..p).map(|j| beta_scaled[j] / norms[j]).collect();
+    let errors = (0..p)
+        .map(|j| (chi2 * gram_inv[(j, j)]).sqrt() / norms[j])
+        .collect();
+    Some((values, errors))
+}
+
+/// The patent's Fig. 2 setting equivalent to `term = value`. Perm coils and mixers must add
+/// `−value·scale·g` to the magnetometer; the pickups read `H·t` (transverse) and `H·v`
+/// (vertical), the eddy pickups the rates `H·ṫ`, `H·l̇`, `H·v̇`.
+pub fn compensator_setting(term: Term, value: f64) -> CompensatorSetting {
+    let perm = |coil: &str| CompensatorSetting {
+        term: term.name(),
+        device: format!("perm coil {coil}: field along it"),
+        gain: -value,
+        unit: "nT",
+    };
+    let mixer = |pickup: &str, coil: &str, gain: f64| CompensatorSetting {
+        term: term.name(),
+        device: format!("induced mixer: pickup {pickup} into coil {coil}"),
+        gain,
+        unit: "fraction of the pickup signal",
+    };
+    let eddy = |pickup: &str, coil: &str, gain: f64| CompensatorSetting {
+        term: term.name(),
+        device: format!("eddy mixer: rate of pickup {pickup} into coil {coil}"),
+        gain,
+        unit: "s",
+    };
+    match term {
+        Term::PermT => perm("T (transverse)"),
+        Term::PermL => perm("L (longitudinal)"),
+        Term::PermV => perm("V (vertical)"),
+        // g = −t²: a field +value·H·t along T adds +value·H·t² = −value·H·g.
+        Term::InducedVVTT => mixer("T", "T", value),
+        // g = −l² = t² + v² − 1: the two pickups on their own coils, the constant dropped.
+        Term::InducedVVLL => mixer("T and V", "T and V respectively", -value),
+        Term::InducedTLLT => mixer("T", "L", -value),
+        Term::InducedTVVT => mixer("T", "V", -value),
+        Term::InducedLVVL => mixer("V", "L", -value),
+        Term::InducedTT | Term::InducedLL | Term::InducedVV => mixer("-", "-", -value),
+        // Eddy 'ab' = E[b][a]: the rate along a drives a field along b.
+        Term::EddyVVTT => eddy("T", "T", value),
+        Term::EddyVVLL => eddy("L", "L", value),
+        Term::EddyTL => eddy("T", "L", -value),
+        Term::EddyTV => eddy("T", "V", -value),
+        Term::EddyLT => eddy("L", "T", -value),
+        Term::EddyLV => eddy("L", "V", -value),
+        Term::EddyVL => eddy("V", "L", -value),
+        Term::EddyVT => eddy("V", "T", -value),
+    }
+}
+
+/// Pass band (Hz) of the cloverleaf check, as MagNav's.
+pub const VERIFY_BAND_HZ: (f64, f64) = (0.1, 0.9);
+
+/// The cloverleaf check: band-passed scalar over the span of the cloverleaf windows, before
+/// and after subtracting the identified terms' signal.
+pub fn verify(input: &ProcedureInput, terms: &TermValues) -> Option<Verification> {
+    let clover: Vec<&ManeuverWindow> = input
+        .windows
+        .iter()
+        .filter(|w| w.kind == ManeuverKind::Cloverleaf)
+        .collect();
+    let n = input.tt.len();
+    let start = clover.iter().map(|w| w.range.start).min()?.min(n);
+    let end = clover.iter().map(|w| w.range.end).max()?.min(n);
+    let span = start..end;
+    let predicted = input.geometry.aircraft_signal(&terms.0);
+    let fs = crate::segment::median_step(&input.tt[span.clone()]).map(|dt| 1.0 / dt)?;
+    let filter = magnav_bandpass(VERIFY_BAND_HZ.0, VERIFY_BAND_HZ.1, 4, fs).ok()??;
+    let band_passed = |x: Vec<f64>| -> Option<f64> {
+        if !x.iter().all(|v| v.is_finite()) {
+            return None;
+        }
+        let detrended = crate::compensate::detrend(&x);
+        Some(std_dev(&filter.filtfilt(&detrended).ok()?))
+    };
+    let before = band_passed(input.scalar[span.clone()].to_vec())?;
+    let after = band_passed(
+        span.clone()
+            .map(|k| input.scalar[k] - predicted[k])
+            .collect(),
+    )?;
+    Some(Verification {
+        time_s: (input.tt[start], input.tt[end.saturating_sub(1)]),
+        band_hz: VERIFY_BAND_HZ,
+        before_nt: before,
+        after_nt: after,
+        improvement: before / after,
+    })
+}
+
+/// The 16 terms from an ordinary least-squares fit on the same flight, for comparison: the
+/// design `permanent,i5,e8` with λ by cross-validation, on the fluxgate the geometry implies.
+pub fn least_squares_terms(
+    scalar: &[f64],
+    geometry: &Geometry,
+    fs_hz: f64,
+    tt: Option<&[f64]>,
+) -> Result<TermValues, crate::fit::FitError> {
+    let settings = crate::fit::FitSettings {
+        design: crate::design::Design::new(
+            "permanent,i5,e8".parse().expect("a valid term list"),
+        ),
+        lambda: crate::fit::Lambda::auto(),
+        ..crate::fit::FitSettings::magnav()
+    };
+    let flux = geometry.as_fluxgate();
+    let fitted = crate::fit::fit(scalar, &flux, fs_hz, tt, &settings)?;
+    let field = crate::interpret::AircraftField::from_coefficients(
+        &settings.design,
+        &fitted.coefficients,
+        fs_hz,
+    );
+    Ok(TermValues(Term::OBSERVABLE.map(|t| Some(t.value(&field)))))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::interpret::AircraftField;
+    use crate::plan::PatentPlan;
+    use crate::sim::{simulate, Installation, Scenario, SimulatedFlight};
+
+    const DECLINATION: f64 = -3.0;
+
+    fn patent_flight(aircraft: AircraftField, seed: u64) -> (Plan, Scenario, SimulatedFlight) {
+        let plan = PatentPlan::default().build();
+        let scenario = Scenario::new(aircraft, seed);
+        let flight = simulate(&plan, &scenario).unwrap();
+        (plan, scenario, flight)
+    }
+
+    fn report_of(plan: &Plan, flight: &SimulatedFlight, fs: f64) -> ProcedureReport {
+        let windows = windows_from_plan(plan, fs, DECLINATION);
+        let geometry = Geometry::from_fluxgate(&flight.tt, &flight.flux);
+        run(&ProcedureInput {
+            tt: &flight.tt,
+            scalar: &flight.scalar,
+            roll_deg: &flight.roll_deg,
+            pitch_deg: &flight.pitch_deg,
+            geometry: &geometry,
+            windows: &windows,
+        })
+    }
+
+    #[test]
+    fn debug_print() {
+        let aircraft = Installation::Cabin.aircraft();
+        let (plan, scenario, flight) = patent_flight(aircraft, 3);
+        let report = report_of(&plan, &flight, scenario.fs_hz);
+        let truth = aircraft.patent_terms();
+        for ((name, want), term) in truth.named().iter().zip(Term::OBSERVABLE) {
+            let k = index(term);
+            eprintln!("{name:6} truth {want:12.4e} got {:?} se {:?}", report.terms.0[k], report.std_errors.0[k]);
+        }
+        eprintln!("{:?}", report.cloverleaf);
+        eprintln!("{:?} {:?}", report.missing, report.skipped);
+        panic!();
+    }
+}
