@@ -281,9 +281,7 @@ impl Basis {
         let residual = &y - &a * &beta;
         let n = t.len();
         let sigma2 = residual.norm_squared() / (n - BASIS_COLUMNS) as f64;
-        let r_inv = r
-            .try_inverse()
-            .ok_or(DemodulateError::NoOscillation)?;
+        let r_inv = r.try_inverse().ok_or(DemodulateError::NoOscillation)?;
         // (AᵀA)⁻¹ = R⁻¹R⁻ᵀ: its diagonal is the squared row norms of R⁻¹.
         let se: Vec<f64> = (0..BASIS_COLUMNS)
             .map(|i| (sigma2 * r_inv.row(i).norm_squared()).sqrt())
@@ -353,7 +351,11 @@ mod tests {
                     + h.cos1 * p.cos()
                     + h.sin2 * (2.0 * p).sin()
                     + h.cos2 * (2.0 * p).cos()
-                    + if noise > 0.0 { normal.sample(&mut rng) } else { 0.0 }
+                    + if noise > 0.0 {
+                        normal.sample(&mut rng)
+                    } else {
+                        0.0
+                    }
             })
             .collect()
     }
@@ -374,7 +376,9 @@ mod tests {
             t0: 101.0,
         };
         let t = times(180, 10.0);
-        let d = basis.demodulate(&t, &synthetic(&basis, &t, &TRUE, 0.0, 1)).unwrap();
+        let d = basis
+            .demodulate(&t, &synthetic(&basis, &t, &TRUE, 0.0, 1))
+            .unwrap();
         let v = d.value;
         for (got, want) in [
             (v.c0, TRUE.c0),

@@ -3,11 +3,11 @@
 //! value times the term.
 
 use std::f64::consts::PI;
+use tolles_core::environment::Environment;
 use tolles_core::harmonics::{HarmonicManeuver, HarmonicTable};
 use tolles_core::interpret::AircraftField;
 use tolles_core::patent::{Maneuver, Section, Term};
 use tolles_core::plan::{Axis, Motion, Plan, Segment};
-use tolles_core::environment::Environment;
 use tolles_core::sim::{simulate, EarthField, Scenario};
 
 const PERIOD_S: f64 = 8.0;
