@@ -30,7 +30,10 @@ Examples:
   tolles demo
 
   # The Tolles patent's roll and pitch tables, computed:
-  tolles tables --amplitude 15 --heading 45 --dip 68";
+  tolles tables --amplitude 15 --heading 45 --dip 68
+
+  # The patent's compensation procedure, step by step, on a flight:
+  tolles procedure patent.csv --scalar mag_1_uc --vector flux_a --out terms.json";
 
 #[derive(Parser)]
 #[command(name = "tolles", version, about = ABOUT, after_help = EXAMPLES)]
@@ -47,6 +50,7 @@ enum Command {
     Simulate(cmd::simulate::Args),
     Plan(cmd::plan::Args),
     Tables(cmd::tables::Args),
+    Procedure(cmd::procedure::Args),
 }
 
 fn main() -> ExitCode {
@@ -58,6 +62,7 @@ fn main() -> ExitCode {
         Command::Simulate(args) => cmd::simulate::run(args),
         Command::Plan(args) => cmd::plan::run(args),
         Command::Tables(args) => cmd::tables::run(args),
+        Command::Procedure(args) => cmd::procedure::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -42,10 +42,14 @@
 //! computed from the maneuver as flown (measured attitude and dip, or the fluxgate), from the
 //! exact generating functions, not from the tables' small-angle closed forms.
 //!
-//! The patent repeats adjustments in flight until the indications vanish; we run the sequence
-//! twice: the second pass cancels every other term at its first-pass value, removing the
-//! cross-talk the first-order tables neglect (e.g. vt's O(b³) share of a north roll's
-//! `cos ωτ`, or VV−TT beside V in step 7).
+//! The patent repeats adjustments in flight until the indications vanish; we repeat the whole
+//! sequence, each pass cancelling every other term at its latest value, until no term moves by
+//! more than a thousandth of its standard error (at most [`MAX_PASSES`]). This removes the
+//! cross-talk the first-order tables neglect (vt's O(b³) share of a north roll's `cos ωτ`,
+//! VV−TT beside V in step 7) and the cross-talk of headings that are not exactly cardinal
+//! (a north roll at magnetic 013° also carries V and LV+VL). From the second pass on, a term
+//! still undetermined that shows on a step's maneuvers is solved for beside the step's own
+//! unknowns, and any of them it cannot be told from is undetermined too.
 //!
 //! Headings are magnetic, clockwise from magnetic north (true heading minus declination); a
 //! window matches a step's heading within [`HEADING_TOLERANCE_DEG`].
@@ -65,8 +69,11 @@ use std::ops::Range;
 /// A window matches a step's heading when they differ by at most this much (degrees).
 pub const HEADING_TOLERANCE_DEG: f64 = 20.0;
 
-/// Passes through the sequence (see the module documentation).
-pub const PASSES: usize = 2;
+/// At most this many passes through the sequence (see the module documentation).
+pub const MAX_PASSES: usize = 30;
+
+/// The passes stop when no term changes by more than this fraction of its standard error.
+const CONVERGED: f64 = 1e-3;
 
 /// What the aircraft does in a window.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -774,8 +781,10 @@ pub struct ProcedureReport {
     pub terms: TermValues,
     /// Their standard errors.
     pub std_errors: TermValues,
-    /// Step by step.
+    /// Step by step, as in the last pass.
     pub steps: Vec<StepReport>,
+    /// Passes through the sequence until the terms stopped changing.
+    pub passes: usize,
     /// Maneuvers the sequence asks for that the flight lacks.
     pub missing: Vec<String>,
     /// Terms that could not be determined.
@@ -827,13 +836,24 @@ pub fn run(input: &ProcedureInput) -> ProcedureReport {
     let mut values: [Option<f64>; 16] = [None; 16];
     let mut errors: [Option<f64>; 16] = [None; 16];
     let mut steps = Vec::new();
-    for pass in 0..PASSES {
+    let mut passes = 0;
+    while passes < MAX_PASSES {
+        let previous = values;
         steps.clear();
         // From the second pass on, a term still unknown is known to be undetermined.
-        let settled = pass > 0;
+        let settled = passes > 0;
         for (k, spec) in STEPS.iter().enumerate() {
             let step = run_step(k + 1, spec, &maneuvers, &mut values, &mut errors, settled);
             steps.push(step);
+        }
+        passes += 1;
+        let converged = (0..16).all(|k| match (previous[k], values[k], errors[k]) {
+            (None, None, _) => true,
+            (Some(a), Some(b), Some(se)) => (a - b).abs() <= CONVERGED * se,
+            _ => false,
+        });
+        if settled && converged {
+            break;
         }
     }
     let mut missing: Vec<String> = Vec::new();
@@ -854,6 +874,7 @@ pub fn run(input: &ProcedureInput) -> ProcedureReport {
         terms,
         std_errors: TermValues(errors),
         steps,
+        passes,
         missing,
         undetermined,
         skipped,
@@ -1096,7 +1117,8 @@ fn solve(rows: &[Row], target: &[f64], terms: &[Term], reported: usize) -> Vec<O
     if m == 0 || !y.iter().all(|v| v.is_finite()) {
         return out;
     }
-    // Drop the step's unknowns that the others explain; then blockers, if only they clash.
+    // One at a time: drop the step's unknown the others explain best; failing that the
+    // blocker; and while there are more columns than rows, the least independent blocker.
     loop {
         let fractions: Vec<(usize, f64)> = active
             .iter()
@@ -1109,21 +1131,25 @@ fn solve(rows: &[Row], target: &[f64], terms: &[Term], reported: usize) -> Vec<O
                 (j, independent_fraction(&column(terms[j]), &others, &column))
             })
             .collect();
-        let low = |mine: bool| -> Vec<usize> {
+        let least = |mine: bool, limit: f64| {
             fractions
                 .iter()
-                .filter(|(j, f)| (*j < reported) == mine && *f < COLLINEAR)
+                .filter(|(j, f)| (*j < reported) == mine && *f < limit)
+                .min_by(|a, b| a.1.total_cmp(&b.1))
                 .map(|(j, _)| *j)
-                .collect()
         };
-        let drop = match low(true) {
-            own if !own.is_empty() => own,
-            _ => low(false),
+        let crowded = if active.len() > m {
+            f64::INFINITY
+        } else {
+            COLLINEAR
         };
-        if drop.is_empty() {
-            break;
+        let drop = least(true, COLLINEAR)
+            .or_else(|| least(false, crowded))
+            .or_else(|| least(true, crowded));
+        match drop {
+            Some(j) => active.retain(|&i| i != j),
+            None => break,
         }
-        active.retain(|j| !drop.contains(j));
     }
     let p = active.len();
     if p == 0 || m < p {

@@ -4,5 +4,6 @@ pub mod compensate;
 pub mod demo;
 pub mod fit;
 pub mod plan;
+pub mod procedure;
 pub mod simulate;
 pub mod tables;
