@@ -19,7 +19,7 @@
 //!     let p = basis.phase(t);
 //!     40.0 + 3.0 * p.sin() + 0.5 * (2.0 * p).cos()
 //! }).collect();
-//! let h = basis.demodulate(&t, &y).unwrap();
+//! let h = basis.demodulate(&t, &y).unwrap().value;
 //! assert!((h.sin1 - 3.0).abs() < 1e-9 && (h.cos2 - 0.5).abs() < 1e-9);
 //! ```
 //!
@@ -138,7 +138,7 @@ pub fn fit_sinusoid(t: &[f64], x: &[f64]) -> Result<Sinusoid, DemodulateError> {
         let m = x.iter().sum::<f64>() / x.len() as f64;
         x.iter().map(|v| (v - m).powi(2)).sum()
     };
-    if !(amplitude > 0.0) || rss_best > 0.5 * total {
+    if amplitude.is_nan() || amplitude <= 0.0 || rss_best > 0.5 * total {
         return Err(DemodulateError::NoOscillation);
     }
     // a sin p + b cos p = A sin(p + φ), φ = atan2(b, a): zero phase at p = −φ.

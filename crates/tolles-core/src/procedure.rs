@@ -1101,8 +1101,7 @@ fn solve(rows: &[Row], target: &[f64], terms: &[Term], reported: usize) -> Vec<O
         .map(|r| r.data.std_error_nt)
         .filter(|s| s.is_finite() && *s > 0.0)
         .fold(f64::INFINITY, f64::min)
-        .min(1.0)
-        .max(1e-9);
+        .clamp(1e-9, 1.0);
     let weight: Vec<f64> = rows
         .iter()
         .map(|r| 1.0 / r.data.std_error_nt.max(floor))
@@ -1186,7 +1185,7 @@ fn independent_fraction(
     column: &dyn Fn(Term) -> DVector<f64>,
 ) -> f64 {
     let norm = v.norm();
-    if !(norm > 0.0) {
+    if norm.is_nan() || norm <= 0.0 {
         return 0.0;
     }
     if others.is_empty() {
