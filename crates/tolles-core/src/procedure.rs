@@ -19,7 +19,8 @@
 //!     pitch_deg: &flight.pitch_deg,
 //!     geometry: &geometry,
 //!     windows: &windows,
-//! });
+//! })
+//! .unwrap();
 //! let t = report.value("T").unwrap();
 //! assert!((t - scenario.aircraft.permanent_nt[1]).abs() < 2.0); // perm T = P_y (nT)
 //! assert!(report.undetermined.is_empty());
@@ -822,8 +823,39 @@ struct Row<'a> {
     data: &'a ComponentData,
 }
 
-/// Runs the patent's sequence on a flight.
-pub fn run(input: &ProcedureInput) -> ProcedureReport {
+/// Why the procedure cannot run.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum ProcedureError {
+    #[error("{what} has {got} samples but the time column has {expected}")]
+    LengthMismatch {
+        what: &'static str,
+        got: usize,
+        expected: usize,
+    },
+}
+
+fn check_lengths(input: &ProcedureInput) -> Result<(), ProcedureError> {
+    let expected = input.tt.len();
+    for (what, got) in [
+        ("the scalar", input.scalar.len()),
+        ("the roll", input.roll_deg.len()),
+        ("the pitch", input.pitch_deg.len()),
+        ("the geometry", input.geometry.len()),
+    ] {
+        if got != expected {
+            return Err(ProcedureError::LengthMismatch {
+                what,
+                got,
+                expected,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Runs the patent's sequence on a flight. Windows reaching past the end are cut there.
+pub fn run(input: &ProcedureInput) -> Result<ProcedureReport, ProcedureError> {
+    check_lengths(input)?;
     let mut maneuvers = Vec::new();
     let mut skipped = Vec::new();
     for window in input.windows {
@@ -869,7 +901,7 @@ pub fn run(input: &ProcedureInput) -> ProcedureReport {
         .map(|(t, _)| t.name())
         .collect();
     let terms = TermValues(values);
-    ProcedureReport {
+    Ok(ProcedureReport {
         cloverleaf: verify(input, &terms),
         terms,
         std_errors: TermValues(errors),
@@ -879,7 +911,7 @@ pub fn run(input: &ProcedureInput) -> ProcedureReport {
         undetermined,
         skipped,
         maneuvers,
-    }
+    })
 }
 
 /// A column is negligible when its norm is below this fraction of the largest column of the
@@ -1337,6 +1369,7 @@ mod tests {
             geometry: &geometry,
             windows: &windows,
         })
+        .unwrap()
     }
 
     /// Largest |truth| of each section.
@@ -1554,6 +1587,7 @@ mod tests {
                 geometry: &geometry,
                 windows,
             })
+            .unwrap()
         };
         let truth = truth_of(&aircraft);
         // No NE and NW rolls: named; SE and SW still give vl and LV+VL.
@@ -1588,6 +1622,29 @@ mod tests {
         // No wing-ups: V and VV−TT rest on the rolls' second harmonic alone, still reported.
         let report = run_with(&without(&all, ManeuverKind::WingUp, &[90.0, 270.0]));
         assert_eq!(report.missing, ["wing-up on 090°", "wing-up on 270°"]);
+    }
+
+    #[test]
+    fn inputs_of_different_lengths_are_an_error() {
+        let tt = [0.0, 0.1, 0.2];
+        let geometry =
+            Geometry::from_attitude(&tt, &[0.0; 3], &[0.0; 3], &[0.0; 3], 60.0, 0.0, 5e4);
+        let input = ProcedureInput {
+            tt: &tt,
+            scalar: &[5e4; 2],
+            roll_deg: &[0.0; 3],
+            pitch_deg: &[0.0; 3],
+            geometry: &geometry,
+            windows: &[],
+        };
+        assert_eq!(
+            run(&input),
+            Err(ProcedureError::LengthMismatch {
+                what: "the scalar",
+                got: 2,
+                expected: 3
+            })
+        );
     }
 
     #[test]

@@ -15,12 +15,15 @@ use crate::input::{read_table, TIME_COLUMN};
 
 const EXAMPLES: &str = "\
 Examples:
-  # Simulate the patent's flight and run its procedure on it:
-  tolles simulate --plan patent --preset cabin --geology 0 --diurnal 0 --out f.csv
-  tolles procedure f.csv --scalar mag_1_uc --vector flux_a --declination -13.5 --out terms.json
+  # Simulate the patent's flight in a uniform field (dip 68°, declination −3°) and run its
+  # procedure on it:
+  tolles simulate --plan patent --preset cabin --geology 0 --diurnal 0 \\
+      --inclination 68 --declination -3 --intensity 52000 --out f.csv
+  tolles procedure f.csv --scalar mag_1_uc --vector flux_a --declination -3 --out terms.json
 
-  # Without a fluxgate: direction cosines from the attitude, the dip and declination:
-  tolles procedure f.csv --scalar mag_1_uc --dip 69.5 --declination -13.5
+  # Without a fluxgate: direction cosines from the attitude, the dip and the declination, and
+  # the field magnitude H from the median of the scalar:
+  tolles procedure f.csv --scalar mag_1_uc --dip 68 --declination -3
 
   # What the procedure can still do when the northeast and northwest rolls are missing:
   tolles procedure f.csv --scalar mag_1_uc --vector flux_a --ignore 'roll on 045' --ignore 'roll on 315'
@@ -58,7 +61,8 @@ pub struct Args {
     /// Dip of the earth field (degrees, down positive); required without --vector
     #[arg(long, allow_negative_numbers = true)]
     pub dip: Option<f64>,
-    /// Declination (degrees east): magnetic heading = ins_yaw − declination
+    /// Declination (degrees east): magnetic heading = ins_yaw − declination. With --vector it
+    /// only names the headings (a maneuver matches a step's heading within 20°)
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub declination: f64,
     /// Write the terms and the step-by-step report as JSON here
@@ -117,7 +121,8 @@ pub fn run(args: Args) -> Result<()> {
         pitch_deg: &pitch,
         geometry: &geometry,
         windows: &windows,
-    });
+    })
+    .with_context(|| file.clone())?;
     let least_squares = match least_squares_terms(&scalar, &geometry, fs, Some(&tt)) {
         Ok(terms) => Some(terms),
         Err(e) => {
