@@ -415,6 +415,23 @@ mod tests {
         assert!(error.abs() < 4.0 * large);
     }
 
+    proptest::proptest! {
+        #[test]
+        fn any_harmonics_on_any_basis_are_recovered(
+            period in 2.5f64..15.0, t0 in -10.0f64..10.0, cycles in 1.0f64..4.0,
+            sin1 in -50.0f64..50.0, cos1 in -50.0f64..50.0,
+            sin2 in -5.0f64..5.0, cos2 in -5.0f64..5.0, slope in -1.0f64..1.0,
+        ) {
+            let basis = Basis { omega: 2.0 * PI / period, t0 };
+            let t = times((cycles * period * 10.0).ceil() as usize + 1, 10.0);
+            let truth = Harmonics { c0: 3.0, c1: slope, sin1, cos1, sin2, cos2 };
+            let got = basis.demodulate(&t, &synthetic(&basis, &t, &truth, 0.0, 0)).unwrap().value;
+            for (a, b) in [(got.sin1, sin1), (got.cos1, cos1), (got.sin2, sin2), (got.cos2, cos2)] {
+                proptest::prop_assert!((a - b).abs() < 1e-6, "{a} vs {b}");
+            }
+        }
+    }
+
     #[test]
     fn a_window_shorter_than_a_period_is_refused() {
         let basis = Basis {

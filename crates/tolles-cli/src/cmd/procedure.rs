@@ -182,8 +182,8 @@ const WING_UP_S: f64 = 5.0;
 const STABLE_HEADING_DEG: f64 = 10.0;
 
 /// A stopgap maneuver detector, to be replaced by the shared one: finds
-/// - wing-ups: |roll| beyond 25° for more than 5 s on a stable heading (window from the roll-in
-///   to the roll-out, |roll| above 3°);
+/// - wing-ups: |roll| beyond 25° for more than 5 s on a stable heading (window from the start
+///   of the roll-in to the end of the roll-out);
 /// - cloverleaf turns: banked turns through 180° or more;
 /// - rolls and pitches: oscillations of roll or pitch beyond 3° that cross their mean at least
 ///   three times on a stable heading.
@@ -237,7 +237,7 @@ pub fn detect_maneuvers_stopgap(
             windows.push(ManeuverWindow {
                 kind,
                 heading_deg: magnetic(&run),
-                range: run,
+                range,
             });
         }
     }
@@ -533,4 +533,65 @@ fn print_report(
         )?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tolles_core::interpret::AircraftField;
+    use tolles_core::plan::PatentPlan;
+    use tolles_core::procedure::windows_from_plan;
+    use tolles_core::sim::{simulate, Scenario};
+
+    #[test]
+    fn the_stopgap_detector_finds_the_patent_plans_maneuvers() {
+        let plan = PatentPlan::default().build();
+        let scenario = Scenario::new(AircraftField::default(), 1);
+        let flight = simulate(&plan, &scenario).unwrap();
+        let found = detect_maneuvers_stopgap(
+            &flight.tt,
+            &flight.roll_deg,
+            &flight.pitch_deg,
+            &flight.yaw_deg,
+            -3.0,
+        );
+        let planned: Vec<ManeuverWindow> = windows_from_plan(&plan, scenario.fs_hz, -3.0)
+            .into_iter()
+            .filter(|w| w.kind != ManeuverKind::Cloverleaf)
+            .collect();
+        let labels = |w: &[ManeuverWindow]| w.iter().map(|w| w.label()).collect::<Vec<_>>();
+        let found_maneuvers: Vec<ManeuverWindow> = found
+            .iter()
+            .filter(|w| w.kind != ManeuverKind::Cloverleaf)
+            .cloned()
+            .collect();
+        assert_eq!(labels(&found_maneuvers), labels(&planned));
+        // Each found window lies within a sample or two of the planned one.
+        for (f, p) in found_maneuvers.iter().zip(&planned) {
+            assert!(f.range.start.abs_diff(p.range.start) <= 2, "{f:?} {p:?}");
+            assert!(f.range.end.abs_diff(p.range.end) <= 2, "{f:?} {p:?}");
+        }
+        // The four cloverleaf turns.
+        let clover = found
+            .iter()
+            .filter(|w| w.kind == ManeuverKind::Cloverleaf)
+            .count();
+        assert_eq!(clover, 4);
+    }
+
+    #[test]
+    fn ignoring_matches_labels_with_or_without_the_degree_sign() {
+        let window = |heading: f64| ManeuverWindow {
+            kind: ManeuverKind::Roll,
+            heading_deg: heading,
+            range: 0..10,
+        };
+        let kept = without_ignored(
+            vec![window(45.0), window(315.0)],
+            &["Roll on 045".to_string(), "roll on 315°".to_string()],
+        )
+        .unwrap();
+        assert!(kept.is_empty());
+        assert!(without_ignored(vec![window(45.0)], &["pitch on 045".to_string()]).is_err());
+    }
 }
