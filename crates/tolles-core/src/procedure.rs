@@ -220,8 +220,17 @@ impl Geometry {
     /// `scale × g` of a term at every sample: nT per unit of the term (nT/nT for perm, nT for
     /// induced, nT/s for eddy).
     pub fn term_series(&self, term: Term) -> Vec<f64> {
+        self.term_series_within(term, 0..self.len())
+    }
+
+    /// [`Geometry::term_series`] over the samples of `span` only, NaN elsewhere (full length).
+    pub fn term_series_within(&self, term: Term, span: Range<usize>) -> Vec<f64> {
+        let inside = span.start.min(self.len())..span.end.min(self.len());
         (0..self.len())
-            .map(|k| term.scale(self.h_nt[k]) * term.generating(self.direction[k], self.rate[k]))
+            .map(|k| match inside.contains(&k) {
+                true => term.scale(self.h_nt[k]) * term.generating(self.direction[k], self.rate[k]),
+                false => f64::NAN,
+            })
             .collect()
     }
 
@@ -379,9 +388,15 @@ pub fn analyse(
         tt.first().copied().unwrap_or(f64::NAN),
         tt.last().copied().unwrap_or(f64::NAN),
     );
+    // A wing-up also reads the level flight around it.
+    let reach = match window.kind {
+        ManeuverKind::WingUp => reference_samples(input.tt),
+        _ => 0,
+    };
+    let span = r.start.saturating_sub(reach)..r.end + reach;
     let series: Vec<Vec<f64>> = Term::OBSERVABLE
         .iter()
-        .map(|t| input.geometry.term_series(*t))
+        .map(|t| input.geometry.term_series_within(*t, span.clone()))
         .collect();
     let analysis = |period_s, amplitude_deg, components| ManeuverAnalysis {
         window: window.clone(),
@@ -440,6 +455,12 @@ pub fn analyse(
 /// Level flight this long (s) before and after a wing-up is its reference.
 pub const WING_UP_REFERENCE_S: f64 = 10.0;
 
+/// Samples in [`WING_UP_REFERENCE_S`].
+fn reference_samples(tt: &[f64]) -> usize {
+    let fs = crate::segment::median_step(tt).map_or(1.0, |dt| 1.0 / dt);
+    (WING_UP_REFERENCE_S * fs).round() as usize
+}
+
 /// Attitude within this many degrees of level counts as level flight.
 const LEVEL_DEG: f64 = 2.0;
 
@@ -463,8 +484,7 @@ fn wing_up(
         .clone()
         .filter(|&k| roll[k] * peak.signum() >= 0.95 * peak.abs())
         .collect();
-    let fs_guess = crate::segment::median_step(input.tt).map_or(1.0, |dt| 1.0 / dt);
-    let reach = (WING_UP_REFERENCE_S * fs_guess).round() as usize;
+    let reach = reference_samples(input.tt);
     let level = |k: &usize| roll[*k].abs() < LEVEL_DEG && input.pitch_deg[*k].abs() < LEVEL_DEG;
     let before: Vec<usize> = (r.start.saturating_sub(reach)..r.start)
         .filter(level)
