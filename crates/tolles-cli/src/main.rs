@@ -31,7 +31,10 @@ Examples:
   tolles demo
 
   # The Tolles patent's roll and pitch tables, computed:
-  tolles tables --amplitude 15 --heading 45 --dip 68";
+  tolles tables --amplitude 15 --heading 45 --dip 68
+
+  # The patent's compensation procedure, step by step, on a flight:
+  tolles procedure patent.csv --scalar mag_1_uc --vector flux_a --out terms.json";
 
 #[derive(Parser)]
 #[command(name = "tolles", version, about = ABOUT, after_help = EXAMPLES)]
@@ -50,6 +53,7 @@ enum Command {
     Plan(cmd::plan::Args),
     Report(cmd::report::Args),
     Tables(cmd::tables::Args),
+    Procedure(cmd::procedure::Args),
 }
 
 fn main() -> ExitCode {
@@ -63,6 +67,7 @@ fn main() -> ExitCode {
         Command::Plan(args) => cmd::plan::run(args),
         Command::Report(args) => cmd::report::run(args),
         Command::Tables(args) => cmd::tables::run(args),
+        Command::Procedure(args) => cmd::procedure::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

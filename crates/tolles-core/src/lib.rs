@@ -38,7 +38,9 @@
 //! - [`sim`]: simulated flights with known truth;
 //! - [`igrf`]: IGRF-14 reference field of the earth;
 //! - [`identifiability`]: how well a flight's maneuvers determine each term;
-//! - [`spectrum`]: power spectral density by Welch's method.
+//! - [`spectrum`]: power spectral density by Welch's method;
+//! - [`demodulate`]: a maneuver's frequency and phase, and any series demodulated on them;
+//! - [`procedure`]: the patent's step-by-step compensation procedure, digitised.
 //!
 //! No module here reads files or writes to a terminal.
 
@@ -46,6 +48,7 @@ pub mod attitude;
 pub mod compensate;
 pub mod conventions;
 pub mod crossval;
+pub mod demodulate;
 pub mod design;
 pub mod environment;
 pub mod filter;
@@ -59,6 +62,7 @@ pub mod maneuver;
 pub mod metrics;
 pub mod patent;
 pub mod plan;
+pub mod procedure;
 pub mod ridge;
 pub mod segment;
 pub mod sensor;

@@ -5,6 +5,7 @@ pub mod demo;
 pub mod fit;
 pub mod fom;
 pub mod plan;
+pub mod procedure;
 pub mod report;
 pub mod simulate;
 pub mod tables;
