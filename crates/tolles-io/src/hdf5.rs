@@ -14,8 +14,8 @@
 //! # std::fs::remove_dir_all(&dir).unwrap();
 //! ```
 //!
-//! The table's rows are as many as the most common length among the 1-D datasets. Datasets of
-//! one value become metadata ([`Table::metadata`]); anything else (other lengths, matrices,
+//! The table's rows are as many as the most common length among the 1-D datasets. Scalar
+//! datasets (shape `()` or MATLAB's 1×1) become metadata ([`Table::metadata`]); anything else (other lengths, matrices,
 //! text, groups) is left out and named in [`Table::notes`].
 //!
 //! The crate used is `hdf5-pure` (pure Rust, no C library to install); it reads files written
@@ -179,6 +179,10 @@ fn classify(dataset: &Dataset) -> Result<Kind, hdf5_pure::Error> {
         return Ok(Kind::Other("not numeric".to_string()));
     }
     let shape = dataset.shape()?;
+    if let [n] = shape[..] {
+        return Ok(Kind::Vector(n as usize)); // even of length 1: a one-row table
+    }
+    // MATLAB stores a column vector as 1×N and a scalar as 1×1.
     let long: Vec<u64> = shape.iter().copied().filter(|&d| d != 1).collect();
     Ok(match long[..] {
         [] => Kind::Scalar,
