@@ -5,6 +5,7 @@ use std::path::Path;
 use tolles_core::fit::FitError;
 use tolles_core::segment::{first_non_increasing, median_step};
 use tolles_core::vector::VectorSeries;
+use tolles_io::format::Format;
 use tolles_io::table::Table;
 
 /// The time column; when present it gives the sample rate and marks gaps.
@@ -47,8 +48,8 @@ impl Flight {
         let file = self.table.path().display();
         match error {
             FitError::FluxMagnitude { index, magnitude } => anyhow!(
-                "{file}: line {}: fluxgate {vector} magnitude {magnitude:.1} nT is outside 1,000–100,000 nT; are columns {vector}_x/_y/_z in nT?",
-                self.table.line_of(index)
+                "{file}: {}: fluxgate {vector} magnitude {magnitude:.1} nT is outside 1,000–100,000 nT; are columns {vector}_x/_y/_z in nT?",
+                self.table.place_of(index)
             ),
             FitError::ConstantScalar => {
                 anyhow!("{file}: column {scalar:?} is constant: there is nothing to fit")
@@ -61,17 +62,33 @@ impl Flight {
     }
 }
 
-/// Reads a CSV table, with a progress bar over its bytes on a terminal.
+/// Reads a flight table in the format its extension names (CSV, XYZ, GDF, HDF5, Parquet), with a
+/// progress bar over the bytes of a text file on a terminal. What the reader left out of the
+/// table (e.g. a 2-D HDF5 dataset) is named on stderr.
 pub fn read_table(path: &Path) -> Result<Table> {
-    let file = std::fs::File::open(path).map_err(|source| tolles_io::IoError::Open {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    let size = file.metadata().map_or(0, |m| m.len());
-    let bar = crate::progress::bytes(size, "reading");
-    let table = Table::from_reader(std::io::BufReader::new(bar.wrap_read(file)), path);
-    bar.finish_and_clear();
-    Ok(table?)
+    let format = Format::from_path(path);
+    let table = match format {
+        Format::Csv | Format::Xyz => {
+            let file = std::fs::File::open(path).map_err(|source| tolles_io::IoError::Open {
+                path: path.to_path_buf(),
+                source,
+            })?;
+            let size = file.metadata().map_or(0, |m| m.len());
+            let bar = crate::progress::bytes(size, "reading");
+            let reader = std::io::BufReader::new(bar.wrap_read(file));
+            let table = match format {
+                Format::Xyz => tolles_io::xyz::from_reader(reader, path),
+                _ => Table::from_reader(reader, path),
+            };
+            bar.finish_and_clear();
+            table?
+        }
+        other => Table::read(path, Some(other))?,
+    };
+    for note in table.notes() {
+        eprintln!("warning: {}: {note}", path.display());
+    }
+    Ok(table)
 }
 
 /// The time column of `table` (s), if it has one; an error if time does not increase.
@@ -82,9 +99,9 @@ pub fn time_column(table: &Table) -> Result<Option<Vec<f64>>> {
     let tt = table.numeric(TIME_COLUMN)?;
     if let Some(k) = first_non_increasing(&tt) {
         bail!(
-            "{}: line {}, column {TIME_COLUMN:?}: time does not increase ({} after {}); sort the file or remove repeated rows",
+            "{}: {}, column {TIME_COLUMN:?}: time does not increase ({} after {}); sort the file or remove repeated rows",
             table.path().display(),
-            table.line_of(k),
+            table.place_of(k),
             tt[k],
             tt[..k].iter().rev().find(|t| t.is_finite()).copied().unwrap_or(f64::NAN)
         );
@@ -92,9 +109,14 @@ pub fn time_column(table: &Table) -> Result<Option<Vec<f64>>> {
     Ok(Some(tt))
 }
 
-/// The sample rate (Hz) of `table`: `fs` (from `--fs`) if given, else 1 / median step of `tt`.
+/// The sample rate (Hz) of `table`: `fs` (from `--fs`) if given, else 1 / median step of `tt`,
+/// else 1 / the file's `dt` scalar (s; SGL HDF5 files carry one).
 pub fn sample_rate(table: &Table, tt: Option<&[f64]>, fs: Option<f64>) -> Result<f64> {
-    let from_time = tt.and_then(median_step).map(|dt| 1.0 / dt);
+    let from_dt = table
+        .metadata("dt")
+        .filter(|dt| dt.is_finite() && *dt > 0.0)
+        .map(|dt| 1.0 / dt);
+    let from_time = tt.and_then(median_step).map(|dt| 1.0 / dt).or(from_dt);
     match (fs, from_time) {
         (Some(fs), _) if !(fs.is_finite() && fs > 0.0) => {
             bail!("--fs must be a positive number of hertz, got {fs}")

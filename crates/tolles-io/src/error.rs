@@ -35,10 +35,11 @@ pub enum IoError {
         expected: usize,
         found: usize,
     },
-    #[error("{path}: line {line}, column {column:?}: {value:?} is not a number")]
+    /// `place` is "line N" for text files, "row N" (1-based) for binary ones.
+    #[error("{path}: {place}, column {column:?}: {value:?} is not a number")]
     NotANumber {
         path: PathBuf,
-        line: u64,
+        place: String,
         column: String,
         value: String,
     },
@@ -47,6 +48,18 @@ pub enum IoError {
         path: PathBuf,
         line: u64,
         message: String,
+    },
+    #[error("{path}: {message}")]
+    Invalid { path: PathBuf, message: String },
+    #[error(
+        "{path}: column {column:?} holds {found} values, but column {first:?} holds {expected}"
+    )]
+    UnequalColumns {
+        path: PathBuf,
+        first: String,
+        expected: usize,
+        column: String,
+        found: usize,
     },
     #[error("{path}: not a tolles model file: {message}")]
     Model { path: PathBuf, message: String },

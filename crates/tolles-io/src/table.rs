@@ -1,4 +1,4 @@
-//! Flight data as a table of named columns, read from CSV with a header row.
+//! Flight data as a table of named columns, read from CSV, Geosoft XYZ, ASEG-GDF2, HDF5 or Parquet.
 //!
 //! ```
 //! use tolles_io::table::Table;
@@ -10,24 +10,175 @@
 //! assert_eq!(table.vector("flux_a").unwrap().x[1], 30_001.0);
 //! ```
 //!
-//! Cells are kept as text so that a file can be written back with every column unchanged.
-//! An empty cell, `NaN` or `nan` is a missing value; anything else that does not parse as a
-//! number is an error naming the line and column.
+//! Columns from text files (CSV, XYZ, GDF) keep their cells as text so that a file can be written
+//! back with every column unchanged; columns from binary files (HDF5, Parquet) hold numbers.
+//! An empty cell, `NaN` or `nan` is a missing value, and so is a format's own dummy (`*` in XYZ,
+//! the NULL value of a GDF field); anything else that does not parse as a number is an error
+//! naming the line (or, for binary files, the row) and column.
 
 use crate::error::IoError;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 use tolles_core::vector::VectorSeries;
 
-/// A CSV table held in memory.
+/// How a text column marks a missing value besides an empty cell or `NaN`.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Missing {
+    /// A cell written exactly so is missing (Geosoft's `*`).
+    pub token: Option<String>,
+    /// A cell whose number equals this is missing (a GDF field's NULL, e.g. -99999).
+    pub null: Option<f64>,
+}
+
+/// One column's cells as written in a text file, stored in one buffer.
+#[derive(Debug, Clone, Default)]
+pub struct TextColumn {
+    text: String,
+    ends: Vec<usize>,
+    missing: Missing,
+}
+
+impl TextColumn {
+    /// An empty column whose missing cells are marked as `missing` says.
+    pub fn new(missing: Missing) -> Self {
+        Self {
+            missing,
+            ..Self::default()
+        }
+    }
+
+    /// Appends a cell.
+    pub fn push(&mut self, cell: &str) {
+        self.text.push_str(cell);
+        self.ends.push(self.text.len());
+    }
+
+    /// Number of cells.
+    pub fn len(&self) -> usize {
+        self.ends.len()
+    }
+
+    /// True when the column has no cells.
+    pub fn is_empty(&self) -> bool {
+        self.ends.is_empty()
+    }
+
+    /// Cell `k` as written.
+    pub fn get(&self, k: usize) -> &str {
+        let start = if k == 0 { 0 } else { self.ends[k - 1] };
+        &self.text[start..self.ends[k]]
+    }
+
+    /// Cell `k` as a number (NaN when missing), or `None` when it is not a number.
+    pub fn value(&self, k: usize) -> Option<f64> {
+        let cell = self.get(k).trim();
+        if self.missing.token.as_deref() == Some(cell) {
+            return Some(f64::NAN);
+        }
+        let v = parse_cell(cell)?;
+        Some(if Some(v) == self.missing.null {
+            f64::NAN
+        } else {
+            v
+        })
+    }
+
+    fn is_dummy(&self, k: usize) -> bool {
+        self.missing.token.is_some() && self.missing.token.as_deref() == Some(self.get(k).trim())
+            || self.missing.null.is_some() && parse_cell(self.get(k)) == self.missing.null
+    }
+}
+
+/// The cells of one column.
+#[derive(Debug, Clone)]
+pub enum Column {
+    /// Cells as written in a text file.
+    Text(TextColumn),
+    /// Numbers from a binary file; NaN is missing.
+    Numbers(Vec<f64>),
+}
+
+impl Column {
+    /// Number of cells.
+    pub fn len(&self) -> usize {
+        match self {
+            Column::Text(t) => t.len(),
+            Column::Numbers(v) => v.len(),
+        }
+    }
+
+    /// True when the column has no cells.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// A table of named, equally long columns held in memory.
 #[derive(Debug, Clone)]
 pub struct Table {
     path: PathBuf,
     headers: Vec<String>,
-    rows: Vec<csv::StringRecord>,
+    columns: Vec<Column>,
+    len: usize,
+    lines: Option<Vec<u64>>,
+    metadata: Vec<(String, f64)>,
+    notes: Vec<String>,
 }
 
 impl Table {
+    /// A table of `columns` named `headers`. `lines` gives each row's file line (text files);
+    /// without it, messages name rows by number. Errors if there are no columns or rows, a
+    /// name repeats, or the columns differ in length.
+    pub fn from_columns(
+        path: impl AsRef<Path>,
+        headers: Vec<String>,
+        columns: Vec<Column>,
+        lines: Option<Vec<u64>>,
+    ) -> Result<Self, IoError> {
+        let path = path.as_ref().to_path_buf();
+        if headers.is_empty() || headers.iter().all(String::is_empty) {
+            return Err(IoError::Empty { path });
+        }
+        check_unique(&path, &headers)?;
+        let len = columns.first().map_or(0, Column::len);
+        for (name, column) in headers.iter().zip(&columns) {
+            if column.len() != len {
+                return Err(IoError::UnequalColumns {
+                    path,
+                    first: headers[0].clone(),
+                    expected: len,
+                    column: name.clone(),
+                    found: column.len(),
+                });
+            }
+        }
+        if len == 0 {
+            return Err(IoError::NoRows { path });
+        }
+        Ok(Self {
+            path,
+            headers,
+            columns,
+            len,
+            lines,
+            metadata: Vec::new(),
+            notes: Vec::new(),
+        })
+    }
+
+    /// Adds scalar values the file carries besides its columns (HDF5's `N`, `dt`).
+    pub fn with_metadata(mut self, metadata: Vec<(String, f64)>) -> Self {
+        self.metadata = metadata;
+        self
+    }
+
+    /// Adds notes about what the reader left out of the table (e.g. a 2-D dataset), so the
+    /// caller can tell the user: data is never dropped silently.
+    pub fn with_notes(mut self, notes: Vec<String>) -> Self {
+        self.notes = notes;
+        self
+    }
+
     /// Reads a CSV file with a header row.
     pub fn read_csv(path: &Path) -> Result<Self, IoError> {
         let file = std::fs::File::open(path).map_err(|source| IoError::Open {
@@ -50,22 +201,21 @@ impl Table {
             .iter()
             .map(str::to_string)
             .collect();
-        if headers.is_empty() || headers.iter().all(String::is_empty) {
-            return Err(IoError::Empty { path });
-        }
-        check_unique(&path, &headers)?;
-        let mut rows = Vec::new();
+        let mut columns = vec![TextColumn::default(); headers.len()];
+        let mut lines = Vec::new();
         for record in csv.records() {
-            rows.push(record.map_err(|e| csv_error(&path, e))?);
+            let record = record.map_err(|e| csv_error(&path, e))?;
+            lines.push(
+                record
+                    .position()
+                    .map_or(lines.len() as u64 + 2, |p| p.line()),
+            );
+            for (column, cell) in columns.iter_mut().zip(record.iter()) {
+                column.push(cell);
+            }
         }
-        if rows.is_empty() {
-            return Err(IoError::NoRows { path });
-        }
-        Ok(Self {
-            path,
-            headers,
-            rows,
-        })
+        let columns = columns.into_iter().map(Column::Text).collect();
+        Self::from_columns(path, headers, columns, Some(lines))
     }
 
     /// The file this table came from.
@@ -78,39 +228,78 @@ impl Table {
         &self.headers
     }
 
+    /// The columns, in the order of [`Table::headers`].
+    pub fn columns(&self) -> &[Column] {
+        &self.columns
+    }
+
     /// Number of data rows.
     pub fn len(&self) -> usize {
-        self.rows.len()
+        self.len
     }
 
     /// True when there are no data rows (never, for a table that was read successfully).
     pub fn is_empty(&self) -> bool {
-        self.rows.is_empty()
+        self.len == 0
     }
 
-    /// The raw cells of data row `k` (0-based).
-    pub fn row(&self, k: usize) -> &csv::StringRecord {
-        &self.rows[k]
+    /// Scalar `name` the file carries besides its columns (e.g. HDF5 `dt`, s), if any.
+    pub fn metadata(&self, name: &str) -> Option<f64> {
+        self.metadata
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| *v)
     }
 
-    /// The file line of data row `k` (0-based), for messages.
+    /// All scalars the file carries besides its columns.
+    pub fn all_metadata(&self) -> &[(String, f64)] {
+        &self.metadata
+    }
+
+    /// What the reader left out of the table, one sentence each.
+    pub fn notes(&self) -> &[String] {
+        &self.notes
+    }
+
+    /// The file line of data row `k` (0-based), for messages; for binary files, `k + 1`.
     pub fn line_of(&self, k: usize) -> u64 {
-        self.rows
-            .get(k)
-            .and_then(|r| r.position())
-            .map_or(k as u64 + 2, |p| p.line())
+        self.lines
+            .as_ref()
+            .and_then(|lines| lines.get(k).copied())
+            .unwrap_or(k as u64 + 1)
     }
 
-    /// True when the table has a column named `name`.
+    /// Where data row `k` (0-based) is, for messages: "line N" for text files, "row N"
+    /// (1-based) for binary ones.
+    pub fn place_of(&self, k: usize) -> String {
+        match &self.lines {
+            Some(_) => format!("line {}", self.line_of(k)),
+            None => format!("row {}", k + 1),
+        }
+    }
+
+    /// True when the table has a column named `name` (see [`Table::index_of`] on case).
     pub fn has(&self, name: &str) -> bool {
-        self.headers.iter().any(|h| h == name)
+        self.index_of(name).is_ok()
     }
 
-    /// The index of column `name`, or an error that suggests near names.
+    /// The index of column `name`, or an error that suggests near names. When no column has
+    /// exactly that name, one column whose name differs only in case is taken (GDF and XYZ
+    /// files often name their channels in capitals).
     pub fn index_of(&self, name: &str) -> Result<usize, IoError> {
+        let mut caseless = self
+            .headers
+            .iter()
+            .enumerate()
+            .filter(|(_, h)| h.eq_ignore_ascii_case(name));
+        let only_caseless = match (caseless.next(), caseless.next()) {
+            (Some((k, _)), None) => Some(k),
+            _ => None,
+        };
         self.headers
             .iter()
             .position(|h| h == name)
+            .or(only_caseless)
             .ok_or_else(|| IoError::MissingColumn {
                 path: self.path.clone(),
                 column: name.to_string(),
@@ -120,20 +309,24 @@ impl Table {
 
     /// Column `name` as numbers; missing values are NaN.
     pub fn numeric(&self, name: &str) -> Result<Vec<f64>, IoError> {
-        let index = self.index_of(name)?;
-        self.rows
-            .iter()
-            .enumerate()
-            .map(|(k, row)| {
-                let cell = row.get(index).unwrap_or("");
-                parse_cell(cell).ok_or_else(|| IoError::NotANumber {
-                    path: self.path.clone(),
-                    line: self.line_of(k),
-                    column: name.to_string(),
-                    value: cell.to_string(),
+        self.numeric_at(self.index_of(name)?)
+    }
+
+    /// Column number `index` as numbers; missing values are NaN.
+    pub fn numeric_at(&self, index: usize) -> Result<Vec<f64>, IoError> {
+        match &self.columns[index] {
+            Column::Numbers(v) => Ok(v.clone()),
+            Column::Text(text) => (0..text.len())
+                .map(|k| {
+                    text.value(k).ok_or_else(|| IoError::NotANumber {
+                        path: self.path.clone(),
+                        place: self.place_of(k),
+                        column: self.headers[index].clone(),
+                        value: text.get(k).to_string(),
+                    })
                 })
-            })
-            .collect()
+                .collect(),
+        }
     }
 
     /// Columns `PREFIX_x`, `PREFIX_y`, `PREFIX_z` as a vector series.
@@ -144,6 +337,16 @@ impl Table {
             component("y")?,
             component("z")?,
         ))
+    }
+
+    /// Appends cell (`column`, `row`) as CSV text: text cells as written (a format's dummy
+    /// becomes empty so the CSV reads back as missing), numbers as [`format_value`] writes them.
+    fn cell_text(&self, column: usize, row: usize, out: &mut String) {
+        match &self.columns[column] {
+            Column::Text(text) if text.is_dummy(row) => {}
+            Column::Text(text) => out.push_str(text.get(row)),
+            Column::Numbers(v) => format_value(v[row], out),
+        }
     }
 
     fn suggest(&self, name: &str) -> String {
@@ -212,9 +415,11 @@ fn csv_error(path: &Path, error: csv::Error) -> IoError {
     }
 }
 
-/// Writes `table` with one extra column `name` holding `values` (empty cell for NaN) as CSV.
+/// Writes `table` plus the `extra` columns (empty cell for NaN) as CSV.
 ///
-/// Every input row is written, in order, with its cells unchanged.
+/// Every input row is written, in order, with its cells unchanged (a format's own dummy, such as
+/// XYZ's `*`, is written as an empty cell; numbers from binary files as [`format_value`] writes
+/// them).
 pub fn write_with_column(
     table: &Table,
     extra: &[(String, Vec<f64>)],
@@ -224,15 +429,17 @@ pub fn write_with_column(
     let mut header: Vec<&str> = table.headers().iter().map(String::as_str).collect();
     header.extend(extra.iter().map(|(name, _)| name.as_str()));
     writer.write_record(&header).map_err(into_io)?;
-    let mut cell = String::new();
+    let mut cells = vec![String::new(); header.len()];
+    let width = table.headers().len();
     for k in 0..table.len() {
-        let mut record = table.row(k).clone();
-        for (_, values) in extra {
+        for (j, cell) in cells.iter_mut().enumerate() {
             cell.clear();
-            format_value(values[k], &mut cell);
-            record.push_field(&cell);
+            match j.checked_sub(width) {
+                None => table.cell_text(j, k, cell),
+                Some(e) => format_value(extra[e].1[k], cell),
+            }
         }
-        writer.write_record(&record).map_err(into_io)?;
+        writer.write_record(&cells).map_err(into_io)?;
     }
     writer.flush()
 }

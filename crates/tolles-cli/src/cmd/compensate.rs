@@ -6,6 +6,7 @@ use std::io::Write;
 use std::path::PathBuf;
 use tolles_core::compensate::{compensate, Compensation, Level};
 use tolles_core::fit::check_flux_magnitude;
+use tolles_io::format::{write_table, Format};
 use tolles_io::model::{ModelFile, ScalarModel};
 use tolles_io::table::write_with_column;
 
@@ -23,12 +24,14 @@ Examples:
 #[derive(clap::Args)]
 #[command(after_help = EXAMPLES)]
 pub struct Args {
-    /// Survey data: CSV with a header row and the model's scalar and fluxgate columns
+    /// Survey data (CSV, XYZ, GDF .dfn/.dat, HDF5 or Parquet by extension) with the model's
+    /// scalar and fluxgate columns
     pub survey: PathBuf,
     /// Model file written by `tolles fit`
     #[arg(long)]
     pub model: PathBuf,
-    /// Output CSV; standard output if omitted
+    /// Output file, in the format its extension names (.csv, .h5/.hdf5/.mat, .parquet/.pq);
+    /// CSV on standard output if omitted
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Sample rate of the survey in Hz, if it has no `tt` column (default: the model's)
@@ -61,14 +64,7 @@ pub fn run(args: Args) -> Result<()> {
         bail!("{}: the model holds no fits", args.model.display())
     };
     match &args.out {
-        Some(path) => {
-            let file = std::fs::File::create(path)
-                .with_context(|| format!("{}: cannot create", path.display()))?;
-            let mut out = std::io::BufWriter::new(file);
-            write_with_column(&table, &extra, &mut out)
-                .and_then(|_| out.flush())
-                .with_context(|| format!("{}: cannot write", path.display()))
-        }
+        Some(path) => Ok(write_table(&table, &extra, path, Format::from_path(path))?),
         None => {
             let stdout = std::io::stdout();
             let mut out = std::io::BufWriter::new(stdout.lock());

@@ -19,7 +19,7 @@ Examples:
   tolles fit cal.csv --scalar mag_1_uc --vector flux_a --out model.json \\
       --terms permanent,induced,eddy --lambda 0.001 --band 0.1,0.9 --order 4 --trim 20";
 
-/// Learn the aircraft's field from a calibration flight (CSV with a header row).
+/// Learn the aircraft's field from a calibration flight (CSV, XYZ, GDF, HDF5 or Parquet).
 ///
 /// The fluxgate gives the earth field's direction in the aircraft; every design column and the
 /// scalar are band-passed with a zero-phase Butterworth filter, trimmed, and fitted by ridge
@@ -27,7 +27,8 @@ Examples:
 #[derive(clap::Args)]
 #[command(after_help = EXAMPLES)]
 pub struct Args {
-    /// Calibration flight: CSV with a header row; time column `tt` (s) if present
+    /// Calibration flight: CSV, XYZ, GDF (.dfn/.dat), HDF5 (.h5/.mat) or Parquet, by extension;
+    /// time column `tt` (s) if present
     pub cal: PathBuf,
     /// Uncompensated scalar magnetometer column (nT), e.g. mag_1_uc
     #[arg(long)]

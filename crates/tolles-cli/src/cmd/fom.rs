@@ -39,7 +39,7 @@ Examples:
 #[derive(clap::Args)]
 #[command(after_help = EXAMPLES)]
 pub struct Args {
-    /// Flight data: CSV with tt, ins_roll, ins_pitch, ins_yaw and the scalar column
+    /// Flight data (CSV, XYZ, GDF, HDF5 or Parquet, by extension) with tt, ins_roll, ins_pitch, ins_yaw and the scalar column
     pub flight: PathBuf,
     /// Scalar magnetometer column (nT)
     #[arg(long)]

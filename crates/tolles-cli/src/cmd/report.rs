@@ -24,7 +24,7 @@ Examples:
 #[derive(clap::Args)]
 #[command(after_help = EXAMPLES)]
 pub struct Args {
-    /// Flight CSV (tt, ins_roll, ins_pitch, ins_yaw, the scalar, and the model's fluxgate)
+    /// Flight in any format `fit` reads (tt, ins_roll, ins_pitch, ins_yaw, the scalar, and the model's fluxgate)
     pub flight: PathBuf,
     /// Uncompensated scalar column (nT)
     #[arg(long)]

@@ -1,0 +1,221 @@
+//! HDF5 flight files in the layout of the DAF-MIT/SGL archive: every channel a 1-D numeric
+//! dataset at the root (`tt`, `mag_1_uc`, `flux_a_x`, ...), plus scalars such as `N` and `dt`.
+//! MATLAB v7.3 `.mat` files are HDF5 too and are read the same way.
+//!
+//! ```
+//! use tolles_io::hdf5;
+//! let dir = std::env::temp_dir().join(format!("tolles-hdf5-doc-{}", std::process::id()));
+//! std::fs::create_dir_all(&dir).unwrap();
+//! let path = dir.join("flight.h5");
+//! hdf5::write(&path, &[("tt".into(), vec![0.0, 0.1]), ("mag_1_uc".into(), vec![5e4, f64::NAN])]).unwrap();
+//! let table = hdf5::read(&path).unwrap();
+//! assert_eq!(table.numeric("tt").unwrap(), [0.0, 0.1]);
+//! assert!(table.numeric("mag_1_uc").unwrap()[1].is_nan());
+//! # std::fs::remove_dir_all(&dir).unwrap();
+//! ```
+//!
+//! The table's rows are as many as the most common length among the 1-D datasets. Scalar
+//! datasets (shape `()` or MATLAB's 1×1) become metadata ([`Table::metadata`]); anything else (other lengths, matrices,
+//! text, groups) is left out and named in [`Table::notes`].
+//!
+//! The crate used is `hdf5-pure` (pure Rust, no C library to install); it reads files written
+//! by h5py and MATLAB v7.3 (whose 512-byte user block precedes the HDF5 superblock).
+
+use crate::error::IoError;
+use crate::table::{Column, Table};
+use hdf5_pure::{AttrValue, DType, Dataset, File, FileBuilder};
+use std::path::Path;
+
+/// Reads an HDF5 file with one 1-D dataset per column at its root.
+pub fn read(path: &Path) -> Result<Table, IoError> {
+    let invalid = |message: String| IoError::Invalid {
+        path: path.to_path_buf(),
+        message,
+    };
+    let bytes = std::fs::read(path).map_err(|source| IoError::Open {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let file = File::from_bytes(without_user_block(bytes))
+        .map_err(|e| invalid(format!("not a readable HDF5 file: {e}")))?;
+    let root = file.root();
+    let names = root
+        .datasets()
+        .map_err(|e| invalid(format!("cannot list the datasets at the root: {e}")))?;
+    let mut vectors = Vec::new();
+    let mut metadata = Vec::new();
+    let mut notes = Vec::new();
+    for name in names {
+        let dataset = root
+            .dataset(&name)
+            .map_err(|e| invalid(format!("dataset {name:?}: {e}")))?;
+        match classify(&dataset).map_err(|e| invalid(format!("dataset {name:?}: {e}")))? {
+            Kind::Scalar => {
+                let v = read_values(&dataset, &name, path)?;
+                metadata.push((name, v[0]));
+            }
+            Kind::Vector(_) => vectors.push((name, dataset)),
+            Kind::Other(why) => notes.push(format!("dataset {name:?} is {why}; left out")),
+        }
+    }
+    if let Ok(groups) = root.groups() {
+        notes.extend(
+            groups
+                .into_iter()
+                .map(|g| format!("group {g:?} is not a column; left out")),
+        );
+    }
+    let rows = common_length(&vectors).ok_or_else(|| {
+        invalid("no 1-D numeric dataset at the root to read as a column".to_string())
+    })?;
+    let mut headers = Vec::new();
+    let mut columns = Vec::new();
+    for (name, dataset) in vectors {
+        let values = read_values(&dataset, &name, path)?;
+        if values.len() == rows {
+            headers.push(name);
+            columns.push(Column::Numbers(values));
+        } else {
+            notes.push(format!(
+                "dataset {name:?} has {} values, not the {rows} of the other columns; left out",
+                values.len()
+            ));
+        }
+    }
+    Ok(Table::from_columns(path, headers, columns, None)?
+        .with_metadata(metadata)
+        .with_notes(notes))
+}
+
+/// Writes `columns` as 1-D float64 datasets at the root of a new HDF5 file.
+pub fn write(path: &Path, columns: &[(String, Vec<f64>)]) -> Result<(), IoError> {
+    let mut builder = FileBuilder::new();
+    for (name, values) in columns {
+        builder.create_dataset(name).with_f64_data(values);
+    }
+    builder.write(path).map_err(|e| IoError::Write {
+        path: path.to_path_buf(),
+        source: std::io::Error::other(e.to_string()),
+    })
+}
+
+/// The file from its superblock on, with the superblock's base address set to 0. A user block
+/// (MATLAB v7.3 writes 512 bytes of header text before the superblock) moves the base address
+/// that every other address counts from; `hdf5-pure` 0.13 applies it to object headers but not
+/// to chunk indexes, so chunked (compressed) MATLAB variables would not read.
+fn without_user_block(mut bytes: Vec<u8>) -> Vec<u8> {
+    const SIGNATURE: &[u8] = b"\x89HDF\r\n\x1a\n";
+    if bytes.starts_with(SIGNATURE) {
+        return bytes;
+    }
+    let Some(start) = std::iter::successors(Some(512usize), |at| at.checked_mul(2))
+        .take_while(|&at| at + SIGNATURE.len() <= bytes.len())
+        .find(|&at| bytes[at..].starts_with(SIGNATURE))
+    else {
+        return bytes;
+    };
+    bytes.drain(..start);
+    let base_address_at = match bytes.get(8) {
+        Some(0) => 24,
+        Some(1) => 28,
+        Some(2 | 3) => 12,
+        _ => return bytes,
+    };
+    let offsets_size = match bytes.get(8) {
+        Some(0 | 1) => bytes.get(13).copied(),
+        _ => bytes.get(9).copied(),
+    };
+    if offsets_size == Some(8) {
+        if let Some(field) = bytes.get_mut(base_address_at..base_address_at + 8) {
+            field.fill(0);
+        }
+    }
+    bytes
+}
+
+enum Kind {
+    Scalar,
+    Vector(usize),
+    Other(String),
+}
+
+fn classify(dataset: &Dataset) -> Result<Kind, hdf5_pure::Error> {
+    if let Ok(attrs) = dataset.attrs() {
+        if let Some(AttrValue::String(class) | AttrValue::AsciiString(class)) =
+            attrs.get("MATLAB_class")
+        {
+            if !matches!(
+                class.as_str(),
+                "double"
+                    | "single"
+                    | "int8"
+                    | "int16"
+                    | "int32"
+                    | "int64"
+                    | "uint8"
+                    | "uint16"
+                    | "uint32"
+                    | "uint64"
+                    | "logical"
+            ) {
+                return Ok(Kind::Other(format!("a MATLAB {class}")));
+            }
+        }
+    }
+    let numeric = matches!(
+        dataset.dtype()?,
+        DType::F32
+            | DType::F64
+            | DType::I8
+            | DType::I16
+            | DType::I32
+            | DType::I64
+            | DType::U8
+            | DType::U16
+            | DType::U32
+            | DType::U64
+    );
+    if !numeric {
+        return Ok(Kind::Other("not numeric".to_string()));
+    }
+    let shape = dataset.shape()?;
+    if let [n] = shape[..] {
+        return Ok(Kind::Vector(n as usize)); // even of length 1: a one-row table
+    }
+    // MATLAB stores a column vector as 1×N and a scalar as 1×1.
+    let long: Vec<u64> = shape.iter().copied().filter(|&d| d != 1).collect();
+    Ok(match long[..] {
+        [] => Kind::Scalar,
+        [n] => Kind::Vector(n as usize),
+        _ => Kind::Other(format!("of shape {shape:?}, not a column")),
+    })
+}
+
+fn read_values(dataset: &Dataset, name: &str, path: &Path) -> Result<Vec<f64>, IoError> {
+    let fail = |why: String| IoError::Invalid {
+        path: path.to_path_buf(),
+        message: format!("dataset {name:?}: cannot read its values as numbers: {why}"),
+    };
+    let values = dataset.read_f64().map_err(|e| fail(e.to_string()))?;
+    if values.is_empty() {
+        return Err(fail("it is empty".into()));
+    }
+    Ok(values)
+}
+
+/// The most common length among the vector datasets (the longer one on a tie).
+fn common_length(vectors: &[(String, Dataset)]) -> Option<usize> {
+    let mut counts: Vec<(usize, usize)> = Vec::new();
+    for (_, dataset) in vectors {
+        if let Ok(Kind::Vector(n)) = classify(dataset) {
+            match counts.iter_mut().find(|(len, _)| *len == n) {
+                Some((_, count)) => *count += 1,
+                None => counts.push((n, 1)),
+            }
+        }
+    }
+    counts
+        .into_iter()
+        .max_by_key(|&(len, count)| (count, len))
+        .map(|(len, _)| len)
+}

@@ -1,0 +1,188 @@
+//! Apache Parquet flight tables: one numeric column per channel; a null is a missing value.
+//!
+//! ```
+//! use tolles_io::parquet;
+//! let dir = std::env::temp_dir().join(format!("tolles-parquet-doc-{}", std::process::id()));
+//! std::fs::create_dir_all(&dir).unwrap();
+//! let path = dir.join("flight.parquet");
+//! parquet::write(&path, &[("tt".into(), vec![0.0, 0.1]), ("mag_1_uc".into(), vec![5e4, f64::NAN])]).unwrap();
+//! let table = parquet::read(&path).unwrap();
+//! assert_eq!(table.numeric("tt").unwrap(), [0.0, 0.1]);
+//! assert!(table.numeric("mag_1_uc").unwrap()[1].is_nan());
+//! # std::fs::remove_dir_all(&dir).unwrap();
+//! ```
+//!
+//! Double, float, integer and boolean columns are read as numbers; other columns (text,
+//! nested) are left out and named in [`Table::notes`]. Written files hold optional float64
+//! columns, NaN written as null.
+
+use crate::error::IoError;
+use crate::table::{Column, Table};
+use ::parquet::basic::{Repetition, Type as PhysicalType};
+use ::parquet::column::reader::{ColumnReader, ColumnReaderImpl};
+use ::parquet::data_type::{DataType, DoubleType};
+use ::parquet::errors::ParquetError;
+use ::parquet::file::properties::WriterProperties;
+use ::parquet::file::reader::{FileReader, SerializedFileReader};
+use ::parquet::file::writer::SerializedFileWriter;
+use ::parquet::schema::types::Type;
+use std::path::Path;
+use std::sync::Arc;
+
+/// Rows per row group in written files: large enough to compress well, small enough to stream.
+const ROW_GROUP: usize = 1 << 20;
+
+/// Reads the numeric columns of a Parquet file.
+pub fn read(path: &Path) -> Result<Table, IoError> {
+    let invalid = |e: ParquetError| IoError::Invalid {
+        path: path.to_path_buf(),
+        message: format!("not a readable Parquet file: {e}"),
+    };
+    let file = std::fs::File::open(path).map_err(|source| IoError::Open {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let reader = SerializedFileReader::new(file).map_err(invalid)?;
+    let schema = reader.metadata().file_metadata().schema_descr_ptr();
+    let mut headers = Vec::new();
+    let mut wanted = Vec::new();
+    let mut notes = Vec::new();
+    for (k, column) in schema.columns().iter().enumerate() {
+        let name = column.path().string();
+        let numeric = matches!(
+            column.physical_type(),
+            PhysicalType::DOUBLE
+                | PhysicalType::FLOAT
+                | PhysicalType::INT32
+                | PhysicalType::INT64
+                | PhysicalType::BOOLEAN
+        );
+        if column.max_rep_level() > 0 || !numeric {
+            notes.push(format!("column {name:?} is not a numeric column; left out"));
+        } else {
+            headers.push(name);
+            wanted.push((k, column.max_def_level()));
+        }
+    }
+    let mut values = vec![Vec::new(); wanted.len()];
+    for g in 0..reader.num_row_groups() {
+        let group = reader.get_row_group(g).map_err(invalid)?;
+        let rows = group.metadata().num_rows() as usize;
+        for ((k, max_def), out) in wanted.iter().zip(values.iter_mut()) {
+            let column = group.get_column_reader(*k).map_err(invalid)?;
+            read_column(column, *max_def, rows, out).map_err(invalid)?;
+        }
+    }
+    let columns = values.into_iter().map(Column::Numbers).collect();
+    Ok(Table::from_columns(path, headers, columns, None)?.with_notes(notes))
+}
+
+/// Appends the `rows` values of one column chunk to `out`, NaN for nulls.
+fn read_column(
+    column: ColumnReader,
+    max_def: i16,
+    rows: usize,
+    out: &mut Vec<f64>,
+) -> Result<(), ParquetError> {
+    match column {
+        ColumnReader::DoubleColumnReader(r) => read_typed(r, max_def, rows, out, |v| v),
+        ColumnReader::FloatColumnReader(r) => read_typed(r, max_def, rows, out, f64::from),
+        ColumnReader::Int32ColumnReader(r) => read_typed(r, max_def, rows, out, f64::from),
+        ColumnReader::Int64ColumnReader(r) => read_typed(r, max_def, rows, out, |v| v as f64),
+        ColumnReader::BoolColumnReader(r) => {
+            read_typed(r, max_def, rows, out, |v| f64::from(u8::from(v)))
+        }
+        _ => Err(ParquetError::General("not a numeric column".into())),
+    }
+}
+
+fn read_typed<T: DataType>(
+    mut reader: ColumnReaderImpl<T>,
+    max_def: i16,
+    rows: usize,
+    out: &mut Vec<f64>,
+    convert: impl Fn(T::T) -> f64,
+) -> Result<(), ParquetError>
+where
+    T::T: Copy,
+{
+    let mut defs = Vec::new();
+    let mut present = Vec::new();
+    let mut read = 0;
+    while read < rows {
+        defs.clear();
+        present.clear();
+        let (records, _, _) =
+            reader.read_records(rows - read, Some(&mut defs), None, &mut present)?;
+        if records == 0 {
+            return Err(ParquetError::General(format!(
+                "column chunk ends after {read} of {rows} rows"
+            )));
+        }
+        let mut values = present.iter().copied();
+        if max_def == 0 {
+            out.extend(values.map(&convert));
+        } else {
+            for def in &defs {
+                let value = if *def == max_def { values.next() } else { None };
+                out.push(value.map_or(f64::NAN, &convert));
+            }
+        }
+        read += records;
+    }
+    Ok(())
+}
+
+/// Writes `columns` as optional float64 columns (NaN as null) to a new Parquet file.
+pub fn write(path: &Path, columns: &[(String, Vec<f64>)]) -> Result<(), IoError> {
+    let fail = |e: ParquetError| IoError::Write {
+        path: path.to_path_buf(),
+        source: std::io::Error::other(e.to_string()),
+    };
+    let file = std::fs::File::create(path).map_err(|source| IoError::Write {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let mut writer = SerializedFileWriter::new(file, schema(columns).map_err(fail)?, {
+        Arc::new(WriterProperties::builder().build())
+    })
+    .map_err(fail)?;
+    let rows = columns.first().map_or(0, |(_, v)| v.len());
+    for start in (0..rows).step_by(ROW_GROUP) {
+        let end = (start + ROW_GROUP).min(rows);
+        let mut group = writer.next_row_group().map_err(fail)?;
+        for (_, values) in columns {
+            let Some(mut column) = group.next_column().map_err(fail)? else {
+                break;
+            };
+            let chunk = &values[start..end];
+            let present: Vec<f64> = chunk.iter().copied().filter(|v| !v.is_nan()).collect();
+            let defs: Vec<i16> = chunk.iter().map(|v| i16::from(!v.is_nan())).collect();
+            column
+                .typed::<DoubleType>()
+                .write_batch(&present, Some(&defs), None)
+                .map_err(fail)?;
+            column.close().map_err(fail)?;
+        }
+        group.close().map_err(fail)?;
+    }
+    writer.close().map_err(fail)?;
+    Ok(())
+}
+
+fn schema(columns: &[(String, Vec<f64>)]) -> Result<Arc<Type>, ParquetError> {
+    let fields = columns
+        .iter()
+        .map(|(name, _)| {
+            Type::primitive_type_builder(name, PhysicalType::DOUBLE)
+                .with_repetition(Repetition::OPTIONAL)
+                .build()
+                .map(Arc::new)
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(Arc::new(
+        Type::group_type_builder("flight")
+            .with_fields(fields)
+            .build()?,
+    ))
+}

@@ -1,0 +1,215 @@
+//! Geosoft XYZ text: `/` comment lines (one of which names the columns), `Line`/`Tie` block
+//! headers, whitespace-separated columns, `*` for a missing value.
+//!
+//! ```
+//! use tolles_io::xyz;
+//! let text = "/ exported by Oasis montaj\n/ tt mag_1_uc\nLine 1002.02\n0.0 50000.5\n0.1 *\nTie 3001\n0.2 50001.0\n";
+//! let table = xyz::from_reader(text.as_bytes(), "flight.xyz").unwrap();
+//! assert_eq!(table.headers(), ["tt", "mag_1_uc", "line"]);
+//! assert!(table.numeric("mag_1_uc").unwrap()[1].is_nan());
+//! assert_eq!(table.numeric("line").unwrap(), [1002.02, 1002.02, 3001.0]);
+//! ```
+//!
+//! The header is the last `/` line before the first data row whose number of names equals the
+//! number of fields in that row. When the file has no `line` column, one is added holding the
+//! number of the `Line`/`Tie` block each row is in (empty before the first block).
+
+use crate::error::IoError;
+use crate::table::{Column, Missing, Table, TextColumn};
+use std::io::{BufRead, BufReader, Read};
+use std::path::Path;
+
+/// Geosoft's dummy: a cell written `*` is a missing value.
+pub const DUMMY: &str = "*";
+
+/// The column that receives each row's `Line`/`Tie` number.
+const LINE_COLUMN: &str = "line";
+
+/// Reads a Geosoft XYZ file.
+pub fn read(path: &Path) -> Result<Table, IoError> {
+    let file = std::fs::File::open(path).map_err(|source| IoError::Open {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    from_reader(file, path)
+}
+
+/// Reads Geosoft XYZ text from any reader; `name` is used in error messages.
+pub fn from_reader(reader: impl Read, name: impl AsRef<Path>) -> Result<Table, IoError> {
+    let path = name.as_ref();
+    let mut state = Parser::default();
+    for (k, line) in BufReader::new(reader).lines().enumerate() {
+        let line = line.map_err(|source| IoError::Open {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        state
+            .line(k as u64 + 1, &line)
+            .map_err(|message| IoError::Malformed {
+                path: path.to_path_buf(),
+                line: k as u64 + 1,
+                message,
+            })?;
+    }
+    state.finish(path)
+}
+
+#[derive(Default)]
+struct Parser {
+    comments: Vec<Vec<String>>,
+    headers: Option<Vec<String>>,
+    columns: Vec<TextColumn>,
+    block: Option<TextColumn>,
+    current_block: String,
+    lines: Vec<u64>,
+}
+
+impl Parser {
+    fn line(&mut self, number: u64, line: &str) -> Result<(), String> {
+        let trimmed = line.trim();
+        if trimmed.is_empty() {
+            return Ok(());
+        }
+        if let Some(comment) = trimmed.strip_prefix('/') {
+            if self.headers.is_none() {
+                let names = comment.trim_start_matches('/').split_whitespace();
+                self.comments.push(names.map(str::to_string).collect());
+            }
+            return Ok(());
+        }
+        if let Some(number) = block_number(trimmed) {
+            self.current_block = number.to_string();
+            return Ok(());
+        }
+        let cells: Vec<&str> = trimmed.split_whitespace().collect();
+        if self.headers.is_none() {
+            self.start(cells.len())?;
+        }
+        if cells.len() != self.columns.len() {
+            return Err(format!(
+                "{} fields, but the header has {}",
+                cells.len(),
+                self.columns.len()
+            ));
+        }
+        for (column, cell) in self.columns.iter_mut().zip(cells) {
+            column.push(cell);
+        }
+        if let Some(block) = &mut self.block {
+            block.push(&self.current_block);
+        }
+        self.lines.push(number);
+        Ok(())
+    }
+
+    /// Picks the header for a first data row of `fields` fields.
+    fn start(&mut self, fields: usize) -> Result<(), String> {
+        let headers = self
+            .comments
+            .iter()
+            .rev()
+            .find(|names| names.len() == fields)
+            .cloned()
+            .ok_or_else(|| {
+                format!("{fields} fields, but no `/` header line before it names {fields} columns")
+            })?;
+        let dummy = Missing {
+            token: Some(DUMMY.to_string()),
+            null: None,
+        };
+        self.columns = vec![TextColumn::new(dummy.clone()); fields];
+        if !headers.iter().any(|h| h.eq_ignore_ascii_case(LINE_COLUMN)) {
+            self.block = Some(TextColumn::new(dummy));
+        }
+        self.headers = Some(headers);
+        Ok(())
+    }
+
+    fn finish(self, path: &Path) -> Result<Table, IoError> {
+        let Some(mut headers) = self.headers else {
+            return Err(IoError::Empty {
+                path: path.to_path_buf(),
+            });
+        };
+        let mut columns: Vec<Column> = self.columns.into_iter().map(Column::Text).collect();
+        if let Some(block) = self.block {
+            headers.push(LINE_COLUMN.to_string());
+            columns.push(Column::Text(block));
+        }
+        Table::from_columns(path, headers, columns, Some(self.lines))
+    }
+}
+
+/// The number of a `Line 1002.02` / `Tie 3001` / `LINE L1002` block header, or `None` when
+/// `line` is not one.
+fn block_number(line: &str) -> Option<&str> {
+    let mut words = line.split_whitespace();
+    let keyword = words.next()?;
+    if !(keyword.eq_ignore_ascii_case("line") || keyword.eq_ignore_ascii_case("tie")) {
+        return None;
+    }
+    let id = words.next()?;
+    if words.next().is_some() {
+        return None;
+    }
+    let number = id.trim_start_matches(|c: char| c.is_ascii_alphabetic());
+    number.parse::<f64>().is_ok().then_some(number)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn read(text: &str) -> Result<Table, IoError> {
+        from_reader(text.as_bytes(), "t.xyz")
+    }
+
+    #[test]
+    fn header_is_the_comment_line_that_fits_the_data() {
+        let t = read("/ XYZ export 2024-05-01\n/ a b c\n\nLine L7\n1 2 3\n").unwrap();
+        assert_eq!(t.headers(), ["a", "b", "c", "line"]);
+        assert_eq!(t.numeric("line").unwrap(), [7.0]);
+        assert_eq!(t.line_of(0), 5);
+    }
+
+    #[test]
+    fn an_existing_line_column_is_kept() {
+        let t = read("/ line x\nLine 5\n9 1\n").unwrap();
+        assert_eq!(t.headers(), ["line", "x"]);
+        assert_eq!(t.numeric("line").unwrap(), [9.0]);
+    }
+
+    #[test]
+    fn rows_before_any_block_have_no_line() {
+        let t = read("/ x\n1\nTie 30\n2\n").unwrap();
+        let line = t.numeric("line").unwrap();
+        assert!(line[0].is_nan());
+        assert_eq!(line[1], 30.0);
+    }
+
+    #[test]
+    fn ragged_row_names_its_line() {
+        let err = read("/ a b\nLine 1\n1 2\n3\n").unwrap_err().to_string();
+        assert_eq!(err, "t.xyz: line 4: 1 fields, but the header has 2");
+    }
+
+    #[test]
+    fn data_without_a_header_is_an_error() {
+        let err = read("/ a b\n1 2 3\n").unwrap_err().to_string();
+        assert!(
+            err.starts_with("t.xyz: line 2: 3 fields, but no `/` header"),
+            "{err}"
+        );
+        assert!(matches!(
+            read("/ only a comment\n"),
+            Err(IoError::Empty { .. })
+        ));
+    }
+
+    #[test]
+    fn bad_cell_names_line_and_column() {
+        let t = read("/ a\nLine 1\n1\nx\n").unwrap();
+        let err = t.numeric("a").unwrap_err().to_string();
+        assert_eq!(err, "t.xyz: line 4, column \"a\": \"x\" is not a number");
+    }
+}
