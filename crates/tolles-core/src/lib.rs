@@ -38,7 +38,8 @@
 //! - [`sim`]: simulated flights with known truth;
 //! - [`igrf`]: IGRF-14 reference field of the earth;
 //! - [`identifiability`]: how well a flight's maneuvers determine each term;
-//! - [`spectrum`]: power spectral density by Welch's method.
+//! - [`spectrum`]: power spectral density by Welch's method;
+//! - [`stream`]: real-time compensation, one sample in and one out.
 //!
 //! No module here reads files or writes to a terminal.
 
@@ -64,5 +65,6 @@ pub mod segment;
 pub mod sensor;
 pub mod sim;
 pub mod spectrum;
+pub mod stream;
 pub mod terms;
 pub mod vector;
