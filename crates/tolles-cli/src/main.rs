@@ -50,6 +50,7 @@ enum Command {
     Plan(cmd::plan::Args),
     Report(cmd::report::Args),
     Tables(cmd::tables::Args),
+    Stream(cmd::stream::Args),
 }
 
 fn main() -> ExitCode {
@@ -63,6 +64,7 @@ fn main() -> ExitCode {
         Command::Plan(args) => cmd::plan::run(args),
         Command::Report(args) => cmd::report::run(args),
         Command::Tables(args) => cmd::tables::run(args),
+        Command::Stream(args) => cmd::stream::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

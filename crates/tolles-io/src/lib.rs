@@ -9,6 +9,7 @@
 pub mod error;
 pub mod model;
 pub mod simulation;
+pub mod stream_line;
 pub mod table;
 
 pub use error::IoError;

@@ -7,4 +7,5 @@ pub mod fom;
 pub mod plan;
 pub mod report;
 pub mod simulate;
+pub mod stream;
 pub mod tables;
