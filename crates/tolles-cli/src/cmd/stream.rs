@@ -361,3 +361,85 @@ impl Histogram {
         )
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+    use tolles_core::design::Design;
+
+    const HEADER: &str = "tt,line,mag_1_uc,flux_a_x,flux_a_y,flux_a_z";
+
+    fn setup() -> Setup {
+        let design = Design::new("p,i,e".parse().unwrap());
+        let beta: Vec<f64> = (0..design.width()).map(|k| 1.0 + k as f64).collect();
+        Setup {
+            specs: vec![ScalarSpec::new("mag_1_uc", 0, design, &beta, 3.0, 1.0)],
+            fluxgates: vec!["flux_a".to_string()],
+            outputs: vec!["mag_1_c".to_string()],
+            fs_hz: 10.0,
+            derivative: Derivative::Central,
+        }
+    }
+
+    fn valid_line(k: usize) -> Vec<u8> {
+        let t = k as f64;
+        format!(
+            "{},7,{},{},{},{}",
+            0.1 * t,
+            50_000.0 + t,
+            20_000.0 + 100.0 * (0.3 * t).sin(),
+            -3_000.0 + 50.0 * (0.2 * t).cos(),
+            45_000.0
+        )
+        .into_bytes()
+    }
+
+    /// Garbage: any bytes but line breaks, with fewer commas than a real line.
+    fn garbage() -> impl Strategy<Value = Vec<u8>> {
+        proptest::collection::vec(
+            any::<u8>().prop_filter("no line breaks", |b| *b != b'\n' && *b != b'\r'),
+            0..40,
+        )
+        .prop_filter("not a full record", |g| {
+            g.iter().filter(|b| **b == b',').count() < 5
+        })
+    }
+
+    proptest! {
+        #[test]
+        fn every_line_in_gets_one_line_out_in_order(
+            items in proptest::collection::vec(prop_oneof![3 => Just(None), 1 => garbage().prop_map(Some)], 0..60),
+        ) {
+            let mut input = HEADER.as_bytes().to_vec();
+            input.push(b'\n');
+            let mut lines = Vec::new();
+            let mut valid = 0;
+            for item in &items {
+                let line = item.clone().unwrap_or_else(|| { valid += 1; valid_line(valid - 1) });
+                input.extend_from_slice(&line);
+                input.push(b'\n');
+                lines.push((item.is_none(), line));
+            }
+            let mut output = Vec::new();
+            serve(&setup(), &Stats::default(), BufReader::new(&input[..]), &mut output).unwrap();
+            let text = String::from_utf8(output).unwrap();
+            let out: Vec<&str> = text.lines().collect();
+            prop_assert_eq!(out.len(), lines.len() + 1);
+            prop_assert_eq!(out[0], format!("{HEADER},mag_1_c,status"));
+            for (k, (is_valid, line)) in lines.iter().enumerate() {
+                let row = out[k + 1];
+                if *is_valid {
+                    let line = std::str::from_utf8(line).unwrap();
+                    prop_assert!(row.starts_with(line), "{} vs {}", row, line);
+                    let beside_garbage = (k > 0 && !lines[k - 1].0) || lines.get(k + 1).is_some_and(|l| !l.0);
+                    if !beside_garbage {
+                        prop_assert!(row.ends_with(",ok"), "{}", row);
+                    }
+                } else {
+                    prop_assert!(row.contains("malformed"), "{}", row);
+                }
+            }
+        }
+    }
+}
