@@ -24,6 +24,7 @@
 //! - [`crossval`]: choosing the ridge strength by blocked cross-validation over time;
 //! - [`fit`]: the whole fit: filter, trim, solve, diagnose;
 //! - [`compensate`]: applying a fitted model;
+//! - [`adapt`]: online adaptation of the coefficients while streaming;
 //! - [`maneuver`]: finding roll, pitch and yaw maneuvers in the attitude;
 //! - [`fom`]: the figure of merit of a compensation box;
 //! - [`metrics`]: noise level, improvement ratio, fourth difference;
@@ -43,6 +44,7 @@
 //!
 //! No module here reads files or writes to a terminal.
 
+pub mod adapt;
 pub mod attitude;
 pub mod compensate;
 pub mod conventions;

@@ -43,8 +43,10 @@
 //!
 //! Memory is bounded: at most one sample is held back.
 
+use crate::adapt::{AdaptSettings, Adapter};
 use crate::compensate::rescale_eddy;
 use crate::design::Design;
+use crate::filter::FilterError;
 pub use crate::segment::GAP_FACTOR;
 use crate::terms::Column;
 use std::fmt;
@@ -229,6 +231,7 @@ pub struct StreamCompensator<T> {
     /// in the current run.
     before: Vec<Option<[f64; 3]>>,
     held: Option<Held<T>>,
+    adapters: Vec<Adapter>,
     values: Vec<f64>,
     row: Vec<f64>,
 }
@@ -254,7 +257,24 @@ impl<T> StreamCompensator<T> {
             derivative,
             last_time: None,
             held: None,
+            adapters: Vec::new(),
         }
+    }
+
+    /// Adapts every scalar's coefficients online from now on (see [`crate::adapt`]).
+    pub fn adapt(&mut self, settings: &AdaptSettings) -> Result<(), FilterError> {
+        let fs_hz = 1.0 / self.step_s;
+        self.adapters = self
+            .scalars
+            .iter()
+            .map(|s| Adapter::new(&s.coefficients, fs_hz, settings))
+            .collect::<Result<_, _>>()?;
+        Ok(())
+    }
+
+    /// Per scalar, how many samples have updated its coefficients (empty without adaptation).
+    pub fn adaptation_updates(&self) -> Vec<u64> {
+        self.adapters.iter().map(Adapter::updates).collect()
     }
 
     /// The scalars, in output order.
@@ -356,6 +376,7 @@ impl<T> StreamCompensator<T> {
             self.emit_central(held, &next, emit);
         }
         self.before.iter_mut().for_each(|b| *b = None);
+        self.adapters.iter_mut().for_each(Adapter::restart);
     }
 
     fn push_central(&mut self, new: Held<T>, emit: &mut impl FnMut(Output<'_, T>)) {
@@ -407,15 +428,24 @@ impl<T> StreamCompensator<T> {
         db: &[Option<[f64; 3]>],
         emit: &mut impl FnMut(Output<'_, T>),
     ) {
-        for (i, spec) in self.scalars.iter().enumerate() {
+        for (i, spec) in self.scalars.iter_mut().enumerate() {
             let j = spec.fluxgate;
-            self.values[i] = match (held.flux[j], db[j]) {
-                (Some(b), Some(d)) => {
-                    let row = &mut self.row[..spec.columns.len()];
-                    held.scalars[i] - (spec.field(b, d, row) - spec.level_nt)
+            let (Some(b), Some(d)) = (held.flux[j], db[j]) else {
+                self.values[i] = f64::NAN;
+                if let Some(adapter) = self.adapters.get_mut(i) {
+                    adapter.restart();
                 }
-                _ => f64::NAN,
+                continue;
             };
+            let row = &mut self.row[..spec.columns.len()];
+            let scalar = held.scalars[i];
+            self.values[i] = scalar - (spec.field(b, d, row) - spec.level_nt);
+            if let Some(adapter) = self.adapters.get_mut(i) {
+                // Adapt after use, so a sample's output never depends on itself.
+                if scalar.is_finite() && adapter.update(row, scalar) {
+                    spec.coefficients.copy_from_slice(adapter.coefficients());
+                }
+            }
         }
         emit(Output {
             payload: held.payload,

@@ -7,6 +7,7 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
+use tolles_core::adapt::AdaptSettings;
 use tolles_core::stream::{Derivative, Output, Sample, ScalarSpec, StreamCompensator};
 use tolles_io::model::ModelFile;
 use tolles_io::stream_line::{Layout, Line};
@@ -38,6 +39,10 @@ Examples:
 /// With `--listen`, each TCP connection is its own stream (own header) answered on the same
 /// connection; connections are served concurrently, one thread each. The bound address is
 /// printed on stderr as `listening on ADDRESS`.
+///
+/// `--adapt` keeps learning the coefficients during maneuvers (Kalman filter on the 0.1–0.9 Hz
+/// band-passed design rows and scalar, prior 5 nT per coefficient, updated only when the
+/// band-passed row's norm exceeds 0.02); quiet straight flight leaves them alone.
 #[derive(clap::Args)]
 #[command(after_help = EXAMPLES)]
 pub struct Args {
@@ -53,6 +58,10 @@ pub struct Args {
     /// Nominal sample rate of the stream in Hz (default: the model's)
     #[arg(long)]
     pub fs: Option<f64>,
+    /// Adapt the coefficients online (Kalman filter on band-passed rows, updated only during
+    /// maneuvers); each stream starts from the model's coefficients
+    #[arg(long)]
+    pub adapt: bool,
     /// No health lines on stderr
     #[arg(long)]
     pub quiet: bool,
@@ -72,6 +81,7 @@ struct Setup {
     outputs: Vec<String>,
     fs_hz: f64,
     derivative: Derivative,
+    adapt: bool,
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -136,6 +146,7 @@ fn setup(args: &Args) -> Result<Setup> {
         specs,
         fluxgates,
         fs_hz,
+        adapt: args.adapt,
         derivative: match args.derivative {
             DerivativeArg::Central => Derivative::Central,
             DerivativeArg::Causal => Derivative::Causal,
@@ -204,6 +215,9 @@ fn serve(
         setup.fs_hz,
         setup.derivative,
     );
+    if setup.adapt {
+        stream.adapt(&AdaptSettings::default())?;
+    }
     let mut text = String::new();
     while read_line(&mut input, &mut raw)? {
         let arrived = Instant::now();
@@ -379,6 +393,7 @@ mod tests {
             outputs: vec!["mag_1_c".to_string()],
             fs_hz: 10.0,
             derivative: Derivative::Central,
+            adapt: true,
         }
     }
 
