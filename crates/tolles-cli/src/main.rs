@@ -31,7 +31,10 @@ Examples:
   tolles demo
 
   # The Tolles patent's roll and pitch tables, computed:
-  tolles tables --amplitude 15 --heading 45 --dip 68";
+  tolles tables --amplitude 15 --heading 45 --dip 68
+
+  # Compensate a live stream, one line out for every line in:
+  tail -f live.csv | tolles stream --model model.json";
 
 #[derive(Parser)]
 #[command(name = "tolles", version, about = ABOUT, after_help = EXAMPLES)]

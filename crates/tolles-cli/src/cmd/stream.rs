@@ -38,7 +38,8 @@ Examples:
 ///
 /// With `--listen`, each TCP connection is its own stream (own header) answered on the same
 /// connection; connections are served concurrently, one thread each. The bound address is
-/// printed on stderr as `listening on ADDRESS`.
+/// printed on stderr as `listening on ADDRESS`. A stream that cannot start (a header without
+/// the model's columns) gets one `error: ...` line back and is closed.
 ///
 /// `--adapt` keeps learning the coefficients during maneuvers (Kalman filter on the 0.1–0.9 Hz
 /// band-passed design rows and scalar, prior 5 nT per coefficient, updated only when the
@@ -184,7 +185,15 @@ fn listen(address: &str, setup: Arc<Setup>, stats: Arc<Stats>) -> Result<()> {
 fn serve_tcp(setup: &Setup, stats: &Stats, connection: TcpStream) -> Result<()> {
     connection.set_nodelay(true)?;
     let reader = BufReader::new(connection.try_clone()?);
-    serve(setup, stats, reader, connection)
+    let mut reply = connection.try_clone()?;
+    let result = serve(setup, stats, reader, connection);
+    if let Err(e) = &result {
+        if !is_disconnect(e) {
+            // The client should learn why its stream ended, too.
+            let _ = reply.write_all(format!("error: {e:#}\n").as_bytes());
+        }
+    }
+    result
 }
 
 /// One stream: header, then lines until end of input; one output line per input line.
