@@ -34,7 +34,10 @@ Examples:
   tolles tables --amplitude 15 --heading 45 --dip 68
 
   # The patent's compensation procedure, step by step, on a flight:
-  tolles procedure patent.csv --scalar mag_1_uc --vector flux_a --out terms.json";
+  tolles procedure patent.csv --scalar mag_1_uc --vector flux_a --out terms.json
+
+  # Compensate a live stream, one line out for every line in:
+  tail -f live.csv | tolles stream --model model.json";
 
 #[derive(Parser)]
 #[command(name = "tolles", version, about = ABOUT, after_help = EXAMPLES)]
@@ -54,6 +57,7 @@ enum Command {
     Report(cmd::report::Args),
     Tables(cmd::tables::Args),
     Procedure(cmd::procedure::Args),
+    Stream(cmd::stream::Args),
 }
 
 fn main() -> ExitCode {
@@ -68,6 +72,7 @@ fn main() -> ExitCode {
         Command::Report(args) => cmd::report::run(args),
         Command::Tables(args) => cmd::tables::run(args),
         Command::Procedure(args) => cmd::procedure::run(args),
+        Command::Stream(args) => cmd::stream::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

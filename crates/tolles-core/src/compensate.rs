@@ -102,7 +102,8 @@ pub fn aircraft_field(
     field
 }
 
-fn rescale_eddy(design: &Design, coefficients: &[f64], fs_ratio: f64) -> Vec<f64> {
+/// The coefficients with the eddy-current ones multiplied by `fs_ratio` (survey rate / calibration rate).
+pub fn rescale_eddy(design: &Design, coefficients: &[f64], fs_ratio: f64) -> Vec<f64> {
     design
         .columns()
         .iter()

@@ -24,6 +24,7 @@
 //! - [`crossval`]: choosing the ridge strength by blocked cross-validation over time;
 //! - [`fit`]: the whole fit: filter, trim, solve, diagnose;
 //! - [`compensate`]: applying a fitted model;
+//! - [`adapt`]: online adaptation of the coefficients while streaming;
 //! - [`maneuver`]: finding roll, pitch and yaw maneuvers in the attitude;
 //! - [`fom`]: the figure of merit of a compensation box;
 //! - [`metrics`]: noise level, improvement ratio, fourth difference;
@@ -40,10 +41,12 @@
 //! - [`identifiability`]: how well a flight's maneuvers determine each term;
 //! - [`spectrum`]: power spectral density by Welch's method;
 //! - [`demodulate`]: a maneuver's frequency and phase, and any series demodulated on them;
-//! - [`procedure`]: the patent's step-by-step compensation procedure, digitised.
+//! - [`procedure`]: the patent's step-by-step compensation procedure, digitised;
+//! - [`stream`]: real-time compensation, one sample in and one out.
 //!
 //! No module here reads files or writes to a terminal.
 
+pub mod adapt;
 pub mod attitude;
 pub mod compensate;
 pub mod conventions;
@@ -68,5 +71,6 @@ pub mod segment;
 pub mod sensor;
 pub mod sim;
 pub mod spectrum;
+pub mod stream;
 pub mod terms;
 pub mod vector;

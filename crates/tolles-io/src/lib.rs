@@ -15,6 +15,7 @@ pub mod hdf5;
 pub mod model;
 pub mod parquet;
 pub mod simulation;
+pub mod stream_line;
 pub mod table;
 pub mod xyz;
 

@@ -8,4 +8,5 @@ pub mod plan;
 pub mod procedure;
 pub mod report;
 pub mod simulate;
+pub mod stream;
 pub mod tables;

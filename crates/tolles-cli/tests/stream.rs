@@ -1,0 +1,248 @@
+//! `tolles stream` end to end: the stream equals `tolles compensate` up to one constant, on
+//! standard input and over TCP, with one output line for every input line.
+
+use assert_cmd::Command;
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::{Shutdown, TcpStream};
+use std::path::Path;
+use std::process::Stdio;
+use tempfile::TempDir;
+
+fn tolles() -> Command {
+    Command::cargo_bin("tolles").unwrap()
+}
+
+fn run(dir: &Path, args: &[&str]) -> String {
+    let out = tolles().current_dir(dir).args(args).output().unwrap();
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
+}
+
+/// Rows of the survey (0-based, after the header) that `survey` damages, and their statuses.
+const DAMAGE: [(usize, &str); 3] = [
+    (100, "missing flux_a_y"),
+    (300, "time gap 1.100 s"),
+    (500, "nan in mag_1_uc"),
+];
+
+/// A model fitted to a simulated box, and a survey made from the same flight with a missing
+/// fluxgate value, a time gap (rows removed) and a NaN scalar.
+fn model_and_survey(dir: &Path) -> String {
+    run(
+        dir,
+        &[
+            "simulate", "--plan", "box", "--seed", "3", "--out", "cal.csv",
+        ],
+    );
+    run(
+        dir,
+        &[
+            "fit", "cal.csv", "--scalar", "mag_1_uc", "--vector", "flux_a", "--lambda", "0.001",
+            "--out", "m.json",
+        ],
+    );
+    let text = std::fs::read_to_string(dir.join("cal.csv")).unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    let header: Vec<&str> = lines[0].split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (fy, mag) = (col("flux_a_y"), col("mag_1_uc"));
+    let set = |line: &mut String, k: usize, v: &str| {
+        let mut f: Vec<&str> = line.split(',').collect();
+        f[k] = v;
+        *line = f.join(",");
+    };
+    set(&mut lines[1 + 100], fy, "");
+    lines.drain(1 + 300..1 + 310);
+    set(&mut lines[1 + 500], mag, "nan");
+    let survey = lines.join("\n") + "\n";
+    std::fs::write(dir.join("survey.csv"), &survey).unwrap();
+    survey
+}
+
+fn last_fields(line: &str, n: usize) -> Vec<String> {
+    // The status may be quoted and hold commas; ours here never do.
+    line.rsplitn(n + 1, ',')
+        .take(n)
+        .map(str::to_string)
+        .collect::<Vec<_>>()
+        .into_iter()
+        .rev()
+        .collect()
+}
+
+/// Checks `stream` output against the batch output and the survey it came from.
+fn check_equivalent(survey: &str, batch: &str, stream: &str) {
+    let (survey, batch, stream): (Vec<&str>, Vec<&str>, Vec<&str>) = (
+        survey.lines().collect(),
+        batch.lines().collect(),
+        stream.lines().collect(),
+    );
+    assert_eq!(stream.len(), survey.len(), "one output line per input line");
+    assert_eq!(stream[0], format!("{},mag_1_c,status", survey[0]));
+    let mut offset = None;
+    for k in 1..survey.len() {
+        let row = k - 1;
+        assert!(
+            stream[k].starts_with(&format!("{},", survey[k])),
+            "row {row}: input passed through"
+        );
+        let [value, status]: [String; 2] = last_fields(stream[k], 2).try_into().unwrap();
+        let expected = DAMAGE
+            .iter()
+            .find(|(r, _)| *r == row)
+            .map_or("ok", |(_, s)| s);
+        assert_eq!(status, expected, "row {row}");
+        let batch_value = last_fields(batch[k], 1)[0].parse::<f64>().ok();
+        match (value.parse::<f64>().ok(), batch_value) {
+            (Some(s), Some(b)) => {
+                let d = *offset.get_or_insert(b - s);
+                assert!(
+                    (b - s - d).abs() < 1e-9,
+                    "row {row}: batch {b}, stream {s}, offset {d}"
+                );
+            }
+            (None, None) => assert_ne!(expected, "ok", "row {row}"),
+            other => panic!("row {row}: {other:?}"),
+        }
+    }
+}
+
+#[test]
+fn stream_on_stdin_equals_batch_up_to_a_constant() {
+    let dir = TempDir::new().unwrap();
+    let survey = model_and_survey(dir.path());
+    let batch = run(
+        dir.path(),
+        &["compensate", "survey.csv", "--model", "m.json"],
+    );
+    let out = tolles()
+        .current_dir(dir.path())
+        .args(["stream", "--model", "m.json"])
+        .write_stdin(survey.clone())
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let n = survey.lines().count() - 1;
+    assert!(
+        stderr.contains(&format!("stream: {n} in, {n} out, 3 flagged")),
+        "{stderr}"
+    );
+    check_equivalent(&survey, &batch, &String::from_utf8(out.stdout).unwrap());
+}
+
+#[test]
+fn stream_over_tcp_equals_batch_up_to_a_constant_for_each_client() {
+    let dir = TempDir::new().unwrap();
+    let survey = model_and_survey(dir.path());
+    let batch = run(
+        dir.path(),
+        &["compensate", "survey.csv", "--model", "m.json"],
+    );
+    let mut server = std::process::Command::new(assert_cmd::cargo::cargo_bin("tolles"))
+        .current_dir(dir.path())
+        .args([
+            "stream",
+            "--model",
+            "m.json",
+            "--listen",
+            "127.0.0.1:0",
+            "--quiet",
+        ])
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stderr = BufReader::new(server.stderr.take().unwrap());
+    let mut first = String::new();
+    stderr.read_line(&mut first).unwrap();
+    let address = first
+        .trim()
+        .strip_prefix("listening on ")
+        .unwrap_or_else(|| panic!("{first}"))
+        .to_string();
+    let clients: Vec<_> = (0..2)
+        .map(|_| {
+            let (address, survey) = (address.clone(), survey.clone());
+            std::thread::spawn(move || {
+                let mut connection = TcpStream::connect(&address).unwrap();
+                let mut writer = connection.try_clone().unwrap();
+                let sender = std::thread::spawn(move || {
+                    writer.write_all(survey.as_bytes()).unwrap();
+                    writer.shutdown(Shutdown::Write).unwrap();
+                });
+                let mut out = String::new();
+                connection.read_to_string(&mut out).unwrap();
+                sender.join().unwrap();
+                out
+            })
+        })
+        .collect();
+    let outputs: Vec<String> = clients.into_iter().map(|c| c.join().unwrap()).collect();
+    server.kill().unwrap();
+    server.wait().unwrap();
+    for out in outputs {
+        check_equivalent(&survey, &batch, &out);
+    }
+}
+
+#[test]
+fn a_reader_that_goes_away_ends_the_stream_without_a_panic() {
+    let dir = TempDir::new().unwrap();
+    let survey = model_and_survey(dir.path());
+    let mut child = std::process::Command::new(assert_cmd::cargo::cargo_bin("tolles"))
+        .current_dir(dir.path())
+        .args([
+            "stream",
+            "--model",
+            "m.json",
+            "--quiet",
+            "--derivative",
+            "causal",
+        ])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdout = BufReader::new(child.stdout.take().unwrap());
+    let mut stdin = child.stdin.take().unwrap();
+    let mut lines = survey.lines();
+    writeln!(stdin, "{}", lines.next().unwrap()).unwrap();
+    let mut header = String::new();
+    stdout.read_line(&mut header).unwrap();
+    assert!(header.trim_end().ends_with(",mag_1_c,status"));
+    drop(stdout);
+    // The reader is gone; the writer keeps sending until the stream notices.
+    for line in lines.cycle().take(200_000) {
+        if writeln!(stdin, "{line}").is_err() {
+            break;
+        }
+    }
+    drop(stdin);
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}
+
+#[test]
+fn a_model_column_missing_from_the_header_is_a_one_line_error() {
+    let dir = TempDir::new().unwrap();
+    model_and_survey(dir.path());
+    let out = tolles()
+        .current_dir(dir.path())
+        .args(["stream", "--model", "m.json", "--quiet"])
+        .write_stdin("tt,mag_1_uc,flux_a_x,flux_a_z\n1,2,3,4\n")
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(
+        stderr.trim(),
+        "error: stream on standard input: header has no column \"flux_a_y\""
+    );
+}

@@ -1,0 +1,346 @@
+//! CSV lines of a live stream: one record per line, read and written one at a time.
+//!
+//! ```
+//! use tolles_io::stream_line::Layout;
+//! let layout = Layout::from_header("tt,mag_1_uc,flux_a_x,flux_a_y,flux_a_z", &["mag_1_uc"], &["flux_a"], &["mag_1_c"]).unwrap();
+//! let line = layout.parse(b"0.1,50000,20000,,45000");
+//! assert_eq!(line.time_s, Some(0.1));
+//! assert_eq!(line.flags[0].to_string(), "missing flux_a_y");
+//! let mut out = String::new();
+//! layout.write_output(&line, &[f64::NAN], "missing flux_a_y", &mut out);
+//! assert_eq!(out, "0.1,50000,20000,,45000,,missing flux_a_y\n");
+//! ```
+//!
+//! A line is split at commas; a field may be quoted (`"a,b"`, `""` for a quote), but a record
+//! never spans lines. A line that cannot be split, is not UTF-8, or has a different number of
+//! fields than the header is *malformed*: it still gets its output line, with its fields as far
+//! as they could be read (padded with empty cells, extra fields dropped) and the reason in the
+//! status. Cells are numbers as Rust reads them (`1e3`, `NaN`, `inf`); an empty cell is missing.
+
+use std::borrow::Cow;
+use std::fmt::Write;
+use tolles_core::stream::Flag;
+
+/// The time column's name.
+pub const TIME_COLUMN: &str = "tt";
+
+/// Where a stream's header puts the columns a model needs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Layout {
+    width: usize,
+    time: Option<usize>,
+    scalars: Vec<(usize, String)>,
+    fluxgates: Vec<[(usize, String); 3]>,
+    /// The output header line (without newline): the input's plus the added columns.
+    pub output_header: String,
+}
+
+/// One parsed input line.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Line {
+    /// The line as received, without its line ending.
+    pub raw: Vec<u8>,
+    /// The fields, if the line could be split (owned copies only for malformed lines).
+    pub fields: Option<Vec<String>>,
+    /// True when the line has the header's field count and could be read.
+    pub well_formed: bool,
+    /// Time (s), if the header has a time column; NaN when unreadable.
+    pub time_s: Option<f64>,
+    /// Scalars (nT), NaN when unreadable.
+    pub scalars: Vec<f64>,
+    /// Fluxgate vectors (nT), NaN components when unreadable.
+    pub fluxgates: Vec<[f64; 3]>,
+    /// What was wrong with the line or its cells.
+    pub flags: Vec<Flag>,
+}
+
+impl Layout {
+    /// Finds `scalars` and the fluxgate prefixes `fluxgates` (`flux_a` → `flux_a_x/_y/_z`) in
+    /// `header`; `added` are the compensated columns' names (renamed `NAME_tolles` when the input
+    /// already has them), followed by `status`. Err names a missing column.
+    pub fn from_header(
+        header: &str,
+        scalars: &[&str],
+        fluxgates: &[&str],
+        added: &[&str],
+    ) -> Result<Self, String> {
+        let names: Vec<String> = split_fields(header)
+            .map_err(|e| format!("header: {e}"))?
+            .iter()
+            .map(|f| f.trim().to_string())
+            .collect();
+        let find = |name: &str| {
+            names
+                .iter()
+                .position(|n| n == name)
+                .map(|k| (k, name.to_string()))
+                .ok_or_else(|| format!("header has no column {name:?}"))
+        };
+        let scalars = scalars.iter().map(|s| find(s)).collect::<Result<_, _>>()?;
+        let fluxgates = fluxgates
+            .iter()
+            .map(|p| {
+                Ok([
+                    find(&format!("{p}_x"))?,
+                    find(&format!("{p}_y"))?,
+                    find(&format!("{p}_z"))?,
+                ])
+            })
+            .collect::<Result<_, String>>()?;
+        let mut output_header = header.to_string();
+        for name in added.iter().chain(&["status"]) {
+            output_header.push(',');
+            let taken = names.iter().any(|n| n == name);
+            push_field(
+                &mut output_header,
+                &if taken {
+                    format!("{name}_tolles")
+                } else {
+                    name.to_string()
+                },
+            );
+        }
+        Ok(Self {
+            width: names.len(),
+            time: names.iter().position(|n| n == TIME_COLUMN),
+            scalars,
+            fluxgates,
+            output_header,
+        })
+    }
+
+    /// Number of header fields.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Reads one line (without its line ending). Never fails: problems become flags.
+    pub fn parse(&self, raw: &[u8]) -> Line {
+        let mut line = Line {
+            raw: raw.to_vec(),
+            fields: None,
+            well_formed: false,
+            time_s: self.time.map(|_| f64::NAN),
+            scalars: vec![f64::NAN; self.scalars.len()],
+            fluxgates: vec![[f64::NAN; 3]; self.fluxgates.len()],
+            flags: Vec::new(),
+        };
+        let Ok(text) = std::str::from_utf8(raw) else {
+            line.flags.push(Flag::Malformed("not UTF-8".to_string()));
+            return line;
+        };
+        let fields = match split_fields(text) {
+            Ok(f) => f,
+            Err(e) => {
+                line.flags.push(Flag::Malformed(e));
+                return line;
+            }
+        };
+        if fields.len() != self.width {
+            line.flags.push(Flag::Malformed(format!(
+                "{} fields, header has {}",
+                fields.len(),
+                self.width
+            )));
+            line.fields = Some(fields.iter().map(|f| f.to_string()).collect());
+            return line;
+        }
+        line.well_formed = true;
+        let mut cell = |(k, name): &(usize, String)| read_cell(&fields[*k], name, &mut line.flags);
+        let time = self.time.map(|k| cell(&(k, TIME_COLUMN.to_string())));
+        let scalars: Vec<f64> = self.scalars.iter().map(&mut cell).collect();
+        let fluxgates: Vec<[f64; 3]> = self
+            .fluxgates
+            .iter()
+            .map(|axes| axes.each_ref().map(&mut cell))
+            .collect();
+        line.time_s = time;
+        line.scalars = scalars;
+        line.fluxgates = fluxgates;
+        line
+    }
+
+    /// Appends the output line for `line` to `out`: its fields, the `compensated` values (nT,
+    /// empty when NaN) and `status`, then a newline.
+    pub fn write_output(&self, line: &Line, compensated: &[f64], status: &str, out: &mut String) {
+        if line.well_formed {
+            // Verbatim, so the input's columns are passed through exactly as given.
+            out.push_str(&String::from_utf8_lossy(&line.raw));
+        } else {
+            let empty = Vec::new();
+            let fields = line.fields.as_ref().unwrap_or(&empty);
+            for k in 0..self.width {
+                if k > 0 {
+                    out.push(',');
+                }
+                push_field(out, fields.get(k).map_or("", String::as_str));
+            }
+        }
+        for v in compensated {
+            out.push(',');
+            if v.is_finite() {
+                let _ = write!(out, "{v}");
+            }
+        }
+        out.push(',');
+        push_field(out, status);
+        out.push('\n');
+    }
+}
+
+/// Splits one CSV record at commas; fields may be quoted. Err says why it cannot be split.
+pub fn split_fields(line: &str) -> Result<Vec<Cow<'_, str>>, String> {
+    let mut fields = Vec::new();
+    let mut rest = line;
+    loop {
+        if let Some(quoted) = rest.strip_prefix('"') {
+            let (value, after) = unquote(quoted)?;
+            fields.push(Cow::Owned(value));
+            match after.strip_prefix(',') {
+                Some(r) => rest = r,
+                None if after.is_empty() => return Ok(fields),
+                None => return Err("text after a closing quote".to_string()),
+            }
+        } else {
+            match rest.find(',') {
+                Some(i) => {
+                    fields.push(Cow::Borrowed(&rest[..i]));
+                    rest = &rest[i + 1..];
+                }
+                None => {
+                    fields.push(Cow::Borrowed(rest));
+                    return Ok(fields);
+                }
+            }
+        }
+    }
+}
+
+/// The value of a quoted field whose opening quote is already consumed, and the text after it.
+fn unquote(text: &str) -> Result<(String, &str), String> {
+    let mut value = String::new();
+    let mut rest = text;
+    loop {
+        let Some(i) = rest.find('"') else {
+            return Err("unterminated quote".to_string());
+        };
+        value.push_str(&rest[..i]);
+        rest = &rest[i + 1..];
+        match rest.strip_prefix('"') {
+            Some(r) => {
+                value.push('"');
+                rest = r;
+            }
+            None => return Ok((value, rest)),
+        }
+    }
+}
+
+/// Appends `field`, quoted when it holds a comma, quote or line break.
+fn push_field(out: &mut String, field: &str) {
+    if field.contains([',', '"', '\n', '\r']) {
+        out.push('"');
+        out.push_str(&field.replace('"', "\"\""));
+        out.push('"');
+    } else {
+        out.push_str(field);
+    }
+}
+
+fn read_cell(cell: &str, column: &str, flags: &mut Vec<Flag>) -> f64 {
+    let cell = cell.trim();
+    if cell.is_empty() {
+        flags.push(Flag::Missing {
+            column: column.to_string(),
+        });
+        return f64::NAN;
+    }
+    cell.parse::<f64>().unwrap_or_else(|_| {
+        flags.push(Flag::NotANumber {
+            column: column.to_string(),
+            text: cell.to_string(),
+        });
+        f64::NAN
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn layout() -> Layout {
+        Layout::from_header(
+            "tt,line,mag_1_uc,flux_a_x,flux_a_y,flux_a_z",
+            &["mag_1_uc"],
+            &["flux_a"],
+            &["mag_1_c"],
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn quoted_fields_split_and_round_trip() {
+        let f = split_fields(r#"a,"b,c","say ""hi""",,"#).unwrap();
+        assert_eq!(f, ["a", "b,c", r#"say "hi""#, "", ""]);
+        assert!(split_fields(r#"a,"b"#).is_err());
+        assert!(split_fields(r#""b"x,c"#).is_err());
+        let mut out = String::new();
+        push_field(&mut out, r#"say "hi", ok"#);
+        assert_eq!(split_fields(&out).unwrap(), [r#"say "hi", ok"#]);
+    }
+
+    #[test]
+    fn missing_columns_are_named() {
+        let e = Layout::from_header(
+            "tt,mag_1_uc,flux_a_x",
+            &["mag_1_uc"],
+            &["flux_a"],
+            &["mag_1_c"],
+        );
+        assert_eq!(e.unwrap_err(), "header has no column \"flux_a_y\"");
+    }
+
+    #[test]
+    fn malformed_lines_keep_their_place_and_width() {
+        let l = layout();
+        let line = l.parse(b"1,2,3");
+        assert!(!line.well_formed);
+        assert_eq!(
+            line.flags[0].to_string(),
+            "malformed: 3 fields, header has 6"
+        );
+        let mut out = String::new();
+        l.write_output(&line, &[f64::NAN], &line.flags[0].to_string(), &mut out);
+        assert_eq!(out, "1,2,3,,,,,\"malformed: 3 fields, header has 6\"\n");
+        let bad = l.parse(&[0xff, b',']);
+        assert_eq!(bad.flags[0].to_string(), "malformed: not UTF-8");
+    }
+
+    #[test]
+    fn cells_are_read_or_flagged() {
+        let line = layout().parse(b"0.5,7,abc,1e4,NaN,45000");
+        assert_eq!(line.time_s, Some(0.5));
+        assert!(line.scalars[0].is_nan() && line.fluxgates[0][1].is_nan());
+        assert_eq!(line.fluxgates[0][0], 10_000.0);
+        assert_eq!(line.flags.len(), 1);
+        assert_eq!(
+            line.flags[0].to_string(),
+            "not a number in mag_1_uc: \"abc\""
+        );
+    }
+
+    #[test]
+    fn existing_output_columns_are_not_overwritten() {
+        let l = Layout::from_header(
+            "mag_1_uc,mag_1_c,flux_a_x,flux_a_y,flux_a_z",
+            &["mag_1_uc"],
+            &["flux_a"],
+            &["mag_1_c"],
+        )
+        .unwrap();
+        assert_eq!(
+            l.output_header,
+            "mag_1_uc,mag_1_c,flux_a_x,flux_a_y,flux_a_z,mag_1_c_tolles,status"
+        );
+    }
+}
