@@ -425,3 +425,53 @@ fn demo_runs_end_to_end_and_shows_the_improvement() {
         assert!(dir.path().join(file).exists(), "{file} missing");
     }
 }
+
+#[test]
+fn several_scalars_give_one_model_with_a_fit_each_and_compensate_applies_all() {
+    let dir = TempDir::new().unwrap();
+    // A second magnetometer that sees twice the permanent field of the first.
+    let two: String = rolling_csv(400)
+        .lines()
+        .enumerate()
+        .map(|(k, l)| {
+            if k == 0 {
+                return format!("{l},mag2");
+            }
+            let c: Vec<f64> = l.split(',').map(|v| v.parse().unwrap()).collect();
+            format!("{l},{}", 2.0 * c[1] - 50_000.0)
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    let cal = write(&dir, "two.csv", &two);
+    let model = dir.path().join("m.json");
+    tolles()
+        .args([
+            "fit", &cal, "--scalar", "mag,mag2", "--vector", "flux", "--out",
+        ])
+        .arg(&model)
+        .assert()
+        .success();
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&model).unwrap()).unwrap();
+    let fits = json["fits"].as_array().unwrap();
+    assert_eq!(fits.len(), 2);
+    assert_eq!(fits[1]["output_column"], "mag2_c");
+    let (l1, l2) = (
+        fits[0]["patent"]["perm_nT"]["L"].as_f64().unwrap(),
+        fits[1]["patent"]["perm_nT"]["L"].as_f64().unwrap(),
+    );
+    // This one-plane flight cannot separate L from the induced terms, but a magnetometer that
+    // sees twice the field gets twice every term.
+    assert!(
+        l1.abs() > 1.0 && (l2 - 2.0 * l1).abs() < 1e-3 * l1.abs(),
+        "{l1} {l2}"
+    );
+    let out = tolles()
+        .args(["compensate", &cal, "--model", model.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let csv = String::from_utf8(out.stdout).unwrap();
+    assert!(csv.lines().next().unwrap().ends_with(",mag2,mag_c,mag2_c"));
+    assert_eq!(column(&csv, "mag2_c").len(), 400);
+    assert!(fails(&["fit", &cal, "--scalar", "mag,mag", "--vector", "flux"]).contains("twice"));
+}

@@ -43,9 +43,11 @@ pub fn run(args: Args) -> Result<()> {
     let model = ModelFile::read(&args.model)?;
     let mut extra = Vec::new();
     let mut table = None;
+    // The survey is read once; each fit takes its own scalar and fluxgate columns from it.
+    let survey = crate::input::read_table(&args.survey)?;
     for scalar_model in &model.fits {
         let vector = &scalar_model.vectors[0];
-        let flight = Flight::read(&args.survey, &scalar_model.scalar, vector)?;
+        let flight = Flight::from_table(survey.clone(), &scalar_model.scalar, vector)?;
         let result = compensate_flight(&flight, scalar_model, args.fs)?;
         if result.uncomputable > 0 {
             eprintln!(
@@ -58,7 +60,7 @@ pub fn run(args: Args) -> Result<()> {
         }
         let name = output_name(&flight.table, &scalar_model.output_column);
         extra.push((name, result.compensated));
-        table = Some(flight.table);
+        table = Some(survey.clone());
     }
     let Some(table) = table else {
         bail!("{}: the model holds no fits", args.model.display())

@@ -30,7 +30,8 @@ pub struct Args {
     /// Calibration flight: CSV, XYZ, GDF (.dfn/.dat), HDF5 (.h5/.mat) or Parquet, by extension;
     /// time column `tt` (s) if present
     pub cal: PathBuf,
-    /// Uncompensated scalar magnetometer column (nT), e.g. mag_1_uc
+    /// Uncompensated scalar magnetometer column (nT), e.g. mag_1_uc; several separated by
+    /// commas (mag_3_uc,mag_4_uc,mag_5_uc) give one model holding a fit per scalar
     #[arg(long)]
     pub scalar: String,
     /// Fluxgate column prefix: `flux_a` reads flux_a_x, flux_a_y, flux_a_z (nT, body frame FRD)
@@ -91,7 +92,8 @@ fn parse_lambda(text: &str) -> Result<Lambda, String> {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let flight = Flight::read(&args.cal, &args.scalar, &args.vector)?;
+    let scalars = scalar_names(&args.scalar)?;
+    let mut flight = Flight::read(&args.cal, scalars[0], &args.vector)?;
     let fs_hz = flight.sample_rate(args.fs)?;
     let (pass1_hz, pass2_hz) = parse_band(&args.band)?;
     let settings = FitSettings {
@@ -101,19 +103,26 @@ pub fn run(args: Args) -> Result<()> {
         order: args.order,
         trim: args.trim,
     };
-    let spinner = crate::progress::spinner("fitting");
-    let fitted = fit(
-        &flight.scalar,
-        &flight.flux,
-        fs_hz,
-        flight.tt.as_deref(),
-        &settings,
-    );
-    spinner.finish_and_clear();
-    let fitted = fitted.map_err(|e| flight.explain(e, &args.scalar, &args.vector))?;
-    let model = ScalarModel::new(&args.scalar, &args.vector, fitted);
-    print_summary(&model, &args)?;
-    let file = ModelFile::new(vec![model]);
+    let mut models = Vec::new();
+    for (k, name) in scalars.iter().enumerate() {
+        if k > 0 {
+            flight.scalar = flight.table.numeric(name)?;
+        }
+        let spinner = crate::progress::spinner(&format!("fitting {name}"));
+        let fitted = fit(
+            &flight.scalar,
+            &flight.flux,
+            fs_hz,
+            flight.tt.as_deref(),
+            &settings,
+        );
+        spinner.finish_and_clear();
+        let fitted = fitted.map_err(|e| flight.explain(e, name, &args.vector))?;
+        let model = ScalarModel::new(name, &args.vector, fitted);
+        print_summary(&model, &args)?;
+        models.push(model);
+    }
+    let file = ModelFile::new(models);
     match &args.out {
         Some(path) => file.write(path)?,
         None => writeln!(std::io::stdout(), "{}", file.to_json()).context("writing the model")?,
@@ -183,6 +192,22 @@ fn print_summary(model: &ScalarModel, args: &Args) -> Result<()> {
         p.perm_nt.t, p.perm_nt.l, p.perm_nt.v, p.induced.vv_tt, p.induced.vv_ll, p.induced.tl_lt, p.induced.tv_vt, p.induced.lv_vl
     )?;
     Ok(())
+}
+
+/// `mag_3_uc,mag_4_uc` → the column names, each once.
+fn scalar_names(list: &str) -> Result<Vec<&str>> {
+    let names: Vec<&str> = list
+        .split(',')
+        .map(str::trim)
+        .filter(|s| !s.is_empty())
+        .collect();
+    if names.is_empty() {
+        anyhow::bail!("--scalar needs a column name, or several separated by commas");
+    }
+    if let Some(k) = (1..names.len()).find(|&k| names[..k].contains(&names[k])) {
+        anyhow::bail!("--scalar names {:?} twice", names[k]);
+    }
+    Ok(names)
 }
 
 /// `0`, `1e-8`, `0.001`: the shortest honest text for a ridge strength.
