@@ -41,13 +41,16 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<()> {
     let model = ModelFile::read(&args.model)?;
+    if model.fits.is_empty() {
+        bail!("{}: the model holds no fits", args.model.display());
+    }
+    // The survey is read once; each fit takes its own scalar and fluxgate columns from it, and
+    // it is written back whole with one compensated column per fit.
+    let table = crate::input::read_table(&args.survey)?;
     let mut extra = Vec::new();
-    let mut table = None;
-    // The survey is read once; each fit takes its own scalar and fluxgate columns from it.
-    let survey = crate::input::read_table(&args.survey)?;
     for scalar_model in &model.fits {
         let vector = &scalar_model.vectors[0];
-        let flight = Flight::from_table(survey.clone(), &scalar_model.scalar, vector)?;
+        let flight = Flight::from_table(table.clone(), &scalar_model.scalar, vector)?;
         let result = compensate_flight(&flight, scalar_model, args.fs)?;
         if result.uncomputable > 0 {
             eprintln!(
@@ -58,13 +61,11 @@ pub fn run(args: Args) -> Result<()> {
                 scalar_model.output_column
             );
         }
-        let name = output_name(&flight.table, &scalar_model.output_column);
-        extra.push((name, result.compensated));
-        table = Some(survey.clone());
+        extra.push((
+            output_name(&table, &scalar_model.output_column),
+            result.compensated,
+        ));
     }
-    let Some(table) = table else {
-        bail!("{}: the model holds no fits", args.model.display())
-    };
     match &args.out {
         Some(path) => Ok(write_table(&table, &extra, path, Format::from_path(path))?),
         None => {
