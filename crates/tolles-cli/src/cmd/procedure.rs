@@ -272,26 +272,16 @@ fn runs(n: usize, test: impl Fn(usize) -> bool) -> Vec<std::ops::Range<usize>> {
     runs_within(&(0..n), test)
 }
 
+/// Maximal runs of consecutive indices in `range` where `test` holds.
 fn runs_within(
     range: &std::ops::Range<usize>,
     test: impl Fn(usize) -> bool,
 ) -> Vec<std::ops::Range<usize>> {
-    let mut out = Vec::new();
-    let mut start = None;
-    for k in range.clone() {
-        match (test(k), start) {
-            (true, None) => start = Some(k),
-            (false, Some(s)) => {
-                out.push(s..k);
-                start = None;
-            }
-            _ => {}
-        }
-    }
-    if let Some(s) = start {
-        out.push(s..range.end);
-    }
-    out
+    let holds: Vec<bool> = range.clone().map(test).collect();
+    tolles_core::segment::contiguous_runs(&holds, None)
+        .into_iter()
+        .map(|r| r.start + range.start..r.end + range.start)
+        .collect()
 }
 
 fn to_json(report: &ProcedureReport, least_squares: Option<&TermValues>) -> Value {
