@@ -11,29 +11,31 @@ use tolles_io::table::Table;
 /// The time column; when present it gives the sample rate and marks gaps.
 pub const TIME_COLUMN: &str = "tt";
 
-/// A flight table with the columns one scalar model needs.
-pub struct Flight {
-    pub table: Table,
+/// The columns of a flight table that one scalar model needs.
+pub struct Flight<'t> {
+    pub table: &'t Table,
     pub scalar: Vec<f64>,
-    pub flux: VectorSeries,
+    /// The fluxgates, one per name in `vectors`.
+    pub flux: Vec<VectorSeries>,
+    /// The fluxgates' column prefixes.
+    pub vectors: Vec<String>,
     pub tt: Option<Vec<f64>>,
 }
 
-impl Flight {
-    /// Reads `path` and the columns `scalar` and `vector_x/_y/_z`.
-    pub fn read(path: &Path, scalar: &str, vector: &str) -> Result<Self> {
-        Self::from_table(read_table(path)?, scalar, vector)
-    }
-
-    /// The columns `scalar` and `vector_x/_y/_z` of an already read table.
-    pub fn from_table(table: Table, scalar: &str, vector: &str) -> Result<Self> {
+impl<'t> Flight<'t> {
+    /// The columns `scalar` and `V_x/_y/_z` for every V in `vectors` of an already read table.
+    pub fn from_table(table: &'t Table, scalar: &str, vectors: &[String]) -> Result<Self> {
         let scalar = table.numeric(scalar)?;
-        let flux = table.vector(vector)?;
-        let tt = time_column(&table)?;
+        let flux = vectors
+            .iter()
+            .map(|v| table.vector(v))
+            .collect::<Result<Vec<_>, _>>()?;
+        let tt = time_column(table)?;
         Ok(Self {
             table,
             scalar,
             flux,
+            vectors: vectors.to_vec(),
             tt,
         })
     }
@@ -44,18 +46,24 @@ impl Flight {
     }
 
     /// Adds file and line to a core fit error.
-    pub fn explain(&self, error: FitError, scalar: &str, vector: &str) -> anyhow::Error {
+    pub fn explain(&self, error: FitError, scalar: &str) -> anyhow::Error {
         let file = self.table.path().display();
         match error {
-            FitError::FluxMagnitude { index, magnitude } => anyhow!(
-                "{file}: {}: fluxgate {vector} magnitude {magnitude:.1} nT is outside 1,000–100,000 nT; are columns {vector}_x/_y/_z in nT?",
-                self.table.place_of(index)
+            FitError::FluxMagnitude {
+                fluxgate,
+                index,
+                magnitude,
+            } => anyhow!(
+                "{file}: {}: fluxgate {v} magnitude {magnitude:.1} nT is outside 1,000–100,000 nT; are columns {v}_x/_y/_z in nT?",
+                self.table.place_of(index),
+                v = self.vectors[fluxgate]
             ),
             FitError::ConstantScalar => {
                 anyhow!("{file}: column {scalar:?} is constant: there is nothing to fit")
             }
             FitError::ConstantFlux => anyhow!(
-                "{file}: columns {vector}_x/_y/_z are constant: the aircraft did not maneuver, so no term can be fitted"
+                "{file}: columns {v}_x/_y/_z are constant: the aircraft did not maneuver, so no term can be fitted",
+                v = self.vectors[0]
             ),
             other => anyhow::Error::new(other).context(format!("{file}")),
         }
@@ -134,6 +142,23 @@ pub fn sample_rate(table: &Table, tt: Option<&[f64]>, fs: Option<f64>) -> Result
             table.path().display()
         )),
     }
+}
+
+/// `mag_3_uc,mag_4_uc` → the names, each once; `what` names the option in errors.
+pub fn name_list(list: &str, what: &str) -> Result<Vec<String>> {
+    let names: Vec<String> = list
+        .split(',')
+        .map(str::trim)
+        .filter(|s| !s.is_empty())
+        .map(String::from)
+        .collect();
+    if names.is_empty() {
+        bail!("{what} needs a column name, or several separated by commas");
+    }
+    if let Some(k) = (1..names.len()).find(|&k| names[..k].contains(&names[k])) {
+        bail!("{what} names {:?} twice", names[k]);
+    }
+    Ok(names)
 }
 
 /// Parses `LO,HI` in hertz.

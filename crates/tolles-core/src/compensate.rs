@@ -19,7 +19,7 @@
 use crate::design::Design;
 use crate::segment::contiguous_runs;
 use crate::terms::Column;
-use crate::vector::VectorSeries;
+use crate::vector::Fluxgates;
 use serde::{Deserialize, Serialize};
 
 /// Which constant level of the correction is kept in the compensated data.
@@ -48,14 +48,15 @@ pub struct Compensation {
     pub uncomputable: usize,
 }
 
-/// Compensates `scalar` (nT) with the fluxgate `flux` (nT, body frame).
+/// Compensates `scalar` (nT) with the fluxgate `flux` (nT, body frame), or several, one per
+/// block of `design`.
 ///
 /// `fs_ratio` is the survey's sample rate divided by the calibration's (1 when equal).
 /// Samples with a non-finite fluxgate get no correction; runs are split there and at time gaps in
 /// `tt` (seconds), so derivatives never reach across a hole.
-pub fn compensate(
+pub fn compensate<'a>(
     scalar: &[f64],
-    flux: &VectorSeries,
+    flux: impl Into<Fluxgates<'a>>,
     tt: Option<&[f64]>,
     design: &Design,
     coefficients: &[f64],
@@ -84,14 +85,15 @@ pub fn compensate(
     }
 }
 
-/// `A·β` (nT) for every sample, NaN where the fluxgate is not finite.
-pub fn aircraft_field(
-    flux: &VectorSeries,
+/// `A·β` (nT) for every sample, NaN where a fluxgate is not finite.
+pub fn aircraft_field<'a>(
+    flux: impl Into<Fluxgates<'a>>,
     tt: Option<&[f64]>,
     design: &Design,
     coefficients: &[f64],
     fs_ratio: f64,
 ) -> Vec<f64> {
+    let flux = flux.into();
     let beta = rescale_eddy(design, coefficients, fs_ratio);
     let usable: Vec<bool> = (0..flux.len()).map(|k| flux.is_finite(k)).collect();
     let mut field = vec![f64::NAN; flux.len()];
@@ -153,6 +155,7 @@ pub fn finite_mean(x: &[f64]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::vector::VectorSeries;
 
     fn flux4() -> VectorSeries {
         VectorSeries::new(

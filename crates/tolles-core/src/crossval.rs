@@ -29,7 +29,6 @@
 //! what a user should expect of the model on data it has not seen.
 
 use crate::ridge::Ridge;
-use crate::terms::Column;
 use serde::{Deserialize, Serialize};
 
 /// Candidate relative ridge strengths.
@@ -79,7 +78,7 @@ pub fn penalty(lambda_rel: f64, sums_of_squares: &[f64]) -> Vec<f64> {
 pub fn cross_validate(
     folds: &[Ridge],
     grid: &[f64],
-    columns: &[Column],
+    columns: &[String],
 ) -> Option<CrossValidation> {
     let rows: usize = folds.iter().map(Ridge::rows).sum();
     let points: Vec<CvPoint> = grid
@@ -102,7 +101,7 @@ pub fn cross_validate(
     })
 }
 
-fn heldout_sum_of_squares(folds: &[Ridge], lambda_rel: f64, columns: &[Column]) -> Option<f64> {
+fn heldout_sum_of_squares(folds: &[Ridge], lambda_rel: f64, columns: &[String]) -> Option<f64> {
     let mut total = 0.0;
     for (k, test) in folds.iter().enumerate() {
         let mut train: Option<Ridge> = None;

@@ -23,66 +23,143 @@
 
 use crate::terms::Column;
 pub use crate::terms::TermSet;
-use crate::vector::VectorSeries;
+use crate::vector::Fluxgates;
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 
 /// MagNav.jl's scale for the induced and eddy columns (nT), so they are of order one.
 pub const MAGNAV_BT_SCALE: f64 = 50_000.0;
 
-/// Builds Tolles-Lawson design rows for a chosen [`TermSet`].
+/// Builds Tolles-Lawson design rows for a chosen [`TermSet`], over one or more fluxgates.
+///
+/// With several fluxgates each adds its own block of the chosen columns, computed from its own
+/// readings, in the order the fluxgates are given; the bias column, if chosen, appears once, in
+/// the first block. A fluxgate near a source of interference (a cable, a motor) sees that source,
+/// so its block lets the scalar's interference from that source be fitted too.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Design {
-    /// The terms, and so the columns.
+    /// The terms, and so the columns of each fluxgate's block.
     pub terms: TermSet,
     /// Divisor of the induced and eddy columns (nT); MagNav uses 50 000.
     pub bt_scale: f64,
+    /// Number of fluxgates whose blocks the design holds.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub fluxgates: usize,
+}
+
+fn one() -> usize {
+    1
+}
+
+fn is_one(n: &usize) -> bool {
+    *n == 1
+}
+
+/// One design column: a [`Column`] of the block of fluxgate `fluxgate` (0-based).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Term {
+    /// Index of the fluxgate whose readings the column is built from.
+    pub fluxgate: usize,
+    /// The column.
+    pub column: Column,
 }
 
 impl Design {
-    /// A design with MagNav's `Bt_scale` of 50 000 nT.
+    /// A one-fluxgate design with MagNav's `Bt_scale` of 50 000 nT.
     pub fn new(terms: TermSet) -> Self {
         Self {
             terms,
             bt_scale: MAGNAV_BT_SCALE,
+            fluxgates: 1,
         }
     }
 
-    /// The columns, in order.
+    /// The same terms over `fluxgates` fluxgates.
+    pub fn with_fluxgates(self, fluxgates: usize) -> Self {
+        Self { fluxgates, ..self }
+    }
+
+    /// The columns, in order (blocks after the first without the bias).
     pub fn columns(&self) -> Vec<Column> {
-        self.terms.columns()
+        self.design_terms().into_iter().map(|t| t.column).collect()
+    }
+
+    /// The columns with the fluxgate each belongs to, in order.
+    pub fn design_terms(&self) -> Vec<Term> {
+        let block = self.terms.columns();
+        (0..self.fluxgates)
+            .flat_map(|fluxgate| {
+                block
+                    .iter()
+                    .filter(move |c| fluxgate == 0 || **c != Column::Bias)
+                    .map(move |&column| Term { fluxgate, column })
+            })
+            .collect()
+    }
+
+    /// Column names: `perm_x`, … for one fluxgate; `NAME.perm_x`, … with several, NAME from
+    /// `fluxgate_names` (or `fluxgate1`, `fluxgate2`, … when it does not name them all).
+    pub fn column_names(&self, fluxgate_names: &[String]) -> Vec<String> {
+        self.design_terms()
+            .iter()
+            .map(|t| {
+                if self.fluxgates == 1 {
+                    t.column.to_string()
+                } else if fluxgate_names.len() == self.fluxgates {
+                    format!("{}.{}", fluxgate_names[t.fluxgate], t.column)
+                } else {
+                    format!("fluxgate{}.{}", t.fluxgate + 1, t.column)
+                }
+            })
+            .collect()
     }
 
     /// Number of columns.
     pub fn width(&self) -> usize {
-        self.columns().len()
+        self.design_terms().len()
     }
 
-    /// Writes the design row for field `b` (nT) and its change per sample `db` (nT/sample) into
-    /// `out`, which must be [`Design::width`] long.
+    /// Writes the one-fluxgate design row for field `b` (nT) and its change per sample `db`
+    /// (nT/sample) into `out`, one value per entry of `columns`.
     ///
     /// The eddy-current columns are here: `B̂i·Ḃj / s`.
     pub fn row(&self, columns: &[Column], b: [f64; 3], db: [f64; 3], out: &mut [f64]) {
-        let norm = (b[0] * b[0] + b[1] * b[1] + b[2] * b[2]).sqrt();
-        let unit = b.map(|v| v / norm);
+        let unit = unit_vector(b);
         for (value, column) in out.iter_mut().zip(columns) {
-            *value = match *column {
-                Column::Permanent(i) => unit[i.index()],
-                Column::Induced(i, j) => unit[i.index()] * b[j.index()] / self.bt_scale,
-                Column::Eddy(i, j) => unit[i.index()] * db[j.index()] / self.bt_scale,
-                Column::Bias => 1.0,
-            };
+            *value = self.value(*column, unit, b, db);
         }
     }
 
-    /// The design matrix of one contiguous series (rows = samples).
-    pub fn matrix(&self, flux: &VectorSeries) -> DMatrix<f64> {
-        let columns = self.columns();
-        let n = flux.len();
-        let mut a = DMatrix::zeros(n, columns.len());
-        let mut row = vec![0.0; columns.len()];
-        self.for_each_row(flux, |k, b, db| {
-            self.row(&columns, b, db, &mut row);
+    /// Writes the design row for the fluxgates' fields `b` (nT) and changes per sample `db`
+    /// (nT/sample), one entry per fluxgate, into `out`, one value per entry of `terms`.
+    pub fn row_of(&self, terms: &[Term], b: &[[f64; 3]], db: &[[f64; 3]], out: &mut [f64]) {
+        let units: Vec<[f64; 3]> = b.iter().map(|b| unit_vector(*b)).collect();
+        for (value, t) in out.iter_mut().zip(terms) {
+            let f = t.fluxgate;
+            *value = self.value(t.column, units[f], b[f], db[f]);
+        }
+    }
+
+    fn value(&self, column: Column, unit: [f64; 3], b: [f64; 3], db: [f64; 3]) -> f64 {
+        match column {
+            Column::Permanent(i) => unit[i.index()],
+            Column::Induced(i, j) => unit[i.index()] * b[j.index()] / self.bt_scale,
+            Column::Eddy(i, j) => unit[i.index()] * db[j.index()] / self.bt_scale,
+            Column::Bias => 1.0,
+        }
+    }
+
+    /// The design matrix of one contiguous series (rows = samples), with the columns `terms`
+    /// (usually [`Design::design_terms`]).
+    ///
+    /// # Panics
+    /// If `terms` names a fluxgate that `flux` does not have: a programming error.
+    pub fn matrix_of<'a>(&self, flux: impl Into<Fluxgates<'a>>, terms: &[Term]) -> DMatrix<f64> {
+        let flux = flux.into();
+        let mut a = DMatrix::zeros(flux.len(), terms.len());
+        let mut row = vec![0.0; terms.len()];
+        for_each_row(&flux, |k, b, db| {
+            self.row_of(terms, b, db, &mut row);
             for (c, v) in row.iter().enumerate() {
                 a[(k, c)] = *v;
             }
@@ -90,30 +167,60 @@ impl Design {
         a
     }
 
+    /// The design matrix of one contiguous series (rows = samples), all columns.
+    ///
+    /// # Panics
+    /// If `flux` holds fewer fluxgates than the design: a programming error.
+    pub fn matrix<'a>(&self, flux: impl Into<Fluxgates<'a>>) -> DMatrix<f64> {
+        self.matrix_of(flux, &self.design_terms())
+    }
+
     /// `A·β` for one contiguous series, without storing `A` (nT).
-    pub fn apply(&self, flux: &VectorSeries, coefficients: &[f64]) -> Vec<f64> {
-        let columns = self.columns();
-        assert_eq!(
-            columns.len(),
-            coefficients.len(),
-            "one coefficient per column"
-        );
+    ///
+    /// # Panics
+    /// If `coefficients` is not [`Design::width`] long or `flux` holds fewer fluxgates than the
+    /// design: programming errors.
+    pub fn apply<'a>(&self, flux: impl Into<Fluxgates<'a>>, coefficients: &[f64]) -> Vec<f64> {
+        let flux = flux.into();
+        let terms = self.design_terms();
+        assert_eq!(terms.len(), coefficients.len(), "one coefficient per column");
         let mut out = vec![0.0; flux.len()];
-        let mut row = vec![0.0; columns.len()];
-        self.for_each_row(flux, |k, b, db| {
-            self.row(&columns, b, db, &mut row);
+        let mut row = vec![0.0; terms.len()];
+        for_each_row(&flux, |k, b, db| {
+            self.row_of(&terms, b, db, &mut row);
             out[k] = row.iter().zip(coefficients).map(|(a, c)| a * c).sum();
         });
         out
     }
+}
 
-    fn for_each_row(&self, flux: &VectorSeries, mut f: impl FnMut(usize, [f64; 3], [f64; 3])) {
-        let dx = central_difference(&flux.x);
-        let dy = central_difference(&flux.y);
-        let dz = central_difference(&flux.z);
-        for k in 0..flux.len() {
-            f(k, flux.at(k), [dx[k], dy[k], dz[k]]);
+fn unit_vector(b: [f64; 3]) -> [f64; 3] {
+    let norm = (b[0] * b[0] + b[1] * b[1] + b[2] * b[2]).sqrt();
+    b.map(|v| v / norm)
+}
+
+/// Calls `f(k, fields, changes)` for every sample k, with every fluxgate's field (nT) and
+/// central-difference change per sample (nT/sample).
+fn for_each_row(flux: &Fluxgates, mut f: impl FnMut(usize, &[[f64; 3]], &[[f64; 3]])) {
+    let changes: Vec<[Vec<f64>; 3]> = flux
+        .series()
+        .iter()
+        .map(|s| {
+            [
+                central_difference(&s.x),
+                central_difference(&s.y),
+                central_difference(&s.z),
+            ]
+        })
+        .collect();
+    let mut b = vec![[0.0; 3]; flux.count()];
+    let mut db = vec![[0.0; 3]; flux.count()];
+    for k in 0..flux.len() {
+        for (f, s) in flux.series().iter().enumerate() {
+            b[f] = s.at(k);
+            db[f] = [changes[f][0][k], changes[f][1][k], changes[f][2][k]];
         }
+        f(k, &b, &db);
     }
 }
 
@@ -140,6 +247,42 @@ pub fn central_difference(x: &[f64]) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::vector::VectorSeries;
+
+    fn swinging(phase: f64) -> VectorSeries {
+        let n = 6;
+        let angle = |k: usize| 0.3 * (k as f64 + phase).sin();
+        VectorSeries::new(
+            (0..n).map(|k| 20_000.0 * angle(k).cos()).collect(),
+            (0..n).map(|k| 20_000.0 * angle(k).sin()).collect(),
+            (0..n).map(|k| 45_000.0 + 10.0 * k as f64).collect(),
+        )
+    }
+
+    #[test]
+    fn several_fluxgates_give_side_by_side_blocks_with_one_bias() {
+        let (a, b) = (swinging(0.0), swinging(1.0));
+        let one = Design::new("p,i5,e8,b".parse().unwrap());
+        let two = one.clone().with_fluxgates(2);
+        let width = one.width();
+        assert_eq!(two.width(), 2 * width - 1);
+        let both = two.matrix(vec![&a, &b]);
+        let (ma, mb) = (one.matrix(&a), one.matrix(&b));
+        assert_eq!(both.columns(0, width), ma.columns(0, width));
+        assert_eq!(both.columns(width, width - 1), mb.columns(0, width - 1));
+        let names = two.column_names(&["flux_a".into(), "flux_b".into()]);
+        assert_eq!(names[width - 1], "flux_a.bias");
+        assert_eq!(names[width], "flux_b.perm_x");
+        assert_eq!(two.column_names(&[])[width], "fluxgate2.perm_x");
+    }
+
+    #[test]
+    fn a_one_fluxgate_design_is_stored_as_before() {
+        let json = serde_json::to_string(&Design::new("p".parse().unwrap())).unwrap();
+        assert!(!json.contains("fluxgates"), "{json}");
+        let two: Design = serde_json::from_str(&json.replace('}', r#","fluxgates":2}"#)).unwrap();
+        assert_eq!(two.fluxgates, 2);
+    }
 
     #[test]
     fn central_difference_is_one_sided_at_ends() {

@@ -39,12 +39,12 @@
 //! filtered and trimmed on its own, so no derivative or filter reaches across a hole.
 
 use crate::crossval::{cross_validate, penalty, CrossValidation, DEFAULT_FOLDS, LAMBDA_GRID};
-use crate::design::Design;
+use crate::design::{Design, Term};
 use crate::filter::{magnav_bandpass, Butterworth, FilterError};
 use crate::ridge::{Ridge, RidgeError, RidgeSolution};
 use crate::segment::contiguous_runs;
-use crate::terms::Column;
-use crate::vector::VectorSeries;
+use crate::terms::TermSet;
+use crate::vector::{Fluxgates, VectorSeries};
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 use std::ops::Range;
@@ -98,24 +98,47 @@ pub struct FitSettings {
     pub order: usize,
     /// Samples dropped at each end of each run after filtering.
     pub trim: usize,
+    /// Other term sets cross-validation may choose instead of `design.terms` (only when λ is
+    /// cross-validated). An alternative must predict the held-out folds at least
+    /// [`TERM_CHOICE_MARGIN`] better to be chosen, since a larger set can also fit the earth
+    /// field's own variations through the fluxgate's magnitude.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub alternative_terms: Vec<TermSet>,
 }
 
+/// Relative improvement of held-out RMS an alternative term set needs over `design.terms`.
+pub const TERM_CHOICE_MARGIN: f64 = 0.02;
+
 impl FitSettings {
-    /// What `tolles fit` does by default: the 16 identifiable terms, λ by cross-validation,
-    /// otherwise MagNav's filter and trim.
+    /// What `tolles fit` does by default: the 16 identifiable terms, or MagNav's 18 if
+    /// cross-validation finds them clearly better, λ by cross-validation, otherwise MagNav's
+    /// filter and trim.
     pub fn recommended() -> Self {
         Self {
-            design: Design::new(crate::terms::TermSet::identifiable()),
+            design: Design::new(TermSet::identifiable()),
             lambda: Lambda::auto(),
+            alternative_terms: vec![TermSet::magnav_default()],
             ..Self::magnav()
         }
+    }
+
+    /// The designs to try: `design` first, then its alternatives when λ is cross-validated.
+    fn candidate_designs(&self) -> Vec<Design> {
+        let mut designs = vec![self.design.clone()];
+        if matches!(self.lambda, Lambda::CrossValidated { .. }) {
+            designs.extend(self.alternative_terms.iter().map(|&terms| Design {
+                terms,
+                ..self.design.clone()
+            }));
+        }
+        designs
     }
 
     /// MagNav.jl's procedure as its tests run it: 18 terms, λ = 0.001, 0.1–0.9 Hz, order 4,
     /// trim 20, `Bt_scale` 50 000.
     pub fn magnav() -> Self {
         Self {
-            design: Design::new(crate::terms::TermSet::magnav_default()),
+            design: Design::new(TermSet::magnav_default()),
             lambda: Lambda::Fixed(0.001),
             band: Band {
                 pass1_hz: 0.1,
@@ -123,6 +146,7 @@ impl FitSettings {
             },
             order: 4,
             trim: 20,
+            alternative_terms: Vec::new(),
         }
     }
 }
@@ -140,8 +164,20 @@ pub enum FitError {
     Folds(usize),
     #[error("no ridge strength could be fitted on every cross-validation fold (too little data for {terms} terms); give --lambda or use fewer terms")]
     CrossValidation { terms: usize },
-    #[error("fluxgate magnitude {magnitude:.1} nT at sample {index} is outside 1,000–100,000 nT: is the fluxgate in nT?")]
-    FluxMagnitude { index: usize, magnitude: f64 },
+    #[error("fluxgate {} magnitude {magnitude:.1} nT at sample {index} is outside 1,000–100,000 nT: is the fluxgate in nT?", fluxgate + 1)]
+    FluxMagnitude {
+        fluxgate: usize,
+        index: usize,
+        magnitude: f64,
+    },
+    #[error("the design is for {design} fluxgates but {given} were given")]
+    FluxgateCount { design: usize, given: usize },
+    #[error("fluxgate {} has {samples} samples but the first has {first}", fluxgate + 1)]
+    FluxgateLength {
+        fluxgate: usize,
+        samples: usize,
+        first: usize,
+    },
     #[error("the scalar magnetometer is constant: there is nothing to fit")]
     ConstantScalar,
     #[error("the fluxgate is constant: the aircraft did not maneuver, so no term can be fitted")]
@@ -182,19 +218,36 @@ pub struct Diagnostics {
     pub penalty: Vec<f64>,
     /// How λ was chosen, when it was cross-validated.
     pub cross_validation: Option<CrossValidation>,
+    /// Every term set cross-validation compared, with its held-out error (empty when only one
+    /// was tried).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub term_choice: Vec<TermScore>,
     /// Standard error of each coefficient (coefficient units), from the ridge sandwich
     /// covariance `σ²·G⁻¹AᵀAG⁻¹`, `G = AᵀA + λI`.
     pub std_errors: Vec<f64>,
 }
 
+/// How well one candidate term set predicted held-out data.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TermScore {
+    /// The term set.
+    pub terms: TermSet,
+    /// Its cross-validated relative ridge strength, `None` if it could not be fitted.
+    pub lambda_rel: Option<f64>,
+    /// Its held-out RMS (nT), `None` if it could not be fitted.
+    pub heldout_rms_nt: Option<f64>,
+    /// True for the set the model uses.
+    pub chosen: bool,
+}
+
 /// A fitted model and its diagnostics.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Fit {
-    /// The settings used.
+    /// The settings used; `design.terms` is the term set chosen.
     pub settings: FitSettings,
     /// Sample rate (Hz) of the calibration data; eddy coefficients are per sample at this rate.
     pub fs_hz: f64,
-    /// Names of the columns, in order.
+    /// Names of the columns, in order (see [`Design::column_names`]).
     pub columns: Vec<String>,
     /// One coefficient per column (nT per unit of the column).
     pub coefficients: Vec<f64>,
@@ -208,54 +261,49 @@ pub struct Fit {
 /// Fits a model to a calibration flight.
 ///
 /// - `scalar`: the uncompensated scalar magnetometer (nT); non-finite samples are skipped;
-/// - `flux`: the fluxgate (nT, body frame FRD);
+/// - `flux`: the fluxgate (nT, body frame FRD), or several, one per block of
+///   `settings.design` (see [`Design`]); a sample is skipped if any of them is not finite;
 /// - `fs_hz`: sample rate (Hz);
 /// - `tt`: optional time (seconds) used only to split runs at gaps.
-pub fn fit(
+pub fn fit<'a>(
     scalar: &[f64],
-    flux: &VectorSeries,
+    flux: impl Into<Fluxgates<'a>>,
     fs_hz: f64,
     tt: Option<&[f64]>,
     settings: &FitSettings,
 ) -> Result<Fit, FitError> {
-    check_inputs(scalar, flux, fs_hz, settings)?;
+    let flux = flux.into();
+    check_inputs(scalar, &flux, fs_hz, settings)?;
     let usable: Vec<bool> = (0..scalar.len())
         .map(|k| scalar[k].is_finite() && flux.is_finite(k))
         .collect();
-    check_not_constant(scalar, flux, &usable)?;
+    check_not_constant(scalar, flux.series()[0], &usable)?;
     let filter = magnav_bandpass(
         settings.band.pass1_hz,
         settings.band.pass2_hz,
         settings.order,
         fs_hz,
     )?;
-    let columns = settings.design.columns();
-    let runs = contiguous_runs(&usable, tt);
+    let designs = settings.candidate_designs();
+    let union = union_of_terms(&designs);
     let mut prepared = Vec::new();
     let mut short = 0;
-    for run in runs {
-        match prepare_run(scalar, flux, run.clone(), filter.as_ref(), settings)? {
+    for run in contiguous_runs(&usable, tt) {
+        match prepare_run(scalar, &flux, run.clone(), filter.as_ref(), settings, &union)? {
             Some(rows) => prepared.push(rows),
             None => short += run.len(),
         }
     }
-    let folds = fold_problems(&prepared, columns.len(), settings.lambda);
-    let rows: usize = folds.iter().map(Ridge::rows).sum();
-    if rows < columns.len() {
-        return Err(FitError::TooFewSamples {
-            usable: rows,
-            terms: columns.len(),
-        });
-    }
-    let (solution, cross_validation) = solve(&folds, settings.lambda, &columns)?;
+    let chosen = choose_design(&prepared, &designs, &union, settings.lambda)?;
+    let design = &designs[chosen.index];
     let mut before = RunningStd::default();
     prepared
         .iter()
         .flat_map(|(_, y)| y)
         .for_each(|v| before.push(*v));
-    let level_nt = mean_correction(flux, &usable, tt, &settings.design, &solution.coefficients);
+    let level_nt = mean_correction(&flux, &usable, tt, design, &chosen.solution.coefficients);
     let diagnostics = diagnostics(
-        &solution,
+        &chosen.solution,
         DiagnosticCounts {
             total: scalar.len(),
             nonfinite: usable.iter().filter(|u| !**u).count(),
@@ -264,30 +312,124 @@ pub fn fit(
             before_std: before.std(),
             fraction: passband_fraction(settings.band, fs_hz),
         },
-        cross_validation,
+        chosen.cross_validation,
+        chosen.scores,
     );
     Ok(Fit {
-        settings: settings.clone(),
+        settings: FitSettings {
+            design: design.clone(),
+            ..settings.clone()
+        },
         fs_hz,
-        columns: columns.iter().map(Column::to_string).collect(),
-        coefficients: solution.coefficients,
+        columns: design.column_names(&[]),
+        coefficients: chosen.solution.coefficients,
         level_nt,
         diagnostics,
     })
 }
 
-/// Splits the prepared rows, in time order, into contiguous folds (one fold for a fixed λ).
-fn fold_problems(prepared: &[Rows], p: usize, lambda: Lambda) -> Vec<Ridge> {
+/// Every term of `designs`, each once, in order of first appearance.
+fn union_of_terms(designs: &[Design]) -> Vec<Term> {
+    let mut union: Vec<Term> = Vec::new();
+    for term in designs.iter().flat_map(Design::design_terms) {
+        if !union.contains(&term) {
+            union.push(term);
+        }
+    }
+    union
+}
+
+/// The candidate design that won, its solution and the scores of all candidates.
+struct Chosen {
+    index: usize,
+    solution: RidgeSolution,
+    cross_validation: Option<CrossValidation>,
+    scores: Vec<TermScore>,
+}
+
+/// Solves every candidate design on the same folds and keeps the first one unless another
+/// predicts held-out data [`TERM_CHOICE_MARGIN`] better. The first design's failure is the
+/// fit's failure; an alternative that fails is only scored as such.
+fn choose_design(
+    prepared: &[Rows],
+    designs: &[Design],
+    union: &[Term],
+    lambda: Lambda,
+) -> Result<Chosen, FitError> {
+    let mut solved = Vec::new();
+    for (index, design) in designs.iter().enumerate() {
+        let picks: Vec<usize> = design
+            .design_terms()
+            .iter()
+            .map(|t| union.iter().position(|u| u == t).expect("union holds every term"))
+            .collect();
+        let folds = fold_problems(prepared, &picks, lambda);
+        let rows: usize = folds.iter().map(Ridge::rows).sum();
+        let outcome = if rows < picks.len() {
+            Err(FitError::TooFewSamples {
+                usable: rows,
+                terms: picks.len(),
+            })
+        } else {
+            solve(&folds, lambda, &design.column_names(&[]))
+        };
+        match outcome {
+            Ok(s) => solved.push((index, s)),
+            Err(e) if index == 0 => return Err(e),
+            Err(_) => {}
+        }
+    }
+    let heldout = |cv: &Option<CrossValidation>| cv.as_ref().map(|c| c.expected_heldout_rms_nt);
+    let mut best = 0;
+    for (k, (_, (_, cv))) in solved.iter().enumerate().skip(1) {
+        let (Some(candidate), Some(first)) = (heldout(cv), heldout(&solved[0].1 .1)) else {
+            continue;
+        };
+        let to_beat = heldout(&solved[best].1 .1).unwrap_or(first);
+        if candidate < first * (1.0 - TERM_CHOICE_MARGIN) && candidate < to_beat {
+            best = k;
+        }
+    }
+    let scores = if designs.len() > 1 {
+        designs
+            .iter()
+            .enumerate()
+            .map(|(index, design)| {
+                let found = solved.iter().position(|(i, _)| *i == index);
+                let cv = found.and_then(|k| solved[k].1 .1.as_ref());
+                TermScore {
+                    terms: design.terms,
+                    lambda_rel: cv.map(|c| c.chosen_lambda_rel),
+                    heldout_rms_nt: cv.map(|c| c.expected_heldout_rms_nt),
+                    chosen: found == Some(best),
+                }
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
+    let (index, (solution, cross_validation)) = solved.swap_remove(best);
+    Ok(Chosen {
+        index,
+        solution,
+        cross_validation,
+        scores,
+    })
+}
+
+/// Splits the prepared rows, in time order, into contiguous folds (one fold for a fixed λ),
+/// keeping the columns `picks` of the prepared matrices.
+fn fold_problems(prepared: &[Rows], picks: &[usize], lambda: Lambda) -> Vec<Ridge> {
     let count = match lambda {
         Lambda::Fixed(_) => 1,
         Lambda::CrossValidated { folds } => folds,
     };
     let total: usize = prepared.iter().map(|(_, y)| y.len()).sum();
-    let mut folds = vec![Ridge::new(p); count];
+    let mut folds = vec![Ridge::new(picks.len()); count];
     let mut r = 0;
     for (a, y) in prepared {
         for (k, target) in y.iter().enumerate() {
-            folds[r * count / total.max(1)].push_row(a.row(k).iter().copied(), *target);
+            folds[r * count / total.max(1)].push_row(picks.iter().map(|&c| a[(k, c)]), *target);
             r += 1;
         }
     }
@@ -298,7 +440,7 @@ fn fold_problems(prepared: &[Rows], p: usize, lambda: Lambda) -> Vec<Ridge> {
 fn solve(
     folds: &[Ridge],
     lambda: Lambda,
-    columns: &[Column],
+    columns: &[String],
 ) -> Result<(RidgeSolution, Option<CrossValidation>), FitError> {
     let mut all = folds[0].clone();
     folds[1..].iter().for_each(|f| all.merge(f));
@@ -317,10 +459,23 @@ fn solve(
 
 fn check_inputs(
     scalar: &[f64],
-    flux: &VectorSeries,
+    flux: &Fluxgates,
     fs_hz: f64,
     settings: &FitSettings,
 ) -> Result<(), FitError> {
+    if flux.count() != settings.design.fluxgates {
+        return Err(FitError::FluxgateCount {
+            design: settings.design.fluxgates,
+            given: flux.count(),
+        });
+    }
+    if let Some(fluxgate) = (0..flux.count()).find(|&f| flux.series()[f].len() != flux.len()) {
+        return Err(FitError::FluxgateLength {
+            fluxgate,
+            samples: flux.series()[fluxgate].len(),
+            first: flux.len(),
+        });
+    }
     if scalar.len() != flux.len() {
         return Err(FitError::LengthMismatch {
             scalar: scalar.len(),
@@ -335,20 +490,23 @@ fn check_inputs(
         Lambda::CrossValidated { folds } if folds < 2 => return Err(FitError::Folds(folds)),
         _ => {}
     }
-    check_flux_magnitude(flux)
+    check_flux_magnitude(flux.clone())
 }
 
-/// Rejects a fluxgate whose finite samples have a magnitude outside
+/// Rejects fluxgates whose finite samples have a magnitude outside
 /// [`FLUX_MAGNITUDE_RANGE_NT`]; reports the first such sample.
-pub fn check_flux_magnitude(flux: &VectorSeries) -> Result<(), FitError> {
+pub fn check_flux_magnitude<'a>(flux: impl Into<Fluxgates<'a>>) -> Result<(), FitError> {
     let (lo, hi) = FLUX_MAGNITUDE_RANGE_NT;
-    for k in 0..flux.len() {
-        let magnitude = flux.magnitude(k);
-        if magnitude.is_finite() && !(lo..=hi).contains(&magnitude) {
-            return Err(FitError::FluxMagnitude {
-                index: k,
-                magnitude,
-            });
+    for (fluxgate, series) in flux.into().series().iter().enumerate() {
+        for k in 0..series.len() {
+            let magnitude = series.magnitude(k);
+            if magnitude.is_finite() && !(lo..=hi).contains(&magnitude) {
+                return Err(FitError::FluxMagnitude {
+                    fluxgate,
+                    index: k,
+                    magnitude,
+                });
+            }
         }
     }
     Ok(())
@@ -379,17 +537,20 @@ type Rows = (DMatrix<f64>, Vec<f64>);
 /// Design, filter and trim one run; `None` if it is too short.
 fn prepare_run(
     scalar: &[f64],
-    flux: &VectorSeries,
+    flux: &Fluxgates,
     run: Range<usize>,
     filter: Option<&Butterworth>,
     settings: &FitSettings,
+    terms: &[Term],
 ) -> Result<Option<Rows>, FitError> {
     let trim = if filter.is_some() { settings.trim } else { 0 };
     let needed = filter.map_or(0, |f| f.padlen() + 1).max(2 * trim + 1);
     if run.len() < needed {
         return Ok(None);
     }
-    let mut a = settings.design.matrix(&flux.slice(run.clone()));
+    let mut a = settings
+        .design
+        .matrix_of(&flux.slice(run.clone()), terms);
     let mut y = scalar[run].to_vec();
     if let Some(f) = filter {
         for mut col in a.column_iter_mut() {
@@ -406,7 +567,7 @@ fn prepare_run(
 
 /// Mean of the unfiltered correction `A·β` over the usable samples (nT).
 fn mean_correction(
-    flux: &VectorSeries,
+    flux: &Fluxgates,
     usable: &[bool],
     tt: Option<&[f64]>,
     design: &Design,
@@ -480,6 +641,7 @@ fn diagnostics(
     solution: &RidgeSolution,
     c: DiagnosticCounts,
     cross_validation: Option<CrossValidation>,
+    term_choice: Vec<TermScore>,
 ) -> Diagnostics {
     let p = solution.coefficients.len();
     let dof = solution.rows.saturating_sub(p).max(1) as f64;
@@ -498,6 +660,7 @@ fn diagnostics(
         effective_sample_fraction: c.fraction,
         penalty: solution.penalty().to_vec(),
         cross_validation,
+        term_choice,
         std_errors: solution.std_errors(sigma2),
     }
 }
@@ -521,7 +684,7 @@ mod tests {
     fn folds_are_contiguous_and_cover_every_row() {
         let a = DMatrix::from_fn(10, 1, |i, _| i as f64);
         let y: Vec<f64> = (0..10).map(|i| i as f64).collect();
-        let folds = fold_problems(&[(a.clone(), y.clone()), (a, y)], 1, Lambda::auto());
+        let folds = fold_problems(&[(a.clone(), y.clone()), (a, y)], &[0], Lambda::auto());
         assert_eq!(
             folds.iter().map(Ridge::rows).collect::<Vec<_>>(),
             [4, 4, 4, 4, 4]

@@ -46,11 +46,17 @@ pub struct AircraftField {
 
 impl AircraftField {
     /// Reads fitted coefficients; `fs_hz` is the sample rate (Hz) the eddy columns were built at.
+    ///
+    /// With several fluxgates only the first fluxgate's block is read: the other blocks describe
+    /// sources near the other fluxgates, not the aircraft's response to the earth field.
     pub fn from_coefficients(design: &Design, coefficients: &[f64], fs_hz: f64) -> Self {
         let s = design.bt_scale;
         let mut field = Self::default();
-        for (column, beta) in design.columns().iter().zip(coefficients) {
-            match *column {
+        for (term, beta) in design.design_terms().iter().zip(coefficients) {
+            if term.fluxgate != 0 {
+                continue;
+            }
+            match term.column {
                 Column::Permanent(i) => field.permanent_nt[i.index()] = *beta,
                 Column::Induced(i, j) if i == j => field.induced[i.index()][i.index()] = beta / s,
                 Column::Induced(i, j) => {
@@ -65,13 +71,15 @@ impl AircraftField {
     }
 
     /// The coefficients a fit with `design` at `fs_hz` should find for this field (to first
-    /// order in `H/|B|`, and up to the unobservable traces).
+    /// order in `H/|B|`, and up to the unobservable traces); zero for the blocks of fluxgates
+    /// after the first.
     pub fn to_coefficients(&self, design: &Design, fs_hz: f64) -> Vec<f64> {
         let s = design.bt_scale;
         design
-            .columns()
+            .design_terms()
             .iter()
-            .map(|column| match *column {
+            .map(|term| match term.column {
+                _ if term.fluxgate != 0 => 0.0,
                 Column::Permanent(i) => self.permanent_nt[i.index()],
                 Column::Induced(i, j) if i == j => s * self.induced[i.index()][i.index()],
                 Column::Induced(i, j) => {

@@ -16,7 +16,6 @@
 //! Since `[A | y] = Q·R0`, the residual of any β on these rows is `‖R0·[β; −1]‖`, which is what
 //! makes cross-validation over folds cheap (see [`crate::crossval`]).
 
-use crate::terms::Column;
 use nalgebra::{DMatrix, DVector};
 use thiserror::Error;
 
@@ -118,7 +117,7 @@ impl Ridge {
     }
 
     /// Solves `(AᵀA + λI)·β = Aᵀy`; `columns` name the unknowns in errors.
-    pub fn solve(&self, lambda: f64, columns: &[Column]) -> Result<RidgeSolution, RidgeError> {
+    pub fn solve(&self, lambda: f64, columns: &[String]) -> Result<RidgeSolution, RidgeError> {
         self.solve_penalised(&vec![lambda; self.p], columns)
     }
 
@@ -126,7 +125,7 @@ impl Ridge {
     pub fn solve_penalised(
         &self,
         penalty: &[f64],
-        columns: &[Column],
+        columns: &[String],
     ) -> Result<RidgeSolution, RidgeError> {
         let p = self.p;
         let mut me = self.clone();
@@ -165,12 +164,12 @@ fn upper_factor(m: DMatrix<f64>) -> DMatrix<f64> {
     m.qr().r()
 }
 
-fn check_rank(r_a: &DMatrix<f64>, columns: &[Column]) -> Result<(), RidgeError> {
+fn check_rank(r_a: &DMatrix<f64>, columns: &[String]) -> Result<(), RidgeError> {
     let largest = r_a.diagonal().iter().fold(0.0f64, |m, v| m.max(v.abs()));
     let tolerance = largest * f64::EPSILON * r_a.nrows() as f64 * 10.0;
     match r_a.diagonal().iter().position(|v| v.abs() <= tolerance) {
         Some(j) => Err(RidgeError::Singular {
-            column: columns.get(j).map_or(format!("#{j}"), Column::to_string),
+            column: columns.get(j).cloned().unwrap_or_else(|| format!("#{j}")),
         }),
         None => Ok(()),
     }

@@ -20,6 +20,7 @@ fn settings(terms: &str, lambda: Lambda) -> FitSettings {
         },
         order: 4,
         trim: 20,
+        alternative_terms: Vec::new(),
     }
 }
 
@@ -115,7 +116,7 @@ fn survey_error(truth: AircraftField, s: &FitSettings, seed: u64) -> (f64, f64) 
         &survey.scalar,
         &survey.flux,
         Some(&survey.tt),
-        &s.design,
+        &model.settings.design,
         &model.coefficients,
         1.0,
         Level::FileMean,

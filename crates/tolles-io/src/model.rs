@@ -48,27 +48,31 @@ pub struct ModelFile {
 pub struct ScalarModel {
     /// Input column of the uncompensated scalar (nT).
     pub scalar: String,
-    /// Fluxgate column prefixes (`flux_a` → `flux_a_x`, `flux_a_y`, `flux_a_z`, nT).
+    /// Fluxgate column prefixes (`flux_a` → `flux_a_x`, `flux_a_y`, `flux_a_z`, nT), one per
+    /// block of the design, in order.
     pub vectors: Vec<String>,
     /// Name of the compensated column that `compensate` adds.
     pub output_column: String,
     /// Coefficients, settings and diagnostics.
     #[serde(flatten)]
     pub fit: Fit,
-    /// The coefficients as permanent (nT), induced (1) and eddy (s) fields.
+    /// The coefficients as permanent (nT), induced (1) and eddy (s) fields (of the first
+    /// fluxgate's block when there are several).
     pub physical: AircraftField,
-    /// The 16 terms in the patent's nomenclature.
+    /// The 16 terms in the patent's nomenclature (of the first fluxgate's block).
     pub patent: PatentTerms,
 }
 
 impl ScalarModel {
-    /// Wraps a fit of `scalar` against the fluxgate `vector`.
-    pub fn new(scalar: &str, vector: &str, fit: Fit) -> Self {
+    /// Wraps a fit of `scalar` against the fluxgates `vectors` (one per block of the fit's
+    /// design); the fit's column names get the fluxgates' names when there are several.
+    pub fn new(scalar: &str, vectors: &[String], mut fit: Fit) -> Self {
         let physical =
             AircraftField::from_coefficients(&fit.settings.design, &fit.coefficients, fit.fs_hz);
+        fit.columns = fit.settings.design.column_names(vectors);
         Self {
             scalar: scalar.to_string(),
-            vectors: vec![vector.to_string()],
+            vectors: vectors.to_vec(),
             output_column: compensated_name(scalar),
             patent: physical.patent_terms(),
             physical,
@@ -139,10 +143,12 @@ impl ModelFile {
                     width
                 ));
             }
-            if fit.vectors.len() != 1 {
+            let fluxgates = fit.fit.settings.design.fluxgates;
+            if fit.vectors.len() != fluxgates || fluxgates == 0 {
                 return Err(format!(
-                    "fit of {} must name exactly one fluxgate",
-                    fit.scalar
+                    "fit of {} names {} fluxgates for a design over {fluxgates}",
+                    fit.scalar,
+                    fit.vectors.len(),
                 ));
             }
         }

@@ -2,6 +2,7 @@
 
 use crate::input::Flight;
 use anyhow::{bail, Context, Result};
+use rayon::prelude::*;
 use std::io::Write;
 use std::path::PathBuf;
 use tolles_core::compensate::{compensate, Compensation, Level};
@@ -47,17 +48,24 @@ pub fn run(args: Args) -> Result<()> {
     // The survey is read once; each fit takes its own scalar and fluxgate columns from it, and
     // it is written back whole with one compensated column per fit.
     let table = crate::input::read_table(&args.survey)?;
+    // Fits are independent: compensate them on all cores, then report in the model's order.
+    let results: Vec<Result<(usize, Compensation)>> = model
+        .fits
+        .par_iter()
+        .map(|scalar_model| {
+            let flight = Flight::from_table(&table, &scalar_model.scalar, &scalar_model.vectors)?;
+            Ok((flight.scalar.len(), compensate_flight(&flight, scalar_model, args.fs)?))
+        })
+        .collect();
     let mut extra = Vec::new();
-    for scalar_model in &model.fits {
-        let vector = &scalar_model.vectors[0];
-        let flight = Flight::from_table(table.clone(), &scalar_model.scalar, vector)?;
-        let result = compensate_flight(&flight, scalar_model, args.fs)?;
+    for (scalar_model, result) in model.fits.iter().zip(results) {
+        let (rows, result) = result?;
         if result.uncomputable > 0 {
             eprintln!(
                 "warning: {}: {} of {} rows have no {} (missing scalar or fluxgate values); their cells are empty",
                 args.survey.display(),
                 result.uncomputable,
-                flight.scalar.len(),
+                rows,
                 scalar_model.output_column
             );
         }
@@ -86,9 +94,7 @@ pub fn compensate_flight(
     scalar_model: &ScalarModel,
     fs: Option<f64>,
 ) -> Result<Compensation> {
-    let vector = &scalar_model.vectors[0];
-    check_flux_magnitude(&flight.flux)
-        .map_err(|e| flight.explain(e, &scalar_model.scalar, vector))?;
+    check_flux_magnitude(&flight.flux).map_err(|e| flight.explain(e, &scalar_model.scalar))?;
     let fs_hz = match (fs, &flight.tt) {
         (None, None) => scalar_model.fit.fs_hz,
         (fs, _) => flight.sample_rate(fs)?,

@@ -1,7 +1,8 @@
 //! `tolles fit`: learn a model from a calibration flight.
 
-use crate::input::{parse_band, Flight};
+use crate::input::{name_list, parse_band, Flight};
 use anyhow::{Context, Result};
+use rayon::prelude::*;
 use std::io::Write;
 use std::path::PathBuf;
 use tolles_core::design::Design;
@@ -9,8 +10,26 @@ use tolles_core::fit::{fit, Band, FitSettings, Lambda};
 use tolles_core::terms::TermSet;
 use tolles_io::model::{ModelFile, ScalarModel};
 
-/// Default terms: the 16 a scalar magnetometer can identify (see `--terms`).
-pub const DEFAULT_TERMS: &str = "permanent,i5,e8";
+/// Default terms: the 16 a scalar magnetometer can identify, or MagNav's 18 when
+/// cross-validation finds them clearly better (see `--terms`).
+pub const DEFAULT_TERMS: &str = "auto";
+
+/// Which terms to fit: a fixed set, or a choice by cross-validation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Terms {
+    /// The 16 identifiable terms, or the 18 of MagNav when they predict held-out data at least
+    /// 2 % better (only when λ is cross-validated; with a fixed λ, the 16).
+    Auto,
+    /// Exactly these terms.
+    Fixed(TermSet),
+}
+
+fn parse_terms(text: &str) -> Result<Terms, String> {
+    if text.trim().eq_ignore_ascii_case("auto") {
+        return Ok(Terms::Auto);
+    }
+    text.parse().map(Terms::Fixed).map_err(|e| format!("{e}"))
+}
 
 const EXAMPLES: &str = "\
 Examples:
@@ -34,16 +53,20 @@ pub struct Args {
     /// commas (mag_3_uc,mag_4_uc,mag_5_uc) give one model holding a fit per scalar
     #[arg(long)]
     pub scalar: String,
-    /// Fluxgate column prefix: `flux_a` reads flux_a_x, flux_a_y, flux_a_z (nT, body frame FRD)
+    /// Fluxgate column prefix: `flux_a` reads flux_a_x, flux_a_y, flux_a_z (nT, body frame FRD);
+    /// several separated by commas (flux_a,flux_b,flux_c) build one design in which each
+    /// fluxgate adds its own block of terms, for every scalar
     #[arg(long)]
     pub vector: String,
     /// Where to write the model (JSON); standard output if omitted
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Terms: permanent|p, induced|i, i5, i3, eddy|e, e8, e3, bias|b. The default is the 16
-    /// terms a scalar magnetometer can identify; MagNav.jl's is permanent,induced,eddy
-    #[arg(long, default_value = DEFAULT_TERMS)]
-    pub terms: TermSet,
+    /// Terms: `auto`, or a list of permanent|p, induced|i, i5, i3, eddy|e, e8, e3, bias|b.
+    /// `auto` fits the 16 terms a scalar magnetometer can identify (permanent,i5,e8) and
+    /// MagNav.jl's 18 (permanent,induced,eddy) and keeps the 18 only if cross-validation finds
+    /// them at least 2 % better on held-out data
+    #[arg(long, default_value = DEFAULT_TERMS, value_parser = parse_terms)]
+    pub terms: Terms,
     /// Ridge strength: `auto` chooses λ·diag(AᵀA) by 5-fold blocked cross-validation over time;
     /// a number X adds X·I to AᵀA with unscaled columns, exactly as MagNav's linreg
     #[arg(long, default_value = "auto", value_parser = parse_lambda)]
@@ -92,33 +115,27 @@ fn parse_lambda(text: &str) -> Result<Lambda, String> {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let scalars = scalar_names(&args.scalar)?;
-    let mut flight = Flight::read(&args.cal, scalars[0], &args.vector)?;
+    let scalars = name_list(&args.scalar, "--scalar")?;
+    let vectors = name_list(&args.vector, "--vector")?;
+    let table = crate::input::read_table(&args.cal)?;
+    let flight = Flight::from_table(&table, &scalars[0], &vectors)?;
     let fs_hz = flight.sample_rate(args.fs)?;
-    let (pass1_hz, pass2_hz) = parse_band(&args.band)?;
-    let settings = FitSettings {
-        design: Design::new(args.terms),
-        lambda: args.lambda,
-        band: Band { pass1_hz, pass2_hz },
-        order: args.order,
-        trim: args.trim,
-    };
+    let settings = settings(&args, vectors.len())?;
+    let columns = scalars
+        .iter()
+        .map(|name| flight.table.numeric(name))
+        .collect::<Result<Vec<_>, _>>()?;
+    // Scalars are independent problems: fit them on all cores, then report in the given order.
+    let spinner = crate::progress::spinner(&format!("fitting {}", scalars.join(", ")));
+    let fitted: Vec<_> = columns
+        .par_iter()
+        .map(|scalar| fit(scalar, &flight.flux, fs_hz, flight.tt.as_deref(), &settings))
+        .collect();
+    spinner.finish_and_clear();
     let mut models = Vec::new();
-    for (k, name) in scalars.iter().enumerate() {
-        if k > 0 {
-            flight.scalar = flight.table.numeric(name)?;
-        }
-        let spinner = crate::progress::spinner(&format!("fitting {name}"));
-        let fitted = fit(
-            &flight.scalar,
-            &flight.flux,
-            fs_hz,
-            flight.tt.as_deref(),
-            &settings,
-        );
-        spinner.finish_and_clear();
-        let fitted = fitted.map_err(|e| flight.explain(e, name, &args.vector))?;
-        let model = ScalarModel::new(name, &args.vector, fitted);
+    for (name, fitted) in scalars.iter().zip(fitted) {
+        let fitted = fitted.map_err(|e| flight.explain(e, name))?;
+        let model = ScalarModel::new(name, &vectors, fitted);
         print_summary(&model, &args)?;
         models.push(model);
     }
@@ -128,6 +145,27 @@ pub fn run(args: Args) -> Result<()> {
         None => writeln!(std::io::stdout(), "{}", file.to_json()).context("writing the model")?,
     }
     Ok(())
+}
+
+/// The fit settings the arguments ask for, over `fluxgates` fluxgates.
+fn settings(args: &Args, fluxgates: usize) -> Result<FitSettings> {
+    let (pass1_hz, pass2_hz) = parse_band(&args.band)?;
+    let recommended = FitSettings::recommended();
+    let (terms, alternative_terms) = match args.terms {
+        Terms::Auto => (
+            recommended.design.terms,
+            recommended.alternative_terms.clone(),
+        ),
+        Terms::Fixed(terms) => (terms, Vec::new()),
+    };
+    Ok(FitSettings {
+        design: Design::new(terms).with_fluxgates(fluxgates),
+        lambda: args.lambda,
+        band: Band { pass1_hz, pass2_hz },
+        order: args.order,
+        trim: args.trim,
+        alternative_terms,
+    })
 }
 
 fn print_summary(model: &ScalarModel, args: &Args) -> Result<()> {
@@ -162,6 +200,17 @@ fn print_summary(model: &ScalarModel, args: &Args) -> Result<()> {
         "  filtered scalar {:.4} nT -> residual {:.4} nT (improvement ×{:.2}), cond(AᵀA+Λ) = {:.3e}",
         d.filtered_std_before_nt, d.residual_std_nt, d.improvement_ratio, d.condition_number
     )?;
+    for score in &d.term_choice {
+        writeln!(
+            err,
+            "  terms {:<28} held-out residual {}{}",
+            score.terms.to_string(),
+            score
+                .heldout_rms_nt
+                .map_or("(could not be fitted)".to_string(), |r| format!("{r:.4} nT")),
+            if score.chosen { "  <- chosen" } else { "" }
+        )?;
+    }
     if let Some(cv) = &d.cross_validation {
         writeln!(
             err,
@@ -192,22 +241,6 @@ fn print_summary(model: &ScalarModel, args: &Args) -> Result<()> {
         p.perm_nt.t, p.perm_nt.l, p.perm_nt.v, p.induced.vv_tt, p.induced.vv_ll, p.induced.tl_lt, p.induced.tv_vt, p.induced.lv_vl
     )?;
     Ok(())
-}
-
-/// `mag_3_uc,mag_4_uc` → the column names, each once.
-fn scalar_names(list: &str) -> Result<Vec<&str>> {
-    let names: Vec<&str> = list
-        .split(',')
-        .map(str::trim)
-        .filter(|s| !s.is_empty())
-        .collect();
-    if names.is_empty() {
-        anyhow::bail!("--scalar needs a column name, or several separated by commas");
-    }
-    if let Some(k) = (1..names.len()).find(|&k| names[..k].contains(&names[k])) {
-        anyhow::bail!("--scalar names {:?} twice", names[k]);
-    }
-    Ok(names)
 }
 
 /// `0`, `1e-8`, `0.001`: the shortest honest text for a ridge strength.

@@ -130,7 +130,7 @@ pub fn evaluate(
     let compensated = match scalar_model {
         None => None,
         Some(scalar_model) => {
-            let flight = Flight::from_table(table, &scalar_model.scalar, &scalar_model.vectors[0])?;
+            let flight = Flight::from_table(&table, &scalar_model.scalar, &scalar_model.vectors)?;
             let result = compensate_flight(&flight, scalar_model, fs)?;
             if result.uncomputable > 0 {
                 eprintln!(

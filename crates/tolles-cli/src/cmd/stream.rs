@@ -125,6 +125,15 @@ fn setup(args: &Args) -> Result<Setup> {
     let mut fluxgates: Vec<String> = Vec::new();
     let mut specs = Vec::new();
     for m in &model.fits {
+        if m.vectors.len() != 1 {
+            bail!(
+                "{}: the fit of {} uses {} fluxgates ({}); tolles stream handles one fluxgate per scalar, so use tolles compensate or refit with one --vector",
+                args.model.display(),
+                m.scalar,
+                m.vectors.len(),
+                m.vectors.join(",")
+            );
+        }
         let vector = &m.vectors[0];
         let j = match fluxgates.iter().position(|f| f == vector) {
             Some(j) => j,
