@@ -42,7 +42,7 @@ impl<'t> Flight<'t> {
 
     /// The sample rate (Hz): `--fs` if given, else 1 / median step of `tt`.
     pub fn sample_rate(&self, fs: Option<f64>) -> Result<f64> {
-        sample_rate(&self.table, self.tt.as_deref(), fs)
+        sample_rate(self.table, self.tt.as_deref(), fs)
     }
 
     /// Adds file and line to a core fit error.

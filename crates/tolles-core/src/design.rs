@@ -183,7 +183,11 @@ impl Design {
     pub fn apply<'a>(&self, flux: impl Into<Fluxgates<'a>>, coefficients: &[f64]) -> Vec<f64> {
         let flux = flux.into();
         let terms = self.design_terms();
-        assert_eq!(terms.len(), coefficients.len(), "one coefficient per column");
+        assert_eq!(
+            terms.len(),
+            coefficients.len(),
+            "one coefficient per column"
+        );
         let mut out = vec![0.0; flux.len()];
         let mut row = vec![0.0; terms.len()];
         for_each_row(&flux, |k, b, db| {
@@ -216,9 +220,9 @@ fn for_each_row(flux: &Fluxgates, mut f: impl FnMut(usize, &[[f64; 3]], &[[f64; 
     let mut b = vec![[0.0; 3]; flux.count()];
     let mut db = vec![[0.0; 3]; flux.count()];
     for k in 0..flux.len() {
-        for (f, s) in flux.series().iter().enumerate() {
-            b[f] = s.at(k);
-            db[f] = [changes[f][0][k], changes[f][1][k], changes[f][2][k]];
+        for (j, (series, change)) in flux.series().iter().zip(&changes).enumerate() {
+            b[j] = series.at(k);
+            db[j] = change.each_ref().map(|c| c[k]);
         }
         f(k, &b, &db);
     }

@@ -289,7 +289,14 @@ pub fn fit<'a>(
     let mut prepared = Vec::new();
     let mut short = 0;
     for run in contiguous_runs(&usable, tt) {
-        match prepare_run(scalar, &flux, run.clone(), filter.as_ref(), settings, &union)? {
+        match prepare_run(
+            scalar,
+            &flux,
+            run.clone(),
+            filter.as_ref(),
+            settings,
+            &union,
+        )? {
             Some(rows) => prepared.push(rows),
             None => short += run.len(),
         }
@@ -361,7 +368,12 @@ fn choose_design(
         let picks: Vec<usize> = design
             .design_terms()
             .iter()
-            .map(|t| union.iter().position(|u| u == t).expect("union holds every term"))
+            .map(|t| {
+                union
+                    .iter()
+                    .position(|u| u == t)
+                    .expect("union holds every term")
+            })
             .collect();
         let folds = fold_problems(prepared, &picks, lambda);
         let rows: usize = folds.iter().map(Ridge::rows).sum();
@@ -548,9 +560,7 @@ fn prepare_run(
     if run.len() < needed {
         return Ok(None);
     }
-    let mut a = settings
-        .design
-        .matrix_of(&flux.slice(run.clone()), terms);
+    let mut a = settings.design.matrix_of(&flux.slice(run.clone()), terms);
     let mut y = scalar[run].to_vec();
     if let Some(f) = filter {
         for mut col in a.column_iter_mut() {

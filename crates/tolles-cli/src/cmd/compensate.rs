@@ -54,7 +54,10 @@ pub fn run(args: Args) -> Result<()> {
         .par_iter()
         .map(|scalar_model| {
             let flight = Flight::from_table(&table, &scalar_model.scalar, &scalar_model.vectors)?;
-            Ok((flight.scalar.len(), compensate_flight(&flight, scalar_model, args.fs)?))
+            Ok((
+                flight.scalar.len(),
+                compensate_flight(&flight, scalar_model, args.fs)?,
+            ))
         })
         .collect();
     let mut extra = Vec::new();

@@ -207,7 +207,9 @@ fn print_summary(model: &ScalarModel, args: &Args) -> Result<()> {
             score.terms.to_string(),
             score
                 .heldout_rms_nt
-                .map_or("(could not be fitted)".to_string(), |r| format!("{r:.4} nT")),
+                .map_or("(could not be fitted)".to_string(), |r| format!(
+                    "{r:.4} nT"
+                )),
             if score.chosen { "  <- chosen" } else { "" }
         )?;
     }
