@@ -20,11 +20,6 @@ pub struct Flight {
 }
 
 impl Flight {
-    /// Reads `path` and the columns `scalar` and `vector_x/_y/_z`.
-    pub fn read(path: &Path, scalar: &str, vector: &str) -> Result<Self> {
-        Self::from_table(read_table(path)?, scalar, vector)
-    }
-
     /// The columns `scalar` and `vector_x/_y/_z` of an already read table.
     pub fn from_table(table: Table, scalar: &str, vector: &str) -> Result<Self> {
         let scalar = table.numeric(scalar)?;

@@ -38,7 +38,9 @@ const LINES_SHOWN: usize = 10;
 /// Why rows could not be selected. Each message is one line that names the file.
 #[derive(Debug, Error)]
 pub enum SelectError {
-    #[error("{flag}: {text:?}: {why}")]
+    /// A `--line` or `--time` value that does not parse; the message is only why, as clap names
+    /// the flag and value.
+    #[error("{why}")]
     Parse {
         flag: &'static str,
         text: String,
@@ -416,7 +418,7 @@ mod tests {
     #[test]
     fn bad_time_ranges_say_why() {
         let why = |t: &str| t.parse::<TimeRange>().unwrap_err().to_string();
-        assert_eq!(why("200..100"), "--time: \"200..100\": START is after END");
+        assert_eq!(why("200..100"), "START is after END");
         assert!(why("100").contains("expected START..END"), "{}", why("100"));
         assert!(why("abc..5").contains("START \"abc\" is not a number"));
         assert!(why("5..nan").contains("END \"nan\" is not a number"));

@@ -37,6 +37,8 @@ pub struct Args {
     /// Sample rate of the survey in Hz, if it has no `tt` column (default: the model's)
     #[arg(long)]
     pub fs: Option<f64>,
+    #[command(flatten)]
+    pub select: crate::select::Selection,
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -46,7 +48,9 @@ pub fn run(args: Args) -> Result<()> {
     }
     // The survey is read once; each fit takes its own scalar and fluxgate columns from it, and
     // it is written back whole with one compensated column per fit.
-    let table = crate::input::read_table(&args.survey)?;
+    let table = args
+        .select
+        .read(&args.survey, crate::select::Use::Compensate)?;
     let mut extra = Vec::new();
     for scalar_model in &model.fits {
         let vector = &scalar_model.vectors[0];

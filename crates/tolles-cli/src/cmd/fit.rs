@@ -61,6 +61,8 @@ pub struct Args {
     /// Sample rate in Hz (required when the file has no `tt` column)
     #[arg(long)]
     pub fs: Option<f64>,
+    #[command(flatten)]
+    pub select: crate::select::Selection,
 }
 
 impl Args {
@@ -93,7 +95,8 @@ fn parse_lambda(text: &str) -> Result<Lambda, String> {
 
 pub fn run(args: Args) -> Result<()> {
     let scalars = scalar_names(&args.scalar)?;
-    let mut flight = Flight::read(&args.cal, scalars[0], &args.vector)?;
+    let table = args.select.read(&args.cal, crate::select::Use::Fit)?;
+    let mut flight = Flight::from_table(table, scalars[0], &args.vector)?;
     let fs_hz = flight.sample_rate(args.fs)?;
     let (pass1_hz, pass2_hz) = parse_band(&args.band)?;
     let settings = FitSettings {
