@@ -10,7 +10,7 @@ use tolles_io::select::{LineId, RowSelection, TimeRange};
 use tolles_io::table::Table;
 
 /// The selection flags, shared by `fit`, `compensate` and `fom`.
-#[derive(clap::Args, Clone, Default)]
+#[derive(clap::Args, Clone, Debug, Default)]
 #[command(next_help_heading = "Selecting rows")]
 pub struct Selection {
     /// Only rows on these flight lines (column `line`), e.g. 1002.02,1003.01; the flag may

@@ -25,7 +25,10 @@ fn fails(args: &[&str]) -> String {
     let stderr = String::from_utf8(out.stderr).unwrap();
     assert!(!out.status.success(), "expected failure for {args:?}");
     assert!(!stderr.contains("panicked"), "{stderr}");
-    let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error: ")).collect();
+    let errors: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.starts_with("error: "))
+        .collect();
     assert_eq!(errors.len(), 1, "{stderr}");
     errors[0].to_string()
 }
