@@ -6,6 +6,7 @@
 mod cmd;
 mod input;
 mod progress;
+mod select;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;

@@ -4,6 +4,7 @@
 //! - [`format`]: which format a flight file is in, [`table::Table::read`] for any of them;
 //! - [`xyz`], [`gdf`], [`hdf5`], [`parquet`]: Geosoft XYZ, ASEG-GDF2, HDF5 and Parquet tables;
 //! - [`model`]: the model file (JSON) that `tolles fit` writes and `tolles compensate` reads;
+//! - [`select`]: choosing rows by flight line and time (`--line`, `--time`);
 //! - [`simulation`]: simulated flights (CSV) and their JSON sidecars.
 //!
 //! Every error names the file, and where it can the line and column, so a user can fix the input.
@@ -14,6 +15,7 @@ pub mod gdf;
 pub mod hdf5;
 pub mod model;
 pub mod parquet;
+pub mod select;
 pub mod simulation;
 pub mod stream_line;
 pub mod table;

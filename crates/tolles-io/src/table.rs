@@ -113,6 +113,18 @@ impl Column {
     }
 }
 
+/// Where each row of a table is in the file it was read from, so messages about a table whose
+/// rows were selected still name the file's own lines.
+#[derive(Debug, Clone)]
+enum Origin {
+    /// The file line of each row (text files).
+    Lines(Vec<u64>),
+    /// The 1-based row number in the file of each row (binary files, after a selection).
+    Rows(Vec<u64>),
+    /// Row `k` is the file's row `k + 1` (binary files as read).
+    InOrder,
+}
+
 /// A table of named, equally long columns held in memory.
 #[derive(Debug, Clone)]
 pub struct Table {
@@ -120,7 +132,7 @@ pub struct Table {
     headers: Vec<String>,
     columns: Vec<Column>,
     len: usize,
-    lines: Option<Vec<u64>>,
+    origin: Origin,
     metadata: Vec<(String, f64)>,
     notes: Vec<String>,
 }
@@ -160,7 +172,7 @@ impl Table {
             headers,
             columns,
             len,
-            lines,
+            origin: lines.map_or(Origin::InOrder, Origin::Lines),
             metadata: Vec::new(),
             notes: Vec::new(),
         })
@@ -261,20 +273,62 @@ impl Table {
         &self.notes
     }
 
-    /// The file line of data row `k` (0-based), for messages; for binary files, `k + 1`.
+    /// The file line of data row `k` (0-based), for messages; for binary files, the 1-based row
+    /// number in the file. Both stay those of the file after [`Table::select_rows`].
     pub fn line_of(&self, k: usize) -> u64 {
-        self.lines
-            .as_ref()
-            .and_then(|lines| lines.get(k).copied())
-            .unwrap_or(k as u64 + 1)
+        let listed = match &self.origin {
+            Origin::Lines(numbers) | Origin::Rows(numbers) => numbers.get(k).copied(),
+            Origin::InOrder => None,
+        };
+        listed.unwrap_or(k as u64 + 1)
     }
 
     /// Where data row `k` (0-based) is, for messages: "line N" for text files, "row N"
-    /// (1-based) for binary ones.
+    /// (1-based) for binary ones; the file's own line or row, also after a selection.
     pub fn place_of(&self, k: usize) -> String {
-        match &self.lines {
-            Some(_) => format!("line {}", self.line_of(k)),
-            None => format!("row {}", k + 1),
+        match &self.origin {
+            Origin::Lines(_) => format!("line {}", self.line_of(k)),
+            Origin::Rows(_) | Origin::InOrder => format!("row {}", self.line_of(k)),
+        }
+    }
+
+    /// A table of the rows `k` with `keep[k]` true, in order, each keeping its cells as written
+    /// and its place in the file (see [`Table::place_of`]); metadata and notes carry over.
+    /// The result has no rows when nothing is kept.
+    ///
+    /// # Panics
+    /// If `keep` is not one flag per row.
+    pub fn select_rows(&self, keep: &[bool]) -> Table {
+        assert_eq!(keep.len(), self.len, "select_rows needs one flag per row");
+        let kept: Vec<usize> = (0..self.len).filter(|&k| keep[k]).collect();
+        let columns = self
+            .columns
+            .iter()
+            .map(|column| match column {
+                Column::Text(text) => {
+                    let mut chosen = TextColumn::new(text.missing.clone());
+                    for &k in &kept {
+                        chosen.push(text.get(k));
+                    }
+                    Column::Text(chosen)
+                }
+                Column::Numbers(values) => {
+                    Column::Numbers(kept.iter().map(|&k| values[k]).collect())
+                }
+            })
+            .collect();
+        let places = kept.iter().map(|&k| self.line_of(k)).collect();
+        Table {
+            path: self.path.clone(),
+            headers: self.headers.clone(),
+            columns,
+            len: kept.len(),
+            origin: match self.origin {
+                Origin::Lines(_) => Origin::Lines(places),
+                Origin::Rows(_) | Origin::InOrder => Origin::Rows(places),
+            },
+            metadata: self.metadata.clone(),
+            notes: self.notes.clone(),
         }
     }
 
@@ -349,7 +403,8 @@ impl Table {
         }
     }
 
-    fn suggest(&self, name: &str) -> String {
+    /// "; did you mean …?" or "; the header has: …", to end a message about a missing `name`.
+    pub(crate) fn suggest(&self, name: &str) -> String {
         let stem = name.trim_end_matches(['x', 'y', 'z']).trim_end_matches('_');
         let near: Vec<&str> = self
             .headers
@@ -548,6 +603,53 @@ mod tests {
         assert_eq!(t.numeric("a").unwrap(), a);
         let back = t.numeric("b").unwrap();
         assert!(back[1].is_nan() && back[2] == 3.0);
+    }
+
+    #[test]
+    fn selected_rows_keep_their_cells_and_file_lines() {
+        let t = read("a,b\n1.50,x\n2,y\n7,w\n3.0,z\n")
+            .unwrap()
+            .with_metadata(vec![("dt".into(), 0.1)])
+            .with_notes(vec!["left out c".into()]);
+        let s = t.select_rows(&[true, false, false, true]);
+        assert_eq!(s.len(), 2);
+        assert_eq!(s.headers(), t.headers());
+        assert_eq!((s.line_of(0), s.line_of(1)), (2, 5));
+        assert_eq!(s.place_of(1), "line 5");
+        assert_eq!(s.metadata("dt"), Some(0.1));
+        assert_eq!(s.notes(), ["left out c"]);
+        let mut out = Vec::new();
+        write_with_column(&s, &[], &mut out).unwrap();
+        assert_eq!(String::from_utf8(out).unwrap(), "a,b\n1.50,x\n3.0,z\n");
+        let err = s.numeric("b").unwrap_err().to_string();
+        assert_eq!(err, "t.csv: line 2, column \"b\": \"x\" is not a number");
+    }
+
+    #[test]
+    fn a_selection_of_a_selection_still_names_the_file_line() {
+        let t = read("a\n1\n2\n3\nq\n").unwrap();
+        let s = t.select_rows(&[false, true, true, true]);
+        let s = s.select_rows(&[false, true, true]);
+        let err = s.numeric("a").unwrap_err().to_string();
+        assert_eq!(err, "t.csv: line 5, column \"a\": \"q\" is not a number");
+    }
+
+    #[test]
+    fn selected_rows_of_a_binary_table_name_the_file_row() {
+        let column = Column::Numbers(vec![10.0, 11.0, 12.0, 13.0]);
+        let t = Table::from_columns("t.h5", vec!["a".into()], vec![column], None).unwrap();
+        assert_eq!(t.place_of(2), "row 3");
+        let s = t.select_rows(&[false, false, true, true]);
+        assert_eq!(s.numeric("a").unwrap(), [12.0, 13.0]);
+        assert_eq!((s.place_of(0), s.line_of(1)), ("row 3".into(), 4));
+        let s = s.select_rows(&[false, true]);
+        assert_eq!(s.place_of(0), "row 4");
+    }
+
+    #[test]
+    fn selecting_nothing_gives_an_empty_table() {
+        let t = read("a\n1\n").unwrap();
+        assert!(t.select_rows(&[false]).is_empty());
     }
 
     #[test]

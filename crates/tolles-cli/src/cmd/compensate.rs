@@ -18,9 +18,10 @@ Examples:
 
 /// Remove the aircraft's field from survey data with a model from `tolles fit`.
 ///
-/// Writes every input row and column unchanged plus the compensated scalar, named after the
-/// scalar with `_uc` replaced by `_c` (mag_1_uc → mag_1_c). The correction's mean over the file is
-/// kept in the data, as MagNav.jl does. Rows that cannot be compensated (missing values) get an
+/// Writes every input row (with --line/--time, every selected row) and column unchanged plus
+/// the compensated scalar, named after the scalar with `_uc` replaced by `_c`
+/// (mag_1_uc → mag_1_c). The correction's mean over the rows written is kept in the data, as
+/// MagNav.jl does. Rows that cannot be compensated (missing values) get an
 /// empty cell and are counted on stderr.
 #[derive(clap::Args)]
 #[command(after_help = EXAMPLES)]
@@ -38,6 +39,8 @@ pub struct Args {
     /// Sample rate of the survey in Hz, if it has no `tt` column (default: the model's)
     #[arg(long)]
     pub fs: Option<f64>,
+    #[command(flatten)]
+    pub select: crate::select::Selection,
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -47,7 +50,9 @@ pub fn run(args: Args) -> Result<()> {
     }
     // The survey is read once; each fit takes its own scalar and fluxgate columns from it, and
     // it is written back whole with one compensated column per fit.
-    let table = crate::input::read_table(&args.survey)?;
+    let table = args
+        .select
+        .read(&args.survey, crate::select::Use::Compensate)?;
     // Fits are independent: compensate them on all cores, then report in the model's order.
     let results: Vec<Result<(usize, Compensation)>> = model
         .fits

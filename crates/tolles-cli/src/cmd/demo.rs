@@ -81,6 +81,7 @@ pub fn run(args: Args) -> Result<()> {
         model: model_path.clone(),
         out: Some(compensated_path.clone()),
         fs: None,
+        select: Default::default(),
     })?;
     std::io::stdout().flush()?;
     report(&survey, &compensated_path, &model_path, &truth)?;

@@ -84,6 +84,8 @@ pub struct Args {
     /// Sample rate in Hz (required when the file has no `tt` column)
     #[arg(long)]
     pub fs: Option<f64>,
+    #[command(flatten)]
+    pub select: crate::select::Selection,
 }
 
 impl Args {
@@ -117,7 +119,7 @@ fn parse_lambda(text: &str) -> Result<Lambda, String> {
 pub fn run(args: Args) -> Result<()> {
     let scalars = name_list(&args.scalar, "--scalar")?;
     let vectors = name_list(&args.vector, "--vector")?;
-    let table = crate::input::read_table(&args.cal)?;
+    let table = args.select.read(&args.cal, crate::select::Use::Fit)?;
     let flight = Flight::from_table(&table, &scalars[0], &vectors)?;
     let fs_hz = flight.sample_rate(args.fs)?;
     let settings = settings(&args, vectors.len())?;

@@ -59,6 +59,8 @@ pub struct Args {
     /// Sample rate in Hz (default: from the tt column)
     #[arg(long)]
     pub fs: Option<f64>,
+    #[command(flatten)]
+    pub select: crate::select::Selection,
 }
 
 /// What the command found and computed.
@@ -90,7 +92,7 @@ pub fn run(args: Args) -> Result<()> {
         .as_ref()
         .map(|m| model_for(m, args.model.as_deref(), &args.scalar))
         .transpose()?;
-    let table = crate::input::read_table(&args.flight)?;
+    let table = args.select.read(&args.flight, crate::select::Use::Fom)?;
     let outcome = evaluate(table, &args.scalar, scalar_model, args.fs, &settings)?;
     let mut out = std::io::stdout().lock();
     if args.json {
