@@ -323,7 +323,8 @@ fn figure_of_merit(mut report: Report, outcome: &Outcome) -> Report {
 fn model_sections(mut report: Report, model: &ScalarModel) -> Report {
     let fit = &model.fit;
     let d = &fit.diagnostics;
-    let unit = |name: &str| match name.split('_').next() {
+    // Several fluxgates name their columns `flux_b.perm_x`: the unit follows the column part.
+    let unit = |name: &str| match name.rsplit('.').next().unwrap_or(name).split('_').next() {
         Some("perm") | Some("bias") => "nT",
         _ => "nT per column unit",
     };
@@ -344,8 +345,13 @@ fn model_sections(mut report: Report, model: &ScalarModel) -> Report {
     report = report
         .section("Model")
         .paragraph(format!(
-            "Fit of {} against fluxgate {} with terms {}; sample rate {:.3} Hz.",
+            "Fit of {} against {} {} with terms {}; sample rate {:.3} Hz.",
             model.scalar,
+            if model.vectors.len() > 1 {
+                "fluxgates"
+            } else {
+                "fluxgate"
+            },
             model.vectors.join(", "),
             fit.settings.design.terms,
             fit.fs_hz
@@ -365,9 +371,11 @@ fn model_sections(mut report: Report, model: &ScalarModel) -> Report {
         })
         .collect();
     report = report
-        .paragraph(
-            "The same model in the Tolles patent's terms (L = forward, T = right, V = down):",
-        )
+        .paragraph(if model.vectors.len() > 1 {
+            "The first fluxgate's block in the Tolles patent's terms (L = forward, T = right, V = down):"
+        } else {
+            "The same model in the Tolles patent's terms (L = forward, T = right, V = down):"
+        })
         .table(&["term", "value", "unit"], &patent);
     let mut diagnostics = vec![
         (
@@ -428,6 +436,29 @@ fn model_sections(mut report: Report, model: &ScalarModel) -> Report {
                 cv.folds
             ))
             .table(&["λ (× diag AᵀA)", "held-out RMS (nT)"], &rows);
+    }
+    if !d.term_choice.is_empty() {
+        let rows: Vec<Vec<String>> = d
+            .term_choice
+            .iter()
+            .map(|t| {
+                vec![
+                    t.terms.to_string(),
+                    t.lambda_rel.map_or("-".into(), |l| format!("{l:e}")),
+                    t.heldout_rms_nt
+                        .map_or("could not be fitted".into(), |r| format!("{r:.5}")),
+                    if t.chosen { "chosen" } else { "" }.into(),
+                ]
+            })
+            .collect();
+        report = report
+            .paragraph(
+                "Term sets compared on the same folds (an alternative to the first must be 2 % better):",
+            )
+            .table(
+                &["terms", "λ (× diag AᵀA)", "held-out RMS (nT)", ""],
+                &rows,
+            );
     }
     report
 }
