@@ -23,7 +23,7 @@
 
 use crate::terms::Column;
 pub use crate::terms::TermSet;
-use crate::vector::Fluxgates;
+use crate::vector::{Fluxgates, VectorSeries};
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 
@@ -152,18 +152,30 @@ impl Design {
     /// The design matrix of one contiguous series (rows = samples), with the columns `terms`
     /// (usually [`Design::design_terms`]).
     ///
+    /// Built column by column (the matrix is column-major), with the same arithmetic as
+    /// [`Design::row`], so every entry is bit-for-bit what `row` gives.
+    ///
     /// # Panics
     /// If `terms` names a fluxgate that `flux` does not have: a programming error.
     pub fn matrix_of<'a>(&self, flux: impl Into<Fluxgates<'a>>, terms: &[Term]) -> DMatrix<f64> {
         let flux = flux.into();
+        let components: Vec<Components> = flux.series().iter().map(|s| Components::of(s)).collect();
         let mut a = DMatrix::zeros(flux.len(), terms.len());
-        let mut row = vec![0.0; terms.len()];
-        for_each_row(&flux, |k, b, db| {
-            self.row_of(terms, b, db, &mut row);
-            for (c, v) in row.iter().enumerate() {
-                a[(k, c)] = *v;
+        for (mut out, term) in a.column_iter_mut().zip(terms) {
+            let out = out.as_mut_slice();
+            let c = &components[term.fluxgate];
+            let scaled = |out: &mut [f64], u: &[f64], v: &[f64]| {
+                for ((o, u), v) in out.iter_mut().zip(u).zip(v) {
+                    *o = u * v / self.bt_scale;
+                }
+            };
+            match term.column {
+                Column::Permanent(i) => out.copy_from_slice(&c.unit[i.index()]),
+                Column::Induced(i, j) => scaled(out, &c.unit[i.index()], c.b[j.index()]),
+                Column::Eddy(i, j) => scaled(out, &c.unit[i.index()], &c.db[j.index()]),
+                Column::Bias => out.fill(1.0),
             }
-        });
+        }
         a
     }
 
@@ -195,6 +207,25 @@ impl Design {
             out[k] = row.iter().zip(coefficients).map(|(a, c)| a * c).sum();
         });
         out
+    }
+}
+
+/// One fluxgate's components (nT), their changes per sample (nT/sample) and the unit vector.
+struct Components<'a> {
+    b: [&'a [f64]; 3],
+    db: [Vec<f64>; 3],
+    unit: [Vec<f64>; 3],
+}
+
+impl<'a> Components<'a> {
+    fn of(flux: &'a VectorSeries) -> Self {
+        let b = [flux.x.as_slice(), flux.y.as_slice(), flux.z.as_slice()];
+        let norm: Vec<f64> = (0..flux.len()).map(|k| flux.magnitude(k)).collect();
+        Self {
+            b,
+            db: b.map(central_difference),
+            unit: b.map(|c| c.iter().zip(&norm).map(|(v, m)| v / m).collect()),
+        }
     }
 }
 
@@ -251,7 +282,6 @@ pub fn central_difference(x: &[f64]) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::vector::VectorSeries;
 
     fn swinging(phase: f64) -> VectorSeries {
         let n = 6;
@@ -278,6 +308,24 @@ mod tests {
         assert_eq!(names[width - 1], "flux_a.bias");
         assert_eq!(names[width], "flux_b.perm_x");
         assert_eq!(two.column_names(&[])[width], "fluxgate2.perm_x");
+    }
+
+    #[test]
+    fn matrix_entries_are_bit_for_bit_the_design_rows() {
+        let (f0, f1) = (swinging(0.3), swinging(2.0));
+        let d = Design::new("p,i,e,b".parse().unwrap()).with_fluxgates(2);
+        let terms = d.design_terms();
+        let a = d.matrix(vec![&f0, &f1]);
+        let change = |s: &VectorSeries| [&s.x, &s.y, &s.z].map(|c| central_difference(c));
+        let (d0, d1) = (change(&f0), change(&f1));
+        let mut row = vec![0.0; terms.len()];
+        for k in 0..f0.len() {
+            let db = [d0.each_ref().map(|c| c[k]), d1.each_ref().map(|c| c[k])];
+            d.row_of(&terms, &[f0.at(k), f1.at(k)], &db, &mut row);
+            for (c, v) in row.iter().enumerate() {
+                assert_eq!(a[(k, c)].to_bits(), v.to_bits(), "row {k} column {c}");
+            }
+        }
     }
 
     #[test]
