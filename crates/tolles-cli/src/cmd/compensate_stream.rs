@@ -84,8 +84,12 @@ pub fn run(args: &Args, model: &ModelFile) -> Result<()> {
         .is_some_and(|out| Format::from_path(out) == Format::Parquet);
     let plan = Plan::new(&reader, model, numeric_output);
     let scan = scan(reader.only(plan.read.clone()), &plan)?;
-    let fits = check_in_order(&plan, &scan, model, args)?;
-    let levels = level(open()?.only(plan.read.clone()), &plan, &scan, &fits)?;
+    // The fits before one that fails are computed and reported, as the whole-file path does.
+    let (fits, failure) = check_in_order(&plan, &scan, model, args);
+    let levels = match fits.is_empty() {
+        true => Vec::new(),
+        false => level(open()?.only(plan.read.clone()), &plan, &scan, &fits)?,
+    };
     let headers = open()?.headers().to_vec();
     let mut names = Vec::new();
     for (fit, level) in model.fits.iter().zip(&levels) {
@@ -98,6 +102,9 @@ pub fn run(args: &Args, model: &ModelFile) -> Result<()> {
             );
         }
         names.push(output_name(&args.survey, &headers, &fit.output_column));
+    }
+    if let Some(e) = failure {
+        return Err(e);
     }
     if numeric_output {
         if let Some(e) = scan.first_error_in_file_order() {
@@ -355,14 +362,32 @@ impl ReadyFit {
     }
 }
 
-/// Reports what pass 1 found in the order the whole-file path checks: per fit its scalar, its
-/// fluxgate's x, y, z, the time column, the fluxgate's magnitude, then the sample rate.
+/// Checks what pass 1 found in the order the whole-file path does: per fit its scalar, its
+/// fluxgate's x, y, z, the time column, the fluxgate's magnitude, then the sample rate. Returns
+/// the fits before the first that fails, and its error.
 fn check_in_order(
     plan: &Plan,
     scan: &Scan,
     model: &ModelFile,
     args: &Args,
-) -> Result<Vec<ReadyFit>> {
+) -> (Vec<ReadyFit>, Option<anyhow::Error>) {
+    let mut ready = Vec::new();
+    for (fit, columns) in model.fits.iter().zip(&plan.fits) {
+        match check_fit(plan, scan, fit, columns, args) {
+            Ok(f) => ready.push(f),
+            Err(e) => return (ready, Some(e)),
+        }
+    }
+    (ready, None)
+}
+
+fn check_fit(
+    plan: &Plan,
+    scan: &Scan,
+    fit: &tolles_io::model::ScalarModel,
+    columns: &FitColumns,
+    args: &Args,
+) -> Result<ReadyFit> {
     let column = |position: &Result<usize, IoError>| -> Result<()> {
         match position {
             Err(e) => Err(clone_error(e).into()),
@@ -372,40 +397,36 @@ fn check_in_order(
             },
         }
     };
-    let mut ready = Vec::new();
-    for (fit, columns) in model.fits.iter().zip(&plan.fits) {
-        column(&columns.scalar)?;
-        let (vector, axes) = &plan.fluxgates[columns.fluxgate];
-        for axis in axes {
-            column(axis)?;
-        }
-        if let Some(p) = plan.tt {
-            column(&Ok(p))?;
-            if let Some((place, t, before)) = &scan.not_increasing {
-                return Err(time_not_increasing(&args.survey, place, *t, *before));
-            }
-        }
-        if let Some((place, magnitude)) = &scan.bad_magnitude[columns.fluxgate] {
-            return Err(flux_magnitude_error(
-                &args.survey,
-                place,
-                vector,
-                *magnitude,
-            ));
-        }
-        let fs_hz = match (args.fs, plan.tt) {
-            (None, None) => fit.fit.fs_hz,
-            (fs, _) => sample_rate_from(&args.survey, None, scan.median_step, fs)?,
-        };
-        ready.push(ReadyFit {
-            name: fit.scalar.clone(),
-            fluxgate: columns.fluxgate,
-            design: fit.fit.settings.design.clone(),
-            coefficients: fit.fit.coefficients.clone(),
-            fs_ratio: fs_hz / fit.fit.fs_hz,
-        });
+    column(&columns.scalar)?;
+    let (vector, axes) = &plan.fluxgates[columns.fluxgate];
+    for axis in axes {
+        column(axis)?;
     }
-    Ok(ready)
+    if let Some(p) = plan.tt {
+        column(&Ok(p))?;
+        if let Some((place, t, before)) = &scan.not_increasing {
+            return Err(time_not_increasing(&args.survey, place, *t, *before));
+        }
+    }
+    if let Some((place, magnitude)) = &scan.bad_magnitude[columns.fluxgate] {
+        return Err(flux_magnitude_error(
+            &args.survey,
+            place,
+            vector,
+            *magnitude,
+        ));
+    }
+    let fs_hz = match (args.fs, plan.tt) {
+        (None, None) => fit.fit.fs_hz,
+        (fs, _) => sample_rate_from(&args.survey, None, scan.median_step, fs)?,
+    };
+    Ok(ReadyFit {
+        name: fit.scalar.clone(),
+        fluxgate: columns.fluxgate,
+        design: fit.fit.settings.design.clone(),
+        coefficients: fit.fit.coefficients.clone(),
+        fs_ratio: fs_hz / fit.fit.fs_hz,
+    })
 }
 
 /// The errors pass 1 keeps are shown once, when their turn comes; this copies one to return.
@@ -517,9 +538,10 @@ fn level(
     };
     let mut feed = Feed::new(plan, scan);
     let mut rows = 0;
-    let positions: Vec<usize> = (0..plan.read.len()).collect();
+    // Bad cells can only be in the columns of fits after one that failed, not computed here.
+    let mut bad_cell: Vec<Option<IoError>> = (0..plan.read.len()).map(|_| None).collect();
     while let Some(chunk) = reader.next_chunk()? {
-        let values = numbers_of(&chunk, &positions)?;
+        let values = numbers(&chunk, &mut bad_cell);
         for k in 0..chunk.len() {
             if feed.load(&values, k) {
                 stream.split(&mut emit);
