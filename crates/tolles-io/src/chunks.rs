@@ -60,15 +60,15 @@ pub struct ChunkReader {
 
 enum Source {
     Csv {
-        reader: csv::Reader<BufReader<File>>,
+        reader: Box<csv::Reader<BufReader<File>>>,
         record: csv::StringRecord,
     },
     Xyz {
-        chunks: XyzChunks<File>,
+        chunks: Box<XyzChunks<File>>,
         /// The first chunk, read ahead because it names the columns.
-        pending: Option<Table>,
+        pending: Option<Box<Table>>,
     },
-    Parquet(ParquetChunks),
+    Parquet(Box<ParquetChunks>),
 }
 
 impl ChunkReader {
@@ -103,20 +103,21 @@ impl ChunkReader {
                     return Err(e);
                 }
                 let record = csv::StringRecord::new();
+                let reader = Box::new(reader);
                 (headers, Source::Csv { reader, record })
             }
             Format::Xyz => {
-                let mut chunks = XyzChunks::new(file, path);
+                let mut chunks = Box::new(XyzChunks::new(file, path));
                 let first = chunks.next_rows(rows)?;
                 let headers = first.as_ref().map_or(Vec::new(), |t| t.headers().to_vec());
-                let pending = first;
+                let pending = first.map(Box::new);
                 (headers, Source::Xyz { chunks, pending })
             }
             Format::Parquet => {
                 let parquet = ParquetChunks::open(file, path)?;
                 notes = parquet.notes.clone();
                 check_header(path, &parquet.headers)?;
-                (parquet.headers.clone(), Source::Parquet(parquet))
+                (parquet.headers.clone(), Source::Parquet(Box::new(parquet)))
             }
             Format::Gdf | Format::Hdf5 => {
                 return Err(IoError::Invalid {
@@ -195,7 +196,7 @@ impl ChunkReader {
                 self.rows_read,
             )?,
             Source::Xyz { chunks, pending } => match pending.take() {
-                Some(t) => Some(t),
+                Some(t) => Some(*t),
                 None => chunks.next_rows(self.rows)?,
             }
             .map(|t| select(t, self.keep.as_deref()))

@@ -447,6 +447,7 @@ pub fn write_with_column(
 
 /// Writes the rows of `table` plus the `extra` columns (no header), as [`write_with_column`]
 /// does; a file written in chunks is the same text as one written whole.
+#[allow(clippy::needless_range_loop)] // k is a row of the table and of every extra column
 pub(crate) fn write_rows<W: std::io::Write>(
     table: &Table,
     extra: &[&[f64]],
