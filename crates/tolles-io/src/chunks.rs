@@ -434,6 +434,78 @@ fn fail(path: &Path, e: ParquetError) -> IoError {
     }
 }
 
+/// Rows of numbers kept in an anonymous temporary file (8 bytes a value, removed when dropped)
+/// between passes over a text file, so that a later pass need not parse the text again.
+pub struct NumberSpill {
+    out: std::io::BufWriter<File>,
+    width: usize,
+    rows: usize,
+}
+
+impl NumberSpill {
+    /// A spill for rows of `width` numbers.
+    pub fn new(width: usize) -> std::io::Result<Self> {
+        Ok(Self {
+            out: std::io::BufWriter::with_capacity(1 << 20, tempfile::tempfile()?),
+            width,
+            rows: 0,
+        })
+    }
+
+    /// Appends the rows of `columns` (`width` columns of equal length).
+    pub fn push(&mut self, columns: &[Vec<f64>]) -> std::io::Result<()> {
+        let rows = columns.first().map_or(0, Vec::len);
+        for k in 0..rows {
+            for column in columns.iter().take(self.width) {
+                self.out.write_all(&column[k].to_le_bytes())?;
+            }
+        }
+        self.rows += rows;
+        Ok(())
+    }
+
+    /// Reads the rows back, at most `rows_per_chunk` at a time.
+    pub fn into_reader(self, rows_per_chunk: usize) -> std::io::Result<SpillReader> {
+        use std::io::Seek;
+        let mut file = self.out.into_inner().map_err(|e| e.into_error())?;
+        file.rewind()?;
+        Ok(SpillReader {
+            input: BufReader::with_capacity(1 << 20, file),
+            width: self.width,
+            left: self.rows,
+            rows_per_chunk: rows_per_chunk.max(1),
+        })
+    }
+}
+
+/// The rows of a [`NumberSpill`], read back in order.
+pub struct SpillReader {
+    input: BufReader<File>,
+    width: usize,
+    left: usize,
+    rows_per_chunk: usize,
+}
+
+impl SpillReader {
+    /// The next chunk of rows as columns, or `None` after the last row.
+    pub fn next_chunk(&mut self) -> std::io::Result<Option<Vec<Vec<f64>>>> {
+        use std::io::Read;
+        if self.left == 0 {
+            return Ok(None);
+        }
+        let rows = self.left.min(self.rows_per_chunk);
+        let mut bytes = vec![0u8; rows * self.width * 8];
+        self.input.read_exact(&mut bytes)?;
+        let mut columns = vec![Vec::with_capacity(rows); self.width];
+        for (j, value) in bytes.chunks_exact(8).enumerate() {
+            let v = f64::from_le_bytes(value.try_into().expect("8 bytes"));
+            columns[j % self.width].push(v);
+        }
+        self.left -= rows;
+        Ok(Some(columns))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -514,6 +586,21 @@ mod tests {
     fn while_chunks(reader: &mut ChunkReader) -> Result<(), IoError> {
         while reader.next_chunk()?.is_some() {}
         Ok(())
+    }
+
+    #[test]
+    fn spilled_numbers_come_back_bit_for_bit() {
+        let mut spill = NumberSpill::new(2).unwrap();
+        spill.push(&[vec![1.5, f64::NAN], vec![-0.0, 3.0]]).unwrap();
+        spill.push(&[vec![f64::INFINITY], vec![1e-300]]).unwrap();
+        let mut reader = spill.into_reader(2).unwrap();
+        let first = reader.next_chunk().unwrap().unwrap();
+        assert_eq!(first[0][0], 1.5);
+        assert!(first[0][1].is_nan());
+        assert_eq!(first[1][0].to_bits(), (-0.0f64).to_bits());
+        let second = reader.next_chunk().unwrap().unwrap();
+        assert_eq!(second, [vec![f64::INFINITY], vec![1e-300]]);
+        assert!(reader.next_chunk().unwrap().is_none());
     }
 
     #[test]

@@ -9,7 +9,9 @@
 //!    them.
 //! 2. **Level**: each fit's correction `A·β` from the streaming compensator with central
 //!    differences, its runs split where the batch computation splits them (unusable fluxgate,
-//!    time gaps), and its mean over the file: the level the batch computation keeps.
+//!    time gaps), and its mean over the file: the level the batch computation keeps. For text
+//!    files pass 1 keeps the numbers it read in an anonymous temporary file (8 bytes a value),
+//!    so the text is parsed twice, not three times.
 //! 3. **Write** every row with the compensated columns, `scalar − (A·β − level)`.
 //!
 //! Memory holds two chunks ([`CHUNK_ROWS_VAR`] rows each, default
@@ -25,7 +27,9 @@ use tolles_core::median::MedianSearch;
 use tolles_core::segment::GAP_FACTOR;
 use tolles_core::stream::{Derivative, Output, Sample, ScalarSpec, StreamCompensator};
 use tolles_core::vector::VectorSeries;
-use tolles_io::chunks::{ChunkReader, CsvChunkWriter, ParquetChunkWriter, DEFAULT_CHUNK_ROWS};
+use tolles_io::chunks::{
+    ChunkReader, CsvChunkWriter, NumberSpill, ParquetChunkWriter, SpillReader, DEFAULT_CHUNK_ROWS,
+};
 use tolles_io::format::Format;
 use tolles_io::model::ModelFile;
 use tolles_io::table::{find_column, Table};
@@ -83,12 +87,18 @@ pub fn run(args: &Args, model: &ModelFile) -> Result<()> {
         .as_deref()
         .is_some_and(|out| Format::from_path(out) == Format::Parquet);
     let plan = Plan::new(&reader, model, numeric_output);
-    let scan = scan(reader.only(plan.read.clone()), &plan)?;
+    let mut scan = scan(reader.only(plan.read.clone()), &plan)?;
     // The fits before one that fails are computed and reported, as the whole-file path does.
     let (fits, failure) = check_in_order(&plan, &scan, model, args);
     let levels = match fits.is_empty() {
         true => Vec::new(),
-        false => level(open()?.only(plan.read.clone()), &plan, &scan, &fits)?,
+        false => {
+            let numbers = match scan.spill.take() {
+                Some(spill) => Numbers::Spill(spill.into_reader(rows).context("temporary file")?),
+                None => Numbers::File(open()?.only(plan.read.clone())),
+            };
+            level(numbers, &plan, &scan, &fits)?
+        }
     };
     let headers = open()?.headers().to_vec();
     let mut names = Vec::new();
@@ -227,6 +237,8 @@ struct Scan {
     /// Per fluxgate, the first implausible magnitude: (place, nT).
     bad_magnitude: Vec<Option<(String, f64)>>,
     median_step: Option<f64>,
+    /// The numbers read, for pass 2, when the file is text.
+    spill: Option<NumberSpill>,
 }
 
 impl Scan {
@@ -268,8 +280,16 @@ fn scan(mut reader: ChunkReader, plan: &Plan) -> Result<Scan> {
     let mut previous = f64::NAN;
     let mut last_finite = f64::NEG_INFINITY;
     let mut rows = 0;
+    let text = Format::from_path(reader.path()) != Format::Parquet;
+    let mut spill = match text {
+        true => Some(NumberSpill::new(plan.read.len()).context("temporary file")?),
+        false => None,
+    };
     while let Some(chunk) = reader.next_chunk()? {
         let values = numbers(&chunk, &mut bad_cell);
+        if let Some(spill) = &mut spill {
+            spill.push(&values).context("temporary file")?;
+        }
         if let Some(p) = plan.tt {
             for (k, &t) in values[p].iter().enumerate() {
                 push_step(&mut steps, previous, t);
@@ -307,6 +327,7 @@ fn scan(mut reader: ChunkReader, plan: &Plan) -> Result<Scan> {
         not_increasing,
         bad_magnitude,
         median_step: median.median(),
+        spill,
     })
 }
 
@@ -512,15 +533,38 @@ struct Level {
     uncomputable: usize,
 }
 
+/// Where pass 2 takes its numbers: what pass 1 spilled (text files, so the text is parsed twice,
+/// not three times), or the file again (Parquet: only the columns needed are decoded).
+enum Numbers {
+    Spill(SpillReader),
+    File(ChunkReader),
+}
+
+impl Numbers {
+    fn next_chunk(&mut self, plan: &Plan) -> Result<Option<Vec<Vec<f64>>>> {
+        match self {
+            Numbers::Spill(spill) => spill.next_chunk().context("temporary file"),
+            Numbers::File(reader) => {
+                // Bad cells can only be in the columns of fits after one that failed, not
+                // computed here.
+                let mut bad: Vec<Option<IoError>> = (0..plan.read.len()).map(|_| None).collect();
+                Ok(reader.next_chunk()?.map(|c| numbers(&c, &mut bad)))
+            }
+        }
+    }
+
+    fn path(&self) -> std::path::PathBuf {
+        match self {
+            Numbers::Spill(_) => std::path::PathBuf::from("temporary file"),
+            Numbers::File(reader) => reader.path().to_path_buf(),
+        }
+    }
+}
+
 /// Pass 2: the mean of each fit's correction over the file, summed in file order as the batch
 /// mean is. The compensator is fed a scalar of 0, which makes its output exactly −A·β; each
 /// row carries whether its scalars are finite, for the count of rows without a result.
-fn level(
-    mut reader: ChunkReader,
-    plan: &Plan,
-    scan: &Scan,
-    fits: &[ReadyFit],
-) -> Result<Vec<Level>> {
+fn level(mut numbers: Numbers, plan: &Plan, scan: &Scan, fits: &[ReadyFit]) -> Result<Vec<Level>> {
     let specs = fits.iter().map(|f| f.spec(0.0)).collect();
     let mut stream = compensator::<Vec<bool>>(specs, plan);
     let mut sums = vec![(0.0, 0usize, 0usize); fits.len()];
@@ -538,11 +582,9 @@ fn level(
     };
     let mut feed = Feed::new(plan, scan);
     let mut rows = 0;
-    // Bad cells can only be in the columns of fits after one that failed, not computed here.
-    let mut bad_cell: Vec<Option<IoError>> = (0..plan.read.len()).map(|_| None).collect();
-    while let Some(chunk) = reader.next_chunk()? {
-        let values = numbers(&chunk, &mut bad_cell);
-        for k in 0..chunk.len() {
+    while let Some(values) = numbers.next_chunk(plan)? {
+        let len = values.first().map_or(0, Vec::len);
+        for k in 0..len {
             if feed.load(&values, k) {
                 stream.split(&mut emit);
             }
@@ -550,10 +592,10 @@ fn level(
             feed.scalars.iter_mut().for_each(|s| *s = 0.0);
             stream.push(scalar_finite, Some(feed.sample()), Vec::new(), &mut emit);
         }
-        rows += chunk.len();
+        rows += len;
     }
     stream.finish(&mut emit);
-    same_rows(reader.path(), rows, scan.rows)?;
+    same_rows(&numbers.path(), rows, scan.rows)?;
     Ok(sums
         .into_iter()
         .map(|(sum, n, empty)| Level {
