@@ -453,8 +453,8 @@ impl NumberSpill {
     }
 
     /// Appends the rows of `columns` (`width` columns of equal length).
-    pub fn push(&mut self, columns: &[Vec<f64>]) -> std::io::Result<()> {
-        let rows = columns.first().map_or(0, Vec::len);
+    pub fn push(&mut self, columns: &[&[f64]]) -> std::io::Result<()> {
+        let rows = columns.first().map_or(0, |c| c.len());
         for k in 0..rows {
             for column in columns.iter().take(self.width) {
                 self.out.write_all(&column[k].to_le_bytes())?;
@@ -591,8 +591,8 @@ mod tests {
     #[test]
     fn spilled_numbers_come_back_bit_for_bit() {
         let mut spill = NumberSpill::new(2).unwrap();
-        spill.push(&[vec![1.5, f64::NAN], vec![-0.0, 3.0]]).unwrap();
-        spill.push(&[vec![f64::INFINITY], vec![1e-300]]).unwrap();
+        spill.push(&[&[1.5, f64::NAN], &[-0.0, 3.0]]).unwrap();
+        spill.push(&[&[f64::INFINITY], &[1e-300]]).unwrap();
         let mut reader = spill.into_reader(2).unwrap();
         let first = reader.next_chunk().unwrap().unwrap();
         assert_eq!(first[0][0], 1.5);

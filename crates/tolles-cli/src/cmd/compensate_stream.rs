@@ -185,6 +185,17 @@ struct FitColumns {
 }
 
 impl Plan {
+    /// Positions (in a chunk of the columns read) of the columns the computation uses: the
+    /// scalars, fluxgates and time; the others are read only to be checked.
+    fn used(&self) -> Vec<usize> {
+        let scalars = self.fits.iter().filter_map(|f| f.scalar.as_ref().ok());
+        let axes = self.fluxgates.iter().flat_map(|(_, a)| a.iter().flatten());
+        let mut used: Vec<usize> = scalars.chain(axes).chain(&self.tt).copied().collect();
+        used.sort_unstable();
+        used.dedup();
+        used
+    }
+
     fn new(reader: &ChunkReader, model: &ModelFile, every_column: bool) -> Self {
         let headers = reader.headers();
         let mut read: Vec<usize> = if every_column {
@@ -282,13 +293,14 @@ fn scan(mut reader: ChunkReader, plan: &Plan) -> Result<Scan> {
     let mut rows = 0;
     let text = Format::from_path(reader.path()) != Format::Parquet;
     let mut spill = match text {
-        true => Some(NumberSpill::new(plan.read.len()).context("temporary file")?),
+        true => Some(NumberSpill::new(plan.used().len()).context("temporary file")?),
         false => None,
     };
     while let Some(chunk) = reader.next_chunk()? {
         let values = numbers(&chunk, &mut bad_cell);
         if let Some(spill) = &mut spill {
-            spill.push(&values).context("temporary file")?;
+            let used: Vec<&[f64]> = plan.used().iter().map(|&p| values[p].as_slice()).collect();
+            spill.push(&used).context("temporary file")?;
         }
         if let Some(p) = plan.tt {
             for (k, &t) in values[p].iter().enumerate() {
@@ -543,7 +555,16 @@ enum Numbers {
 impl Numbers {
     fn next_chunk(&mut self, plan: &Plan) -> Result<Option<Vec<Vec<f64>>>> {
         match self {
-            Numbers::Spill(spill) => spill.next_chunk().context("temporary file"),
+            Numbers::Spill(spill) => {
+                let Some(used) = spill.next_chunk().context("temporary file")? else {
+                    return Ok(None);
+                };
+                let mut values = vec![Vec::new(); plan.read.len()];
+                for (p, column) in plan.used().into_iter().zip(used) {
+                    values[p] = column;
+                }
+                Ok(Some(values))
+            }
             Numbers::File(reader) => {
                 // Bad cells can only be in the columns of fits after one that failed, not
                 // computed here.
