@@ -341,3 +341,51 @@ fn a_survey_written_over_itself_is_read_whole_first() {
     );
     assert!(!is_chunked(dir.path(), &args));
 }
+
+#[test]
+fn a_jittered_clock_takes_more_median_passes_and_still_matches() {
+    // 80 000 rows whose time steps are nearly all distinct: the exact median step (sample rate,
+    // gap threshold) needs more than one pass in chunks.
+    let dir = TempDir::new().unwrap();
+    let mut text = String::from("tt,mag,flux_x,flux_y,flux_z\n");
+    let mut t = 0.0;
+    for k in 0..80_000u64 {
+        let jitter = (k.wrapping_mul(2_654_435_761) % 1_000_003) as f64 * 1e-9;
+        t += if k % 9_000 == 8_999 {
+            0.35
+        } else {
+            0.1 + jitter
+        };
+        let a = 0.05 * k as f64;
+        let (x, y, z) = (
+            20_000.0 + 3_000.0 * a.sin(),
+            5_000.0 + 2_000.0 * (0.7 * a).cos(),
+            45_000.0 + 1_000.0 * (0.3 * a).sin(),
+        );
+        let mag = 50_000.0 + 0.001 * x - 0.002 * y + 1e-3 * (0.01 * a).sin();
+        text += &format!("{t},{mag},{x},{y},{z}\n");
+    }
+    std::fs::write(dir.path().join("jitter.csv"), text).unwrap();
+    run_ok(
+        dir.path(),
+        &[
+            "fit",
+            "jitter.csv",
+            "--scalar",
+            "mag",
+            "--vector",
+            "flux",
+            "--terms",
+            "p,i5,e8",
+            "--lambda",
+            "0.001",
+            "--out",
+            "m.json",
+        ],
+    );
+    let args = ["jitter.csv", "--model", "m.json"];
+    assert!(is_chunked(dir.path(), &args));
+    let (ok, csv, stderr) = same_both_ways(dir.path(), &args);
+    assert!(ok, "{stderr}");
+    assert_eq!(csv.lines().count(), 80_001);
+}

@@ -363,8 +363,10 @@ fn more_median_passes(
         ChunkReader::open(reader.path(), format, DEFAULT_CHUNK_ROWS)?.only(vec![plan.read[tt]]);
     let mut steps = median.start_pass();
     let mut previous = f64::NAN;
+    // A bad time cell is NaN here, as in pass 1; its error is reported when its turn comes.
+    let mut bad = vec![None];
     while let Some(chunk) = again.next_chunk()? {
-        for t in chunk.numeric_at(0)? {
+        for t in numbers(&chunk, &mut bad).remove(0) {
             push_step(&mut steps, previous, t);
             previous = t;
         }
