@@ -53,10 +53,11 @@ impl<'t> Flight<'t> {
                 fluxgate,
                 index,
                 magnitude,
-            } => anyhow!(
-                "{file}: {}: fluxgate {v} magnitude {magnitude:.1} nT is outside 1,000–100,000 nT; are columns {v}_x/_y/_z in nT?",
-                self.table.place_of(index),
-                v = self.vectors[fluxgate]
+            } => flux_magnitude_error(
+                self.table.path(),
+                &self.table.place_of(index),
+                &self.vectors[fluxgate],
+                magnitude,
             ),
             FitError::ConstantScalar => {
                 anyhow!("{file}: column {scalar:?} is constant: there is nothing to fit")
@@ -106,25 +107,57 @@ pub fn time_column(table: &Table) -> Result<Option<Vec<f64>>> {
     }
     let tt = table.numeric(TIME_COLUMN)?;
     if let Some(k) = first_non_increasing(&tt) {
-        bail!(
-            "{}: {}, column {TIME_COLUMN:?}: time does not increase ({} after {}); sort the file or remove repeated rows",
-            table.path().display(),
-            table.place_of(k),
+        let before = tt[..k].iter().rev().find(|t| t.is_finite()).copied();
+        return Err(time_not_increasing(
+            table.path(),
+            &table.place_of(k),
             tt[k],
-            tt[..k].iter().rev().find(|t| t.is_finite()).copied().unwrap_or(f64::NAN)
-        );
+            before.unwrap_or(f64::NAN),
+        ));
     }
     Ok(Some(tt))
+}
+
+/// The error for time `t` (s) at `place` of `path` that is not after the time `before` (s).
+pub fn time_not_increasing(path: &Path, place: &str, t: f64, before: f64) -> anyhow::Error {
+    anyhow!(
+        "{}: {place}, column {TIME_COLUMN:?}: time does not increase ({t} after {before}); sort the file or remove repeated rows",
+        path.display(),
+    )
+}
+
+/// The error for a fluxgate `vector` whose magnitude (nT) at `place` of `path` is implausible.
+pub fn flux_magnitude_error(
+    path: &Path,
+    place: &str,
+    vector: &str,
+    magnitude: f64,
+) -> anyhow::Error {
+    anyhow!(
+        "{}: {place}: fluxgate {vector} magnitude {magnitude:.1} nT is outside 1,000–100,000 nT; are columns {vector}_x/_y/_z in nT?",
+        path.display()
+    )
 }
 
 /// The sample rate (Hz) of `table`: `fs` (from `--fs`) if given, else 1 / median step of `tt`,
 /// else 1 / the file's `dt` scalar (s; SGL HDF5 files carry one).
 pub fn sample_rate(table: &Table, tt: Option<&[f64]>, fs: Option<f64>) -> Result<f64> {
-    let from_dt = table
-        .metadata("dt")
+    let step = tt.and_then(median_step);
+    sample_rate_from(table.path(), table.metadata("dt"), step, fs)
+}
+
+/// [`sample_rate`] from its ingredients: the file's `dt` scalar (s) and the median step of its
+/// time column (s), if any.
+pub fn sample_rate_from(
+    path: &Path,
+    dt: Option<f64>,
+    median_step: Option<f64>,
+    fs: Option<f64>,
+) -> Result<f64> {
+    let from_dt = dt
         .filter(|dt| dt.is_finite() && *dt > 0.0)
         .map(|dt| 1.0 / dt);
-    let from_time = tt.and_then(median_step).map(|dt| 1.0 / dt).or(from_dt);
+    let from_time = median_step.map(|dt| 1.0 / dt).or(from_dt);
     match (fs, from_time) {
         (Some(fs), _) if !(fs.is_finite() && fs > 0.0) => {
             bail!("--fs must be a positive number of hertz, got {fs}")
@@ -139,7 +172,7 @@ pub fn sample_rate(table: &Table, tt: Option<&[f64]>, fs: Option<f64>) -> Result
         (None, Some(t)) => Ok(t),
         (None, None) => Err(anyhow!(
             "{}: no time column {TIME_COLUMN:?} to take the sample rate from; give it with --fs HZ",
-            table.path().display()
+            path.display()
         )),
     }
 }

@@ -35,6 +35,11 @@ pub enum Use {
 }
 
 impl Selection {
+    /// True when no --line or --time was given: every row is used.
+    pub fn is_everything(&self) -> bool {
+        self.lines.is_empty() && self.time.is_none()
+    }
+
     /// Reads `path` (see [`read_table`]) and keeps the selected rows (all without flags).
     pub fn read(&self, path: &Path, purpose: Use) -> Result<Table> {
         self.apply(read_table(path)?, purpose)

@@ -32,6 +32,7 @@
 //! - [`patent`]: the Tolles patent's maneuver model: direction cosines, generating functions, printed tables;
 //! - [`harmonics`]: the patent's roll and pitch tables computed by Fourier analysis;
 //! - [`segment`]: contiguous runs of usable samples;
+//! - [`median`]: the exact median of a sequence too long to hold, over repeated passes;
 //! - [`attitude`]: rotations between the navigation and body frames;
 //! - [`plan`]: flight plans (compensation box, survey lines);
 //! - [`environment`]: the earth's field along a flight (IGRF, geology, diurnal);
@@ -62,6 +63,7 @@ pub mod identifiability;
 pub mod igrf;
 pub mod interpret;
 pub mod maneuver;
+pub mod median;
 pub mod metrics;
 pub mod patent;
 pub mod plan;

@@ -327,6 +327,13 @@ impl<T> StreamCompensator<T> {
         self.last_time = None;
     }
 
+    /// Ends every run before the next sample, as a time gap does: the held sample is emitted
+    /// with a one-sided difference. For callers that find gaps themselves (`tolles compensate`
+    /// reading a file in chunks splits exactly where the batch computation does).
+    pub fn split(&mut self, mut emit: impl FnMut(Output<'_, T>)) {
+        self.end_run(&mut emit);
+    }
+
     /// Checks the time against the previous sample's; returns (breaks every run, can be placed).
     fn check_time(&mut self, sample: Option<&Sample<'_>>, flags: &mut Vec<Flag>) -> (bool, bool) {
         let Some(sample) = sample else {

@@ -3,12 +3,14 @@
 //! - [`table`]: flight data as a table of named columns, read from CSV with a header row;
 //! - [`format`]: which format a flight file is in, [`table::Table::read`] for any of them;
 //! - [`xyz`], [`gdf`], [`hdf5`], [`parquet`]: Geosoft XYZ, ASEG-GDF2, HDF5 and Parquet tables;
+//! - [`chunks`]: flight tables read and written a chunk of rows at a time (bounded memory);
 //! - [`model`]: the model file (JSON) that `tolles fit` writes and `tolles compensate` reads;
 //! - [`select`]: choosing rows by flight line and time (`--line`, `--time`);
 //! - [`simulation`]: simulated flights (CSV) and their JSON sidecars.
 //!
 //! Every error names the file, and where it can the line and column, so a user can fix the input.
 
+pub mod chunks;
 pub mod error;
 pub mod format;
 pub mod gdf;

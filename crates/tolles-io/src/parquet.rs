@@ -24,7 +24,7 @@ use ::parquet::data_type::{DataType, DoubleType};
 use ::parquet::errors::ParquetError;
 use ::parquet::file::properties::WriterProperties;
 use ::parquet::file::reader::{FileReader, SerializedFileReader};
-use ::parquet::file::writer::SerializedFileWriter;
+use ::parquet::file::writer::{SerializedColumnWriter, SerializedFileWriter};
 use ::parquet::schema::types::Type;
 use std::path::Path;
 use std::sync::Arc;
@@ -43,6 +43,26 @@ pub fn read(path: &Path) -> Result<Table, IoError> {
         source,
     })?;
     let reader = SerializedFileReader::new(file).map_err(invalid)?;
+    let (headers, wanted, notes) = numeric_columns(&reader);
+    let mut values = vec![Vec::new(); wanted.len()];
+    for g in 0..reader.num_row_groups() {
+        let group = reader.get_row_group(g).map_err(invalid)?;
+        let rows = group.metadata().num_rows() as usize;
+        for ((k, max_def), out) in wanted.iter().zip(values.iter_mut()) {
+            let mut column = group.get_column_reader(*k).map_err(invalid)?;
+            read_column(&mut column, *max_def, rows, out).map_err(invalid)?;
+        }
+    }
+    let columns = values.into_iter().map(Column::Numbers).collect();
+    Ok(Table::from_columns(path, headers, columns, None)?.with_notes(notes))
+}
+
+/// The numeric columns of a file: their names, their (schema index, max definition level), and
+/// a note for every column left out.
+#[allow(clippy::type_complexity)]
+pub(crate) fn numeric_columns(
+    reader: &SerializedFileReader<std::fs::File>,
+) -> (Vec<String>, Vec<(usize, i16)>, Vec<String>) {
     let schema = reader.metadata().file_metadata().schema_descr_ptr();
     let mut headers = Vec::new();
     let mut wanted = Vec::new();
@@ -64,22 +84,12 @@ pub fn read(path: &Path) -> Result<Table, IoError> {
             wanted.push((k, column.max_def_level()));
         }
     }
-    let mut values = vec![Vec::new(); wanted.len()];
-    for g in 0..reader.num_row_groups() {
-        let group = reader.get_row_group(g).map_err(invalid)?;
-        let rows = group.metadata().num_rows() as usize;
-        for ((k, max_def), out) in wanted.iter().zip(values.iter_mut()) {
-            let column = group.get_column_reader(*k).map_err(invalid)?;
-            read_column(column, *max_def, rows, out).map_err(invalid)?;
-        }
-    }
-    let columns = values.into_iter().map(Column::Numbers).collect();
-    Ok(Table::from_columns(path, headers, columns, None)?.with_notes(notes))
+    (headers, wanted, notes)
 }
 
-/// Appends the `rows` values of one column chunk to `out`, NaN for nulls.
-fn read_column(
-    column: ColumnReader,
+/// Appends the next `rows` values of one column chunk to `out`, NaN for nulls.
+pub(crate) fn read_column(
+    column: &mut ColumnReader,
     max_def: i16,
     rows: usize,
     out: &mut Vec<f64>,
@@ -97,7 +107,7 @@ fn read_column(
 }
 
 fn read_typed<T: DataType>(
-    mut reader: ColumnReaderImpl<T>,
+    reader: &mut ColumnReaderImpl<T>,
     max_def: i16,
     rows: usize,
     out: &mut Vec<f64>,
@@ -143,10 +153,8 @@ pub fn write(path: &Path, columns: &[(String, Vec<f64>)]) -> Result<(), IoError>
         path: path.to_path_buf(),
         source,
     })?;
-    let mut writer = SerializedFileWriter::new(file, schema(columns).map_err(fail)?, {
-        Arc::new(WriterProperties::builder().build())
-    })
-    .map_err(fail)?;
+    let names: Vec<&str> = columns.iter().map(|(name, _)| name.as_str()).collect();
+    let mut writer = new_writer(file, &names).map_err(fail)?;
     let rows = columns.first().map_or(0, |(_, v)| v.len());
     for start in (0..rows).step_by(ROW_GROUP) {
         let end = (start + ROW_GROUP).min(rows);
@@ -155,13 +163,7 @@ pub fn write(path: &Path, columns: &[(String, Vec<f64>)]) -> Result<(), IoError>
             let Some(mut column) = group.next_column().map_err(fail)? else {
                 break;
             };
-            let chunk = &values[start..end];
-            let present: Vec<f64> = chunk.iter().copied().filter(|v| !v.is_nan()).collect();
-            let defs: Vec<i16> = chunk.iter().map(|v| i16::from(!v.is_nan())).collect();
-            column
-                .typed::<DoubleType>()
-                .write_batch(&present, Some(&defs), None)
-                .map_err(fail)?;
+            write_values(&mut column, &values[start..end]).map_err(fail)?;
             column.close().map_err(fail)?;
         }
         group.close().map_err(fail)?;
@@ -170,10 +172,32 @@ pub fn write(path: &Path, columns: &[(String, Vec<f64>)]) -> Result<(), IoError>
     Ok(())
 }
 
-fn schema(columns: &[(String, Vec<f64>)]) -> Result<Arc<Type>, ParquetError> {
-    let fields = columns
+/// A writer of optional float64 columns `names`; NaN is written as null.
+pub(crate) fn new_writer(
+    file: std::fs::File,
+    names: &[&str],
+) -> Result<SerializedFileWriter<std::fs::File>, ParquetError> {
+    let properties = Arc::new(WriterProperties::builder().build());
+    SerializedFileWriter::new(file, schema(names)?, properties)
+}
+
+/// Writes `values` to one column of a row group, NaN as null.
+pub(crate) fn write_values(
+    column: &mut SerializedColumnWriter<'_>,
+    values: &[f64],
+) -> Result<(), ParquetError> {
+    let present: Vec<f64> = values.iter().copied().filter(|v| !v.is_nan()).collect();
+    let defs: Vec<i16> = values.iter().map(|v| i16::from(!v.is_nan())).collect();
+    column
+        .typed::<DoubleType>()
+        .write_batch(&present, Some(&defs), None)?;
+    Ok(())
+}
+
+fn schema(names: &[&str]) -> Result<Arc<Type>, ParquetError> {
+    let fields = names
         .iter()
-        .map(|(name, _)| {
+        .map(|name| {
             Type::primitive_type_builder(name, PhysicalType::DOUBLE)
                 .with_repetition(Repetition::OPTIONAL)
                 .build()

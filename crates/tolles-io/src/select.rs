@@ -346,7 +346,7 @@ fn column_for(table: &Table, name: &'static str, flag: &'static str) -> Result<u
         path: table.path().to_path_buf(),
         flag,
         column: name,
-        hint: table.suggest(name),
+        hint: crate::table::suggest(table.headers(), name),
     })
 }
 

@@ -148,10 +148,7 @@ impl Table {
         lines: Option<Vec<u64>>,
     ) -> Result<Self, IoError> {
         let path = path.as_ref().to_path_buf();
-        if headers.is_empty() || headers.iter().all(String::is_empty) {
-            return Err(IoError::Empty { path });
-        }
-        check_unique(&path, &headers)?;
+        check_header(&path, &headers)?;
         let len = columns.first().map_or(0, Column::len);
         for (name, column) in headers.iter().zip(&columns) {
             if column.len() != len {
@@ -341,24 +338,7 @@ impl Table {
     /// exactly that name, one column whose name differs only in case is taken (GDF and XYZ
     /// files often name their channels in capitals).
     pub fn index_of(&self, name: &str) -> Result<usize, IoError> {
-        let mut caseless = self
-            .headers
-            .iter()
-            .enumerate()
-            .filter(|(_, h)| h.eq_ignore_ascii_case(name));
-        let only_caseless = match (caseless.next(), caseless.next()) {
-            (Some((k, _)), None) => Some(k),
-            _ => None,
-        };
-        self.headers
-            .iter()
-            .position(|h| h == name)
-            .or(only_caseless)
-            .ok_or_else(|| IoError::MissingColumn {
-                path: self.path.clone(),
-                column: name.to_string(),
-                hint: self.suggest(name),
-            })
+        find_column(&self.path, &self.headers, name)
     }
 
     /// Column `name` as numbers; missing values are NaN.
@@ -402,27 +382,47 @@ impl Table {
             Column::Numbers(v) => format_value(v[row], out),
         }
     }
+}
 
-    /// "; did you mean …?" or "; the header has: …", to end a message about a missing `name`.
-    pub(crate) fn suggest(&self, name: &str) -> String {
-        let stem = name.trim_end_matches(['x', 'y', 'z']).trim_end_matches('_');
-        let near: Vec<&str> = self
-            .headers
-            .iter()
-            .filter(|h| {
-                let h = h.to_ascii_lowercase();
-                let n = name.to_ascii_lowercase();
-                h.contains(&n) || n.contains(&h) || (!stem.is_empty() && h.starts_with(stem))
-            })
-            .map(String::as_str)
-            .take(6)
-            .collect();
-        if near.is_empty() {
-            let shown: Vec<&str> = self.headers.iter().map(String::as_str).take(12).collect();
-            format!("; the header has: {}", shown.join(", "))
-        } else {
-            format!("; did you mean {}?", near.join(", "))
-        }
+/// The index of column `name` in `headers` (of the file `path`), or an error that suggests near
+/// names; see [`Table::index_of`].
+pub fn find_column(path: &Path, headers: &[String], name: &str) -> Result<usize, IoError> {
+    let mut caseless = headers
+        .iter()
+        .enumerate()
+        .filter(|(_, h)| h.eq_ignore_ascii_case(name));
+    let only_caseless = match (caseless.next(), caseless.next()) {
+        (Some((k, _)), None) => Some(k),
+        _ => None,
+    };
+    headers
+        .iter()
+        .position(|h| h == name)
+        .or(only_caseless)
+        .ok_or_else(|| IoError::MissingColumn {
+            path: path.to_path_buf(),
+            column: name.to_string(),
+            hint: suggest(headers, name),
+        })
+}
+
+pub(crate) fn suggest(headers: &[String], name: &str) -> String {
+    let stem = name.trim_end_matches(['x', 'y', 'z']).trim_end_matches('_');
+    let near: Vec<&str> = headers
+        .iter()
+        .filter(|h| {
+            let h = h.to_ascii_lowercase();
+            let n = name.to_ascii_lowercase();
+            h.contains(&n) || n.contains(&h) || (!stem.is_empty() && h.starts_with(stem))
+        })
+        .map(String::as_str)
+        .take(6)
+        .collect();
+    if near.is_empty() {
+        let shown: Vec<&str> = headers.iter().map(String::as_str).take(12).collect();
+        format!("; the header has: {}", shown.join(", "))
+    } else {
+        format!("; did you mean {}?", near.join(", "))
     }
 }
 
@@ -433,6 +433,16 @@ pub fn parse_cell(cell: &str) -> Option<f64> {
         return Some(f64::NAN);
     }
     cell.parse::<f64>().ok()
+}
+
+/// Errors if `headers` names no column or names one twice.
+pub(crate) fn check_header(path: &Path, headers: &[String]) -> Result<(), IoError> {
+    if headers.is_empty() || headers.iter().all(String::is_empty) {
+        return Err(IoError::Empty {
+            path: path.to_path_buf(),
+        });
+    }
+    check_unique(path, headers)
 }
 
 fn check_unique(path: &Path, headers: &[String]) -> Result<(), IoError> {
@@ -447,7 +457,7 @@ fn check_unique(path: &Path, headers: &[String]) -> Result<(), IoError> {
     Ok(())
 }
 
-fn csv_error(path: &Path, error: csv::Error) -> IoError {
+pub(crate) fn csv_error(path: &Path, error: csv::Error) -> IoError {
     let line = error.position().map_or(0, |p| p.line());
     match error.into_kind() {
         csv::ErrorKind::UnequalLengths {
@@ -484,19 +494,32 @@ pub fn write_with_column(
     let mut header: Vec<&str> = table.headers().iter().map(String::as_str).collect();
     header.extend(extra.iter().map(|(name, _)| name.as_str()));
     writer.write_record(&header).map_err(into_io)?;
-    let mut cells = vec![String::new(); header.len()];
+    let extra: Vec<&[f64]> = extra.iter().map(|(_, v)| v.as_slice()).collect();
+    write_rows(table, &extra, &mut writer)?;
+    writer.flush()
+}
+
+/// Writes the rows of `table` plus the `extra` columns (no header), as [`write_with_column`]
+/// does; a file written in chunks is the same text as one written whole.
+#[allow(clippy::needless_range_loop)] // k is a row of the table and of every extra column
+pub(crate) fn write_rows<W: std::io::Write>(
+    table: &Table,
+    extra: &[&[f64]],
+    writer: &mut csv::Writer<W>,
+) -> std::io::Result<()> {
     let width = table.headers().len();
+    let mut cells = vec![String::new(); width + extra.len()];
     for k in 0..table.len() {
         for (j, cell) in cells.iter_mut().enumerate() {
             cell.clear();
             match j.checked_sub(width) {
                 None => table.cell_text(j, k, cell),
-                Some(e) => format_value(extra[e].1[k], cell),
+                Some(e) => format_value(extra[e][k], cell),
             }
         }
         writer.write_record(&cells).map_err(into_io)?;
     }
-    writer.flush()
+    Ok(())
 }
 
 /// Writes named numeric columns of equal length as CSV with a header row.
@@ -538,7 +561,7 @@ pub fn format_value(v: f64, out: &mut String) {
     }
 }
 
-fn into_io(e: csv::Error) -> std::io::Error {
+pub(crate) fn into_io(e: csv::Error) -> std::io::Error {
     match e.into_kind() {
         csv::ErrorKind::Io(io) => io,
         other => std::io::Error::other(format!("{other:?}")),

@@ -113,30 +113,95 @@ impl Parser {
             .ok_or_else(|| {
                 format!("{fields} fields, but no `/` header line before it names {fields} columns")
             })?;
-        let dummy = Missing {
-            token: Some(DUMMY.to_string()),
-            null: None,
-        };
-        self.columns = vec![TextColumn::new(dummy.clone()); fields];
+        self.columns = vec![TextColumn::new(dummy()); fields];
         if !headers.iter().any(|h| h.eq_ignore_ascii_case(LINE_COLUMN)) {
-            self.block = Some(TextColumn::new(dummy));
+            self.block = Some(TextColumn::new(dummy()));
         }
         self.headers = Some(headers);
         Ok(())
     }
 
-    fn finish(self, path: &Path) -> Result<Table, IoError> {
-        let Some(mut headers) = self.headers else {
+    fn finish(mut self, path: &Path) -> Result<Table, IoError> {
+        self.take_rows(path)
+    }
+
+    /// The rows read so far as a table; the parser goes on with the rows after them.
+    fn take_rows(&mut self, path: &Path) -> Result<Table, IoError> {
+        let Some(mut headers) = self.headers.clone() else {
             return Err(IoError::Empty {
                 path: path.to_path_buf(),
             });
         };
-        let mut columns: Vec<Column> = self.columns.into_iter().map(Column::Text).collect();
-        if let Some(block) = self.block {
+        let fresh = || TextColumn::new(dummy());
+        let mut columns: Vec<Column> = self
+            .columns
+            .iter_mut()
+            .map(|c| Column::Text(std::mem::replace(c, fresh())))
+            .collect();
+        if let Some(block) = &mut self.block {
             headers.push(LINE_COLUMN.to_string());
-            columns.push(Column::Text(block));
+            columns.push(Column::Text(std::mem::replace(block, fresh())));
         }
-        Table::from_columns(path, headers, columns, Some(self.lines))
+        Table::from_columns(
+            path,
+            headers,
+            columns,
+            Some(std::mem::take(&mut self.lines)),
+        )
+    }
+}
+
+fn dummy() -> Missing {
+    Missing {
+        token: Some(DUMMY.to_string()),
+        null: None,
+    }
+}
+
+/// Geosoft XYZ text read a chunk of rows at a time (see [`crate::chunks`]).
+pub(crate) struct XyzChunks<R> {
+    lines: std::io::Lines<BufReader<R>>,
+    number: u64,
+    parser: Parser,
+    path: std::path::PathBuf,
+    rows_taken: usize,
+}
+
+impl<R: Read> XyzChunks<R> {
+    pub(crate) fn new(reader: R, path: &Path) -> Self {
+        Self {
+            lines: BufReader::new(reader).lines(),
+            number: 0,
+            parser: Parser::default(),
+            path: path.to_path_buf(),
+            rows_taken: 0,
+        }
+    }
+
+    /// The next at most `rows` data rows, or `None` after the last; reading a file without
+    /// data rows gives the error reading it whole gives.
+    pub(crate) fn next_rows(&mut self, rows: usize) -> Result<Option<Table>, IoError> {
+        while self.parser.lines.len() < rows {
+            let Some(line) = self.lines.next() else { break };
+            self.number += 1;
+            let line = line.map_err(|source| IoError::Open {
+                path: self.path.clone(),
+                source,
+            })?;
+            self.parser
+                .line(self.number, &line)
+                .map_err(|message| IoError::Malformed {
+                    path: self.path.clone(),
+                    line: self.number,
+                    message,
+                })?;
+        }
+        if self.parser.lines.is_empty() && self.rows_taken > 0 {
+            return Ok(None);
+        }
+        let table = self.parser.take_rows(&self.path)?;
+        self.rows_taken += table.len();
+        Ok(Some(table))
     }
 }
 

@@ -48,6 +48,9 @@ pub fn run(args: Args) -> Result<()> {
     if model.fits.is_empty() {
         bail!("{}: the model holds no fits", args.model.display());
     }
+    if super::compensate_stream::applies(&args, &model) {
+        return super::compensate_stream::run(&args, &model);
+    }
     // The survey is read once; each fit takes its own scalar and fluxgate columns from it, and
     // it is written back whole with one compensated column per fit.
     let table = args

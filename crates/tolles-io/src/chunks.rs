@@ -1,0 +1,639 @@
+//! Flight tables read and written a chunk of rows at a time, so that memory does not grow with
+//! the length of the file.
+//!
+//! ```
+//! use tolles_io::chunks::{ChunkReader, CsvChunkWriter};
+//! use tolles_io::format::Format;
+//! let dir = std::env::temp_dir().join(format!("tolles-chunks-doc-{}", std::process::id()));
+//! std::fs::create_dir_all(&dir).unwrap();
+//! let path = dir.join("flight.csv");
+//! std::fs::write(&path, "tt,mag_1_uc\n0.0,50000\n0.1,\n0.2,50002.5\n").unwrap();
+//!
+//! let mut reader = ChunkReader::open(&path, Format::Csv, 2).unwrap();
+//! let mut writer = CsvChunkWriter::new(Vec::new(), reader.headers(), &["twice".into()]).unwrap();
+//! while let Some(chunk) = reader.next_chunk().unwrap() {
+//!     assert!(chunk.len() <= 2);
+//!     let twice: Vec<f64> = chunk.numeric("mag_1_uc").unwrap().iter().map(|v| 2.0 * v).collect();
+//!     writer.write(&chunk, &[&twice]).unwrap();
+//! }
+//! let text = String::from_utf8(writer.finish().unwrap()).unwrap();
+//! assert_eq!(text, "tt,mag_1_uc,twice\n0.0,50000,100000\n0.1,,\n0.2,50002.5,100005\n");
+//! # std::fs::remove_dir_all(&dir).unwrap();
+//! ```
+//!
+//! Each chunk is a [`Table`] whose text cells, line numbers and error messages are those of the
+//! whole file read at once: a chunked reader meets the same bad cells and ragged lines with the
+//! same messages, and [`CsvChunkWriter`] writes the same text as
+//! [`crate::table::write_with_column`]. CSV, Geosoft XYZ and Parquet are read in chunks (a
+//! Parquet row group is read a chunk at a time too); a reader can be told to keep only some
+//! columns ([`ChunkReader::only`]), which for Parquet means the others are never decoded.
+
+use crate::error::IoError;
+use crate::format::Format;
+use crate::table::{check_header, csv_error, into_io, write_rows, Column, Table, TextColumn};
+use crate::xyz::XyzChunks;
+use ::parquet::column::reader::ColumnReader;
+use ::parquet::errors::ParquetError;
+use ::parquet::file::reader::{FileReader, SerializedFileReader};
+use ::parquet::file::writer::SerializedFileWriter;
+use std::fs::File;
+use std::io::{BufReader, Write};
+use std::path::{Path, PathBuf};
+
+/// Rows per chunk when the caller has no reason to choose: a few megabytes of text.
+pub const DEFAULT_CHUNK_ROWS: usize = 1 << 16;
+
+/// A flight table read a chunk of rows at a time.
+pub struct ChunkReader {
+    path: PathBuf,
+    format: Format,
+    headers: Vec<String>,
+    notes: Vec<String>,
+    keep: Option<Vec<usize>>,
+    rows: usize,
+    /// Rows returned so far; the first row of the next chunk.
+    rows_read: usize,
+    /// Row index of the first row of the chunk returned last.
+    first_row: usize,
+    source: Source,
+}
+
+enum Source {
+    Csv {
+        reader: Box<csv::Reader<BufReader<File>>>,
+        record: csv::StringRecord,
+    },
+    Xyz {
+        chunks: Box<XyzChunks<File>>,
+        /// The first chunk, read ahead because it names the columns.
+        pending: Option<Box<Table>>,
+    },
+    Parquet(Box<ParquetChunks>),
+}
+
+impl ChunkReader {
+    /// Opens `path` to read in `format` (CSV, XYZ or Parquet), at most `rows` rows per chunk.
+    /// A header that names no column or one twice is an error here (after any ragged line of
+    /// the file, as reading it whole reports); a file without data rows is an error at the first
+    /// [`ChunkReader::next_chunk`].
+    pub fn open(path: &Path, format: Format, rows: usize) -> Result<Self, IoError> {
+        let file = File::open(path).map_err(|source| IoError::Open {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let rows = rows.max(1);
+        let mut notes = Vec::new();
+        let (headers, source) = match format {
+            Format::Csv => {
+                let mut reader = csv::ReaderBuilder::new()
+                    .has_headers(true)
+                    .trim(csv::Trim::All)
+                    .from_reader(BufReader::new(file));
+                let headers: Vec<String> = reader
+                    .headers()
+                    .map_err(|e| csv_error(path, e))?
+                    .iter()
+                    .map(str::to_string)
+                    .collect();
+                if let Err(e) = check_header(path, &headers) {
+                    // Reading the file whole reports a ragged line before a bad header.
+                    for record in reader.records() {
+                        record.map_err(|e| csv_error(path, e))?;
+                    }
+                    return Err(e);
+                }
+                let record = csv::StringRecord::new();
+                let reader = Box::new(reader);
+                (headers, Source::Csv { reader, record })
+            }
+            Format::Xyz => {
+                let mut chunks = Box::new(XyzChunks::new(file, path));
+                let first = chunks.next_rows(rows)?;
+                let headers = first.as_ref().map_or(Vec::new(), |t| t.headers().to_vec());
+                let pending = first.map(Box::new);
+                (headers, Source::Xyz { chunks, pending })
+            }
+            Format::Parquet => {
+                let parquet = ParquetChunks::open(file, path)?;
+                notes = parquet.notes.clone();
+                check_header(path, &parquet.headers)?;
+                (parquet.headers.clone(), Source::Parquet(Box::new(parquet)))
+            }
+            Format::Gdf | Format::Hdf5 => {
+                return Err(IoError::Invalid {
+                    path: path.to_path_buf(),
+                    message: format!("{format} files are not read in chunks"),
+                })
+            }
+        };
+        Ok(Self {
+            path: path.to_path_buf(),
+            format,
+            headers,
+            notes,
+            keep: None,
+            rows,
+            rows_read: 0,
+            first_row: 0,
+            source,
+        })
+    }
+
+    /// True for the formats [`ChunkReader::open`] reads.
+    pub fn reads(format: Format) -> bool {
+        matches!(format, Format::Csv | Format::Xyz | Format::Parquet)
+    }
+
+    /// Keeps only the columns at `indices` (into [`ChunkReader::headers`]), in that order, in
+    /// the chunks read from now on.
+    pub fn only(mut self, indices: Vec<usize>) -> Self {
+        self.keep = Some(indices);
+        if let Source::Parquet(p) = &mut self.source {
+            p.keep(self.keep.as_deref());
+        }
+        self
+    }
+
+    /// The file being read.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Every column name of the file (for Parquet, of its numeric columns), in file order.
+    pub fn headers(&self) -> &[String] {
+        &self.headers
+    }
+
+    /// What the reader leaves out of the table (a Parquet text column), one sentence each.
+    pub fn notes(&self) -> &[String] {
+        &self.notes
+    }
+
+    /// Index in the whole file (0-based) of the first row of the chunk returned last.
+    pub fn first_row(&self) -> usize {
+        self.first_row
+    }
+
+    /// Where row `k` of the chunk returned last is, for messages: "line N" of the file for
+    /// text, "row N" (1-based, counted over the whole file) for Parquet.
+    pub fn place_of(&self, chunk: &Table, k: usize) -> String {
+        match self.format {
+            Format::Parquet => format!("row {}", self.first_row + k + 1),
+            _ => chunk.place_of(k),
+        }
+    }
+
+    /// The next chunk of at most the chosen number of rows, or `None` after the last row.
+    pub fn next_chunk(&mut self) -> Result<Option<Table>, IoError> {
+        let table = match &mut self.source {
+            Source::Csv { reader, record } => read_csv_rows(
+                reader,
+                record,
+                &self.path,
+                &self.headers,
+                self.keep.as_deref(),
+                self.rows,
+                self.rows_read,
+            )?,
+            Source::Xyz { chunks, pending } => match pending.take() {
+                Some(t) => Some(*t),
+                None => chunks.next_rows(self.rows)?,
+            }
+            .map(|t| select(t, self.keep.as_deref()))
+            .transpose()?,
+            Source::Parquet(p) => p.next_rows(&self.path, self.rows, self.rows_read == 0)?,
+        };
+        if let Some(t) = &table {
+            self.first_row = self.rows_read;
+            self.rows_read += t.len();
+        }
+        Ok(table)
+    }
+}
+
+/// Reads up to `rows` CSV records into a table of the `keep` columns (all when `None`).
+fn read_csv_rows(
+    reader: &mut csv::Reader<BufReader<File>>,
+    record: &mut csv::StringRecord,
+    path: &Path,
+    headers: &[String],
+    keep: Option<&[usize]>,
+    rows: usize,
+    rows_before: usize,
+) -> Result<Option<Table>, IoError> {
+    let all: Vec<usize>;
+    let keep = match keep {
+        Some(k) => k,
+        None => {
+            all = (0..headers.len()).collect();
+            &all
+        }
+    };
+    let mut columns = vec![TextColumn::default(); keep.len()];
+    let mut lines = Vec::new();
+    while lines.len() < rows {
+        if !reader.read_record(record).map_err(|e| csv_error(path, e))? {
+            break;
+        }
+        let line = rows_before + lines.len();
+        lines.push(record.position().map_or(line as u64 + 2, |p| p.line()));
+        for (column, &j) in columns.iter_mut().zip(keep) {
+            column.push(record.get(j).unwrap_or(""));
+        }
+    }
+    if lines.is_empty() && rows_before > 0 {
+        return Ok(None);
+    }
+    let names = keep.iter().map(|&j| headers[j].clone()).collect();
+    let columns = columns.into_iter().map(Column::Text).collect();
+    Table::from_columns(path, names, columns, Some(lines)).map(Some)
+}
+
+/// The `keep` columns of `table` (all when `None`), rows and line numbers unchanged.
+fn select(table: Table, keep: Option<&[usize]>) -> Result<Table, IoError> {
+    let Some(keep) = keep else { return Ok(table) };
+    let names = keep.iter().map(|&j| table.headers()[j].clone()).collect();
+    let columns = keep.iter().map(|&j| table.columns()[j].clone()).collect();
+    let lines = (0..table.len()).map(|k| table.line_of(k)).collect();
+    Table::from_columns(table.path(), names, columns, Some(lines))
+}
+
+/// A Parquet file's numeric columns, read a chunk of rows at a time within its row groups.
+struct ParquetChunks {
+    reader: SerializedFileReader<File>,
+    headers: Vec<String>,
+    notes: Vec<String>,
+    /// Names and (schema index, max definition level) of the columns read.
+    names: Vec<String>,
+    wanted: Vec<(usize, i16)>,
+    all: Vec<(usize, i16)>,
+    group: usize,
+    left_in_group: usize,
+    columns: Vec<ColumnReader>,
+}
+
+impl ParquetChunks {
+    fn open(file: File, path: &Path) -> Result<Self, IoError> {
+        let reader = SerializedFileReader::new(file).map_err(|e| invalid(path, e))?;
+        let (headers, all, notes) = crate::parquet::numeric_columns(&reader);
+        Ok(Self {
+            reader,
+            names: headers.clone(),
+            headers,
+            notes,
+            wanted: all.clone(),
+            all,
+            group: 0,
+            left_in_group: 0,
+            columns: Vec::new(),
+        })
+    }
+
+    fn keep(&mut self, keep: Option<&[usize]>) {
+        let all: Vec<usize> = (0..self.all.len()).collect();
+        let keep = keep.unwrap_or(&all);
+        self.wanted = keep.iter().map(|&j| self.all[j]).collect();
+        self.names = keep.iter().map(|&j| self.headers[j].clone()).collect();
+    }
+
+    fn next_rows(
+        &mut self,
+        path: &Path,
+        rows: usize,
+        first: bool,
+    ) -> Result<Option<Table>, IoError> {
+        while self.left_in_group == 0 {
+            if self.group == self.reader.num_row_groups() {
+                if first {
+                    // The error reading the file whole gives for a file without rows.
+                    let empty = vec![Column::Numbers(Vec::new()); self.headers.len()];
+                    return Table::from_columns(path, self.headers.clone(), empty, None).map(Some);
+                }
+                return Ok(None);
+            }
+            let group = self
+                .reader
+                .get_row_group(self.group)
+                .map_err(|e| invalid(path, e))?;
+            self.left_in_group = group.metadata().num_rows() as usize;
+            self.columns = self
+                .wanted
+                .iter()
+                .map(|(k, _)| group.get_column_reader(*k))
+                .collect::<Result<_, _>>()
+                .map_err(|e| invalid(path, e))?;
+            self.group += 1;
+        }
+        let n = rows.min(self.left_in_group);
+        let mut values = Vec::with_capacity(self.wanted.len());
+        for (column, (_, max_def)) in self.columns.iter_mut().zip(&self.wanted) {
+            let mut out = Vec::with_capacity(n);
+            crate::parquet::read_column(column, *max_def, n, &mut out)
+                .map_err(|e| invalid(path, e))?;
+            values.push(Column::Numbers(out));
+        }
+        self.left_in_group -= n;
+        Table::from_columns(path, self.names.clone(), values, None).map(Some)
+    }
+}
+
+fn invalid(path: &Path, e: ParquetError) -> IoError {
+    IoError::Invalid {
+        path: path.to_path_buf(),
+        message: format!("not a readable Parquet file: {e}"),
+    }
+}
+
+/// Writes CSV a chunk at a time: the header first, then each chunk's rows plus extra columns,
+/// as [`crate::table::write_with_column`] writes a whole table.
+pub struct CsvChunkWriter<W: Write> {
+    writer: csv::Writer<W>,
+}
+
+impl<W: Write> CsvChunkWriter<W> {
+    /// Writes the header: `headers` then `extra`.
+    pub fn new(out: W, headers: &[String], extra: &[String]) -> std::io::Result<Self> {
+        let mut writer = csv::WriterBuilder::new().from_writer(out);
+        writer
+            .write_record(headers.iter().chain(extra))
+            .map_err(into_io)?;
+        Ok(Self { writer })
+    }
+
+    /// Writes the rows of `chunk` plus one value per row of each `extra` column (empty for NaN).
+    pub fn write(&mut self, chunk: &Table, extra: &[&[f64]]) -> std::io::Result<()> {
+        write_rows(chunk, extra, &mut self.writer)
+    }
+
+    /// Flushes, and gives back the output.
+    pub fn finish(self) -> std::io::Result<W> {
+        self.writer
+            .into_inner()
+            .map_err(|e| std::io::Error::other(e.to_string()))
+    }
+}
+
+/// Writes Parquet a chunk at a time, one row group per chunk, in the layout of
+/// [`crate::parquet::write`]: optional float64 columns, NaN as null.
+pub struct ParquetChunkWriter {
+    path: PathBuf,
+    writer: SerializedFileWriter<File>,
+}
+
+impl ParquetChunkWriter {
+    /// Creates `path` for the columns `names`.
+    pub fn create(path: &Path, names: &[String]) -> Result<Self, IoError> {
+        let file = File::create(path).map_err(|source| IoError::Write {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let names: Vec<&str> = names.iter().map(String::as_str).collect();
+        let writer = crate::parquet::new_writer(file, &names).map_err(|e| fail(path, e))?;
+        Ok(Self {
+            path: path.to_path_buf(),
+            writer,
+        })
+    }
+
+    /// Writes every column of `chunk` as numbers, then the `extra` columns, as one row group.
+    /// A text cell that is not a number is an error naming its line and column.
+    pub fn write(&mut self, chunk: &Table, extra: &[&[f64]]) -> Result<(), IoError> {
+        let mut columns = Vec::with_capacity(chunk.headers().len());
+        for k in 0..chunk.headers().len() {
+            columns.push(chunk.numeric_at(k)?);
+        }
+        let path = &self.path;
+        let mut group = self.writer.next_row_group().map_err(|e| fail(path, e))?;
+        for values in columns
+            .iter()
+            .map(Vec::as_slice)
+            .chain(extra.iter().copied())
+        {
+            let Some(mut column) = group.next_column().map_err(|e| fail(path, e))? else {
+                break;
+            };
+            crate::parquet::write_values(&mut column, values).map_err(|e| fail(path, e))?;
+            column.close().map_err(|e| fail(path, e))?;
+        }
+        group.close().map_err(|e| fail(path, e))?;
+        Ok(())
+    }
+
+    /// Writes the file's footer.
+    pub fn finish(self) -> Result<(), IoError> {
+        let path = self.path;
+        self.writer.close().map_err(|e| fail(&path, e))?;
+        Ok(())
+    }
+}
+
+fn fail(path: &Path, e: ParquetError) -> IoError {
+    IoError::Write {
+        path: path.to_path_buf(),
+        source: std::io::Error::other(e.to_string()),
+    }
+}
+
+/// Rows of numbers kept in an anonymous temporary file (8 bytes a value, removed when dropped)
+/// between passes over a text file, so that a later pass need not parse the text again.
+pub struct NumberSpill {
+    out: std::io::BufWriter<File>,
+    width: usize,
+    rows: usize,
+}
+
+impl NumberSpill {
+    /// A spill for rows of `width` numbers.
+    pub fn new(width: usize) -> std::io::Result<Self> {
+        Ok(Self {
+            out: std::io::BufWriter::with_capacity(1 << 20, tempfile::tempfile()?),
+            width,
+            rows: 0,
+        })
+    }
+
+    /// Appends the rows of `columns` (`width` columns of equal length).
+    pub fn push(&mut self, columns: &[&[f64]]) -> std::io::Result<()> {
+        let rows = columns.first().map_or(0, |c| c.len());
+        for k in 0..rows {
+            for column in columns.iter().take(self.width) {
+                self.out.write_all(&column[k].to_le_bytes())?;
+            }
+        }
+        self.rows += rows;
+        Ok(())
+    }
+
+    /// Reads the rows back, at most `rows_per_chunk` at a time.
+    pub fn into_reader(self, rows_per_chunk: usize) -> std::io::Result<SpillReader> {
+        use std::io::Seek;
+        let mut file = self.out.into_inner().map_err(|e| e.into_error())?;
+        file.rewind()?;
+        Ok(SpillReader {
+            input: BufReader::with_capacity(1 << 20, file),
+            width: self.width,
+            left: self.rows,
+            rows_per_chunk: rows_per_chunk.max(1),
+        })
+    }
+}
+
+/// The rows of a [`NumberSpill`], read back in order.
+pub struct SpillReader {
+    input: BufReader<File>,
+    width: usize,
+    left: usize,
+    rows_per_chunk: usize,
+}
+
+impl SpillReader {
+    /// The next chunk of rows as columns, or `None` after the last row.
+    pub fn next_chunk(&mut self) -> std::io::Result<Option<Vec<Vec<f64>>>> {
+        use std::io::Read;
+        if self.left == 0 {
+            return Ok(None);
+        }
+        let rows = self.left.min(self.rows_per_chunk);
+        let mut bytes = vec![0u8; rows * self.width * 8];
+        self.input.read_exact(&mut bytes)?;
+        let mut columns = vec![Vec::with_capacity(rows); self.width];
+        for (j, value) in bytes.chunks_exact(8).enumerate() {
+            let v = f64::from_le_bytes(value.try_into().expect("8 bytes"));
+            columns[j % self.width].push(v);
+        }
+        self.left -= rows;
+        Ok(Some(columns))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::table::write_with_column;
+
+    fn temp(name: &str, text: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("tolles-chunks-{}-{name}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join(name);
+        std::fs::write(&path, text).unwrap();
+        path
+    }
+
+    fn chunked_csv(path: &Path, format: Format, rows: usize) -> String {
+        let mut reader = ChunkReader::open(path, format, rows).unwrap();
+        let mut writer = CsvChunkWriter::new(Vec::new(), reader.headers(), &["e".into()]).unwrap();
+        let mut k = 0.0;
+        while let Some(chunk) = reader.next_chunk().unwrap() {
+            assert!(chunk.len() <= rows);
+            let extra: Vec<f64> = (0..chunk.len())
+                .map(|_| {
+                    k += 0.5;
+                    k
+                })
+                .collect();
+            writer.write(&chunk, &[&extra]).unwrap();
+        }
+        String::from_utf8(writer.finish().unwrap()).unwrap()
+    }
+
+    fn whole_csv(path: &Path, format: Format) -> String {
+        let table = Table::read(path, Some(format)).unwrap();
+        let extra: Vec<f64> = (1..=table.len()).map(|k| 0.5 * k as f64).collect();
+        let mut out = Vec::new();
+        write_with_column(&table, &[("e".into(), extra)], &mut out).unwrap();
+        String::from_utf8(out).unwrap()
+    }
+
+    #[test]
+    fn chunks_of_any_size_write_the_text_of_the_whole_table() {
+        let csv = temp(
+            "a.csv",
+            "a, b ,c\n1.50,x,\"q,r\"\n,2,3\n4,5,6\n7,8,9\n10,11,12\n",
+        );
+        let xyz = temp("a.xyz", "/ a b\nLine 1\n1 *\n2 3\nTie 9\n4 5\n6 7\n");
+        for rows in [1, 2, 3, 100] {
+            assert_eq!(
+                chunked_csv(&csv, Format::Csv, rows),
+                whole_csv(&csv, Format::Csv)
+            );
+            assert_eq!(
+                chunked_csv(&xyz, Format::Xyz, rows),
+                whole_csv(&xyz, Format::Xyz)
+            );
+        }
+    }
+
+    #[test]
+    fn errors_are_those_of_reading_whole() {
+        for (name, text) in [
+            ("r.csv", "a,b\n1,2\n3\n"),
+            ("h.csv", "a,b\n"),
+            ("d.csv", "a,a\n1,2\n3\n"),
+            ("r.xyz", "/ a b\nLine 1\n1 2\n3\n"),
+            ("e.xyz", "/ only a comment\n"),
+        ] {
+            let path = temp(name, text);
+            let format = Format::from_path(&path);
+            let whole = Table::read(&path, Some(format)).unwrap_err().to_string();
+            let chunked = ChunkReader::open(&path, format, 1)
+                .and_then(|mut r| while_chunks(&mut r))
+                .unwrap_err()
+                .to_string();
+            assert_eq!(chunked, whole, "{name}");
+        }
+    }
+
+    fn while_chunks(reader: &mut ChunkReader) -> Result<(), IoError> {
+        while reader.next_chunk()?.is_some() {}
+        Ok(())
+    }
+
+    #[test]
+    fn spilled_numbers_come_back_bit_for_bit() {
+        let mut spill = NumberSpill::new(2).unwrap();
+        spill.push(&[&[1.5, f64::NAN], &[-0.0, 3.0]]).unwrap();
+        spill.push(&[&[f64::INFINITY], &[1e-300]]).unwrap();
+        let mut reader = spill.into_reader(2).unwrap();
+        let first = reader.next_chunk().unwrap().unwrap();
+        assert_eq!(first[0][0], 1.5);
+        assert!(first[0][1].is_nan());
+        assert_eq!(first[1][0].to_bits(), (-0.0f64).to_bits());
+        let second = reader.next_chunk().unwrap().unwrap();
+        assert_eq!(second, [vec![f64::INFINITY], vec![1e-300]]);
+        assert!(reader.next_chunk().unwrap().is_none());
+    }
+
+    #[test]
+    fn parquet_round_trips_in_chunks_and_keeps_only_what_is_asked() {
+        let dir = temp("x", "");
+        let path = dir.with_file_name("p.parquet");
+        let a: Vec<f64> = (0..10).map(f64::from).collect();
+        let b: Vec<f64> = (0..10)
+            .map(|k| if k == 3 { f64::NAN } else { -f64::from(k) })
+            .collect();
+        crate::parquet::write(&path, &[("a".into(), a.clone()), ("b".into(), b.clone())]).unwrap();
+        let mut reader = ChunkReader::open(&path, Format::Parquet, 4)
+            .unwrap()
+            .only(vec![1]);
+        let out = path.with_file_name("q.parquet");
+        let mut writer = ParquetChunkWriter::create(&out, &["b".into(), "c".into()]).unwrap();
+        let mut seen = Vec::new();
+        while let Some(chunk) = reader.next_chunk().unwrap() {
+            assert_eq!(chunk.headers(), ["b"]);
+            assert_eq!(
+                reader.place_of(&chunk, 0),
+                format!("row {}", seen.len() + 1)
+            );
+            let c: Vec<f64> = vec![1.0; chunk.len()];
+            writer.write(&chunk, &[&c]).unwrap();
+            seen.extend(chunk.numeric("b").unwrap());
+        }
+        writer.finish().unwrap();
+        let back = Table::read(&out, None).unwrap();
+        let got = back.numeric("b").unwrap();
+        assert_eq!(got.len(), 10);
+        assert!(got[3].is_nan() && seen[3].is_nan());
+        assert_eq!(got[5], -5.0);
+        assert_eq!(back.numeric("c").unwrap(), [1.0; 10]);
+    }
+}
