@@ -76,17 +76,38 @@ impl Design {
     }
 
     /// The design matrix of one contiguous series (rows = samples).
+    ///
+    /// Built column by column (the matrix is column-major), with the same arithmetic as
+    /// [`Design::row`], so every entry is bit-for-bit what `row` gives.
     pub fn matrix(&self, flux: &VectorSeries) -> DMatrix<f64> {
         let columns = self.columns();
         let n = flux.len();
+        let b = [&flux.x, &flux.y, &flux.z];
+        let db = [
+            central_difference(&flux.x),
+            central_difference(&flux.y),
+            central_difference(&flux.z),
+        ];
+        let norm: Vec<f64> = (0..n).map(|k| flux.magnitude(k)).collect();
+        let unit: Vec<Vec<f64>> = b
+            .iter()
+            .map(|c| c.iter().zip(&norm).map(|(v, m)| v / m).collect())
+            .collect();
         let mut a = DMatrix::zeros(n, columns.len());
-        let mut row = vec![0.0; columns.len()];
-        self.for_each_row(flux, |k, b, db| {
-            self.row(&columns, b, db, &mut row);
-            for (c, v) in row.iter().enumerate() {
-                a[(k, c)] = *v;
+        for (mut out, column) in a.column_iter_mut().zip(&columns) {
+            let out = out.as_mut_slice();
+            let scaled = |out: &mut [f64], u: &[f64], v: &[f64]| {
+                for ((o, u), v) in out.iter_mut().zip(u).zip(v) {
+                    *o = u * v / self.bt_scale;
+                }
+            };
+            match *column {
+                Column::Permanent(i) => out.copy_from_slice(&unit[i.index()]),
+                Column::Induced(i, j) => scaled(out, &unit[i.index()], b[j.index()]),
+                Column::Eddy(i, j) => scaled(out, &unit[i.index()], &db[j.index()]),
+                Column::Bias => out.fill(1.0),
             }
-        });
+        }
         a
     }
 
@@ -165,6 +186,30 @@ mod tests {
         let applied = d.apply(&flux, &beta);
         for (u, v) in direct.iter().zip(&applied) {
             assert!((u - v).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn matrix_rows_are_exactly_design_rows() {
+        let flux = VectorSeries::new(
+            vec![20_000.0, 20_100.3, 20_050.7, 19_900.1, 19_850.0],
+            vec![1_000.0, -500.2, 300.9, 0.0, 12.5],
+            vec![45_000.0, 44_900.4, 45_100.6, 45_050.8, 44_990.0],
+        );
+        let d = Design::new("p,i,e,b".parse().unwrap());
+        let columns = d.columns();
+        let a = d.matrix(&flux);
+        let db = [
+            central_difference(&flux.x),
+            central_difference(&flux.y),
+            central_difference(&flux.z),
+        ];
+        let mut row = vec![0.0; columns.len()];
+        for k in 0..flux.len() {
+            d.row(&columns, flux.at(k), [db[0][k], db[1][k], db[2][k]], &mut row);
+            for (c, v) in row.iter().enumerate() {
+                assert_eq!(a[(k, c)].to_bits(), v.to_bits(), "row {k} column {c}");
+            }
         }
     }
 
