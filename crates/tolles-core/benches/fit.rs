@@ -42,7 +42,8 @@ fn flight(n: usize) -> (Vec<f64>, VectorSeries) {
             let m = flux.magnitude(k);
             let u = flux.at(k).map(|v| v / m);
             let next = flux.at((k + 1).min(n - 1));
-            m + 12.0 * u[0] - 7.0 * u[1] + 25.0 * u[2]
+            m + 12.0 * u[0] - 7.0 * u[1]
+                + 25.0 * u[2]
                 + 2e-3 * u[0] * flux.x[k]
                 + 3e-4 * u[1] * flux.z[k]
                 + 4e-2 * u[0] * (next[0] - flux.x[k])

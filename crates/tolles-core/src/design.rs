@@ -206,7 +206,12 @@ mod tests {
         ];
         let mut row = vec![0.0; columns.len()];
         for k in 0..flux.len() {
-            d.row(&columns, flux.at(k), [db[0][k], db[1][k], db[2][k]], &mut row);
+            d.row(
+                &columns,
+                flux.at(k),
+                [db[0][k], db[1][k], db[2][k]],
+                &mut row,
+            );
             for (c, v) in row.iter().enumerate() {
                 assert_eq!(a[(k, c)].to_bits(), v.to_bits(), "row {k} column {c}");
             }

@@ -797,7 +797,10 @@ mod tests {
         filtfilt_many_unless_constant(&f, &mut views).unwrap();
         for (alone, both) in signals.iter().zip(&together) {
             let alone = filtfilt_unless_constant(&f, alone).unwrap();
-            assert!(alone.iter().zip(both).all(|(a, b)| a.to_bits() == b.to_bits()));
+            assert!(alone
+                .iter()
+                .zip(both)
+                .all(|(a, b)| a.to_bits() == b.to_bits()));
         }
         let mut short = vec![1.0, 2.0, 3.0];
         assert!(matches!(
