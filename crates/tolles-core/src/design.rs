@@ -364,6 +364,35 @@ mod tests {
     }
 
     #[test]
+    fn matrix_rows_are_exactly_design_rows() {
+        let flux = VectorSeries::new(
+            vec![20_000.0, 20_100.3, 20_050.7, 19_900.1, 19_850.0],
+            vec![1_000.0, -500.2, 300.9, 0.0, 12.5],
+            vec![45_000.0, 44_900.4, 45_100.6, 45_050.8, 44_990.0],
+        );
+        let d = Design::new("p,i,e,b".parse().unwrap());
+        let columns = d.columns();
+        let a = d.matrix(&flux);
+        let db = [
+            central_difference(&flux.x),
+            central_difference(&flux.y),
+            central_difference(&flux.z),
+        ];
+        let mut row = vec![0.0; columns.len()];
+        for k in 0..flux.len() {
+            d.row(
+                &columns,
+                flux.at(k),
+                [db[0][k], db[1][k], db[2][k]],
+                &mut row,
+            );
+            for (c, v) in row.iter().enumerate() {
+                assert_eq!(a[(k, c)].to_bits(), v.to_bits(), "row {k} column {c}");
+            }
+        }
+    }
+
+    #[test]
     fn permanent_columns_are_the_unit_vector() {
         let flux = VectorSeries::new(
             vec![0.0, 0.0],

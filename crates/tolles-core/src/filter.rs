@@ -269,6 +269,56 @@ pub fn filtfilt_unless_constant(filter: &Butterworth, x: &[f64]) -> Result<Vec<f
     filter.filtfilt(x)
 }
 
+/// [`filtfilt_unless_constant`] on several equally long signals, in place, shared among the
+/// available cores; the result is bit-for-bit the same as filtering each on its own.
+///
+/// # Panics
+/// If the signals differ in length: that is a programming error, not bad input.
+pub fn filtfilt_many_unless_constant(
+    filter: &Butterworth,
+    signals: &mut [&mut [f64]],
+) -> Result<(), FilterError> {
+    let n = signals.first().map_or(0, |s| s.len());
+    assert!(
+        signals.iter().all(|s| s.len() == n),
+        "signals must have equal lengths"
+    );
+    let mut varying: Vec<&mut [f64]> = signals
+        .iter_mut()
+        .filter(|x| !(x.len() >= 2 && sample_std(x) <= f64::EPSILON))
+        .map(|x| &mut **x)
+        .collect();
+    let padlen = filter.padlen();
+    if !varying.is_empty() && n <= padlen {
+        return Err(FilterError::TooShort { len: n, padlen });
+    }
+    // Threads only pay off when each has a sizeable share of the work.
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |t| t.get())
+        .min(varying.len())
+        .min(1 + n * varying.len() / PARALLEL_SAMPLES);
+    let filter_all = |share: &mut [&mut [f64]]| {
+        for x in share.iter_mut() {
+            let filtered = filter.filtfilt(x).expect("longer than padlen");
+            x.copy_from_slice(&filtered);
+        }
+    };
+    if threads <= 1 {
+        filter_all(&mut varying);
+        return Ok(());
+    }
+    let per_thread = varying.len().div_ceil(threads);
+    std::thread::scope(|scope| {
+        for share in varying.chunks_mut(per_thread) {
+            scope.spawn(move || filter_all(share));
+        }
+    });
+    Ok(())
+}
+
+/// Samples (signals × length) below which [`filtfilt_many_unless_constant`] uses one thread.
+const PARALLEL_SAMPLES: usize = 2_000_000;
+
 /// Two-pass standard deviation of the data shifted by its first sample: the shift keeps
 /// a large offset (e.g. 50 000 nT) from swamping the variance, and makes an exactly
 /// constant signal give exactly 0 (its rounded mean would not equal the value).
@@ -725,6 +775,38 @@ mod tests {
         for (&xi, &yi) in x.iter().zip(&batch) {
             assert_eq!(state.step(xi), yi);
         }
+    }
+
+    #[test]
+    fn many_signals_filter_exactly_as_one_at_a_time() {
+        let f = magnav_bandpass(0.1, 0.9, 4, 10.0).unwrap().unwrap();
+        let n = 400;
+        let signals: Vec<Vec<f64>> = (0..7)
+            .map(|j| {
+                if j == 2 {
+                    vec![3.5; n] // constant: left alone
+                } else {
+                    (0..n)
+                        .map(|i| (i as f64 * 0.1 * (j + 1) as f64).sin() * 1e3 + j as f64)
+                        .collect()
+                }
+            })
+            .collect();
+        let mut together = signals.clone();
+        let mut views: Vec<&mut [f64]> = together.iter_mut().map(|s| s.as_mut_slice()).collect();
+        filtfilt_many_unless_constant(&f, &mut views).unwrap();
+        for (alone, both) in signals.iter().zip(&together) {
+            let alone = filtfilt_unless_constant(&f, alone).unwrap();
+            assert!(alone
+                .iter()
+                .zip(both)
+                .all(|(a, b)| a.to_bits() == b.to_bits()));
+        }
+        let mut short = vec![1.0, 2.0, 3.0];
+        assert!(matches!(
+            filtfilt_many_unless_constant(&f, &mut [short.as_mut_slice()]),
+            Err(FilterError::TooShort { .. })
+        ));
     }
 
     #[test]

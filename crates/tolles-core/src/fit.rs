@@ -562,14 +562,12 @@ fn prepare_run(
     }
     let mut a = settings.design.matrix_of(&flux.slice(run.clone()), terms);
     let mut y = scalar[run].to_vec();
-    if let Some(f) = filter {
-        for mut col in a.column_iter_mut() {
-            let filtered = crate::filter::filtfilt_unless_constant(f, col.as_slice())?;
-            col.copy_from_slice(&filtered);
-        }
-        y = crate::filter::filtfilt_unless_constant(f, &y)?;
-    }
     let n = y.len();
+    if let Some(f) = filter {
+        let mut signals: Vec<&mut [f64]> = a.as_mut_slice().chunks_mut(n).collect();
+        signals.push(&mut y);
+        crate::filter::filtfilt_many_unless_constant(f, &mut signals)?;
+    }
     let a = a.rows(trim, n - 2 * trim).into_owned();
     let y = y[trim..n - trim].to_vec();
     Ok(Some((a, y)))

@@ -200,9 +200,11 @@ impl Table {
     /// Reads CSV text from any reader; `name` is used in error messages.
     pub fn from_reader(reader: impl Read, name: impl AsRef<Path>) -> Result<Self, IoError> {
         let path = name.as_ref().to_path_buf();
+        // Cells are trimmed as they are stored: the reader's own field trimming copies every
+        // record twice, which was a third of the time to read a large file.
         let mut csv = csv::ReaderBuilder::new()
             .has_headers(true)
-            .trim(csv::Trim::All)
+            .trim(csv::Trim::Headers)
             .from_reader(reader);
         let headers: Vec<String> = csv
             .headers()
@@ -212,15 +214,18 @@ impl Table {
             .collect();
         let mut columns = vec![TextColumn::default(); headers.len()];
         let mut lines = Vec::new();
-        for record in csv.records() {
-            let record = record.map_err(|e| csv_error(&path, e))?;
+        let mut record = csv::StringRecord::new();
+        while csv
+            .read_record(&mut record)
+            .map_err(|e| csv_error(&path, e))?
+        {
             lines.push(
                 record
                     .position()
                     .map_or(lines.len() as u64 + 2, |p| p.line()),
             );
             for (column, cell) in columns.iter_mut().zip(record.iter()) {
-                column.push(cell);
+                column.push(cell.trim());
             }
         }
         let columns = columns.into_iter().map(Column::Text).collect();
@@ -596,6 +601,15 @@ mod tests {
         assert!(err.contains("no column \"flux_a_x\""), "{err}");
         let err = t.numeric("mag").unwrap_err().to_string();
         assert!(err.contains("the header has: tt, flux_b_x"), "{err}");
+    }
+
+    #[test]
+    fn headers_and_cells_are_trimmed() {
+        let t = read(" a ,b\t\n 1.5 ,\t2\n").unwrap();
+        assert_eq!(t.headers(), ["a", "b"]);
+        let mut out = Vec::new();
+        write_with_column(&t, &[], &mut out).unwrap();
+        assert_eq!(String::from_utf8(out).unwrap(), "a,b\n1.5,2\n");
     }
 
     #[test]
