@@ -200,12 +200,27 @@ impl Design {
             coefficients.len(),
             "one coefficient per column"
         );
+        // Column by column, adding each term in column order: the same sum as row by row.
+        let components: Vec<Components> = flux.series().iter().map(|s| Components::of(s)).collect();
         let mut out = vec![0.0; flux.len()];
-        let mut row = vec![0.0; terms.len()];
-        for_each_row(&flux, |k, b, db| {
-            self.row_of(&terms, b, db, &mut row);
-            out[k] = row.iter().zip(coefficients).map(|(a, c)| a * c).sum();
-        });
+        let add = |out: &mut [f64], u: &[f64], v: &[f64], beta: f64| {
+            for ((o, u), v) in out.iter_mut().zip(u).zip(v) {
+                *o += u * v / self.bt_scale * beta;
+            }
+        };
+        for (term, &beta) in terms.iter().zip(coefficients) {
+            let c = &components[term.fluxgate];
+            match term.column {
+                Column::Permanent(i) => {
+                    for (o, u) in out.iter_mut().zip(&c.unit[i.index()]) {
+                        *o += u * beta;
+                    }
+                }
+                Column::Induced(i, j) => add(&mut out, &c.unit[i.index()], c.b[j.index()], beta),
+                Column::Eddy(i, j) => add(&mut out, &c.unit[i.index()], &c.db[j.index()], beta),
+                Column::Bias => out.iter_mut().for_each(|o| *o += beta),
+            }
+        }
         out
     }
 }
@@ -232,31 +247,6 @@ impl<'a> Components<'a> {
 fn unit_vector(b: [f64; 3]) -> [f64; 3] {
     let norm = (b[0] * b[0] + b[1] * b[1] + b[2] * b[2]).sqrt();
     b.map(|v| v / norm)
-}
-
-/// Calls `f(k, fields, changes)` for every sample k, with every fluxgate's field (nT) and
-/// central-difference change per sample (nT/sample).
-fn for_each_row(flux: &Fluxgates, mut f: impl FnMut(usize, &[[f64; 3]], &[[f64; 3]])) {
-    let changes: Vec<[Vec<f64>; 3]> = flux
-        .series()
-        .iter()
-        .map(|s| {
-            [
-                central_difference(&s.x),
-                central_difference(&s.y),
-                central_difference(&s.z),
-            ]
-        })
-        .collect();
-    let mut b = vec![[0.0; 3]; flux.count()];
-    let mut db = vec![[0.0; 3]; flux.count()];
-    for k in 0..flux.len() {
-        for (j, (series, change)) in flux.series().iter().zip(&changes).enumerate() {
-            b[j] = series.at(k);
-            db[j] = change.each_ref().map(|c| c[k]);
-        }
-        f(k, &b, &db);
-    }
 }
 
 /// Change per sample by central differences, one-sided at both ends (MagNav's `fdm`).
