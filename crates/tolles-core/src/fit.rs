@@ -438,12 +438,24 @@ fn fold_problems(prepared: &[Rows], picks: &[usize], lambda: Lambda) -> Vec<Ridg
     };
     let total: usize = prepared.iter().map(|(_, y)| y.len()).sum();
     let mut folds = vec![Ridge::new(picks.len()); count];
+    // Row r (counted over all runs) goes to fold ⌊r·count/total⌋; fold f ends before row
+    // ⌈(f+1)·total/count⌉. Each run is pushed in the pieces that fall in one fold.
     let mut r = 0;
     for (a, y) in prepared {
-        for (k, target) in y.iter().enumerate() {
-            folds[r * count / total.max(1)].push_row(picks.iter().map(|&c| a[(k, c)]), *target);
-            r += 1;
+        let n = y.len();
+        let mut start = 0;
+        while start < n {
+            let fold = (r + start) * count / total;
+            let fold_end = ((fold + 1) * total).div_ceil(count);
+            let end = (fold_end - r).min(n);
+            let columns: Vec<&[f64]> = picks
+                .iter()
+                .map(|&c| &a.as_slice()[c * n + start..c * n + end])
+                .collect();
+            folds[fold].push_columns(&columns, &y[start..end]);
+            start = end;
         }
+        r += n;
     }
     folds
 }

@@ -77,6 +77,26 @@ impl Ridge {
         }
     }
 
+    /// Adds rows given column by column: `columns[j][k]` is column j of row k (p columns, equally
+    /// long), `y[k]` its target. Faster than row by row for column-major data.
+    pub fn push_columns(&mut self, columns: &[&[f64]], y: &[f64]) {
+        assert_eq!(columns.len(), self.p, "design width");
+        assert!(columns.iter().all(|c| c.len() == y.len()), "one target per row");
+        self.flush();
+        let mut start = 0;
+        while start < y.len() {
+            let end = (start + BLOCK_ROWS).min(y.len());
+            let mut block = DMatrix::zeros(end - start, self.p + 1);
+            for (j, column) in columns.iter().enumerate() {
+                block.column_mut(j).copy_from_slice(&column[start..end]);
+            }
+            block.column_mut(self.p).copy_from_slice(&y[start..end]);
+            self.r = upper_factor(stack(&self.r, &block));
+            self.rows += end - start;
+            start = end;
+        }
+    }
+
     /// Adds all rows of another problem of the same width.
     pub fn merge(&mut self, other: &Ridge) {
         assert_eq!(self.p, other.p, "design width");
