@@ -4,7 +4,7 @@ For every size it writes a flight (CSV + HDF5, bench/gen_flight.py), then runs, 
 process on the same file, fit followed by compensate of that same file:
 - tolles with MagNav settings, the NumPy/SciPy peer (same algorithm), deinterf with Ridge 0.001
   on 18 terms (its nearest to MagNav's procedure);
-- tolles with its defaults (16 terms, λ by cross-validation), deinterf with its defaults.
+- tolles with its defaults (16 or 18 terms and λ by cross-validation), deinterf with its defaults.
 It checks that the NumPy peer's compensated values equal tolles' and reports how far deinterf's
 are from them and from the truth, then measures what compensate costs on HDF5 and Parquet
 input next to only reading (and writing) the same file. Wall-clock, CPU time and peak
@@ -94,7 +94,7 @@ def bench_size(n, args, work, py):
          lambda m: [py, HERE / "peer_numpy.py", "fit", csv, m], "json"),
         ("deinterf", "18 terms, Ridge 0.001",
          lambda m: [py, HERE / "peer_deinterf.py", "fit", csv, m, "--config", "magnav"], "pkl"),
-        ("tolles", "defaults (16 terms, CV λ)",
+        ("tolles", "defaults (auto terms, CV λ)",
          lambda m: [tolles, "fit", csv, "--scalar", "mag_1_uc", "--vector", "flux_a", "--out", m],
          "json"),
         ("deinterf", "defaults (16 terms, RidgeCV)",
