@@ -81,7 +81,10 @@ impl Ridge {
     /// long), `y[k]` its target. Faster than row by row for column-major data.
     pub fn push_columns(&mut self, columns: &[&[f64]], y: &[f64]) {
         assert_eq!(columns.len(), self.p, "design width");
-        assert!(columns.iter().all(|c| c.len() == y.len()), "one target per row");
+        assert!(
+            columns.iter().all(|c| c.len() == y.len()),
+            "one target per row"
+        );
         self.flush();
         let mut start = 0;
         while start < y.len() {

@@ -30,7 +30,9 @@
 
 use crate::error::IoError;
 use crate::format::Format;
-use crate::table::{check_header, csv_error, into_io, write_rows, Column, Table, TextColumn};
+use crate::table::{
+    check_header, csv_error, into_io, read_located, write_rows, Column, Table, TextColumn,
+};
 use crate::xyz::XyzChunks;
 use ::parquet::column::reader::ColumnReader;
 use ::parquet::errors::ParquetError;
@@ -232,11 +234,10 @@ fn read_csv_rows(
     let mut columns = vec![TextColumn::default(); keep.len()];
     let mut lines = Vec::new();
     while lines.len() < rows {
-        if !reader.read_record(record).map_err(|e| csv_error(path, e))? {
+        let Some(line) = read_located(reader, record, path)? else {
             break;
-        }
-        let line = rows_before + lines.len();
-        lines.push(record.position().map_or(line as u64 + 2, |p| p.line()));
+        };
+        lines.push(line);
         for (column, &j) in columns.iter_mut().zip(keep) {
             column.push(record.get(j).unwrap_or(""));
         }

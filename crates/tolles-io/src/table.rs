@@ -215,15 +215,8 @@ impl Table {
         let mut columns = vec![TextColumn::default(); headers.len()];
         let mut lines = Vec::new();
         let mut record = csv::StringRecord::new();
-        while csv
-            .read_record(&mut record)
-            .map_err(|e| csv_error(&path, e))?
-        {
-            lines.push(
-                record
-                    .position()
-                    .map_or(lines.len() as u64 + 2, |p| p.line()),
-            );
+        while let Some(line) = read_located(&mut csv, &mut record, &path)? {
+            lines.push(line);
             for (column, cell) in columns.iter_mut().zip(record.iter()) {
                 column.push(cell.trim());
             }
@@ -462,8 +455,45 @@ fn check_unique(path: &Path, headers: &[String]) -> Result<(), IoError> {
     Ok(())
 }
 
+/// Reads the next record into `record` and returns its file line (1-based), `None` at the end.
+///
+/// The csv crate dates a record from where it started reading it, which is before any blank
+/// lines it skipped; so the line is counted back from where the record ended instead (less its
+/// terminator and any newlines inside quoted cells). Errors name the line the same way. One case
+/// stays one line short: blank lines before a last row that has no newline of its own.
+pub(crate) fn read_located<R: Read>(
+    reader: &mut csv::Reader<R>,
+    record: &mut csv::StringRecord,
+    path: &Path,
+) -> Result<Option<u64>, IoError> {
+    match reader.read_record(record) {
+        Ok(false) => Ok(None),
+        Ok(true) => {
+            let start = record.position().map_or(1, |p| p.line());
+            let text = record.as_slice();
+            let inside = if text.contains('\n') {
+                text.matches('\n').count() as u64
+            } else {
+                0
+            };
+            let end = reader.position().line();
+            Ok(Some(start.max(end.saturating_sub(1 + inside))))
+        }
+        Err(error) => {
+            let end = reader.position().line();
+            let start = error.position().map_or(0, |p| p.line());
+            let line = start.max(end.saturating_sub(1));
+            Err(csv_error_at(path, error, line))
+        }
+    }
+}
+
 pub(crate) fn csv_error(path: &Path, error: csv::Error) -> IoError {
     let line = error.position().map_or(0, |p| p.line());
+    csv_error_at(path, error, line)
+}
+
+fn csv_error_at(path: &Path, error: csv::Error, line: u64) -> IoError {
     match error.into_kind() {
         csv::ErrorKind::UnequalLengths {
             expected_len, len, ..
@@ -585,6 +615,18 @@ mod tests {
     fn ragged_row_names_its_line() {
         let err = read("a,b\n1,2\n3\n").unwrap_err().to_string();
         assert_eq!(err, "t.csv: line 3: 1 fields, but the header has 2");
+    }
+
+    #[test]
+    fn blank_lines_and_quoted_newlines_do_not_shift_line_numbers() {
+        let t = read("a,b\n1,2\n\n\n3,x7\n\"4\n5\",6\n7,y\n").unwrap();
+        let err = t.numeric("b").unwrap_err().to_string();
+        assert_eq!(err, "t.csv: line 5, column \"b\": \"x7\" is not a number");
+        assert_eq!((t.line_of(2), t.line_of(3)), (6, 8));
+        let t = read("a,b\n1,2\n3,4").unwrap();
+        assert_eq!(t.line_of(1), 3, "a last row without a newline");
+        let err = read("a,b\n1,2\n\n3\n").unwrap_err().to_string();
+        assert_eq!(err, "t.csv: line 4: 1 fields, but the header has 2");
     }
 
     #[test]
