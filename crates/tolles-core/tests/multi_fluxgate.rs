@@ -6,9 +6,11 @@
 //! depends on where both B and C are: no single fluxgate's design can describe it, the design
 //! over A, B and C can.
 
+mod common;
+
+use common::{compensate_with, error_vs_truth};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use tolles_core::compensate::{compensate, Level};
 use tolles_core::design::Design;
 use tolles_core::fit::{fit, FitSettings};
 use tolles_core::metrics::std_dev;
@@ -108,22 +110,11 @@ fn survey_error(cal: &Flight, survey: &Flight, which: &[usize]) -> (f64, TermSet
     };
     let pick = |f: &'_ Flight| which.iter().map(|&w| f.flux[w].clone()).collect::<Vec<_>>();
     let model = fit(&cal.scalar, &pick(cal), 10.0, Some(&cal.tt), &settings).unwrap();
-    let out = compensate(
-        &survey.scalar,
-        &pick(survey),
-        Some(&survey.tt),
-        &model.settings.design,
-        &model.coefficients,
-        1.0,
-        Level::FileMean,
-    );
-    let error: Vec<f64> = out
-        .compensated
-        .iter()
-        .zip(&survey.earth_nt)
-        .map(|(c, e)| c - e)
-        .collect();
-    (std_dev(&error), model.settings.design.terms)
+    let after = compensate_with(&model, &survey.scalar, &pick(survey), &survey.tt);
+    (
+        error_vs_truth(&after, &survey.earth_nt),
+        model.settings.design.terms,
+    )
 }
 
 #[test]

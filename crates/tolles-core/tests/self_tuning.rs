@@ -8,10 +8,11 @@
 //! hindsight, but never materially: by more than 10 % plus the scalar magnetometer's own noise
 //! (a difference below the sensor's noise is not one a user can act on).
 
-use tolles_core::compensate::{compensate, Level};
+mod common;
+
+use common::{compensate_with, error_vs_truth};
 use tolles_core::design::Design;
 use tolles_core::fit::{fit, FitSettings, Lambda};
-use tolles_core::metrics::std_dev;
 use tolles_core::plan::{BoxPlan, SurveyPlan};
 use tolles_core::sim::{simulate, Installation, SimulatedFlight};
 use tolles_core::terms::TermSet;
@@ -22,22 +23,8 @@ const FIXED_LAMBDAS: [f64; 8] = [0.0, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 1e-1, 1.0];
 /// Survey error (nT): std of compensated − true earth field.
 fn survey_error(cal: &SimulatedFlight, survey: &SimulatedFlight, settings: &FitSettings) -> f64 {
     let model = fit(&cal.scalar, &cal.flux, 10.0, Some(&cal.tt), settings).unwrap();
-    let out = compensate(
-        &survey.scalar,
-        &survey.flux,
-        Some(&survey.tt),
-        &model.settings.design,
-        &model.coefficients,
-        1.0,
-        Level::FileMean,
-    );
-    let error: Vec<f64> = out
-        .compensated
-        .iter()
-        .zip(&survey.earth_nt)
-        .map(|(c, e)| c - e)
-        .collect();
-    std_dev(&error)
+    let after = compensate_with(&model, &survey.scalar, &survey.flux, &survey.tt);
+    error_vs_truth(&after, &survey.earth_nt)
 }
 
 #[test]

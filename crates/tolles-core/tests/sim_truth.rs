@@ -1,5 +1,8 @@
 //! Simulation tests: the fit must find the aircraft field the simulator put in.
 
+mod common;
+
+use common::{compensate_with, error_vs_truth};
 use proptest::prelude::*;
 use tolles_core::compensate::{compensate, Level};
 use tolles_core::design::Design;
@@ -112,28 +115,11 @@ fn survey_error(truth: AircraftField, s: &FitSettings, seed: u64) -> (f64, f64) 
     )
     .unwrap();
     let model = fit_flight(&cal, s);
-    let out = compensate(
-        &survey.scalar,
-        &survey.flux,
-        Some(&survey.tt),
-        &model.settings.design,
-        &model.coefficients,
-        1.0,
-        Level::FileMean,
-    );
-    let error: Vec<f64> = out
-        .compensated
-        .iter()
-        .zip(&survey.earth_nt)
-        .map(|(c, e)| c - e)
-        .collect();
-    let before: Vec<f64> = survey
-        .scalar
-        .iter()
-        .zip(&survey.earth_nt)
-        .map(|(c, e)| c - e)
-        .collect();
-    (std_dev(&before), std_dev(&error))
+    let after = compensate_with(&model, &survey.scalar, &survey.flux, &survey.tt);
+    (
+        error_vs_truth(&survey.scalar, &survey.earth_nt),
+        error_vs_truth(&after, &survey.earth_nt),
+    )
 }
 
 /// Aircraft fields up to about 50 nT. Stronger fields (hundreds of nT) break the linearisation

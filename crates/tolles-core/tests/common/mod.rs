@@ -29,3 +29,29 @@ pub fn std(x: &[f64]) -> f64 {
     let mean = x.iter().sum::<f64>() / x.len() as f64;
     (x.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / x.len() as f64).sqrt()
 }
+
+/// How far a survey is from the simulator's true earth field: std of `values − earth_nt` (nT).
+pub fn error_vs_truth(values: &[f64], earth_nt: &[f64]) -> f64 {
+    let error: Vec<f64> = values.iter().zip(earth_nt).map(|(v, e)| v - e).collect();
+    tolles_core::metrics::std_dev(&error)
+}
+
+/// `scalar` (nT) compensated with `model` as `tolles compensate` does it: the model's chosen
+/// design, the correction's file mean kept, the same sample rate as the calibration.
+pub fn compensate_with<'a>(
+    model: &tolles_core::fit::Fit,
+    scalar: &[f64],
+    flux: impl Into<tolles_core::vector::Fluxgates<'a>>,
+    tt: &[f64],
+) -> Vec<f64> {
+    tolles_core::compensate::compensate(
+        scalar,
+        flux,
+        Some(tt),
+        &model.settings.design,
+        &model.coefficients,
+        1.0,
+        tolles_core::compensate::Level::FileMean,
+    )
+    .compensated
+}
