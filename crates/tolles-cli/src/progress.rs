@@ -26,6 +26,25 @@ pub fn bytes(total: u64, message: &str) -> ProgressBar {
     bar
 }
 
+/// A counter of rows read, for a first pass whose length is not known yet.
+pub fn rows(message: &str) -> ProgressBar {
+    let counter = ProgressBar::new_spinner().with_message(message.to_string());
+    counter.set_style(
+        ProgressStyle::with_template("{msg:>12} {spinner} {human_pos} rows {elapsed}")
+            .expect("a valid template"),
+    );
+    counter.enable_steady_tick(Duration::from_millis(120));
+    counter
+}
+
+/// Turns `progress` into a bar of `total` units from zero, now described by `message`.
+pub fn restyle_as_bar(progress: &ProgressBar, total: u64, message: &str) {
+    progress.set_style(bar(total, message).style());
+    progress.set_length(total);
+    progress.set_position(0);
+    progress.set_message(message.to_string());
+}
+
 /// A spinner for work of unknown length.
 pub fn spinner(message: &str) -> ProgressBar {
     let spinner = ProgressBar::new_spinner().with_message(message.to_string());

@@ -20,6 +20,7 @@
 use super::compensate::Args;
 use crate::input::{flux_magnitude_error, sample_rate_from, time_not_increasing, TIME_COLUMN};
 use anyhow::{bail, Context, Result};
+use indicatif::ProgressBar;
 use std::io::Write;
 use std::path::Path;
 use tolles_core::fit::check_flux_magnitude;
@@ -117,6 +118,15 @@ fn same_file(survey: &Path, out: &Path) -> bool {
 
 /// Compensates `args.survey` with `model` in bounded memory (see the module documentation).
 pub fn run(args: &Args, model: &ModelFile) -> Result<()> {
+    let progress = crate::progress::rows("checking");
+    let result = run_with(args, model, &progress);
+    progress.finish_and_clear();
+    result
+}
+
+/// [`run`], counting rows on `progress`: the first pass as they are read, then the two
+/// passes that compute and write against the rows the first one found.
+fn run_with(args: &Args, model: &ModelFile, progress: &ProgressBar) -> Result<()> {
     let format = Format::from_path(&args.survey);
     let rows = chunk_rows()?;
     let open = || ChunkReader::open(&args.survey, format, rows);
@@ -129,7 +139,8 @@ pub fn run(args: &Args, model: &ModelFile) -> Result<()> {
         .as_deref()
         .is_some_and(|out| Format::from_path(out) == Format::Parquet);
     let plan = Plan::new(&reader, model, numeric_output);
-    let mut scan = scan(reader.only(plan.read.clone()), &plan)?;
+    let mut scan = scan(reader.only(plan.read.clone()), &plan, progress)?;
+    crate::progress::restyle_as_bar(progress, 2 * scan.rows as u64, "compensating");
     // The fits before one that fails are computed and reported, as the whole-file path does.
     let (fits, failure) = check_in_order(&plan, &scan, model, args);
     let levels = match fits.is_empty() {
@@ -139,7 +150,7 @@ pub fn run(args: &Args, model: &ModelFile) -> Result<()> {
                 Some(spill) => Numbers::Spill(spill.into_reader(rows).context("temporary file")?),
                 None => Numbers::File(open()?.only(plan.read.clone())),
             };
-            level(numbers, &plan, &scan, &fits)?
+            level(numbers, &plan, &scan, &fits, progress)?
         }
     };
     let headers = open()?.headers().to_vec();
@@ -168,7 +179,7 @@ pub fn run(args: &Args, model: &ModelFile) -> Result<()> {
         .zip(&levels)
         .map(|(f, l)| f.spec(l.level_nt))
         .collect();
-    let uncomputable = write(args, open()?, &plan, &scan, specs, &names)?;
+    let uncomputable = write(args, open()?, &plan, &scan, specs, &names, progress)?;
     for ((fit, level), n) in model.fits.iter().zip(&levels).zip(uncomputable) {
         // Only a value beyond f64's range makes these differ.
         if n != level.uncomputable {
@@ -324,7 +335,7 @@ fn fluxgate(values: &[Vec<f64>], axes: &[Result<usize, IoError>; 3], len: usize)
     VectorSeries::new(axis(0), axis(1), axis(2))
 }
 
-fn scan(mut reader: ChunkReader, plan: &Plan) -> Result<Scan> {
+fn scan(mut reader: ChunkReader, plan: &Plan, progress: &ProgressBar) -> Result<Scan> {
     let mut bad_cell: Vec<Option<IoError>> = (0..plan.read.len()).map(|_| None).collect();
     let mut bad_magnitude = vec![None; plan.fluxgates.len()];
     let mut not_increasing = None;
@@ -339,6 +350,7 @@ fn scan(mut reader: ChunkReader, plan: &Plan) -> Result<Scan> {
         false => None,
     };
     while let Some(chunk) = reader.next_chunk()? {
+        progress.inc(chunk.len() as u64);
         let values = numbers(&chunk, &mut bad_cell);
         if let Some(spill) = &mut spill {
             let used: Vec<&[f64]> = plan.used().iter().map(|&p| values[p].as_slice()).collect();
@@ -630,7 +642,13 @@ impl Numbers {
 /// Pass 2: the mean of each fit's correction over the file, summed in file order as the batch
 /// mean is. The compensator is fed a scalar of 0, which makes its output exactly −A·β; each
 /// row carries whether its scalars are finite, for the count of rows without a result.
-fn level(mut numbers: Numbers, plan: &Plan, scan: &Scan, fits: &[ReadyFit]) -> Result<Vec<Level>> {
+fn level(
+    mut numbers: Numbers,
+    plan: &Plan,
+    scan: &Scan,
+    fits: &[ReadyFit],
+    progress: &ProgressBar,
+) -> Result<Vec<Level>> {
     let specs = fits.iter().map(|f| f.spec(0.0)).collect();
     let mut stream = compensator::<Vec<bool>>(specs, plan);
     let mut sums = vec![(0.0, 0usize, 0usize); fits.len()];
@@ -650,6 +668,7 @@ fn level(mut numbers: Numbers, plan: &Plan, scan: &Scan, fits: &[ReadyFit]) -> R
     let mut rows = 0;
     while let Some(values) = numbers.next_chunk(plan)? {
         let len = values.first().map_or(0, Vec::len);
+        progress.inc(len as u64);
         for k in 0..len {
             if feed.load(&values, k) {
                 stream.split(&mut emit);
@@ -696,6 +715,7 @@ fn write(
     scan: &Scan,
     specs: Vec<ScalarSpec>,
     names: &[String],
+    progress: &ProgressBar,
 ) -> Result<Vec<usize>> {
     let headers = reader.headers().to_vec();
     let mut sink: Box<dyn ChunkSink> = match &args.out {
@@ -714,6 +734,7 @@ fn write(
     let mut previous: Option<Pending> = None;
     let mut rows = 0;
     while let Some(chunk) = reader.next_chunk()? {
+        progress.inc(chunk.len() as u64);
         let all = numbers_of(&chunk, &plan.read)?;
         let mut current = Pending::new(chunk, rows, names.len());
         for k in 0..current.chunk.len() {
