@@ -1,23 +1,11 @@
 //! End-to-end tests through the `tolles` binary.
 
-use assert_cmd::Command;
+mod common;
+
+use common::{column, magnav, std, tolles};
+
 use std::path::{Path, PathBuf};
 use tempfile::TempDir;
-
-fn tolles() -> Command {
-    Command::cargo_bin("tolles").unwrap()
-}
-
-fn magnav(name: &str) -> Vec<f64> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../tolles-core/tests/fixtures/magnav")
-        .join(format!("TL_data.{name}.csv"));
-    std::fs::read_to_string(path)
-        .unwrap()
-        .lines()
-        .map(|l| l.trim().parse().unwrap())
-        .collect()
-}
 
 /// MagNav's golden flight as a CSV a user would have: tt, scalar, fluxgate.
 fn magnav_csv(dir: &Path) -> PathBuf {
@@ -35,23 +23,6 @@ fn magnav_csv(dir: &Path) -> PathBuf {
     let path = dir.join("magnav.csv");
     std::fs::write(&path, text).unwrap();
     path
-}
-
-fn column(csv: &str, name: &str) -> Vec<Option<f64>> {
-    let mut lines = csv.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let k = header
-        .iter()
-        .position(|h| *h == name)
-        .unwrap_or_else(|| panic!("no {name} in {header:?}"));
-    lines
-        .map(|l| l.split(',').nth(k).unwrap().parse().ok())
-        .collect()
-}
-
-fn std(x: &[f64]) -> f64 {
-    let mean = x.iter().sum::<f64>() / x.len() as f64;
-    (x.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / x.len() as f64).sqrt()
 }
 
 const MAGNAV_ARGS: [&str; 10] = [

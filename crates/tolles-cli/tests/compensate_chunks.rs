@@ -3,14 +3,13 @@
 //! simulated flights with time gaps, missing and non-finite values and several scalars, however
 //! small the chunks.
 
-use assert_cmd::Command;
+mod common;
+
+use common::tolles;
+
 use std::path::{Path, PathBuf};
 use tempfile::TempDir;
 use tolles_io::table::Table;
-
-fn tolles() -> Command {
-    Command::cargo_bin("tolles").unwrap()
-}
 
 fn run_ok(dir: &Path, args: &[&str]) {
     let out = tolles().current_dir(dir).args(args).output().unwrap();

@@ -1,16 +1,15 @@
 //! `tolles fom` end to end: simulated boxes written as CSV, maneuvers found from the attitude.
 
-use assert_cmd::Command;
+mod common;
+
+use common::tolles;
+
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use tempfile::TempDir;
 use tolles_core::plan::BoxPlan;
 use tolles_core::sim::{simulate, Installation, Scenario};
 use tolles_io::table::write_columns_to;
-
-fn tolles() -> Command {
-    Command::cargo_bin("tolles").unwrap()
-}
 
 /// Runs `tolles ARGS`, expecting success; returns stdout.
 fn run(args: &[&str]) -> String {

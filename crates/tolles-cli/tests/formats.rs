@@ -1,25 +1,13 @@
 //! End-to-end: `tolles fit` on XYZ, HDF5 and Parquet flights gives the model it gives on the
 //! same flight as CSV, and `tolles compensate` writes HDF5 and Parquet by `--out`'s extension.
 
-use assert_cmd::Command;
+mod common;
+
+use common::{magnav, tolles};
+
 use std::path::{Path, PathBuf};
 use tempfile::TempDir;
 use tolles_io::table::Table;
-
-fn tolles() -> Command {
-    Command::cargo_bin("tolles").unwrap()
-}
-
-fn magnav(name: &str) -> Vec<f64> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../tolles-core/tests/fixtures/magnav")
-        .join(format!("TL_data.{name}.csv"));
-    std::fs::read_to_string(path)
-        .unwrap()
-        .lines()
-        .map(|l| l.trim().parse().unwrap())
-        .collect()
-}
 
 /// MagNav's golden flight as rows of tt, mag_1_uc, flux_a_x/y/z.
 fn magnav_rows() -> Vec<[f64; 5]> {

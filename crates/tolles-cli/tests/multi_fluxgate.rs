@@ -1,13 +1,12 @@
 //! `--vector flux_a,flux_b` end to end: a UAV whose motor current disturbs the scalar, with a
 //! second fluxgate beside the motor cable.
 
-use assert_cmd::Command;
+mod common;
+
+use common::{column, std, tolles};
+
 use std::path::{Path, PathBuf};
 use tempfile::TempDir;
-
-fn tolles() -> Command {
-    Command::cargo_bin("tolles").unwrap()
-}
 
 /// Field of the motor cable at fluxgate B per ampere (nT/A, body frame).
 const AT_FLUXGATE_B: [f64; 3] = [25.0, -12.0, 18.0];
@@ -40,20 +39,6 @@ fn uav_flight(dir: &Path, plan: &str, seed: &str) -> PathBuf {
     path
 }
 
-fn column(csv: &str, name: &str) -> Vec<f64> {
-    let mut lines = csv.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let k = header.iter().position(|h| *h == name).unwrap();
-    lines
-        .map(|l| l.split(',').nth(k).unwrap().parse().unwrap())
-        .collect()
-}
-
-fn std(x: &[f64]) -> f64 {
-    let mean = x.iter().sum::<f64>() / x.len() as f64;
-    (x.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / x.len() as f64).sqrt()
-}
-
 /// Fits with `vectors`, compensates the survey and returns the survey's error against the
 /// true earth field (nT) and the model file's text.
 fn survey_error(dir: &Path, cal: &Path, survey: &Path, vectors: &str) -> (f64, String) {
@@ -81,7 +66,7 @@ fn survey_error(dir: &Path, cal: &Path, survey: &Path, vectors: &str) -> (f64, S
     let error: Vec<f64> = column(&csv, "mag_1_c")
         .iter()
         .zip(column(&csv, "truth_earth"))
-        .map(|(c, e)| c - e)
+        .map(|(c, e)| c.unwrap() - e.unwrap())
         .collect();
     (std(&error), std::fs::read_to_string(model).unwrap())
 }

@@ -1,14 +1,13 @@
 //! `--line` and `--time` through the binary: `fit`, `compensate` and `fom` on selected rows give
 //! what they give on a file holding only those rows, and messages still name the file's lines.
 
-use assert_cmd::Command;
+mod common;
+
+use common::tolles;
+
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use tempfile::TempDir;
-
-fn tolles() -> Command {
-    Command::cargo_bin("tolles").unwrap()
-}
 
 /// Runs `tolles ARGS`, expecting success; returns (stdout, stderr).
 fn run(args: &[&str]) -> (String, String) {

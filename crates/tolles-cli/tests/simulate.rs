@@ -1,11 +1,10 @@
 //! `tolles simulate` through the binary.
 
-use assert_cmd::Command;
-use tempfile::TempDir;
+mod common;
 
-fn tolles() -> Command {
-    Command::cargo_bin("tolles").unwrap()
-}
+use common::tolles;
+
+use tempfile::TempDir;
 
 fn simulate(dir: &TempDir, name: &str, args: &[&str]) -> (String, serde_json::Value) {
     let out = dir.path().join(name);

@@ -1,16 +1,15 @@
 //! `tolles stream` end to end: the stream equals `tolles compensate` up to one constant, on
 //! standard input and over TCP, with one output line for every input line.
 
-use assert_cmd::Command;
+mod common;
+
+use common::tolles;
+
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::{Shutdown, TcpStream};
 use std::path::Path;
 use std::process::Stdio;
 use tempfile::TempDir;
-
-fn tolles() -> Command {
-    Command::cargo_bin("tolles").unwrap()
-}
 
 fn run(dir: &Path, args: &[&str]) -> String {
     let out = tolles().current_dir(dir).args(args).output().unwrap();

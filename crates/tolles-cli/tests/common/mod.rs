@@ -1,0 +1,41 @@
+//! Helpers shared by the end-to-end tests.
+#![allow(dead_code)]
+
+use assert_cmd::Command;
+use std::path::Path;
+
+/// The `tolles` binary under test.
+pub fn tolles() -> Command {
+    Command::cargo_bin("tolles").unwrap()
+}
+
+/// A column of MagNav's golden Tolles-Lawson test data, one value per line.
+pub fn magnav(name: &str) -> Vec<f64> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../tolles-core/tests/fixtures/magnav")
+        .join(format!("TL_data.{name}.csv"));
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .map(|l| l.trim().parse().unwrap())
+        .collect()
+}
+
+/// Column `name` of CSV text; `None` for an empty or non-numeric cell.
+pub fn column(csv: &str, name: &str) -> Vec<Option<f64>> {
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let k = header
+        .iter()
+        .position(|h| *h == name)
+        .unwrap_or_else(|| panic!("no {name} in {header:?}"));
+    lines
+        .map(|l| l.split(',').nth(k).unwrap().parse().ok())
+        .collect()
+}
+
+/// Population standard deviation.
+pub fn std(x: &[f64]) -> f64 {
+    let mean = x.iter().sum::<f64>() / x.len() as f64;
+    (x.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / x.len() as f64).sqrt()
+}
