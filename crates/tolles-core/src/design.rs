@@ -130,16 +130,6 @@ impl Design {
         }
     }
 
-    /// Writes the design row for the fluxgates' fields `b` (nT) and changes per sample `db`
-    /// (nT/sample), one entry per fluxgate, into `out`, one value per entry of `terms`.
-    pub fn row_of(&self, terms: &[Term], b: &[[f64; 3]], db: &[[f64; 3]], out: &mut [f64]) {
-        let units: Vec<[f64; 3]> = b.iter().map(|b| unit_vector(*b)).collect();
-        for (value, t) in out.iter_mut().zip(terms) {
-            let f = t.fluxgate;
-            *value = self.value(t.column, units[f], b[f], db[f]);
-        }
-    }
-
     fn value(&self, column: Column, unit: [f64; 3], b: [f64; 3], db: [f64; 3]) -> f64 {
         match column {
             Column::Permanent(i) => unit[i.index()],
@@ -308,12 +298,18 @@ mod tests {
         let a = d.matrix(vec![&f0, &f1]);
         let change = |s: &VectorSeries| [&s.x, &s.y, &s.z].map(|c| central_difference(c));
         let (d0, d1) = (change(&f0), change(&f1));
-        let mut row = vec![0.0; terms.len()];
+        let mut value = [0.0];
         for k in 0..f0.len() {
+            let b = [f0.at(k), f1.at(k)];
             let db = [d0.each_ref().map(|c| c[k]), d1.each_ref().map(|c| c[k])];
-            d.row_of(&terms, &[f0.at(k), f1.at(k)], &db, &mut row);
-            for (c, v) in row.iter().enumerate() {
-                assert_eq!(a[(k, c)].to_bits(), v.to_bits(), "row {k} column {c}");
+            for (c, t) in terms.iter().enumerate() {
+                let f = t.fluxgate;
+                d.row(&[t.column], b[f], db[f], &mut value);
+                assert_eq!(
+                    a[(k, c)].to_bits(),
+                    value[0].to_bits(),
+                    "row {k} column {c}"
+                );
             }
         }
     }

@@ -391,15 +391,18 @@ fn choose_design(
             Err(_) => {}
         }
     }
-    let heldout = |cv: &Option<CrossValidation>| cv.as_ref().map(|c| c.expected_heldout_rms_nt);
+    let heldout: Vec<Option<f64>> = solved
+        .iter()
+        .map(|(_, (_, cv))| cv.as_ref().map(|c| c.expected_heldout_rms_nt))
+        .collect();
     let mut best = 0;
-    for (k, (_, (_, cv))) in solved.iter().enumerate().skip(1) {
-        let (Some(candidate), Some(first)) = (heldout(cv), heldout(&solved[0].1 .1)) else {
-            continue;
-        };
-        let to_beat = heldout(&solved[best].1 .1).unwrap_or(first);
-        if candidate < first * (1.0 - TERM_CHOICE_MARGIN) && candidate < to_beat {
-            best = k;
+    if let Some(first) = heldout[0] {
+        let to_clear = first * (1.0 - TERM_CHOICE_MARGIN);
+        for (k, score) in heldout.iter().enumerate().skip(1) {
+            // The current best always has a score: the first one, or one that cleared the bar.
+            if score.is_some_and(|s| s < to_clear && heldout[best].is_some_and(|b| s < b)) {
+                best = k;
+            }
         }
     }
     let scores = if designs.len() > 1 {
