@@ -2,120 +2,15 @@
 
 use anyhow::{anyhow, bail, Context, Result};
 use std::path::Path;
-use tolles_core::fit::FitError;
-use tolles_core::segment::{first_non_increasing, median_step};
-use tolles_core::vector::VectorSeries;
-use tolles_io::format::Format;
+use tolles_core::segment::median_step;
 use tolles_io::table::Table;
 
 /// The time column; when present it gives the sample rate and marks gaps.
 pub const TIME_COLUMN: &str = "tt";
 
-/// The columns of a flight table that one scalar model needs.
-pub struct Flight<'t> {
-    pub table: &'t Table,
-    pub scalar: Vec<f64>,
-    /// The fluxgates, one per name in `vectors`.
-    pub flux: Vec<VectorSeries>,
-    /// The fluxgates' column prefixes.
-    pub vectors: Vec<String>,
-    pub tt: Option<Vec<f64>>,
-}
-
-impl<'t> Flight<'t> {
-    /// The columns `scalar` and `V_x/_y/_z` for every V in `vectors` of an already read table.
-    pub fn from_table(table: &'t Table, scalar: &str, vectors: &[String]) -> Result<Self> {
-        let scalar = table.numeric(scalar)?;
-        let flux = vectors
-            .iter()
-            .map(|v| table.vector(v))
-            .collect::<Result<Vec<_>, _>>()?;
-        let tt = time_column(table)?;
-        Ok(Self {
-            table,
-            scalar,
-            flux,
-            vectors: vectors.to_vec(),
-            tt,
-        })
-    }
-
-    /// The sample rate (Hz): `--fs` if given, else 1 / median step of `tt`.
-    pub fn sample_rate(&self, fs: Option<f64>) -> Result<f64> {
-        sample_rate(self.table, self.tt.as_deref(), fs)
-    }
-
-    /// Adds file and line to a core fit error.
-    pub fn explain(&self, error: FitError, scalar: &str) -> anyhow::Error {
-        let file = self.table.path().display();
-        match error {
-            FitError::FluxMagnitude {
-                fluxgate,
-                index,
-                magnitude,
-            } => flux_magnitude_error(
-                self.table.path(),
-                &self.table.place_of(index),
-                &self.vectors[fluxgate],
-                magnitude,
-            ),
-            FitError::ConstantScalar => {
-                anyhow!("{file}: column {scalar:?} is constant: there is nothing to fit")
-            }
-            FitError::ConstantFlux => anyhow!(
-                "{file}: columns {v}_x/_y/_z are constant: the aircraft did not maneuver, so no term can be fitted",
-                v = self.vectors[0]
-            ),
-            other => anyhow::Error::new(other).context(format!("{file}")),
-        }
-    }
-}
-
-/// Reads a flight table in the format its extension names (CSV, XYZ, GDF, HDF5, Parquet), with a
-/// progress bar over the bytes of a text file on a terminal. What the reader left out of the
-/// table (e.g. a 2-D HDF5 dataset) is named on stderr.
+/// Reads a flight table whole, saying on stderr what the reader left out.
 pub fn read_table(path: &Path) -> Result<Table> {
-    let format = Format::from_path(path);
-    let table = match format {
-        Format::Csv | Format::Xyz => {
-            let file = std::fs::File::open(path).map_err(|source| tolles_io::IoError::Open {
-                path: path.to_path_buf(),
-                source,
-            })?;
-            let size = file.metadata().map_or(0, |m| m.len());
-            let bar = crate::progress::bytes(size, "reading");
-            let reader = std::io::BufReader::new(bar.wrap_read(file));
-            let table = match format {
-                Format::Xyz => tolles_io::xyz::from_reader(reader, path),
-                _ => Table::from_reader(reader, path),
-            };
-            bar.finish_and_clear();
-            table?
-        }
-        other => Table::read(path, Some(other))?,
-    };
-    for note in table.notes() {
-        eprintln!("warning: {}: {note}", path.display());
-    }
-    Ok(table)
-}
-
-/// The time column of `table` (s), if it has one; an error if time does not increase.
-pub fn time_column(table: &Table) -> Result<Option<Vec<f64>>> {
-    if !table.has(TIME_COLUMN) {
-        return Ok(None);
-    }
-    let tt = table.numeric(TIME_COLUMN)?;
-    if let Some(k) = first_non_increasing(&tt) {
-        let before = tt[..k].iter().rev().find(|t| t.is_finite()).copied();
-        return Err(time_not_increasing(
-            table.path(),
-            &table.place_of(k),
-            tt[k],
-            before.unwrap_or(f64::NAN),
-        ));
-    }
-    Ok(Some(tt))
+    crate::select::Selection::default().read(path, crate::render::Use::Other)
 }
 
 /// The error for time `t` (s) at `place` of `path` that is not after the time `before` (s).

@@ -6,6 +6,7 @@
 mod cmd;
 mod input;
 mod progress;
+mod render;
 mod select;
 
 use clap::{Parser, Subcommand};

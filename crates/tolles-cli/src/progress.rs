@@ -1,8 +1,48 @@
 //! Progress bars on standard error, drawn only when it is a terminal (indicatif hides them
-//! otherwise, so pipes, files and CI logs stay clean).
+//! otherwise, so pipes, files and CI logs stay clean): the library's [`Progress`] shown.
 
 use indicatif::{ProgressBar, ProgressStyle};
+use std::sync::Mutex;
 use std::time::Duration;
+use tolles::{Progress, Stage};
+
+/// Shows each stage the library reports as a bar, a counter or a spinner.
+#[derive(Default)]
+pub struct Terminal {
+    current: Mutex<Option<ProgressBar>>,
+}
+
+impl Progress for Terminal {
+    fn begin(&self, stage: Stage, total: Option<u64>) {
+        let shown = match (stage, total) {
+            (Stage::Reading, Some(bytes)) => bytes_bar(bytes, stage.label()),
+            (Stage::Checking, _) => rows(stage.label()),
+            (_, Some(total)) => bar(total, stage.label()),
+            (_, None) => spinner(stage.label()),
+        };
+        if let Some(old) = self.current.lock().unwrap().replace(shown) {
+            old.finish_and_clear();
+        }
+    }
+
+    fn advance(&self, units: u64) {
+        if let Some(bar) = &*self.current.lock().unwrap() {
+            bar.inc(units);
+        }
+    }
+
+    fn finish(&self) {
+        if let Some(bar) = self.current.lock().unwrap().take() {
+            bar.finish_and_clear();
+        }
+    }
+}
+
+impl Drop for Terminal {
+    fn drop(&mut self) {
+        self.finish();
+    }
+}
 
 /// A bar for `total` units of work described by `message`.
 pub fn bar(total: u64, message: &str) -> ProgressBar {
@@ -16,7 +56,7 @@ pub fn bar(total: u64, message: &str) -> ProgressBar {
 }
 
 /// A bar over the bytes of a file being read.
-pub fn bytes(total: u64, message: &str) -> ProgressBar {
+pub fn bytes_bar(total: u64, message: &str) -> ProgressBar {
     let bar = ProgressBar::new(total).with_message(message.to_string());
     bar.set_style(
         ProgressStyle::with_template("{msg:>12} [{bar:30}] {bytes}/{total_bytes} {elapsed}")
@@ -37,17 +77,17 @@ pub fn rows(message: &str) -> ProgressBar {
     counter
 }
 
+/// A spinner for work of unknown length.
+pub fn spinner(message: &str) -> ProgressBar {
+    let spinner = ProgressBar::new_spinner().with_message(message.to_string());
+    spinner.enable_steady_tick(Duration::from_millis(120));
+    spinner
+}
+
 /// Turns `progress` into a bar of `total` units from zero, now described by `message`.
 pub fn restyle_as_bar(progress: &ProgressBar, total: u64, message: &str) {
     progress.set_style(bar(total, message).style());
     progress.set_length(total);
     progress.set_position(0);
     progress.set_message(message.to_string());
-}
-
-/// A spinner for work of unknown length.
-pub fn spinner(message: &str) -> ProgressBar {
-    let spinner = ProgressBar::new_spinner().with_message(message.to_string());
-    spinner.enable_steady_tick(Duration::from_millis(120));
-    spinner
 }

@@ -1,15 +1,17 @@
-//! `--line` and `--time`: which rows of a flight `fit`, `compensate` and `fom` work on.
+//! `--line` and `--time`: which rows of a flight a command works on.
 //!
-//! The same flags and help for all three commands (a flattened [`Selection`]); the row logic
-//! is [`tolles_io::select`]. What was selected is said on stderr, with what becomes of the rest.
+//! The same flags and help for every command that reads a flight (a flattened [`Selection`]);
+//! the rows are chosen by the library. What was selected is said on stderr, with what becomes
+//! of the rest.
 
-use crate::input::read_table;
+use crate::progress::Terminal;
+use crate::render::{self, OrRender, Use};
 use anyhow::Result;
 use std::path::Path;
 use tolles_io::select::{LineId, RowSelection, TimeRange};
 use tolles_io::table::Table;
 
-/// The selection flags, shared by `fit`, `compensate` and `fom`.
+/// The selection flags.
 #[derive(clap::Args, Clone, Debug, Default)]
 #[command(next_help_heading = "Selecting rows")]
 pub struct Selection {
@@ -26,46 +28,27 @@ pub struct Selection {
     pub time: Option<TimeRange>,
 }
 
-/// What a command does with the selected rows, for the message that says what was selected.
-#[derive(Clone, Copy)]
-pub enum Use {
-    Fit,
-    Compensate,
-    Fom,
-}
-
 impl Selection {
-    /// True when no --line or --time was given: every row is used.
-    pub fn is_everything(&self) -> bool {
-        self.lines.is_empty() && self.time.is_none()
-    }
-
-    /// Reads `path` (see [`read_table`]) and keeps the selected rows (all without flags).
-    pub fn read(&self, path: &Path, purpose: Use) -> Result<Table> {
-        self.apply(read_table(path)?, purpose)
-    }
-
-    /// The selected rows of `table` (all of it without flags), saying on stderr which were
-    /// selected and what becomes of the others.
-    pub fn apply(&self, table: Table, purpose: Use) -> Result<Table> {
-        let selection = RowSelection {
+    /// The library's row selection.
+    pub fn rows(&self) -> RowSelection {
+        RowSelection {
             lines: self.lines.clone(),
             time: self.time,
-        };
-        if selection.is_empty() {
-            return Ok(table);
         }
-        let selected = selection.apply(&table)?;
-        let left_out = table.len() - selected.table.len();
-        let consequence = match purpose {
-            Use::Fit => "the fit uses only these".to_string(),
-            Use::Fom => "the FOM uses only these".to_string(),
-            Use::Compensate => format!(
-                "only these are compensated and written (the other {left_out} rows are left out), and the correction's mean is taken over them"
-            ),
-        };
-        eprintln!("{}: {selected}; {consequence}", table.path().display());
-        Ok(selected.table)
+    }
+
+    /// True when no --line or --time was given: every row is used.
+    pub fn is_everything(&self) -> bool {
+        self.rows().is_empty()
+    }
+
+    /// Reads `path` and keeps the selected rows (all without flags), saying on stderr what the
+    /// reader left out and which rows were selected.
+    pub fn read(&self, path: &Path, purpose: Use) -> Result<Table> {
+        let mut warnings = Vec::new();
+        let read = tolles::read::read(path, &self.rows(), &Terminal::default(), &mut warnings);
+        render::warnings(&mut warnings, purpose);
+        Ok(read.or_render()?.table)
     }
 }
 
@@ -123,18 +106,11 @@ mod tests {
     }
 
     #[test]
-    fn without_flags_the_table_is_kept_whole() {
-        let table = Table::from_reader("tt\n0\n1\n".as_bytes(), "f.csv").unwrap();
-        let kept = Selection::default().apply(table, Use::Fit).unwrap();
-        assert_eq!(kept.len(), 2);
-    }
-
-    #[test]
-    fn flags_keep_the_selected_rows() {
-        let table = Table::from_reader("tt,line\n0,1\n1,2\n2,2\n".as_bytes(), "f.csv").unwrap();
+    fn flags_become_the_library_selection() {
         let s = parse(&["--line", "2", "--time", "..1.5"]).unwrap();
-        let kept = s.apply(table, Use::Compensate).unwrap();
-        assert_eq!(kept.numeric("tt").unwrap(), [1.0]);
-        assert_eq!(kept.line_of(0), 3);
+        let rows = s.rows();
+        assert_eq!(rows.lines.len(), 1);
+        assert_eq!(rows.time, Some("..1.5".parse().unwrap()));
+        assert!(Selection::default().rows().is_empty());
     }
 }

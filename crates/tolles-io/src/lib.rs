@@ -5,6 +5,7 @@
 //! - [`xyz`], [`gdf`], [`hdf5`], [`parquet`]: Geosoft XYZ, ASEG-GDF2, HDF5 and Parquet tables;
 //! - [`chunks`]: flight tables read and written a chunk of rows at a time (bounded memory);
 //! - [`model`]: the model file (JSON) that `tolles fit` writes and `tolles compensate` reads;
+//! - [`schema`]: every column name tolles gives a meaning to, and how added columns are named;
 //! - [`select`]: choosing rows by flight line and time (`--line`, `--time`);
 //! - [`simulation`]: simulated flights (CSV) and their JSON sidecars.
 //!
@@ -17,6 +18,7 @@ pub mod gdf;
 pub mod hdf5;
 pub mod model;
 pub mod parquet;
+pub mod schema;
 pub mod select;
 pub mod simulation;
 pub mod stream_line;

@@ -81,13 +81,7 @@ impl ScalarModel {
     }
 }
 
-/// `mag_1_uc` → `mag_1_c`; a name without `_uc` gets `_c` appended.
-pub fn compensated_name(scalar: &str) -> String {
-    match scalar.strip_suffix("_uc") {
-        Some(stem) => format!("{stem}_c"),
-        None => format!("{scalar}_c"),
-    }
-}
+pub use crate::schema::compensated_name;
 
 impl ModelFile {
     /// A current-version file holding `fits`.

@@ -28,10 +28,7 @@ use std::path::PathBuf;
 use std::str::FromStr;
 use thiserror::Error;
 
-/// The column of flight line ids.
-pub const LINE_COLUMN: &str = "line";
-/// The time column (s).
-pub const TIME_COLUMN: &str = "tt";
+pub use crate::schema::{LINE_COLUMN, TIME_COLUMN};
 /// How many of a file's lines an error about an unknown line lists.
 const LINES_SHOWN: usize = 10;
 

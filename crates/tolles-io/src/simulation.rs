@@ -13,6 +13,7 @@
 //! ```
 
 use crate::error::IoError;
+use crate::schema;
 use crate::table::write_columns_to;
 use serde::Serialize;
 use std::path::Path;
@@ -27,8 +28,8 @@ pub const VECTOR: &str = "flux_a";
 
 /// Every column a simulated flight can have, with its meaning.
 pub const COLUMNS: [(&str, &str); 18] = [
-    ("tt", "time (s)"),
-    ("line", "line id of the flight segment"),
+    (schema::TIME_COLUMN, "time (s)"),
+    (schema::LINE_COLUMN, "line id of the flight segment"),
     ("lat", "latitude (degrees), when the main field is IGRF"),
     (
         "lon",
@@ -36,9 +37,9 @@ pub const COLUMNS: [(&str, &str); 18] = [
     ),
     ("north_m", "distance north of the start (m)"),
     ("east_m", "distance east of the start (m)"),
-    ("ins_roll", "roll, right wing down positive (degrees)"),
-    ("ins_pitch", "pitch, nose up positive (degrees)"),
-    ("ins_yaw", "yaw, clockwise from true north (degrees)"),
+    (schema::ROLL, "roll, right wing down positive (degrees)"),
+    (schema::PITCH, "pitch, nose up positive (degrees)"),
+    (schema::YAW, "yaw, clockwise from true north (degrees)"),
     ("mag_1_uc", "scalar magnetometer, uncompensated (nT)"),
     ("flux_a_x", "fluxgate, forward (nT)"),
     ("flux_a_y", "fluxgate, right (nT)"),

@@ -21,8 +21,7 @@ use std::borrow::Cow;
 use std::fmt::Write;
 use tolles_core::stream::Flag;
 
-/// The time column's name.
-pub const TIME_COLUMN: &str = "tt";
+pub use crate::schema::TIME_COLUMN;
 
 /// Where a stream's header puts the columns a model needs.
 #[derive(Debug, Clone, PartialEq)]
@@ -80,11 +79,8 @@ impl Layout {
         let fluxgates = fluxgates
             .iter()
             .map(|p| {
-                Ok([
-                    find(&format!("{p}_x"))?,
-                    find(&format!("{p}_y"))?,
-                    find(&format!("{p}_z"))?,
-                ])
+                let [x, y, z] = crate::schema::vector_columns(p);
+                Ok([find(&x)?, find(&y)?, find(&z)?])
             })
             .collect::<Result<_, String>>()?;
         let mut output_header = header.to_string();
@@ -94,7 +90,7 @@ impl Layout {
             push_field(
                 &mut output_header,
                 &if taken {
-                    format!("{name}_tolles")
+                    format!("{name}{}", crate::schema::RENAMED_SUFFIX)
                 } else {
                     name.to_string()
                 },

@@ -363,11 +363,11 @@ impl Table {
 
     /// Columns `PREFIX_x`, `PREFIX_y`, `PREFIX_z` as a vector series.
     pub fn vector(&self, prefix: &str) -> Result<VectorSeries, IoError> {
-        let component = |axis: &str| self.numeric(&format!("{prefix}_{axis}"));
+        let [x, y, z] = crate::schema::vector_columns(prefix);
         Ok(VectorSeries::new(
-            component("x")?,
-            component("y")?,
-            component("z")?,
+            self.numeric(&x)?,
+            self.numeric(&y)?,
+            self.numeric(&z)?,
         ))
     }
 

@@ -23,7 +23,7 @@ use std::path::Path;
 pub const DUMMY: &str = "*";
 
 /// The column that receives each row's `Line`/`Tie` number.
-const LINE_COLUMN: &str = "line";
+use crate::schema::LINE_COLUMN;
 
 /// Reads a Geosoft XYZ file.
 pub fn read(path: &Path) -> Result<Table, IoError> {

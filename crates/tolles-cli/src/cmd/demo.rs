@@ -2,6 +2,7 @@
 //! `fit` and `compensate` commands.
 
 use crate::cmd;
+use crate::render::{self, OrRender, Use};
 use anyhow::{Context, Result};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -63,12 +64,7 @@ pub fn run(args: Args) -> Result<()> {
         cal_path.display(),
         model_path.display()
     );
-    cmd::fit::run(cmd::fit::Args::defaults(
-        cal_path.clone(),
-        SCALAR,
-        VECTOR,
-        Some(model_path.clone()),
-    ))?;
+    fit(&cal_path, &model_path)?;
     std::io::stdout().flush()?;
     println!(
         "\n$ tolles compensate {} --model {} --out {}",
@@ -81,6 +77,7 @@ pub fn run(args: Args) -> Result<()> {
         model: model_path.clone(),
         out: Some(compensated_path.clone()),
         fs: None,
+        level: Default::default(),
         select: Default::default(),
     })?;
     std::io::stdout().flush()?;
@@ -108,12 +105,29 @@ pub fn run(args: Args) -> Result<()> {
     Ok(())
 }
 
+/// `tolles fit CAL --scalar mag_1_uc --vector flux_a --out MODEL` with the defaults.
+fn fit(cal: &Path, model: &Path) -> Result<()> {
+    cmd::fit::run_request(
+        cal,
+        &tolles::fit::FitRequest::new(vec![SCALAR.into()], vec![VECTOR.into()]),
+        Some(model),
+    )
+}
+
 /// Prints the FOM of the calibration box before and after compensation.
 fn figure_of_merit(cal: &Path, model: &Path) -> Result<()> {
     let model_file = ModelFile::read(model)?;
-    let table = crate::input::read_table(cal)?;
+    let table = crate::select::Selection::default().read(cal, Use::Other)?;
     let settings = tolles_core::fom::FomSettings::default();
-    let outcome = cmd::fom::evaluate(table, SCALAR, Some(&model_file.fits[0]), None, &settings)?;
+    let request = tolles::fom::FomRequest {
+        band: settings.band,
+        order: settings.order,
+        ..tolles::fom::FomRequest::new(SCALAR)
+    };
+    let mut warnings = Vec::new();
+    let outcome = tolles::fom::fom(&table, &request, Some(&model_file.fits[0]), &mut warnings);
+    render::warnings(&mut warnings, Use::Other);
+    let outcome = outcome.or_render()?;
     let after = outcome.after.as_ref().expect("a model was given");
     let (lo, hi) = outcome.before.band_hz;
     println!(

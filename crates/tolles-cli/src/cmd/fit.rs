@@ -1,34 +1,22 @@
 //! `tolles fit`: learn a model from a calibration flight.
 
-use crate::input::{name_list, parse_band, Flight};
+use crate::input::{name_list, parse_band};
+use crate::progress::Terminal;
+use crate::render::{self, OrRender, Use};
 use anyhow::{Context, Result};
-use rayon::prelude::*;
 use std::io::Write;
-use std::path::PathBuf;
-use tolles_core::design::Design;
-use tolles_core::fit::{fit, Band, FitSettings, Lambda};
-use tolles_core::terms::TermSet;
-use tolles_io::model::{ModelFile, ScalarModel};
+use std::path::{Path, PathBuf};
+use tolles::fit::{FitRequest, Terms};
+use tolles_core::fit::{Band, Lambda};
+use tolles_io::model::ScalarModel;
+use tolles_io::table::Table;
 
 /// Default terms: the 16 a scalar magnetometer can identify, or MagNav's 18 when
 /// cross-validation finds them clearly better (see `--terms`).
 pub const DEFAULT_TERMS: &str = "auto";
 
-/// Which terms to fit: a fixed set, or a choice by cross-validation.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Terms {
-    /// The 16 identifiable terms, or the 18 of MagNav when they predict held-out data at least
-    /// 2 % better (only when λ is cross-validated; with a fixed λ, the 16).
-    Auto,
-    /// Exactly these terms.
-    Fixed(TermSet),
-}
-
 fn parse_terms(text: &str) -> Result<Terms, String> {
-    if text.trim().eq_ignore_ascii_case("auto") {
-        return Ok(Terms::Auto);
-    }
-    text.parse().map(Terms::Fixed).map_err(|e| format!("{e}"))
+    text.parse()
 }
 
 const EXAMPLES: &str = "\
@@ -88,24 +76,6 @@ pub struct Args {
     pub select: crate::select::Selection,
 }
 
-impl Args {
-    /// The arguments `tolles fit CAL --scalar S --vector V [--out OUT]` parse to.
-    pub fn defaults(cal: PathBuf, scalar: &str, vector: &str, out: Option<PathBuf>) -> Self {
-        use clap::Parser;
-        #[derive(Parser)]
-        struct Wrapper {
-            #[command(flatten)]
-            args: Args,
-        }
-        let mut argv = vec!["fit".into(), cal.into_os_string()];
-        argv.extend(["--scalar", scalar, "--vector", vector].map(Into::into));
-        if let Some(out) = out {
-            argv.extend(["--out".into(), out.into_os_string()]);
-        }
-        Wrapper::parse_from(argv).args
-    }
-}
-
 fn parse_lambda(text: &str) -> Result<Lambda, String> {
     if text.eq_ignore_ascii_case("auto") {
         return Ok(Lambda::auto());
@@ -117,60 +87,50 @@ fn parse_lambda(text: &str) -> Result<Lambda, String> {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let scalars = name_list(&args.scalar, "--scalar")?;
-    let vectors = name_list(&args.vector, "--vector")?;
-    let table = args.select.read(&args.cal, crate::select::Use::Fit)?;
-    let flight = Flight::from_table(&table, &scalars[0], &vectors)?;
-    let fs_hz = flight.sample_rate(args.fs)?;
-    let settings = settings(&args, vectors.len())?;
-    let columns = scalars
-        .iter()
-        .map(|name| flight.table.numeric(name))
-        .collect::<Result<Vec<_>, _>>()?;
-    // Scalars are independent problems: fit them on all cores, then report in the given order.
-    let spinner = crate::progress::spinner(&format!("fitting {}", scalars.join(", ")));
-    let fitted: Vec<_> = columns
-        .par_iter()
-        .map(|scalar| fit(scalar, &flight.flux, fs_hz, flight.tt.as_deref(), &settings))
-        .collect();
-    spinner.finish_and_clear();
-    let mut models = Vec::new();
-    for (name, fitted) in scalars.iter().zip(fitted) {
-        let fitted = fitted.map_err(|e| flight.explain(e, name))?;
-        let model = ScalarModel::new(name, &vectors, fitted);
-        print_summary(&model, &args)?;
-        models.push(model);
+    let request = request(&args)?;
+    let table = args.select.read(&args.cal, Use::Fit)?;
+    fit_and_save(&table, &request, args.out.as_deref())
+}
+
+/// Fits the whole flight at `cal` as `request` says and writes the model to `out` (or stdout).
+pub fn run_request(cal: &Path, request: &FitRequest, out: Option<&Path>) -> Result<()> {
+    let table = crate::select::Selection::default().read(cal, Use::Fit)?;
+    fit_and_save(&table, request, out)
+}
+
+fn fit_and_save(table: &Table, request: &FitRequest, out: Option<&Path>) -> Result<()> {
+    let mut warnings = Vec::new();
+    let fitted = tolles::fit::fit(table, request, &Terminal::default(), &mut warnings);
+    render::warnings(&mut warnings, Use::Fit);
+    let model = fitted.or_render()?;
+    for fit in &model.fits {
+        print_summary(fit, table.path())?;
     }
-    let file = ModelFile::new(models);
-    match &args.out {
-        Some(path) => file.write(path)?,
-        None => writeln!(std::io::stdout(), "{}", file.to_json()).context("writing the model")?,
+    match out {
+        Some(path) => tolles::model::save_model(&model, path).or_render()?,
+        None => writeln!(std::io::stdout(), "{}", model.to_json()).context("writing the model")?,
     }
     Ok(())
 }
 
-/// The fit settings the arguments ask for, over `fluxgates` fluxgates.
-fn settings(args: &Args, fluxgates: usize) -> Result<FitSettings> {
+/// The library request the flags ask for.
+fn request(args: &Args) -> Result<FitRequest> {
     let (pass1_hz, pass2_hz) = parse_band(&args.band)?;
-    let recommended = FitSettings::recommended();
-    let (terms, alternative_terms) = match args.terms {
-        Terms::Auto => (
-            recommended.design.terms,
-            recommended.alternative_terms.clone(),
-        ),
-        Terms::Fixed(terms) => (terms, Vec::new()),
-    };
-    Ok(FitSettings {
-        design: Design::new(terms).with_fluxgates(fluxgates),
+    Ok(FitRequest {
+        terms: args.terms,
         lambda: args.lambda,
         band: Band { pass1_hz, pass2_hz },
         order: args.order,
         trim: args.trim,
-        alternative_terms,
+        fs_hz: args.fs,
+        ..FitRequest::new(
+            name_list(&args.scalar, "--scalar")?,
+            name_list(&args.vector, "--vector")?,
+        )
     })
 }
 
-fn print_summary(model: &ScalarModel, args: &Args) -> Result<()> {
+fn print_summary(model: &ScalarModel, cal: &Path) -> Result<()> {
     let d = &model.fit.diagnostics;
     let mut err = std::io::stderr().lock();
     writeln!(
@@ -179,7 +139,7 @@ fn print_summary(model: &ScalarModel, args: &Args) -> Result<()> {
         model.scalar,
         model.vectors.join(","),
         model.fit.settings.design.terms,
-        args.cal.display(),
+        cal.display(),
         d.samples_used,
         d.samples_total
     )?;

@@ -1,21 +1,13 @@
 //! `tolles fom`: the figure of merit of a compensation box, maneuvers found automatically.
 
-use crate::cmd::compensate::compensate_flight;
-use crate::input::{parse_band, sample_rate, time_column, Flight};
-use anyhow::{anyhow, bail, Context, Result};
-use serde_json::{json, Value};
+use crate::input::parse_band;
+use crate::render::{self, OrRender, Use};
+use anyhow::Result;
 use std::io::Write;
 use std::path::PathBuf;
+use tolles::fom::{heading_text, FomOutcome, FomRequest};
 use tolles_core::fit::Band;
-use tolles_core::fom::{fom, improvement_ratio, FomReport, FomSettings, ManeuverFom, Slot};
-use tolles_core::maneuver::{detect_maneuvers, Maneuver, ManeuverSettings};
-use tolles_io::model::{ModelFile, ScalarModel};
-use tolles_io::table::Table;
-
-/// Attitude columns (degrees) the maneuvers are found in.
-const ROLL: &str = "ins_roll";
-const PITCH: &str = "ins_pitch";
-const YAW: &str = "ins_yaw";
+use tolles_core::fom::improvement_ratio;
 
 const EXAMPLES: &str = "\
 Examples:
@@ -63,40 +55,11 @@ pub struct Args {
     pub select: crate::select::Selection,
 }
 
-/// What the command found and computed.
-pub struct Outcome {
-    /// Time (s), from the file or made from the sample rate.
-    pub tt: Vec<f64>,
-    /// Sample rate (Hz).
-    pub fs_hz: f64,
-    /// The uncompensated scalar (nT).
-    pub scalar: Vec<f64>,
-    /// The compensated scalar (nT), with a model.
-    pub compensated: Option<Vec<f64>>,
-    /// The maneuvers found.
-    pub maneuvers: Vec<Maneuver>,
-    /// FOM of the uncompensated scalar.
-    pub before: FomReport,
-    /// FOM of the compensated scalar, with a model.
-    pub after: Option<FomReport>,
-}
-
 pub fn run(args: Args) -> Result<()> {
-    let (pass1_hz, pass2_hz) = parse_band(&args.band)?;
-    let settings = FomSettings {
-        band: Band { pass1_hz, pass2_hz },
-        order: args.order,
-    };
-    let model = args.model.as_deref().map(ModelFile::read).transpose()?;
-    let scalar_model = model
-        .as_ref()
-        .map(|m| model_for(m, args.model.as_deref(), &args.scalar))
-        .transpose()?;
-    let table = args.select.read(&args.flight, crate::select::Use::Fom)?;
-    let outcome = evaluate(table, &args.scalar, scalar_model, args.fs, &settings)?;
+    let outcome = evaluate(&args)?;
     let mut out = std::io::stdout().lock();
     if args.json {
-        writeln!(out, "{}", serde_json::to_string_pretty(&to_json(&outcome))?)?;
+        writeln!(out, "{}", serde_json::to_string_pretty(&outcome.to_json())?)?;
     } else {
         write_table(&mut out, &args, &outcome)?;
     }
@@ -104,160 +67,33 @@ pub fn run(args: Args) -> Result<()> {
     Ok(())
 }
 
-/// Finds the box maneuvers of a flight and its FOM before and (given a model) after
-/// compensation, warning on stderr about what is missing.
-pub fn evaluate(
-    table: Table,
-    scalar_name: &str,
-    scalar_model: Option<&ScalarModel>,
-    fs: Option<f64>,
-    settings: &FomSettings,
-) -> Result<Outcome> {
-    let (roll, pitch, yaw) = (
-        table.numeric(ROLL)?,
-        table.numeric(PITCH)?,
-        table.numeric(YAW)?,
-    );
-    let scalar = table.numeric(scalar_name)?;
-    let tt = time_column(&table)?;
-    let fs_hz = sample_rate(&table, tt.as_deref(), fs)?;
-    let tt = tt.unwrap_or_else(|| (0..table.len()).map(|k| k as f64 / fs_hz).collect());
-    let maneuvers = detect_maneuvers(&tt, &roll, &pitch, &yaw, &ManeuverSettings::default());
-    let file = table.path().display().to_string();
-    if maneuvers.is_empty() {
-        eprintln!("warning: {file}: no roll, pitch or yaw maneuvers found in columns {ROLL}, {PITCH}, {YAW}; is this a compensation flight?");
-    }
-    let before =
-        fom(&scalar, Some(&tt), &maneuvers, fs_hz, settings).with_context(|| file.clone())?;
-    let compensated = match scalar_model {
-        None => None,
-        Some(scalar_model) => {
-            let flight = Flight::from_table(&table, &scalar_model.scalar, &scalar_model.vectors)?;
-            let result = compensate_flight(&flight, scalar_model, fs)?;
-            if result.uncomputable > 0 {
-                eprintln!(
-                    "warning: {file}: {} of {} rows cannot be compensated (missing scalar or fluxgate values)",
-                    result.uncomputable,
-                    result.compensated.len()
-                );
-            }
-            Some(result.compensated)
-        }
+/// The library's FOM of the flight the flags name, its warnings said on stderr.
+fn evaluate(args: &Args) -> Result<FomOutcome> {
+    let (pass1_hz, pass2_hz) = parse_band(&args.band)?;
+    let request = FomRequest {
+        band: Band { pass1_hz, pass2_hz },
+        order: args.order,
+        fs_hz: args.fs,
+        ..FomRequest::new(&args.scalar)
     };
-    let after = compensated
-        .as_ref()
-        .map(|c| fom(c, Some(&tt), &maneuvers, fs_hz, settings).with_context(|| file.clone()))
+    let model = args
+        .model
+        .as_deref()
+        .map(|path| tolles_io::model::ModelFile::read(path).map(|m| (m, path)))
         .transpose()?;
-    let outcome = Outcome {
-        tt,
-        fs_hz,
-        scalar,
-        compensated,
-        maneuvers,
-        before,
-        after,
-    };
-    warn_about_gaps(&file, &outcome);
-    Ok(outcome)
-}
-
-/// The model's fit for the scalar `scalar`; `path` names the model file in messages.
-pub fn model_for<'m>(
-    model: &'m ModelFile,
-    path: Option<&std::path::Path>,
-    scalar: &str,
-) -> Result<&'m ScalarModel> {
-    let path = path.unwrap_or(std::path::Path::new("")).display();
-    if model.fits.is_empty() {
-        bail!("{path}: the model holds no fits");
-    }
-    model
-        .fits
-        .iter()
-        .find(|f| f.scalar == scalar)
-        .ok_or_else(|| {
-            let names: Vec<&str> = model.fits.iter().map(|f| f.scalar.as_str()).collect();
-            anyhow!(
-                "{path}: no fit for scalar {scalar:?}; the model has fits for: {}",
-                names.join(", ")
-            )
-        })
-}
-
-fn warn_about_gaps(file: &str, outcome: &Outcome) {
-    for report in std::iter::once(&outcome.before).chain(&outcome.after) {
-        for m in report.maneuvers.iter().filter(|m| m.unfiltered_samples > 0) {
-            eprintln!(
-                "warning: {file}: {} on heading {}° at {:.1}–{:.1} s: {} samples have no band-passed value (missing data); its peak-to-peak uses the rest",
-                m.maneuver.kind,
-                heading_text(&m.maneuver),
-                m.maneuver.start_tt,
-                m.maneuver.end_tt,
-                m.unfiltered_samples
-            );
-        }
-    }
-}
-
-fn to_json(outcome: &Outcome) -> Value {
-    let mut value = block_json(&outcome.before);
-    let ratio = outcome
-        .after
+    let fit = model
         .as_ref()
-        .map(|after| improvement_ratio(&outcome.before, after))
-        .filter(|r| r.is_finite());
-    value["improvement_ratio"] = json!(ratio);
-    if let Some(after) = &outcome.after {
-        value["compensated"] = block_json(after);
-    }
-    value
+        .map(|(model, path)| tolles::fom::fit_for(model, path, &args.scalar))
+        .transpose()
+        .or_render()?;
+    let table = args.select.read(&args.flight, Use::Fom)?;
+    let mut warnings = Vec::new();
+    let outcome = tolles::fom::fom(&table, &request, fit, &mut warnings);
+    render::warnings(&mut warnings, Use::Fom);
+    outcome.or_render()
 }
 
-fn block_json(report: &FomReport) -> Value {
-    let maneuver = |m: &ManeuverFom| {
-        json!({
-            "heading_deg": heading_json(&m.maneuver),
-            "kind": m.maneuver.kind,
-            "start_tt": m.maneuver.start_tt,
-            "end_tt": m.maneuver.end_tt,
-            "peak_to_peak_nT": finite(m.peak_to_peak_nt),
-        })
-    };
-    json!({
-        "fom_nT": report.fom_nt,
-        "band_hz": [report.band_hz.0, report.band_hz.1],
-        "fourth_difference_nT": finite(report.fourth_difference_nt),
-        "maneuvers": report.counted().map(maneuver).collect::<Vec<_>>(),
-        "extra_maneuvers": report.maneuvers.iter().filter(|m| !m.counted).map(maneuver).collect::<Vec<_>>(),
-        "missing": report.missing.iter().map(|s: &Slot| json!({"heading_deg": s.heading_deg, "kind": s.kind})).collect::<Vec<_>>(),
-    })
-}
-
-/// A cardinal heading as an integer, any other as measured.
-fn heading_json(m: &Maneuver) -> Value {
-    match m.cardinal_heading_deg() {
-        Some(h) => json!(h as u16),
-        None => json!(m.heading_deg),
-    }
-}
-
-fn heading_text(m: &Maneuver) -> String {
-    match m.cardinal_heading_deg() {
-        Some(h) => format!("{h:.0}"),
-        None => format!("{:.1}", m.heading_deg),
-    }
-}
-
-/// NaN is not JSON; it becomes null.
-fn finite(v: f64) -> Value {
-    if v.is_finite() {
-        json!(v)
-    } else {
-        Value::Null
-    }
-}
-
-fn write_table(out: &mut impl Write, args: &Args, o: &Outcome) -> Result<()> {
+fn write_table(out: &mut impl Write, args: &Args, o: &FomOutcome) -> Result<()> {
     let (lo, hi) = o.before.band_hz;
     writeln!(
         out,

@@ -141,7 +141,8 @@ fn flown_blocks(path: &std::path::Path, vector: &str, design: &Design) -> Result
     use tolles_core::maneuver::{detect_harmonic_maneuvers, ManeuverSettings};
     let table = crate::input::read_table(path)?;
     let flux = table.vector(vector)?;
-    let tt = crate::input::time_column(&table)?
+    let tt = tolles::read::time_column(&table)
+        .map_err(crate::render::error)?
         .ok_or_else(|| anyhow::anyhow!("{}: needs a time column tt", path.display()))?;
     let fs_hz = crate::input::sample_rate(&table, Some(&tt), None)?;
     let (roll, pitch, yaw) = (

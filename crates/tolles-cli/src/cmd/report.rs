@@ -1,9 +1,10 @@
 //! `tolles report`: a self-contained HTML report of a flight, before and after compensation.
 
-use crate::cmd::fom::{evaluate, model_for, Outcome};
 use crate::input::parse_band;
+use crate::render::{self, OrRender, Use};
 use anyhow::{Context, Result};
 use std::path::PathBuf;
+use tolles::fom::{FomOutcome as Outcome, FomRequest};
 use tolles_core::fit::Band;
 use tolles_core::fom::{bandpassed, FomReport, FomSettings};
 use tolles_core::metrics::std_dev;
@@ -56,14 +57,28 @@ pub fn write(args: &Args) -> Result<PathBuf> {
         band: Band { pass1_hz, pass2_hz },
         order: 4,
     };
-    let model = args.model.as_deref().map(ModelFile::read).transpose()?;
+    let model = args
+        .model
+        .as_deref()
+        .map(|path| ModelFile::read(path).map(|m| (m, path)))
+        .transpose()?;
     let scalar_model = model
         .as_ref()
-        .map(|m| model_for(m, args.model.as_deref(), &args.scalar))
-        .transpose()?;
-    let table = crate::input::read_table(&args.flight)?;
+        .map(|(model, path)| tolles::fom::fit_for(model, path, &args.scalar))
+        .transpose()
+        .or_render()?;
+    let table = crate::select::Selection::default().read(&args.flight, Use::Other)?;
     let truth = table.numeric("truth_earth").ok();
-    let outcome = evaluate(table, &args.scalar, scalar_model, args.fs, &settings)?;
+    let request = FomRequest {
+        band: settings.band,
+        order: settings.order,
+        fs_hz: args.fs,
+        ..FomRequest::new(&args.scalar)
+    };
+    let mut warnings = Vec::new();
+    let outcome = tolles::fom::fom(&table, &request, scalar_model, &mut warnings);
+    render::warnings(&mut warnings, Use::Other);
+    let outcome = outcome.or_render()?;
     let mut report = Report::new(format!("Compensation report: {}", args.flight.display()))
         .subtitle(format!(
             "Scalar {} at {:.3} Hz, {} samples; figure-of-merit band {}–{} Hz.",

@@ -1,0 +1,265 @@
+//! Applying a model to survey data: `compensated = uncompensated − (A·β − level)`, one column
+//! per fit, on all cores; for a file, whole in memory or a chunk of rows at a time.
+
+use crate::error::{Error, Result};
+use crate::read::{Flight, Selection};
+use crate::warning::Warning;
+use rayon::prelude::*;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
+use tolles_core::compensate::{compensate as compensate_scalar, Compensation, Level};
+use tolles_core::fit::check_flux_magnitude;
+use tolles_io::format::{write_table, Format};
+use tolles_io::model::{ModelFile, ScalarModel};
+use tolles_io::schema::output_name;
+use tolles_io::select::RowSelection;
+use tolles_io::table::{write_with_column, Table};
+
+/// Which constant level of the aircraft's field is subtracted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LevelChoice {
+    /// The mean of `A·β` over the data compensated, which stays in the data (MagNav's choice).
+    /// The result depends on which rows are compensated together.
+    #[default]
+    FileMean,
+    /// The calibration flight's mean `A·β` stored in the model (`level_nt`), as a real-time
+    /// compensator must: a row's result does not depend on how the data was split.
+    Model,
+}
+
+impl FromStr for LevelChoice {
+    type Err = String;
+
+    /// `mean` or `model`.
+    fn from_str(text: &str) -> Result<Self, String> {
+        match text.trim().to_ascii_lowercase().as_str() {
+            "mean" => Ok(LevelChoice::FileMean),
+            "model" => Ok(LevelChoice::Model),
+            _ => Err(format!("expected `mean` or `model`, got {text:?}")),
+        }
+    }
+}
+
+/// How to compensate.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct CompensateRequest {
+    /// The survey's sample rate (Hz); default: from its time column, else the model's.
+    pub fs_hz: Option<f64>,
+    /// Which level is subtracted.
+    pub level: LevelChoice,
+}
+
+/// One compensated scalar.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CompensatedColumn {
+    /// The column's name in the output (the model's output column, renamed if the input
+    /// already has one by that name).
+    pub name: String,
+    /// The uncompensated scalar it comes from.
+    pub scalar: String,
+    /// Compensated values (nT); NaN where a value they need is missing.
+    pub values: Vec<f64>,
+    /// Rows that could not be compensated.
+    pub uncomputable: usize,
+}
+
+/// Compensates every fit of `model` on `table`, on all cores, in the model's order. Rows that
+/// cannot be compensated are NaN and counted in `warnings`; so is a renamed output column.
+pub fn compensate(
+    table: &Table,
+    model: &ModelFile,
+    request: &CompensateRequest,
+    warnings: &mut Vec<Warning>,
+) -> Result<Vec<CompensatedColumn>> {
+    let results: Vec<Result<(Compensation, Vec<Warning>)>> = model
+        .fits
+        .par_iter()
+        .map(|fit| {
+            let flight = Flight::from_table(table, &fit.scalar, &fit.vectors)?;
+            let mut noticed = Vec::new();
+            let result = compensate_flight(&flight, fit, request, &mut noticed)?;
+            Ok((result, noticed))
+        })
+        .collect();
+    let mut columns = Vec::new();
+    for (fit, result) in model.fits.iter().zip(results) {
+        let (result, noticed) = result?;
+        warnings.extend(noticed);
+        if result.uncomputable > 0 {
+            warnings.push(Warning::Uncomputable {
+                path: table.path().to_path_buf(),
+                rows: result.uncomputable,
+                of: table.len(),
+                column: fit.output_column.clone(),
+            });
+        }
+        let (name, renamed) = output_name(table.headers(), &fit.output_column);
+        if renamed {
+            warnings.push(Warning::OutputRenamed {
+                path: table.path().to_path_buf(),
+                wanted: fit.output_column.clone(),
+                renamed: name.clone(),
+            });
+        }
+        columns.push(CompensatedColumn {
+            name,
+            scalar: fit.scalar.clone(),
+            values: result.compensated,
+            uncomputable: result.uncomputable,
+        });
+    }
+    Ok(columns)
+}
+
+/// `fit` applied to `flight`: eddy terms rescaled to the flight's sample rate (the request's if
+/// given, else from its time column, else the model's), the level as the request says.
+pub fn compensate_flight(
+    flight: &Flight,
+    fit: &ScalarModel,
+    request: &CompensateRequest,
+    warnings: &mut Vec<Warning>,
+) -> Result<Compensation> {
+    check_flux_magnitude(&flight.flux).map_err(|e| flight.explain(e, &fit.scalar))?;
+    let fs_hz = match (request.fs_hz, &flight.tt) {
+        (None, None) => fit.fit.fs_hz,
+        (fs, _) => {
+            let (fs_hz, warning) = flight.sample_rate(fs)?;
+            warnings.extend(warning);
+            fs_hz
+        }
+    };
+    Ok(compensate_scalar(
+        &flight.scalar,
+        &flight.flux,
+        flight.tt.as_deref(),
+        &fit.fit.settings.design,
+        &fit.fit.coefficients,
+        fs_hz / fit.fit.fs_hz,
+        level(fit, request.level),
+    ))
+}
+
+/// The core's level for a choice.
+pub fn level(fit: &ScalarModel, choice: LevelChoice) -> Level {
+    match choice {
+        LevelChoice::FileMean => Level::FileMean,
+        LevelChoice::Model => Level::Fixed(fit.fit.level_nt),
+    }
+}
+
+/// Where compensated data goes.
+pub enum Destination<'w> {
+    /// A file, in the format its extension names (CSV, HDF5 or Parquet).
+    File(PathBuf),
+    /// CSV text to a writer (e.g. standard output).
+    Csv(&'w mut dyn Write),
+}
+
+/// Writes `table` with the compensated `columns` after its own.
+pub fn write_compensated(
+    table: &Table,
+    columns: &[CompensatedColumn],
+    destination: Destination<'_>,
+) -> Result<()> {
+    let extra: Vec<(String, Vec<f64>)> = columns
+        .iter()
+        .map(|c| (c.name.clone(), c.values.clone()))
+        .collect();
+    match destination {
+        Destination::File(path) => Ok(write_table(table, &extra, &path, Format::from_path(&path))?),
+        Destination::Csv(out) => write_with_column(table, &extra, &mut *out)
+            .and_then(|_| out.flush())
+            .map_err(|source| Error::Write {
+                what: "writing the compensated data".to_string(),
+                source,
+            }),
+    }
+}
+
+/// Whether a survey file may be read a chunk of rows at a time.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Memory {
+    /// In chunks when reading the file whole could take more than half the available memory.
+    #[default]
+    Auto,
+    /// In chunks wherever the formats and the model allow it.
+    Bounded,
+    /// Always whole.
+    Whole,
+}
+
+impl FromStr for Memory {
+    type Err = String;
+
+    /// `auto`, `bounded` or `whole`.
+    fn from_str(text: &str) -> Result<Self, String> {
+        match text.trim().to_ascii_lowercase().as_str() {
+            "auto" | "" => Ok(Memory::Auto),
+            "bounded" => Ok(Memory::Bounded),
+            "whole" => Ok(Memory::Whole),
+            _ => Err(format!("expected auto, bounded or whole, got {text:?}")),
+        }
+    }
+}
+
+/// A survey file to compensate into an output.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct FileRequest {
+    /// The survey (CSV, XYZ, GDF, HDF5 or Parquet by extension).
+    pub survey: PathBuf,
+    /// The output file (CSV, HDF5 or Parquet by extension); `None` writes CSV to the writer
+    /// given to [`compensate_file`].
+    pub out: Option<PathBuf>,
+    /// Sample rate and level.
+    pub compensate: CompensateRequest,
+    /// Rows to compensate and write (all when empty).
+    pub selection: RowSelection,
+    /// Whether the survey may be read in chunks.
+    pub memory: Memory,
+    /// Rows per chunk; giving it asks for chunks (as [`Memory::Bounded`], unless `Whole`).
+    pub chunk_rows: Option<usize>,
+}
+
+/// What [`compensate_file`] did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FileOutcome {
+    /// What the selection kept, if one was asked for.
+    pub selected: Option<Selection>,
+    /// Rows written.
+    pub rows: usize,
+}
+
+/// Checks that `model` holds fits; `path` names it in the error.
+pub fn check_model(model: &ModelFile, path: &Path) -> Result<()> {
+    if model.fits.is_empty() {
+        return Err(Error::EmptyModel {
+            path: path.to_path_buf(),
+        });
+    }
+    Ok(())
+}
+
+/// Compensates the survey file of `request` with `model` and writes it with one compensated
+/// column per fit after its own: to `request.out`, or as CSV to `writer`. Every input row is
+/// written (with a selection, every selected row); rows that cannot be compensated get an empty
+/// cell and are counted in `warnings`.
+pub fn compensate_file(
+    model: &ModelFile,
+    request: &FileRequest,
+    writer: &mut dyn Write,
+    progress: &dyn crate::progress::Progress,
+    warnings: &mut Vec<Warning>,
+) -> Result<FileOutcome> {
+    let data = crate::read::read(&request.survey, &request.selection, progress, warnings)?;
+    let columns = compensate(&data.table, model, &request.compensate, warnings)?;
+    let destination = match &request.out {
+        Some(path) => Destination::File(path.clone()),
+        None => Destination::Csv(writer),
+    };
+    write_compensated(&data.table, &columns, destination)?;
+    Ok(FileOutcome {
+        selected: data.selected,
+        rows: data.table.len(),
+    })
+}

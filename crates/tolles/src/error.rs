@@ -1,0 +1,99 @@
+//! The library's errors: each is one line that names the file, and where it can the row or
+//! column, so a user can fix the input. No message names a command-line flag; the CLI adds its
+//! own flag hints where one helps.
+
+use std::path::PathBuf;
+use tolles_core::fit::FitError;
+use tolles_core::fom::FomError;
+use tolles_io::schema::TIME_COLUMN;
+use tolles_io::select::SelectError;
+use tolles_io::IoError;
+
+/// Why a workflow could not be carried out.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A file could not be read or written, or is malformed.
+    #[error(transparent)]
+    Io(#[from] IoError),
+    /// Rows could not be selected by line or time.
+    #[error(transparent)]
+    Select(#[from] SelectError),
+    /// The time column does not increase at `place`.
+    #[error("{}: {place}, column {TIME_COLUMN:?}: time does not increase ({t} after {before}); sort the file or remove repeated rows", path.display())]
+    TimeNotIncreasing {
+        path: PathBuf,
+        place: String,
+        /// The offending time (s).
+        t: f64,
+        /// The last earlier time (s).
+        before: f64,
+    },
+    /// A fluxgate magnitude outside the physical range.
+    #[error("{}: {place}: fluxgate {vector} magnitude {magnitude:.1} nT is outside 1,000–100,000 nT; are columns {vector}_x/_y/_z in nT?", path.display())]
+    FluxMagnitude {
+        path: PathBuf,
+        place: String,
+        vector: String,
+        /// |B| (nT).
+        magnitude: f64,
+    },
+    /// The scalar does not vary.
+    #[error("{}: column {scalar:?} is constant: there is nothing to fit", path.display())]
+    ConstantScalar { path: PathBuf, scalar: String },
+    /// The fluxgate does not vary.
+    #[error("{}: columns {vector}_x/_y/_z are constant: the aircraft did not maneuver, so no term can be fitted", path.display())]
+    ConstantFlux { path: PathBuf, vector: String },
+    /// Any other reason a fit failed.
+    #[error("{}: {source}", path.display())]
+    Fit { path: PathBuf, source: FitError },
+    /// The figure of merit could not be computed.
+    #[error("{}: {source}", path.display())]
+    Fom { path: PathBuf, source: FomError },
+    /// Neither a time column, a `dt` scalar nor a given rate says how fast the data was sampled.
+    #[error("{}: no time column {TIME_COLUMN:?} to take the sample rate from; give the sample rate", path.display())]
+    NoSampleRate { path: PathBuf },
+    /// A given sample rate that is not a positive number of hertz.
+    #[error("the sample rate must be a positive number of hertz, got {fs_hz}")]
+    BadSampleRate { fs_hz: f64 },
+    /// A model file without fits.
+    #[error("{}: the model holds no fits", path.display())]
+    EmptyModel { path: PathBuf },
+    /// A model without a fit for the scalar asked for.
+    #[error("{}: no fit for scalar {scalar:?}; the model has fits for: {}", path.display(), available.join(", "))]
+    NoFitForScalar {
+        path: PathBuf,
+        scalar: String,
+        available: Vec<String>,
+    },
+    /// A request without the column names it needs.
+    #[error("no {what} column named")]
+    NoColumnNamed { what: &'static str },
+    /// A request naming a column twice.
+    #[error("{what} column {name:?} is named twice")]
+    RepeatedColumn { what: &'static str, name: String },
+    /// A request whose settings contradict each other or are out of range.
+    #[error("{0}")]
+    Invalid(String),
+    /// Writing an output stream failed.
+    #[error("{what}: {source}")]
+    Write {
+        what: String,
+        source: std::io::Error,
+    },
+}
+
+/// The result of a workflow.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+impl Error {
+    /// True when the error is a reader that closed the output early (`… | head`), which a
+    /// command line treats as success.
+    pub fn is_broken_pipe(&self) -> bool {
+        let io = match self {
+            Error::Write { source, .. } => Some(source),
+            Error::Io(IoError::Write { source, .. }) => Some(source),
+            _ => None,
+        };
+        io.is_some_and(|e| e.kind() == std::io::ErrorKind::BrokenPipe)
+    }
+}

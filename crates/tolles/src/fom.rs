@@ -1,0 +1,238 @@
+//! The figure of merit of a compensation box: its maneuvers found in the attitude, the FOM of
+//! the scalar before and, given a model, after compensation.
+
+use crate::compensate::{compensate_flight, CompensateRequest};
+use crate::error::{Error, Result};
+use crate::read::{sample_rate, time_column, Flight};
+use crate::warning::Warning;
+use serde_json::{json, Value};
+use std::path::Path;
+use tolles_core::fit::Band;
+use tolles_core::fom::{
+    fom as fom_of, improvement_ratio, FomReport, FomSettings, ManeuverFom, Slot,
+};
+use tolles_core::maneuver::{detect_maneuvers, Maneuver, ManeuverSettings};
+use tolles_io::model::{ModelFile, ScalarModel};
+use tolles_io::schema::{PITCH, ROLL, YAW};
+use tolles_io::table::Table;
+
+/// What to measure.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FomRequest {
+    /// The scalar column (nT).
+    pub scalar: String,
+    /// Band-pass (Hz) applied before taking peak-to-peaks; default 0.05–1 Hz.
+    pub band: Band,
+    /// Butterworth order per band edge; default 4.
+    pub order: usize,
+    /// Sample rate (Hz) when the flight has no time column (or to override it).
+    pub fs_hz: Option<f64>,
+}
+
+impl FomRequest {
+    /// The FOM of `scalar` in the default band 0.05–1 Hz, order 4.
+    pub fn new(scalar: &str) -> Self {
+        Self {
+            scalar: scalar.to_string(),
+            band: Band {
+                pass1_hz: 0.05,
+                pass2_hz: 1.0,
+            },
+            order: 4,
+            fs_hz: None,
+        }
+    }
+}
+
+/// What [`fom`] found and computed.
+#[derive(Debug, Clone)]
+pub struct FomOutcome {
+    /// Time (s), from the file or made from the sample rate.
+    pub tt: Vec<f64>,
+    /// Sample rate (Hz).
+    pub fs_hz: f64,
+    /// The uncompensated scalar (nT).
+    pub scalar: Vec<f64>,
+    /// The compensated scalar (nT), with a model.
+    pub compensated: Option<Vec<f64>>,
+    /// The maneuvers found.
+    pub maneuvers: Vec<Maneuver>,
+    /// FOM of the uncompensated scalar.
+    pub before: FomReport,
+    /// FOM of the compensated scalar, with a model.
+    pub after: Option<FomReport>,
+}
+
+/// Finds the box maneuvers of the flight `table` in its attitude columns and the FOM of the
+/// request's scalar before and, given the scalar's fit, after compensation (as `compensate`
+/// does it, the correction's mean kept). What is missing is added to `warnings`.
+pub fn fom(
+    table: &Table,
+    request: &FomRequest,
+    fit: Option<&ScalarModel>,
+    warnings: &mut Vec<Warning>,
+) -> Result<FomOutcome> {
+    let (roll, pitch, yaw) = (
+        table.numeric(ROLL)?,
+        table.numeric(PITCH)?,
+        table.numeric(YAW)?,
+    );
+    let scalar = table.numeric(&request.scalar)?;
+    let tt = time_column(table)?;
+    let (fs_hz, warning) = sample_rate(table, tt.as_deref(), request.fs_hz)?;
+    warnings.extend(warning);
+    let tt = tt.unwrap_or_else(|| (0..table.len()).map(|k| k as f64 / fs_hz).collect());
+    let maneuvers = detect_maneuvers(&tt, &roll, &pitch, &yaw, &ManeuverSettings::default());
+    let path = table.path();
+    if maneuvers.is_empty() {
+        warnings.push(Warning::NoManeuvers {
+            path: path.to_path_buf(),
+            columns: format!("{ROLL}, {PITCH}, {YAW}"),
+        });
+    }
+    let settings = FomSettings {
+        band: request.band,
+        order: request.order,
+    };
+    let measure = |signal: &[f64]| {
+        fom_of(signal, Some(&tt), &maneuvers, fs_hz, &settings).map_err(|source| Error::Fom {
+            path: path.to_path_buf(),
+            source,
+        })
+    };
+    let before = measure(&scalar)?;
+    let compensated = fit
+        .map(|fit| compensated(table, fit, request.fs_hz, warnings))
+        .transpose()?;
+    let after = compensated.as_deref().map(measure).transpose()?;
+    let outcome = FomOutcome {
+        tt,
+        fs_hz,
+        scalar,
+        compensated,
+        maneuvers,
+        before,
+        after,
+    };
+    warnings.extend(gaps(path, &outcome));
+    Ok(outcome)
+}
+
+fn compensated(
+    table: &Table,
+    fit: &ScalarModel,
+    fs_hz: Option<f64>,
+    warnings: &mut Vec<Warning>,
+) -> Result<Vec<f64>> {
+    let flight = Flight::from_table(table, &fit.scalar, &fit.vectors)?;
+    let request = CompensateRequest {
+        fs_hz,
+        ..CompensateRequest::default()
+    };
+    let result = compensate_flight(&flight, fit, &request, warnings)?;
+    if result.uncomputable > 0 {
+        warnings.push(Warning::NotCompensated {
+            path: table.path().to_path_buf(),
+            rows: result.uncomputable,
+            of: result.compensated.len(),
+        });
+    }
+    Ok(result.compensated)
+}
+
+/// The model's fit for the scalar `scalar`; `path` names the model file in errors.
+pub fn fit_for<'m>(model: &'m ModelFile, path: &Path, scalar: &str) -> Result<&'m ScalarModel> {
+    crate::compensate::check_model(model, path)?;
+    model
+        .fits
+        .iter()
+        .find(|f| f.scalar == scalar)
+        .ok_or_else(|| Error::NoFitForScalar {
+            path: path.to_path_buf(),
+            scalar: scalar.to_string(),
+            available: model.fits.iter().map(|f| f.scalar.clone()).collect(),
+        })
+}
+
+fn gaps(path: &Path, outcome: &FomOutcome) -> Vec<Warning> {
+    let reports = std::iter::once(&outcome.before).chain(&outcome.after);
+    reports
+        .flat_map(|report| &report.maneuvers)
+        .filter(|m| m.unfiltered_samples > 0)
+        .map(|m| Warning::ManeuverGap {
+            path: path.to_path_buf(),
+            kind: m.maneuver.kind.to_string(),
+            heading: heading_text(&m.maneuver),
+            start_tt: m.maneuver.start_tt,
+            end_tt: m.maneuver.end_tt,
+            samples: m.unfiltered_samples,
+        })
+        .collect()
+}
+
+impl FomOutcome {
+    /// Uncompensated FOM / compensated FOM, when there is a finite one.
+    pub fn improvement_ratio(&self) -> Option<f64> {
+        self.after
+            .as_ref()
+            .map(|after| improvement_ratio(&self.before, after))
+            .filter(|r| r.is_finite())
+    }
+
+    /// The outcome as `tolles fom --json` prints it: FOM (nT), band (Hz), fourth-difference
+    /// noise (nT), counted, extra and missing maneuvers, the improvement ratio, and the same
+    /// block for the compensated data under `compensated`.
+    pub fn to_json(&self) -> Value {
+        let mut value = block_json(&self.before);
+        value["improvement_ratio"] = json!(self.improvement_ratio());
+        if let Some(after) = &self.after {
+            value["compensated"] = block_json(after);
+        }
+        value
+    }
+}
+
+fn block_json(report: &FomReport) -> Value {
+    let maneuver = |m: &ManeuverFom| {
+        json!({
+            "heading_deg": heading_json(&m.maneuver),
+            "kind": m.maneuver.kind,
+            "start_tt": m.maneuver.start_tt,
+            "end_tt": m.maneuver.end_tt,
+            "peak_to_peak_nT": finite(m.peak_to_peak_nt),
+        })
+    };
+    json!({
+        "fom_nT": report.fom_nt,
+        "band_hz": [report.band_hz.0, report.band_hz.1],
+        "fourth_difference_nT": finite(report.fourth_difference_nt),
+        "maneuvers": report.counted().map(maneuver).collect::<Vec<_>>(),
+        "extra_maneuvers": report.maneuvers.iter().filter(|m| !m.counted).map(maneuver).collect::<Vec<_>>(),
+        "missing": report.missing.iter().map(|s: &Slot| json!({"heading_deg": s.heading_deg, "kind": s.kind})).collect::<Vec<_>>(),
+    })
+}
+
+/// A cardinal heading as an integer, any other as measured.
+fn heading_json(m: &Maneuver) -> Value {
+    match m.cardinal_heading_deg() {
+        Some(h) => json!(h as u16),
+        None => json!(m.heading_deg),
+    }
+}
+
+/// A maneuver's heading (deg) as text: a cardinal one whole, any other to 0.1°.
+pub fn heading_text(m: &Maneuver) -> String {
+    match m.cardinal_heading_deg() {
+        Some(h) => format!("{h:.0}"),
+        None => format!("{:.1}", m.heading_deg),
+    }
+}
+
+/// NaN is not JSON; it becomes null.
+fn finite(v: f64) -> Value {
+    if v.is_finite() {
+        json!(v)
+    } else {
+        Value::Null
+    }
+}

@@ -1,0 +1,18 @@
+//! Model files: what `fit` writes and every other workflow reads.
+
+pub use tolles_io::model::{compensated_name, ModelFile, ScalarModel, FORMAT, VERSION};
+
+use crate::error::Result;
+use std::path::Path;
+
+/// Reads the model file at `path`; a file without fits is an error.
+pub fn load_model(path: &Path) -> Result<ModelFile> {
+    let model = ModelFile::read(path)?;
+    crate::compensate::check_model(&model, path)?;
+    Ok(model)
+}
+
+/// Writes `model` to `path` as pretty JSON.
+pub fn save_model(model: &ModelFile, path: &Path) -> Result<()> {
+    Ok(model.write(path)?)
+}

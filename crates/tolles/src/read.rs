@@ -1,0 +1,288 @@
+//! Reading flights: any format tolles knows, the rows a selection keeps, and the columns one
+//! scalar's model needs, with the checks every workflow makes (time increases, a sample rate).
+
+use crate::error::{Error, Result};
+use crate::progress::{CountingReader, Progress, Stage};
+use crate::warning::Warning;
+use std::path::Path;
+use tolles_core::fit::FitError;
+use tolles_core::segment::{first_non_increasing, median_step};
+use tolles_core::vector::VectorSeries;
+use tolles_io::format::Format;
+use tolles_io::schema::{SAMPLE_INTERVAL, TIME_COLUMN};
+use tolles_io::select::RowSelection;
+use tolles_io::table::Table;
+use tolles_io::IoError;
+
+/// A flight table as read, with the rows a selection kept.
+#[derive(Debug, Clone)]
+pub struct FlightData {
+    /// The kept rows; every row names its own line of the file in messages.
+    pub table: Table,
+    /// What a selection kept, when one was asked for.
+    pub selected: Option<Selection>,
+}
+
+/// What a row selection kept.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Selection {
+    /// One line: `selected 360 of 4661 rows (lines 2, 4; tt ..200 s)`.
+    pub summary: String,
+    /// Rows of the file left out.
+    pub left_out: usize,
+}
+
+/// Reads the flight at `path` in the format its extension names (CSV, XYZ, GDF, HDF5 or
+/// Parquet) and keeps the rows `selection` selects (all when it is empty). Text files report
+/// their bytes read to `progress`; what the reader left out, and what the selection kept, are
+/// added to `warnings`.
+pub fn read(
+    path: &Path,
+    selection: &RowSelection,
+    progress: &dyn Progress,
+    warnings: &mut Vec<Warning>,
+) -> Result<FlightData> {
+    let table = read_table(path, progress, warnings)?;
+    let (table, selected) = select(table, selection)?;
+    warnings.extend(selected.clone().map(|selection| Warning::RowsSelected {
+        path: path.to_path_buf(),
+        selection,
+    }));
+    Ok(FlightData { table, selected })
+}
+
+/// Reads a flight table whole; what the reader left out of it is added to `warnings`.
+pub fn read_table(
+    path: &Path,
+    progress: &dyn Progress,
+    warnings: &mut Vec<Warning>,
+) -> Result<Table> {
+    let format = Format::from_path(path);
+    let table = match format {
+        Format::Csv | Format::Xyz => {
+            let file = std::fs::File::open(path).map_err(|source| IoError::Open {
+                path: path.to_path_buf(),
+                source,
+            })?;
+            let size = file.metadata().map_or(0, |m| m.len());
+            progress.begin(Stage::Reading, Some(size));
+            let counted = CountingReader {
+                inner: file,
+                progress,
+            };
+            let reader = std::io::BufReader::new(counted);
+            let table = match format {
+                Format::Xyz => tolles_io::xyz::from_reader(reader, path),
+                _ => Table::from_reader(reader, path),
+            };
+            progress.finish();
+            table?
+        }
+        other => Table::read(path, Some(other))?,
+    };
+    warnings.extend(table.notes().iter().map(|note| Warning::ReaderNote {
+        path: path.to_path_buf(),
+        note: note.clone(),
+    }));
+    Ok(table)
+}
+
+/// The rows of `table` that `selection` keeps (all of it when the selection is empty).
+pub fn select(table: Table, selection: &RowSelection) -> Result<(Table, Option<Selection>)> {
+    if selection.is_empty() {
+        return Ok((table, None));
+    }
+    let selected = selection.apply(&table)?;
+    let summary = Selection {
+        summary: selected.to_string(),
+        left_out: table.len() - selected.table.len(),
+    };
+    Ok((selected.table, Some(summary)))
+}
+
+/// The columns of a flight table that one scalar's model needs.
+#[derive(Debug, Clone)]
+pub struct Flight<'t> {
+    /// The table they come from.
+    pub table: &'t Table,
+    /// The scalar (nT).
+    pub scalar: Vec<f64>,
+    /// The fluxgates (nT, body frame FRD), one per name in `vectors`.
+    pub flux: Vec<VectorSeries>,
+    /// The fluxgates' column prefixes.
+    pub vectors: Vec<String>,
+    /// Time (s), when the table has a time column.
+    pub tt: Option<Vec<f64>>,
+}
+
+impl<'t> Flight<'t> {
+    /// The columns `scalar` and `V_x/_y/_z` for every V in `vectors`, and the time column.
+    pub fn from_table(table: &'t Table, scalar: &str, vectors: &[String]) -> Result<Self> {
+        let scalar = table.numeric(scalar)?;
+        let flux = vectors
+            .iter()
+            .map(|v| table.vector(v))
+            .collect::<std::result::Result<Vec<_>, _>>()?;
+        let tt = time_column(table)?;
+        Ok(Self {
+            table,
+            scalar,
+            flux,
+            vectors: vectors.to_vec(),
+            tt,
+        })
+    }
+
+    /// The sample rate (Hz): `fs_hz` if given, else from the time column or the file's `dt`.
+    pub fn sample_rate(&self, fs_hz: Option<f64>) -> Result<(f64, Option<Warning>)> {
+        sample_rate(self.table, self.tt.as_deref(), fs_hz)
+    }
+
+    /// A core fit error with the file, line and column names it needs to be fixed.
+    pub fn explain(&self, error: FitError, scalar: &str) -> Error {
+        let path = self.table.path().to_path_buf();
+        match error {
+            FitError::FluxMagnitude {
+                fluxgate,
+                index,
+                magnitude,
+            } => Error::FluxMagnitude {
+                path,
+                place: self.table.place_of(index),
+                vector: self.vectors[fluxgate].clone(),
+                magnitude,
+            },
+            FitError::ConstantScalar => Error::ConstantScalar {
+                path,
+                scalar: scalar.to_string(),
+            },
+            FitError::ConstantFlux => Error::ConstantFlux {
+                path,
+                vector: self.vectors[0].clone(),
+            },
+            source => Error::Fit { path, source },
+        }
+    }
+}
+
+/// The time column of `table` (s), if it has one; an error if time does not increase.
+pub fn time_column(table: &Table) -> Result<Option<Vec<f64>>> {
+    if !table.has(TIME_COLUMN) {
+        return Ok(None);
+    }
+    let tt = table.numeric(TIME_COLUMN)?;
+    if let Some(k) = first_non_increasing(&tt) {
+        let before = tt[..k].iter().rev().find(|t| t.is_finite()).copied();
+        return Err(Error::TimeNotIncreasing {
+            path: table.path().to_path_buf(),
+            place: table.place_of(k),
+            t: tt[k],
+            before: before.unwrap_or(f64::NAN),
+        });
+    }
+    Ok(Some(tt))
+}
+
+/// The sample rate (Hz) of `table`: `fs_hz` if given, else 1 / median step of `tt`, else 1 /
+/// the file's `dt` scalar (s; SGL HDF5 files carry one). A given rate more than 1 % away from
+/// the time column's is used, with a warning.
+pub fn sample_rate(
+    table: &Table,
+    tt: Option<&[f64]>,
+    fs_hz: Option<f64>,
+) -> Result<(f64, Option<Warning>)> {
+    let step = tt.and_then(median_step);
+    sample_rate_from(table.path(), table.metadata(SAMPLE_INTERVAL), step, fs_hz)
+}
+
+/// [`sample_rate`] from its ingredients: the file's `dt` scalar (s) and the median step of its
+/// time column (s), if any.
+pub fn sample_rate_from(
+    path: &Path,
+    dt: Option<f64>,
+    median_step: Option<f64>,
+    fs_hz: Option<f64>,
+) -> Result<(f64, Option<Warning>)> {
+    let from_dt = dt
+        .filter(|dt| dt.is_finite() && *dt > 0.0)
+        .map(|dt| 1.0 / dt);
+    let from_time = median_step.map(|dt| 1.0 / dt).or(from_dt);
+    match (fs_hz, from_time) {
+        (Some(fs), _) if !(fs.is_finite() && fs > 0.0) => Err(Error::BadSampleRate { fs_hz: fs }),
+        (Some(fs), Some(t)) if ((fs - t) / t).abs() > 0.01 => Ok((
+            fs,
+            Some(Warning::SampleRateDiffers {
+                given_hz: fs,
+                from_time_hz: t,
+            }),
+        )),
+        (Some(fs), _) => Ok((fs, None)),
+        (None, Some(t)) => Ok((t, None)),
+        (None, None) => Err(Error::NoSampleRate {
+            path: path.to_path_buf(),
+        }),
+    }
+}
+
+/// `names` checked: at least one, none twice; `what` says what they name in errors.
+pub(crate) fn checked_names(names: &[String], what: &'static str) -> Result<()> {
+    if names.is_empty() {
+        return Err(Error::NoColumnNamed { what });
+    }
+    match (1..names.len()).find(|&k| names[..k].contains(&names[k])) {
+        Some(k) => Err(Error::RepeatedColumn {
+            what,
+            name: names[k].clone(),
+        }),
+        None => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn table(csv: &str) -> Table {
+        Table::from_reader(csv.as_bytes(), "f.csv").unwrap()
+    }
+
+    #[test]
+    fn the_sample_rate_comes_from_time_then_dt_then_is_an_error() {
+        let p = Path::new("f.csv");
+        assert_eq!(sample_rate_from(p, None, Some(0.1), None).unwrap().0, 10.0);
+        assert_eq!(sample_rate_from(p, Some(0.5), None, None).unwrap().0, 2.0);
+        let e = sample_rate_from(p, None, None, None).unwrap_err();
+        assert!(matches!(e, Error::NoSampleRate { .. }), "{e}");
+    }
+
+    #[test]
+    fn a_given_rate_far_from_the_time_column_is_used_with_a_warning() {
+        let (fs, warning) = sample_rate_from(Path::new("f"), None, Some(0.1), Some(12.0)).unwrap();
+        assert_eq!(fs, 12.0);
+        assert!(matches!(warning, Some(Warning::SampleRateDiffers { .. })));
+        let (_, close) = sample_rate_from(Path::new("f"), None, Some(0.1), Some(10.05)).unwrap();
+        assert_eq!(close, None);
+        assert!(sample_rate_from(Path::new("f"), None, None, Some(-1.0)).is_err());
+    }
+
+    #[test]
+    fn time_that_does_not_increase_names_the_line() {
+        let e = time_column(&table("tt\n0\n1\n1\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("f.csv: line 4") && e.contains("1 after 1"),
+            "{e}"
+        );
+        assert_eq!(time_column(&table("x\n1\n")).unwrap(), None);
+    }
+
+    #[test]
+    fn names_must_be_given_once_each() {
+        let names = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+        assert!(checked_names(&names(&["a", "b"]), "scalar").is_ok());
+        assert!(checked_names(&names(&[]), "scalar").is_err());
+        let e = checked_names(&names(&["a", "b", "a"]), "scalar").unwrap_err();
+        assert_eq!(e.to_string(), "scalar column \"a\" is named twice");
+    }
+}

@@ -1,0 +1,103 @@
+//! Warnings: what a workflow noticed but worked around, returned as values for the caller to
+//! show (the CLI prints them on standard error, Python raises `UserWarning`s).
+
+use std::fmt;
+use std::path::PathBuf;
+use tolles_io::schema::TIME_COLUMN;
+
+/// Something a caller should know about a result.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Warning {
+    /// What a reader left out of a table (e.g. a 2-D HDF5 dataset).
+    ReaderNote { path: PathBuf, note: String },
+    /// A sample rate was given that differs by more than 1 % from the time column's; the given
+    /// one is used.
+    SampleRateDiffers {
+        /// The given rate (Hz).
+        given_hz: f64,
+        /// 1 / the median step of the time column (Hz).
+        from_time_hz: f64,
+    },
+    /// Rows of a compensated column left empty because a value they need is missing.
+    Uncomputable {
+        path: PathBuf,
+        rows: usize,
+        of: usize,
+        column: String,
+    },
+    /// The input already has the compensated column's name, so ours is written as `renamed`.
+    OutputRenamed {
+        path: PathBuf,
+        wanted: String,
+        renamed: String,
+    },
+    /// Rows of a flight the FOM's compensation could not compute.
+    NotCompensated {
+        path: PathBuf,
+        rows: usize,
+        of: usize,
+    },
+    /// No maneuvers were found in the attitude.
+    NoManeuvers { path: PathBuf, columns: String },
+    /// A maneuver window with samples that have no band-passed value.
+    ManeuverGap {
+        path: PathBuf,
+        kind: String,
+        heading: String,
+        /// Window start and end (s).
+        start_tt: f64,
+        end_tt: f64,
+        samples: usize,
+    },
+    /// Not a problem: which rows a selection kept, so the caller can say what it works on.
+    RowsSelected {
+        path: PathBuf,
+        selection: crate::read::Selection,
+    },
+    /// Anything else, as a sentence that names the file.
+    Other(String),
+}
+
+impl fmt::Display for Warning {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Warning::ReaderNote { path, note } => write!(f, "{}: {note}", path.display()),
+            Warning::SampleRateDiffers {
+                given_hz,
+                from_time_hz,
+            } => write!(
+                f,
+                "the given sample rate {given_hz} Hz differs from the {from_time_hz:.6} Hz of column {TIME_COLUMN:?}; using the given rate"
+            ),
+            Warning::Uncomputable { path, rows, of, column } => write!(
+                f,
+                "{}: {rows} of {of} rows have no {column} (missing scalar or fluxgate values); their cells are empty",
+                path.display()
+            ),
+            Warning::OutputRenamed { path, wanted, renamed } => write!(
+                f,
+                "{} already has a column {wanted:?}; writing ours as {renamed:?}",
+                path.display()
+            ),
+            Warning::NotCompensated { path, rows, of } => write!(
+                f,
+                "{}: {rows} of {of} rows cannot be compensated (missing scalar or fluxgate values)",
+                path.display()
+            ),
+            Warning::NoManeuvers { path, columns } => write!(
+                f,
+                "{}: no roll, pitch or yaw maneuvers found in columns {columns}; is this a compensation flight?",
+                path.display()
+            ),
+            Warning::ManeuverGap { path, kind, heading, start_tt, end_tt, samples } => write!(
+                f,
+                "{}: {kind} on heading {heading}° at {start_tt:.1}–{end_tt:.1} s: {samples} samples have no band-passed value (missing data); its peak-to-peak uses the rest",
+                path.display()
+            ),
+            Warning::RowsSelected { path, selection } => {
+                write!(f, "{}: {}", path.display(), selection.summary)
+            }
+            Warning::Other(text) => f.write_str(text),
+        }
+    }
+}
