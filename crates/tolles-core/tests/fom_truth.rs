@@ -1,10 +1,10 @@
 //! The figure of merit from detected maneuvers against the simulator's truth.
 
 use proptest::prelude::*;
-use tolles_core::fom::{bandpassed, fom, peak_to_peak, FomSettings, Slot};
-use tolles_core::maneuver::{detect_maneuvers, Maneuver, ManeuverKind, ManeuverSettings};
-use tolles_core::plan::{Axis, BoxPlan, Motion, Plan, Segment, SurveyPlan, Wave};
-use tolles_core::sim::{simulate, Installation, Scenario, SimulatedFlight};
+use tolles_core::flight::plan::{Axis, BoxPlan, Motion, Plan, Segment, SurveyPlan, Wave};
+use tolles_core::flight::sim::{simulate, Installation, Scenario, SimulatedFlight};
+use tolles_core::maneuvers::detect::{detect_maneuvers, Maneuver, ManeuverKind, ManeuverSettings};
+use tolles_core::maneuvers::fom::{bandpassed, fom, peak_to_peak, FomSettings, Slot};
 
 fn fly(plan: &Plan, fs_hz: f64, seed: u64) -> SimulatedFlight {
     let mut scenario = Scenario::new(Installation::Cabin.aircraft(), seed);
