@@ -28,7 +28,8 @@
 //! - [`model::interpret`]: coefficients as physical fields and in the patent's nomenclature.
 //!
 //! [`signal`]: signal processing that knows nothing of aircraft
-//! - [`signal::filter`]: Butterworth second-order sections and zero-phase filtering;
+//! - [`signal::filter`]: Butterworth second-order sections, zero-phase filtering and the pass
+//!   [`Band`](signal::filter::Band) every band-passing step takes;
 //! - [`signal::spectrum`]: power spectral density by Welch's method;
 //! - [`signal::demodulate`]: a maneuver's frequency and phase, and any series demodulated on them;
 //! - [`signal::segment`]: contiguous runs of usable samples;

@@ -26,13 +26,13 @@
 //!   the permanent and induced terms, so a 10° roll gives about 0.1), and not during the band-pass's
 //!   settling time after a (re)start. Without excitation the covariance does not grow either.
 
-use crate::signal::filter::{magnav_bandpass, Butterworth, FilterError, SosState};
+use crate::signal::filter::{Band, Butterworth, FilterError, SosState};
 
 /// Tuning of the adaptation.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AdaptSettings {
-    /// Band-pass edges (Hz).
-    pub band_hz: (f64, f64),
+    /// Band-pass edges (Hz); both must be valid, the adaptation needs a band-pass.
+    pub band: Band,
     /// Butterworth order of the band-pass.
     pub order: usize,
     /// Prior standard deviation of every coefficient (nT per unit of its column).
@@ -49,7 +49,7 @@ impl Default for AdaptSettings {
     /// 0.1–0.9 Hz order 4, prior 5 nT, drift 0.05 nT per update, noise 0.5 nT, excitation 0.02.
     fn default() -> Self {
         Self {
-            band_hz: (0.1, 0.9),
+            band: Band::MAGNAV,
             order: 4,
             initial_std: 5.0,
             drift_std: 0.05,
@@ -82,11 +82,12 @@ impl Adapter {
         fs_hz: f64,
         settings: &AdaptSettings,
     ) -> Result<Self, FilterError> {
-        let (low, high) = settings.band_hz;
-        let filter =
-            magnav_bandpass(low, high, settings.order, fs_hz)?.ok_or(FilterError::InvalidBand {
-                low_hz: low,
-                high_hz: high,
+        let band = settings.band;
+        let filter = band
+            .butterworth(settings.order, fs_hz)?
+            .ok_or(FilterError::InvalidBand {
+                low_hz: band.pass1_hz,
+                high_hz: band.pass2_hz,
             })?;
         let n = coefficients.len();
         let mut p = vec![0.0; n * n];
@@ -98,7 +99,7 @@ impl Adapter {
             p,
             columns: Vec::new(),
             scalar: None,
-            settle: (2.0 * fs_hz / low).ceil() as usize,
+            settle: (2.0 * fs_hz / band.pass1_hz).ceil() as usize,
             since_start: 0,
             filter,
             settings: *settings,

@@ -46,7 +46,7 @@ use crate::fit::ridge::{Ridge, RidgeError, RidgeSolution};
 use crate::model::design::{Design, Term};
 use crate::model::terms::TermSet;
 use crate::model::vector::{Fluxgates, VectorSeries};
-use crate::signal::filter::{magnav_bandpass, Butterworth, FilterError};
+use crate::signal::filter::{Butterworth, FilterError};
 use crate::signal::segment::contiguous_runs;
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
@@ -56,17 +56,8 @@ use thiserror::Error;
 /// Fluxgate magnitudes outside this range (nT) mean the data is not in nT or not a fluxgate.
 pub const FLUX_MAGNITUDE_RANGE_NT: (f64, f64) = (1_000.0, 100_000.0);
 
-/// Pass band (Hz) of the zero-phase Butterworth filter, MagNav's `pass1`/`pass2`.
-///
-/// An edge ≤ 0 or ≥ fs/2 is switched off: band-pass becomes low-pass (`pass1` off) or
-/// high-pass (`pass2` off); both off means no filtering and no trimming.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Band {
-    /// Lower edge (Hz).
-    pub pass1_hz: f64,
-    /// Upper edge (Hz).
-    pub pass2_hz: f64,
-}
+// The pass band lives with the filters; re-exported because a fit's settings name it.
+pub use crate::signal::filter::Band;
 
 /// How strongly to regularise the least-squares solve.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -143,10 +134,7 @@ impl FitSettings {
         Self {
             design: Design::new(TermSet::magnav_default()),
             lambda: Lambda::Fixed(0.001),
-            band: Band {
-                pass1_hz: 0.1,
-                pass2_hz: 0.9,
-            },
+            band: Band::MAGNAV,
             order: 4,
             trim: 20,
             alternative_terms: Vec::new(),
@@ -281,12 +269,7 @@ pub fn fit<'a>(
         .map(|k| scalar[k].is_finite() && flux.is_finite(k))
         .collect();
     check_not_constant(scalar, flux.series()[0], &usable)?;
-    let filter = magnav_bandpass(
-        settings.band.pass1_hz,
-        settings.band.pass2_hz,
-        settings.order,
-        fs_hz,
-    )?;
+    let filter = settings.band.butterworth(settings.order, fs_hz)?;
     let designs = settings.candidate_designs();
     let union = union_of_terms(&designs);
     let mut prepared = Vec::new();

@@ -38,9 +38,8 @@
 //! - maneuvers off the cardinal headings are reported and never summed;
 //! - slots with no maneuver are listed in [`FomReport::missing`]; the FOM then sums fewer than 12.
 
-use crate::fit::Band;
 use crate::maneuvers::detect::{Maneuver, ManeuverKind, CARDINAL_HEADINGS_DEG};
-use crate::signal::filter::{Butterworth, FilterError, Response};
+use crate::signal::filter::{Band, Butterworth, FilterError, Response};
 use crate::signal::metrics::{fourth_difference, std_dev};
 use crate::signal::segment::contiguous_runs;
 use serde::{Deserialize, Serialize};
@@ -118,7 +117,8 @@ pub struct ManeuverFom {
 /// The figure of merit and what it is made of.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FomReport {
-    /// Pass band used (Hz).
+    /// Pass band used (Hz), `(pass1, pass2)`: a pair rather than a [`Band`] so the JSON stays
+    /// `[0.05, 1.0]`.
     pub band_hz: (f64, f64),
     /// Sum of the counted peak-to-peaks (nT).
     pub fom_nt: f64,
@@ -195,7 +195,7 @@ pub fn fom(
         .filter_map(|m| Slot::of(&m.maneuver))
         .collect();
     Ok(FomReport {
-        band_hz: (settings.band.pass1_hz, settings.band.pass2_hz),
+        band_hz: settings.band.edges_hz(),
         fom_nt: maneuvers
             .iter()
             .filter(|m| m.counted && m.peak_to_peak_nt.is_finite())

@@ -60,7 +60,7 @@ use crate::flight::plan::{Axis, Motion, Plan};
 use crate::model::vector::VectorSeries;
 use crate::patent::{field_direction, Section, Term};
 use crate::signal::demodulate::{fit_sinusoid, Basis, DemodulateError, Harmonics};
-use crate::signal::filter::magnav_bandpass;
+use crate::signal::filter::Band;
 use crate::signal::metrics::std_dev;
 use nalgebra::{DMatrix, DVector};
 use serde::ser::SerializeMap;
@@ -746,7 +746,7 @@ pub struct StepReport {
 pub struct Verification {
     /// Time span (s).
     pub time_s: (f64, f64),
-    /// Pass band (Hz).
+    /// Pass band (Hz), `(pass1, pass2)`.
     pub band_hz: (f64, f64),
     /// Standard deviation of the band-passed scalar (nT).
     pub before_nt: f64,
@@ -1300,7 +1300,7 @@ pub fn compensator_setting(term: Term, value: f64) -> CompensatorSetting {
 }
 
 /// Pass band (Hz) of the cloverleaf check, as MagNav's.
-pub const VERIFY_BAND_HZ: (f64, f64) = (0.1, 0.9);
+pub const VERIFY_BAND: Band = Band::MAGNAV;
 
 /// The cloverleaf check: band-passed scalar over the span of the cloverleaf windows, before
 /// and after subtracting the identified terms' signal.
@@ -1316,7 +1316,7 @@ pub fn verify(input: &ProcedureInput, terms: &TermValues) -> Option<Verification
     let span = start..end;
     let predicted = input.geometry.aircraft_signal(&terms.0);
     let fs = crate::signal::segment::median_step(&input.tt[span.clone()]).map(|dt| 1.0 / dt)?;
-    let filter = magnav_bandpass(VERIFY_BAND_HZ.0, VERIFY_BAND_HZ.1, 4, fs).ok()??;
+    let filter = VERIFY_BAND.butterworth(4, fs).ok()??;
     let band_passed = |x: Vec<f64>| -> Option<f64> {
         if !x.iter().all(|v| v.is_finite()) {
             return None;
@@ -1332,7 +1332,7 @@ pub fn verify(input: &ProcedureInput, terms: &TermValues) -> Option<Verification
     )?;
     Some(Verification {
         time_s: (input.tt[start], input.tt[end.saturating_sub(1)]),
-        band_hz: VERIFY_BAND_HZ,
+        band_hz: VERIFY_BAND.edges_hz(),
         before_nt: before,
         after_nt: after,
         improvement: before / after,

@@ -39,7 +39,40 @@
 use std::f64::consts::PI;
 use std::ops::{Add, Div, Mul, Sub};
 
+use serde::{Deserialize, Serialize};
 use thiserror::Error;
+
+/// Pass band (Hz) of a zero-phase Butterworth filter, MagNav's `pass1`/`pass2`.
+///
+/// An edge ≤ 0 or ≥ fs/2 is switched off (see [`magnav_bandpass`]): band-pass becomes low-pass
+/// (`pass1` off) or high-pass (`pass2` off); both off means no filtering (and, in a fit, no
+/// trimming).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Band {
+    /// Lower edge (Hz).
+    pub pass1_hz: f64,
+    /// Upper edge (Hz).
+    pub pass2_hz: f64,
+}
+
+impl Band {
+    /// MagNav's fitting band, 0.1–0.9 Hz.
+    pub const MAGNAV: Band = Band {
+        pass1_hz: 0.1,
+        pass2_hz: 0.9,
+    };
+
+    /// The edges `(pass1_hz, pass2_hz)` (Hz), the form reports serialise.
+    pub fn edges_hz(self) -> (f64, f64) {
+        (self.pass1_hz, self.pass2_hz)
+    }
+
+    /// This band's Butterworth filter of `order` at `fs_hz` (Hz), with MagNav's fallbacks:
+    /// `None` means "do not filter" (see [`magnav_bandpass`]).
+    pub fn butterworth(self, order: usize, fs_hz: f64) -> Result<Option<Butterworth>, FilterError> {
+        magnav_bandpass(self.pass1_hz, self.pass2_hz, order, fs_hz)
+    }
+}
 
 /// Which frequencies a filter keeps. Frequencies in Hz.
 #[derive(Debug, Clone, Copy, PartialEq)]
