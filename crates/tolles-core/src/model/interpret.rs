@@ -27,6 +27,7 @@
 
 use crate::model::design::Design;
 use crate::model::terms::Column;
+use crate::patent::Term;
 use serde::{Deserialize, Serialize};
 
 /// The aircraft's field model `H = P + I·B + E·dB/dt` in the body frame (FRD).
@@ -91,36 +92,10 @@ impl AircraftField {
             .collect()
     }
 
-    /// The 16 terms of the patent (L = x, T = y, V = z).
+    /// The 16 terms of the patent (L = x, T = y, V = z; eddy `ab` is the field along b from a
+    /// change along a, `E[b][a]`), as [`Term::value`] defines each.
     pub fn patent_terms(&self) -> PatentTerms {
-        let (x, y, z) = (0, 1, 2);
-        let i = &self.induced;
-        let e = &self.eddy_s;
-        PatentTerms {
-            perm_nt: PermTerms {
-                t: self.permanent_nt[y],
-                l: self.permanent_nt[x],
-                v: self.permanent_nt[z],
-            },
-            induced: InducedPatentTerms {
-                vv_tt: i[z][z] - i[y][y],
-                vv_ll: i[z][z] - i[x][x],
-                tl_lt: i[x][y] + i[y][x],
-                tv_vt: i[y][z] + i[z][y],
-                lv_vl: i[x][z] + i[z][x],
-            },
-            // Patent eddy 'ab' is the field along b from a change along a: E[b][a].
-            eddy_s: EddyPatentTerms {
-                vv_tt: e[z][z] - e[y][y],
-                vv_ll: e[z][z] - e[x][x],
-                tl: e[x][y],
-                tv: e[z][y],
-                lt: e[y][x],
-                lv: e[z][x],
-                vl: e[x][z],
-                vt: e[y][z],
-            },
-        }
+        PatentTerms::from_values(Term::OBSERVABLE.map(|t| t.value(self)))
     }
 }
 
@@ -175,27 +150,50 @@ pub struct PatentTerms {
 }
 
 impl PatentTerms {
-    /// The 16 values in the patent's order with their names.
-    pub fn named(&self) -> [(&'static str, f64); 16] {
+    /// From the 16 values in [`Term::OBSERVABLE`] order (nT, dimensionless, s by section).
+    pub fn from_values(values: [f64; 16]) -> Self {
+        let [t, l, v, vv_tt, vv_ll, tl_lt, tv_vt, lv_vl, ev_tt, ev_ll, tl, tv, lt, lv, vl, vt] =
+            values;
+        PatentTerms {
+            perm_nt: PermTerms { t, l, v },
+            induced: InducedPatentTerms {
+                vv_tt,
+                vv_ll,
+                tl_lt,
+                tv_vt,
+                lv_vl,
+            },
+            eddy_s: EddyPatentTerms {
+                vv_tt: ev_tt,
+                vv_ll: ev_ll,
+                tl,
+                tv,
+                lt,
+                lv,
+                vl,
+                vt,
+            },
+        }
+    }
+
+    /// The 16 values in [`Term::OBSERVABLE`] order (nT, dimensionless, s by section).
+    pub fn values(&self) -> [f64; 16] {
         let (p, i, e) = (&self.perm_nt, &self.induced, &self.eddy_s);
         [
-            ("T", p.t),
-            ("L", p.l),
-            ("V", p.v),
-            ("VV-TT", i.vv_tt),
-            ("VV-LL", i.vv_ll),
-            ("TL+LT", i.tl_lt),
-            ("TV+VT", i.tv_vt),
-            ("LV+VL", i.lv_vl),
-            ("vv-tt", e.vv_tt),
-            ("vv-ll", e.vv_ll),
-            ("tl", e.tl),
-            ("tv", e.tv),
-            ("lt", e.lt),
-            ("lv", e.lv),
-            ("vl", e.vl),
-            ("vt", e.vt),
+            p.t, p.l, p.v, i.vv_tt, i.vv_ll, i.tl_lt, i.tv_vt, i.lv_vl, e.vv_tt, e.vv_ll, e.tl,
+            e.tv, e.lt, e.lv, e.vl, e.vt,
         ]
+    }
+
+    /// The value of `term` (unit [`Term::unit`]); `None` for TT, LL and VV alone.
+    pub fn get(&self, term: Term) -> Option<f64> {
+        Some(self.values()[term.observable_index()?])
+    }
+
+    /// The 16 values in the patent's order with their names.
+    pub fn named(&self) -> [(&'static str, f64); 16] {
+        let values = self.values();
+        std::array::from_fn(|k| (Term::OBSERVABLE[k].name(), values[k]))
     }
 }
 
@@ -212,6 +210,29 @@ mod tests {
         for (u, v) in beta.iter().zip(&back) {
             assert!((u - v).abs() < 1e-9);
         }
+    }
+
+    #[test]
+    fn patent_terms_read_back_by_term_and_name() {
+        let mut field = AircraftField::default();
+        for k in 0..3 {
+            field.permanent_nt[k] = 10.0 + k as f64;
+            for j in 0..3 {
+                field.induced[k][j] = 1e-3 * (3 * k + j) as f64;
+                field.eddy_s[k][j] = 1e-4 * (3 * k + j + 1) as f64;
+            }
+        }
+        let terms = field.patent_terms();
+        assert_eq!(PatentTerms::from_values(terms.values()), terms);
+        for (term, (name, value)) in Term::OBSERVABLE.iter().zip(terms.named()) {
+            assert_eq!(term.name(), name);
+            assert_eq!(terms.get(*term), Some(value));
+        }
+        assert_eq!(
+            terms.induced.tl_lt,
+            field.induced[0][1] + field.induced[1][0]
+        );
+        assert_eq!(terms.get(Term::InducedTT), None);
     }
 
     #[test]

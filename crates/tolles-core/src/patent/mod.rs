@@ -126,6 +126,18 @@ pub enum Section {
     Eddy,
 }
 
+impl Section {
+    /// Unit of the section's term values: `"nT"` (perm), `""` (induced, dimensionless) or `"s"`
+    /// (eddy).
+    pub fn unit(self) -> &'static str {
+        match self {
+            Section::Perm => "nT",
+            Section::Induced => "",
+            Section::Eddy => "s",
+        }
+    }
+}
+
 /// A row of the patent's tables: a term (or sum, or difference) of the aircraft's field.
 ///
 /// Letters as in [`crate::model::interpret`]: perm T, L, V (nT); induced `TT = I[y][y]`, `TL+LT =
@@ -224,6 +236,22 @@ impl Term {
             Term::EddyVL => "vl",
             Term::EddyVT => "vt",
         }
+    }
+
+    /// The term named `name` as [`Term::name`] spells it (`"T"`, `"VV-TT"`, `"vl"`, …).
+    pub fn from_name(name: &str) -> Option<Term> {
+        Term::ALL.into_iter().find(|t| t.name() == name)
+    }
+
+    /// Position in [`Term::OBSERVABLE`]; `None` for TT, LL and VV alone, which a scalar
+    /// magnetometer cannot see.
+    pub fn observable_index(self) -> Option<usize> {
+        Term::OBSERVABLE.iter().position(|&t| t == self)
+    }
+
+    /// Unit of the term's value: `"nT"` (perm), `""` (induced, dimensionless) or `"s"` (eddy).
+    pub fn unit(self) -> &'static str {
+        self.section().unit()
     }
 
     /// Perm, induced or eddy.
@@ -538,5 +566,19 @@ mod tests {
         let as_tabled = -rate * 1e-3 * cy * cx;
         assert!((ours - as_tabled).abs() < 1e-15);
         assert!((ours - as_printed).abs() > 1e-5);
+    }
+
+    #[test]
+    fn names_units_and_observable_positions_agree() {
+        for term in Term::ALL {
+            assert_eq!(Term::from_name(term.name()), Some(term));
+        }
+        assert_eq!(Term::from_name("X"), None);
+        let units: Vec<&str> = Term::OBSERVABLE.iter().map(|t| t.unit()).collect();
+        assert_eq!(units, [["nT"; 3].as_slice(), &[""; 5], &["s"; 8]].concat());
+        for (k, term) in Term::OBSERVABLE.iter().enumerate() {
+            assert_eq!(term.observable_index(), Some(k));
+        }
+        assert_eq!(Term::InducedTT.observable_index(), None);
     }
 }

@@ -764,10 +764,12 @@ pub struct TermValues(pub [Option<f64>; 16]);
 impl TermValues {
     /// The value of the term named `name` (patent name).
     pub fn get(&self, name: &str) -> Option<f64> {
-        Term::OBSERVABLE
-            .iter()
-            .position(|t| t.name() == name)
-            .and_then(|k| self.0[k])
+        self.term(Term::from_name(name)?)
+    }
+
+    /// The value of `term` (unit [`Term::unit`]), if known; `None` for TT, LL and VV alone.
+    pub fn term(&self, term: Term) -> Option<f64> {
+        self.0[term.observable_index()?]
     }
 }
 
@@ -826,10 +828,7 @@ impl ProcedureReport {
 }
 
 fn index(term: Term) -> usize {
-    Term::OBSERVABLE
-        .iter()
-        .position(|t| *t == term)
-        .expect("an observable term")
+    term.observable_index().expect("an observable term")
 }
 
 fn heading_matches(a: f64, b: f64) -> bool {
@@ -1093,8 +1092,7 @@ fn run_step(
         settings: identified
             .iter()
             .filter_map(|e| {
-                let term =
-                    Term::OBSERVABLE[Term::OBSERVABLE.iter().position(|t| t.name() == e.term)?];
+                let term = Term::from_name(e.term)?;
                 e.value.map(|v| compensator_setting(term, v))
             })
             .collect(),
