@@ -18,10 +18,7 @@ const CYCLES: f64 = 3.0;
 fn demodulated(aircraft: AircraftField, maneuver: &HarmonicManeuver) -> (f64, f64, f64, f64, f64) {
     let mut scenario = Scenario::new(aircraft, 1);
     scenario.sensors.scalar_noise_nt = 0.0;
-    let axis = match maneuver.maneuver {
-        Maneuver::Roll => Axis::Roll,
-        Maneuver::Pitch => Axis::Pitch,
-    };
+    let axis: Axis = maneuver.maneuver.into();
     let earth = EarthField {
         inclination_deg: maneuver.dip_deg,
         ..EarthField::default()

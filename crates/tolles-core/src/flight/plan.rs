@@ -15,14 +15,9 @@ use crate::flight::attitude::Attitude;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
-/// The axis of a harmonic maneuver.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Axis {
-    Roll,
-    Pitch,
-    Yaw,
-}
+/// The axis of a harmonic maneuver: the same type as a detected maneuver's kind, so a plan and
+/// what is found in its flight compare directly.
+pub use crate::maneuvers::ManeuverKind as Axis;
 
 /// A sinusoid `amplitude·sin(2π·frequency·t + phase)` (degrees, Hz, radians).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

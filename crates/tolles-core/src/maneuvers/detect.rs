@@ -48,37 +48,10 @@
 use crate::signal::filter::{Butterworth, Response};
 use crate::signal::segment::{contiguous_runs, median_step};
 use serde::{Deserialize, Serialize};
-use std::fmt;
 use std::ops::Range;
 
-/// The axis about which a maneuver oscillates.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum ManeuverKind {
-    Roll,
-    Pitch,
-    Yaw,
-}
-
-impl ManeuverKind {
-    /// All kinds, in the order a compensation box flies them.
-    pub const ALL: [ManeuverKind; 3] = [ManeuverKind::Roll, ManeuverKind::Pitch, ManeuverKind::Yaw];
-
-    /// Lower-case name: `roll`, `pitch`, `yaw`.
-    pub fn name(self) -> &'static str {
-        match self {
-            ManeuverKind::Roll => "roll",
-            ManeuverKind::Pitch => "pitch",
-            ManeuverKind::Yaw => "yaw",
-        }
-    }
-}
-
-impl fmt::Display for ManeuverKind {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
+// A detected maneuver's kind is the shared maneuver axis.
+pub use super::ManeuverKind;
 
 /// The cardinal headings of a compensation box (degrees clockwise from north).
 pub const CARDINAL_HEADINGS_DEG: [f64; 4] = [0.0, 90.0, 180.0, 270.0];

@@ -235,14 +235,7 @@ pub fn flight_blocks(
 pub fn maneuver_label(segment: &Segment) -> Option<String> {
     let heading = segment.heading_deg.rem_euclid(360.0).round() as i64 % 360;
     match segment.motion {
-        Motion::Harmonic { axis, .. } => {
-            let kind = match axis {
-                Axis::Roll => "roll",
-                Axis::Pitch => "pitch",
-                Axis::Yaw => "yaw",
-            };
-            Some(format!("{kind} on {heading:03}°"))
-        }
+        Motion::Harmonic { axis, .. } => Some(format!("{axis} on {heading:03}°")),
         Motion::Hold { roll_deg } => Some(format!("{roll_deg:+.0}° wing-up on {heading:03}°")),
         Motion::Turn { change_deg, .. } => {
             Some(format!("{change_deg:.0}° turn from {heading:03}°"))

@@ -46,6 +46,7 @@ mod tables;
 pub use tables::{closed_form, printed_table, ClosedForm, ClosedHarmonics, PrintedRow, Provenance};
 
 use crate::flight::attitude::Attitude;
+use crate::maneuvers::ManeuverKind;
 use crate::model::interpret::AircraftField;
 use serde::{Deserialize, Serialize};
 
@@ -57,6 +58,15 @@ pub enum Maneuver {
     Roll,
     /// `pitch = a·sin ωt` (nose up positive).
     Pitch,
+}
+
+impl From<Maneuver> for ManeuverKind {
+    fn from(maneuver: Maneuver) -> Self {
+        match maneuver {
+            Maneuver::Roll => ManeuverKind::Roll,
+            Maneuver::Pitch => ManeuverKind::Pitch,
+        }
+    }
 }
 
 /// The patent's heading θp (rad) for our heading (rad, clockwise from magnetic north).

@@ -56,7 +56,7 @@
 //! window matches a step's heading within [`HEADING_TOLERANCE_DEG`].
 
 use crate::flight::attitude::Attitude;
-use crate::flight::plan::{Axis, Motion, Plan};
+use crate::flight::plan::{Motion, Plan};
 use crate::model::vector::VectorSeries;
 use crate::patent::{field_direction, Section, Term};
 use crate::signal::demodulate::{fit_sinusoid, Basis, DemodulateError, Harmonics};
@@ -87,6 +87,17 @@ pub enum ManeuverKind {
     WingUp,
     /// Cloverleaf turns: verification only.
     Cloverleaf,
+}
+
+impl From<crate::maneuvers::ManeuverKind> for ManeuverKind {
+    /// A harmonic maneuver about `axis`.
+    fn from(axis: crate::maneuvers::ManeuverKind) -> Self {
+        match axis {
+            crate::maneuvers::ManeuverKind::Roll => ManeuverKind::Roll,
+            crate::maneuvers::ManeuverKind::Pitch => ManeuverKind::Pitch,
+            crate::maneuvers::ManeuverKind::Yaw => ManeuverKind::Yaw,
+        }
+    }
 }
 
 impl ManeuverKind {
@@ -135,11 +146,7 @@ pub fn windows_from_plan(plan: &Plan, fs_hz: f64, declination_deg: f64) -> Vec<M
         .zip(plan.starts())
         .filter_map(|(segment, start)| {
             let kind = match &segment.motion {
-                Motion::Harmonic { axis, .. } => match axis {
-                    Axis::Roll => ManeuverKind::Roll,
-                    Axis::Pitch => ManeuverKind::Pitch,
-                    Axis::Yaw => ManeuverKind::Yaw,
-                },
+                Motion::Harmonic { axis, .. } => ManeuverKind::from(*axis),
                 Motion::Hold { .. } => ManeuverKind::WingUp,
                 Motion::Turn { change_deg, .. } if change_deg.abs() >= 180.0 => {
                     ManeuverKind::Cloverleaf
