@@ -153,7 +153,7 @@ pub enum FitError {
     Lambda(f64),
     #[error("cross-validation needs at least 2 folds, got {0}")]
     Folds(usize),
-    #[error("no ridge strength could be fitted on every cross-validation fold (too little data for {terms} terms); give --lambda or use fewer terms")]
+    #[error("no ridge strength could be fitted on every cross-validation fold (too little data for {terms} terms); fix the ridge strength λ or use fewer terms")]
     CrossValidation { terms: usize },
     #[error("fluxgate {} magnitude {magnitude:.1} nT at sample {index} is outside 1,000–100,000 nT: is the fluxgate in nT?", fluxgate + 1)]
     FluxMagnitude {
@@ -173,7 +173,7 @@ pub enum FitError {
     ConstantScalar,
     #[error("the fluxgate is constant: the aircraft did not maneuver, so no term can be fitted")]
     ConstantFlux,
-    #[error("only {usable} usable samples after filtering and trimming, fewer than the {terms} terms; use a longer flight, fewer terms or a smaller --trim")]
+    #[error("only {usable} usable samples after filtering and trimming, fewer than the {terms} terms; use a longer flight, fewer terms or a smaller trim")]
     TooFewSamples { usable: usize, terms: usize },
     #[error(transparent)]
     Ridge(#[from] RidgeError),

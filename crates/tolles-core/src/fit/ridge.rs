@@ -25,7 +25,7 @@ const BLOCK_ROWS: usize = 4096;
 /// A least-squares problem that cannot be solved.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum RidgeError {
-    #[error("the design matrix is singular (column {column} is a combination of others); add --lambda or use fewer terms")]
+    #[error("the design matrix is singular (column {column} is a combination of others); use a ridge strength λ > 0 or fewer terms")]
     Singular { column: String },
 }
 
