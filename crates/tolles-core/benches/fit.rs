@@ -8,10 +8,10 @@ use criterion::{criterion_group, BenchmarkId, Criterion, SamplingMode, Throughpu
 use std::f64::consts::PI;
 use std::hint::black_box;
 use tolles_core::compensate::{compensate, Level};
-use tolles_core::filter::{filtfilt_many_unless_constant, magnav_bandpass};
+use tolles_core::fit::ridge::Ridge;
 use tolles_core::fit::{fit, FitSettings};
-use tolles_core::ridge::Ridge;
-use tolles_core::vector::VectorSeries;
+use tolles_core::model::vector::VectorSeries;
+use tolles_core::signal::filter::{filtfilt_many_unless_constant, magnav_bandpass};
 
 const FS_HZ: f64 = 10.0;
 const SIZES: [usize; 3] = [10_000, 100_000, 1_000_000];

@@ -8,8 +8,8 @@
 use criterion::{criterion_group, Criterion, Throughput};
 use std::hint::black_box;
 use std::time::{Duration, Instant};
-use tolles_core::design::Design;
-use tolles_core::stream::{Derivative, Sample, ScalarSpec, StreamCompensator};
+use tolles_core::compensate::stream::{Derivative, Sample, ScalarSpec, StreamCompensator};
+use tolles_core::model::design::Design;
 
 const MAGNETOMETERS: usize = 8;
 const FS_HZ: f64 = 1280.0;

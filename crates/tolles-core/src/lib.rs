@@ -1,8 +1,8 @@
 //! Numerics of aircraft magnetic compensation.
 //!
 //! ```
-//! use tolles_core::design::{Design, TermSet};
-//! use tolles_core::vector::VectorSeries;
+//! use tolles_core::model::design::{Design, TermSet};
+//! use tolles_core::model::vector::VectorSeries;
 //!
 //! // Four samples of a fluxgate (nT, body frame FRD).
 //! let flux = VectorSeries::new(
@@ -15,64 +15,84 @@
 //! assert_eq!(a.ncols(), 18);
 //! ```
 //!
-//! Crate layout, one concept per module:
-//! - [`conventions`]: frames, axes, units (read this first);
-//! - [`terms`]: which Tolles-Lawson terms a model uses;
-//! - [`design`]: the Tolles-Lawson design matrix (permanent, induced and eddy-current columns);
-//! - [`filter`]: Butterworth second-order sections and zero-phase filtering;
-//! - [`ridge`]: numerically stable ridge least squares (blocked QR);
-//! - [`crossval`]: choosing the ridge strength by blocked cross-validation over time;
-//! - [`fit`]: the whole fit: filter, trim, solve, diagnose;
-//! - [`compensate`]: applying a fitted model;
-//! - [`adapt`]: online adaptation of the coefficients while streaming;
-//! - [`maneuver`]: finding roll, pitch and yaw maneuvers in the attitude;
-//! - [`fom`]: the figure of merit of a compensation box;
-//! - [`metrics`]: noise level, improvement ratio, fourth difference;
-//! - [`interpret`]: coefficients as physical fields and in the patent's nomenclature;
-//! - [`patent`]: the Tolles patent's maneuver model: direction cosines, generating functions, printed tables;
-//! - [`harmonics`]: the patent's roll and pitch tables computed by Fourier analysis;
-//! - [`segment`]: contiguous runs of usable samples;
-//! - [`median`]: the exact median of a sequence too long to hold, over repeated passes;
-//! - [`attitude`]: rotations between the navigation and body frames;
-//! - [`plan`]: flight plans (compensation box, survey lines);
-//! - [`environment`]: the earth's field along a flight (IGRF, geology, diurnal);
-//! - [`sensor`]: fluxgate and magnetometer error models;
-//! - [`sim`]: simulated flights with known truth;
-//! - [`igrf`]: IGRF-14 reference field of the earth;
-//! - [`identifiability`]: how well a flight's maneuvers determine each term;
-//! - [`spectrum`]: power spectral density by Welch's method;
-//! - [`demodulate`]: a maneuver's frequency and phase, and any series demodulated on them;
-//! - [`procedure`]: the patent's step-by-step compensation procedure, digitised;
-//! - [`stream`]: real-time compensation, one sample in and one out.
+//! # A guided tour
+//!
+//! Read [`model::conventions`] first: frames, axes and units used everywhere. Then, in the order
+//! data flows through a compensation:
+//!
+//! [`model`]: what a Tolles-Lawson model is
+//! - [`model::conventions`]: frames, axes, units;
+//! - [`model::terms`]: which Tolles-Lawson terms a model uses;
+//! - [`model::design`]: the design matrix (permanent, induced and eddy-current columns);
+//! - [`model::vector`]: time series of 3-component vectors (fluxgates);
+//! - [`model::interpret`]: coefficients as physical fields and in the patent's nomenclature.
+//!
+//! [`signal`]: signal processing that knows nothing of aircraft
+//! - [`signal::filter`]: Butterworth second-order sections, zero-phase filtering and the pass
+//!   [`Band`](signal::filter::Band) every band-passing step takes;
+//! - [`signal::spectrum`]: power spectral density by Welch's method;
+//! - [`signal::demodulate`]: a maneuver's frequency and phase, and any series demodulated on them;
+//! - [`signal::segment`]: contiguous runs of usable samples;
+//! - [`signal::median`]: the exact median of a sequence too long to hold, over repeated passes;
+//! - [`signal::metrics`]: noise level, improvement ratio, fourth difference.
+//!
+//! [`fit`]: the whole fit: filter, trim, solve, diagnose
+//! - [`fit::ridge`]: numerically stable ridge least squares (blocked QR);
+//! - [`fit::crossval`]: choosing the ridge strength by blocked cross-validation over time.
+//!
+//! [`compensate`]: applying a fitted model to a whole record
+//! - [`compensate::stream`]: real-time compensation, one sample in and one out;
+//! - [`compensate::adapt`]: online adaptation of the coefficients while streaming.
+//!
+//! [`maneuvers`]: the maneuvers of a calibration flight (and which maneuver type means what)
+//! - [`maneuvers::detect`]: finding roll, pitch and yaw maneuvers in the attitude;
+//! - [`maneuvers::fom`]: the figure of merit of a compensation box;
+//! - [`maneuvers::identifiability`]: how well a flight's maneuvers determine each term.
+//!
+//! [`patent`]: the Tolles patent's maneuver model: direction cosines, generating functions,
+//! printed tables
+//! - [`patent::harmonics`]: the patent's roll and pitch tables computed by Fourier analysis;
+//! - [`patent::procedure`]: the patent's step-by-step compensation procedure, digitised.
+//!
+//! [`flight`]: flights and the world they happen in
+//! - [`flight::attitude`]: rotations between the navigation and body frames;
+//! - [`flight::plan`]: flight plans (compensation box, patent procedure, survey lines);
+//! - [`flight::environment`]: the earth's field along a flight (IGRF, geology, diurnal);
+//! - [`flight::igrf`]: IGRF-14 reference field of the earth;
+//! - [`flight::sensor`]: fluxgate and magnetometer error models;
+//! - [`flight::sim`]: simulated flights with known truth.
 //!
 //! No module here reads files or writes to a terminal.
 
-pub mod adapt;
-pub mod attitude;
 pub mod compensate;
-pub mod conventions;
-pub mod crossval;
-pub mod demodulate;
-pub mod design;
-pub mod environment;
-pub mod filter;
 pub mod fit;
-pub mod fom;
-pub mod harmonics;
-pub mod identifiability;
-pub mod igrf;
-pub mod interpret;
-pub mod maneuver;
-pub mod median;
-pub mod metrics;
+pub mod flight;
+pub mod maneuvers;
+pub mod model;
 pub mod patent;
-pub mod plan;
-pub mod procedure;
-pub mod ridge;
-pub mod segment;
-pub mod sensor;
-pub mod sim;
-pub mod spectrum;
-pub mod stream;
-pub mod terms;
-pub mod vector;
+pub mod signal;
+
+// ---------------------------------------------------------------------------------------------
+// Transitional flat paths.
+//
+// Before the modules were grouped, every module sat at the crate root (`tolles_core::terms`,
+// `tolles_core::maneuver`, ...). These re-exports keep that code compiling; they are hidden from
+// the documentation and will be removed once the downstream crates use the grouped paths.
+// New code inside and outside this crate should use the grouped paths.
+// ---------------------------------------------------------------------------------------------
+#[doc(hidden)]
+pub use compensate::{adapt, stream};
+#[doc(hidden)]
+pub use fit::{crossval, ridge};
+#[doc(hidden)]
+pub use flight::{attitude, environment, igrf, plan, sensor, sim};
+#[doc(hidden)]
+pub use maneuvers::detect as maneuver;
+#[doc(hidden)]
+pub use maneuvers::{fom, identifiability};
+#[doc(hidden)]
+pub use model::{conventions, design, interpret, terms, vector};
+#[doc(hidden)]
+pub use patent::{harmonics, procedure};
+#[doc(hidden)]
+pub use signal::{demodulate, filter, median, metrics, segment, spectrum};

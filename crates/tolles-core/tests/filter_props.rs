@@ -1,7 +1,7 @@
 //! Invariants of zero-phase filtering that hold for any signal.
 
 use proptest::prelude::*;
-use tolles_core::filter::{Butterworth, Response};
+use tolles_core::signal::filter::{Butterworth, Response};
 
 fn filter_strategy() -> impl Strategy<Value = Butterworth> {
     let response = prop_oneof![

@@ -4,7 +4,7 @@
 //! `output='sos'` and `sosfiltfilt` with default padding); no Python is needed here.
 
 use serde::Deserialize;
-use tolles_core::filter::{Butterworth, Response};
+use tolles_core::signal::filter::{Butterworth, Response};
 
 const FIXTURE: &str = include_str!("fixtures/filter/scipy_sosfiltfilt.json");
 const TOL: f64 = 1e-9;

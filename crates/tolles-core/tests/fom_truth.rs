@@ -1,10 +1,10 @@
 //! The figure of merit from detected maneuvers against the simulator's truth.
 
 use proptest::prelude::*;
-use tolles_core::fom::{bandpassed, fom, peak_to_peak, FomSettings, Slot};
-use tolles_core::maneuver::{detect_maneuvers, Maneuver, ManeuverKind, ManeuverSettings};
-use tolles_core::plan::{Axis, BoxPlan, Motion, Plan, Segment, SurveyPlan, Wave};
-use tolles_core::sim::{simulate, Installation, Scenario, SimulatedFlight};
+use tolles_core::flight::plan::{BoxPlan, Motion, Plan, Segment, SurveyPlan, Wave};
+use tolles_core::flight::sim::{simulate, Installation, Scenario, SimulatedFlight};
+use tolles_core::maneuvers::detect::{detect_maneuvers, Maneuver, ManeuverKind, ManeuverSettings};
+use tolles_core::maneuvers::fom::{bandpassed, fom, peak_to_peak, FomSettings, Slot};
 
 fn fly(plan: &Plan, fs_hz: f64, seed: u64) -> SimulatedFlight {
     let mut scenario = Scenario::new(Installation::Cabin.aircraft(), seed);
@@ -36,11 +36,7 @@ fn truth(plan: &Plan, fs_hz: f64, n: usize) -> Vec<Truth> {
         .zip(plan.starts())
         .filter_map(|(s, &t0)| match s.motion {
             Motion::Harmonic { axis, .. } => Some(Truth {
-                kind: match axis {
-                    Axis::Roll => ManeuverKind::Roll,
-                    Axis::Pitch => ManeuverKind::Pitch,
-                    Axis::Yaw => ManeuverKind::Yaw,
-                },
+                kind: axis,
                 heading: s.heading_deg.rem_euclid(360.0),
                 start: (t0 * fs_hz).round() as usize,
                 end: (((t0 + s.duration_s) * fs_hz).round() as usize + 1).min(n),

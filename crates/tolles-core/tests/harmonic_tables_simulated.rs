@@ -3,12 +3,12 @@
 //! value times the term.
 
 use std::f64::consts::PI;
-use tolles_core::environment::Environment;
-use tolles_core::harmonics::{HarmonicManeuver, HarmonicTable};
-use tolles_core::interpret::AircraftField;
+use tolles_core::flight::environment::Environment;
+use tolles_core::flight::plan::{Axis, Motion, Plan, Segment};
+use tolles_core::flight::sim::{simulate, EarthField, Scenario};
+use tolles_core::model::interpret::AircraftField;
+use tolles_core::patent::harmonics::{HarmonicManeuver, HarmonicTable};
 use tolles_core::patent::{Maneuver, Section, Term};
-use tolles_core::plan::{Axis, Motion, Plan, Segment};
-use tolles_core::sim::{simulate, EarthField, Scenario};
 
 const PERIOD_S: f64 = 8.0;
 const CYCLES: f64 = 3.0;
@@ -18,10 +18,7 @@ const CYCLES: f64 = 3.0;
 fn demodulated(aircraft: AircraftField, maneuver: &HarmonicManeuver) -> (f64, f64, f64, f64, f64) {
     let mut scenario = Scenario::new(aircraft, 1);
     scenario.sensors.scalar_noise_nt = 0.0;
-    let axis = match maneuver.maneuver {
-        Maneuver::Roll => Axis::Roll,
-        Maneuver::Pitch => Axis::Pitch,
-    };
+    let axis: Axis = maneuver.maneuver.into();
     let earth = EarthField {
         inclination_deg: maneuver.dip_deg,
         ..EarthField::default()

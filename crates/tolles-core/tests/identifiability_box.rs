@@ -1,14 +1,14 @@
 //! Identifiability of a standard compensation box versus one without its yaw maneuvers, and of
 //! the perm V / induced VV−TT pair the patent separates with large wing-ups.
 
-use tolles_core::design::Design;
-use tolles_core::filter::magnav_bandpass;
-use tolles_core::identifiability::{
+use tolles_core::flight::plan::BoxPlan;
+use tolles_core::flight::sim::Scenario;
+use tolles_core::maneuvers::identifiability::{
     analyse_mapped, candidate_blocks, patent_map, planned_blocks, suggest, Block, Identifiability,
 };
-use tolles_core::interpret::AircraftField;
-use tolles_core::plan::BoxPlan;
-use tolles_core::sim::Scenario;
+use tolles_core::model::design::Design;
+use tolles_core::model::interpret::AircraftField;
+use tolles_core::signal::filter::magnav_bandpass;
 
 fn design() -> Design {
     Design::new("permanent,i5,e8".parse().unwrap())
@@ -28,7 +28,7 @@ fn evaluate(blocks: &[Block]) -> Identifiability {
 fn term<'a>(
     report: &'a Identifiability,
     name: &str,
-) -> &'a tolles_core::identifiability::TermInformation {
+) -> &'a tolles_core::maneuvers::identifiability::TermInformation {
     report.terms.iter().find(|t| t.name == name).unwrap()
 }
 

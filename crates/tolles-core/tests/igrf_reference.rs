@@ -8,7 +8,7 @@
 //!    with the PyPI packages ppigrf 2.1.0 and pyIGRF14 1.0.4 at geodetic points.
 
 use serde::Deserialize;
-use tolles_core::igrf::{field, geocentric_field, MagneticField};
+use tolles_core::flight::igrf::{field, geocentric_field, MagneticField};
 
 /// Tolerance on each component and on F, nT.
 const TOL_NT: f64 = 1.0;

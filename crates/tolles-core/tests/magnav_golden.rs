@@ -5,11 +5,11 @@ mod common;
 use common::{magnav, magnav_vector, std};
 use nalgebra::DMatrix;
 use tolles_core::compensate::{compensate, Level};
-use tolles_core::design::Design;
+use tolles_core::fit::ridge::ridge;
 use tolles_core::fit::{fit, FitSettings};
-use tolles_core::ridge::ridge;
-use tolles_core::terms::TermSet;
-use tolles_core::vector::VectorSeries;
+use tolles_core::model::design::Design;
+use tolles_core::model::terms::TermSet;
+use tolles_core::model::vector::VectorSeries;
 
 fn flux() -> VectorSeries {
     VectorSeries::new(

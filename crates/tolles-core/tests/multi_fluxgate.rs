@@ -11,13 +11,13 @@ mod common;
 use common::{compensate_with, error_vs_truth};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use tolles_core::design::Design;
 use tolles_core::fit::{fit, FitSettings};
-use tolles_core::metrics::std_dev;
-use tolles_core::plan::{BoxPlan, Plan, SurveyPlan};
-use tolles_core::sim::{simulate, Installation, Scenario};
-use tolles_core::terms::TermSet;
-use tolles_core::vector::VectorSeries;
+use tolles_core::flight::plan::{BoxPlan, Plan, SurveyPlan};
+use tolles_core::flight::sim::{simulate, Installation, Scenario};
+use tolles_core::model::design::Design;
+use tolles_core::model::terms::TermSet;
+use tolles_core::model::vector::VectorSeries;
+use tolles_core::signal::metrics::std_dev;
 
 /// A current loop: a current made of a few random tones inside the fit's pass band, and its
 /// field per ampere (nT/A, body frame) at its fluxgate and at the scalar magnetometer.

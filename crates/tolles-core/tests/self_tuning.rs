@@ -11,11 +11,11 @@
 mod common;
 
 use common::{compensate_with, error_vs_truth};
-use tolles_core::design::Design;
 use tolles_core::fit::{fit, FitSettings, Lambda};
-use tolles_core::plan::{BoxPlan, SurveyPlan};
-use tolles_core::sim::{simulate, Installation, SimulatedFlight};
-use tolles_core::terms::TermSet;
+use tolles_core::flight::plan::{BoxPlan, SurveyPlan};
+use tolles_core::flight::sim::{simulate, Installation, SimulatedFlight};
+use tolles_core::model::design::Design;
+use tolles_core::model::terms::TermSet;
 
 /// Fixed λ (unscaled columns, added to every diagonal entry of AᵀA as MagNav's `linreg` does).
 const FIXED_LAMBDAS: [f64; 8] = [0.0, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 1e-1, 1.0];

@@ -5,13 +5,13 @@ mod common;
 use common::{compensate_with, error_vs_truth};
 use proptest::prelude::*;
 use tolles_core::compensate::{compensate, Level};
-use tolles_core::design::Design;
 use tolles_core::fit::{fit, Band, FitSettings, Lambda};
-use tolles_core::interpret::AircraftField;
-use tolles_core::metrics::std_dev;
-use tolles_core::plan::{BoxPlan, SurveyPlan};
-use tolles_core::sim::{simulate, Installation, Scenario, Sensors, SimulatedFlight};
-use tolles_core::terms::TermSet;
+use tolles_core::flight::plan::{BoxPlan, SurveyPlan};
+use tolles_core::flight::sim::{simulate, Installation, Scenario, Sensors, SimulatedFlight};
+use tolles_core::model::design::Design;
+use tolles_core::model::interpret::AircraftField;
+use tolles_core::model::terms::TermSet;
+use tolles_core::signal::metrics::std_dev;
 
 fn settings(terms: &str, lambda: Lambda) -> FitSettings {
     FitSettings {

@@ -4,7 +4,7 @@
 //! constant detrend, density scaling); no Python is needed here.
 
 use serde::Deserialize;
-use tolles_core::spectrum::welch_with_segment_len;
+use tolles_core::signal::spectrum::welch_with_segment_len;
 
 const FIXTURE: &str = include_str!("fixtures/spectrum/scipy_welch.json");
 const TOL: f64 = 1e-10;

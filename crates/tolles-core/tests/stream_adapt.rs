@@ -1,12 +1,12 @@
 //! Online adaptation on simulated flights with known truth: a permanent-field step is tracked,
 //! and a correct model on a quiet survey is not degraded.
 
-use tolles_core::adapt::AdaptSettings;
-use tolles_core::design::Design;
-use tolles_core::interpret::AircraftField;
-use tolles_core::plan::{BoxPlan, SurveyPlan};
-use tolles_core::sim::{simulate, Installation, Scenario, SimulatedFlight};
-use tolles_core::stream::{Derivative, Sample, ScalarSpec, StreamCompensator};
+use tolles_core::compensate::adapt::AdaptSettings;
+use tolles_core::compensate::stream::{Derivative, Sample, ScalarSpec, StreamCompensator};
+use tolles_core::flight::plan::{BoxPlan, SurveyPlan};
+use tolles_core::flight::sim::{simulate, Installation, Scenario, SimulatedFlight};
+use tolles_core::model::design::Design;
+use tolles_core::model::interpret::AircraftField;
 
 fn design() -> Design {
     Design::new("p,i,e".parse().unwrap())

@@ -33,7 +33,7 @@ pub fn std(x: &[f64]) -> f64 {
 /// How far a survey is from the simulator's true earth field: std of `values − earth_nt` (nT).
 pub fn error_vs_truth(values: &[f64], earth_nt: &[f64]) -> f64 {
     let error: Vec<f64> = values.iter().zip(earth_nt).map(|(v, e)| v - e).collect();
-    tolles_core::metrics::std_dev(&error)
+    tolles_core::signal::metrics::std_dev(&error)
 }
 
 /// `scalar` (nT) compensated with `model` as `tolles compensate` does it: the model's chosen
@@ -41,7 +41,7 @@ pub fn error_vs_truth(values: &[f64], earth_nt: &[f64]) -> f64 {
 pub fn compensate_with<'a>(
     model: &tolles_core::fit::Fit,
     scalar: &[f64],
-    flux: impl Into<tolles_core::vector::Fluxgates<'a>>,
+    flux: impl Into<tolles_core::model::vector::Fluxgates<'a>>,
     tt: &[f64],
 ) -> Vec<f64> {
     tolles_core::compensate::compensate(

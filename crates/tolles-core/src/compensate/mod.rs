@@ -1,0 +1,227 @@
+//! Applying a fitted model: `compensated = uncompensated − (A·β − level)`.
+//!
+//! ```
+//! use tolles_core::compensate::{compensate, Level};
+//! use tolles_core::model::design::Design;
+//! use tolles_core::model::vector::VectorSeries;
+//!
+//! let flux = VectorSeries::new(vec![30_000.0, 0.0], vec![0.0, 30_000.0], vec![40_000.0; 2]);
+//! let design = Design::new("p".parse().unwrap());
+//! let out = compensate(&[50_010.0, 50_000.0], &flux, None, &design, &[10.0, 0.0, 0.0], 1.0, Level::FileMean);
+//! // A·β = [6, 0]; its mean 3 is kept in the data, the variation is removed.
+//! assert_eq!(out.compensated, [50_007.0, 50_003.0]);
+//! ```
+//!
+//! The design matrix comes from the survey's own fluxgate. Its eddy columns are changes per
+//! sample, so when the survey's sample rate differs from the calibration's the eddy coefficients
+//! are rescaled by `fs_survey / fs_calibration` to keep the physical eddy terms (seconds).
+
+pub mod adapt;
+pub mod stream;
+
+use crate::model::design::Design;
+use crate::model::terms::Column;
+use crate::model::vector::Fluxgates;
+use crate::signal::segment::contiguous_runs;
+use serde::{Deserialize, Serialize};
+
+/// Which constant level of the correction is kept in the compensated data.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum Level {
+    /// Subtract the mean of `A·β` over this data (MagNav's choice; needs the whole file).
+    FileMean,
+    /// Subtract the least-squares straight line (in sample index) through `A·β` over this data,
+    /// MagNav's `detrend`, which also keeps a slow drift of the correction in the data.
+    FileLinearTrend,
+    /// Subtract this level (nT), e.g. the calibration flight's mean stored in the model, as a
+    /// streaming compensator must.
+    Fixed(f64),
+}
+
+/// The result of compensating one scalar.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Compensation {
+    /// Compensated scalar (nT); NaN where it cannot be computed.
+    pub compensated: Vec<f64>,
+    /// The removed aircraft field `A·β − level` (nT); NaN where the fluxgate is not usable.
+    pub correction: Vec<f64>,
+    /// The level that was subtracted from `A·β` (nT); for a linear trend, the mean of `A·β`.
+    pub level_nt: f64,
+    /// Samples whose compensated value is NaN.
+    pub uncomputable: usize,
+}
+
+/// Compensates `scalar` (nT) with the fluxgate `flux` (nT, body frame), or several, one per
+/// block of `design`.
+///
+/// `fs_ratio` is the survey's sample rate divided by the calibration's (1 when equal).
+/// Samples with a non-finite fluxgate get no correction; runs are split there and at time gaps in
+/// `tt` (seconds), so derivatives never reach across a hole.
+pub fn compensate<'a>(
+    scalar: &[f64],
+    flux: impl Into<Fluxgates<'a>>,
+    tt: Option<&[f64]>,
+    design: &Design,
+    coefficients: &[f64],
+    fs_ratio: f64,
+    level: Level,
+) -> Compensation {
+    let correction = aircraft_field(flux, tt, design, coefficients, fs_ratio);
+    let (correction, level_nt) = match level {
+        Level::Fixed(v) => (correction.iter().map(|c| c - v).collect(), v),
+        Level::FileMean => {
+            let mean = finite_mean(&correction);
+            (correction.iter().map(|c| c - mean).collect(), mean)
+        }
+        Level::FileLinearTrend => {
+            let mean = finite_mean(&correction);
+            (detrend(&correction), mean)
+        }
+    };
+    let compensated: Vec<f64> = scalar.iter().zip(&correction).map(|(s, c)| s - c).collect();
+    let uncomputable = compensated.iter().filter(|v| !v.is_finite()).count();
+    Compensation {
+        compensated,
+        correction,
+        level_nt,
+        uncomputable,
+    }
+}
+
+/// `A·β` (nT) for every sample, NaN where a fluxgate is not finite.
+pub fn aircraft_field<'a>(
+    flux: impl Into<Fluxgates<'a>>,
+    tt: Option<&[f64]>,
+    design: &Design,
+    coefficients: &[f64],
+    fs_ratio: f64,
+) -> Vec<f64> {
+    let flux = flux.into();
+    let beta = rescale_eddy(design, coefficients, fs_ratio);
+    let usable: Vec<bool> = (0..flux.len()).map(|k| flux.is_finite(k)).collect();
+    let mut field = vec![f64::NAN; flux.len()];
+    for run in contiguous_runs(&usable, tt) {
+        let part = design.apply(&flux.slice(run.clone()), &beta);
+        field[run].copy_from_slice(&part);
+    }
+    field
+}
+
+/// The coefficients with the eddy-current ones multiplied by `fs_ratio` (survey rate / calibration rate).
+pub fn rescale_eddy(design: &Design, coefficients: &[f64], fs_ratio: f64) -> Vec<f64> {
+    design
+        .columns()
+        .iter()
+        .zip(coefficients)
+        .map(|(c, b)| match c {
+            Column::Eddy(..) => b * fs_ratio,
+            _ => *b,
+        })
+        .collect()
+}
+
+/// `x` minus its least-squares straight line `a + b·k` over the sample index k, fitted to the
+/// finite values (MagNav's `detrend`). Non-finite values stay as they are.
+pub fn detrend(x: &[f64]) -> Vec<f64> {
+    let points = || x.iter().enumerate().filter(|(_, v)| v.is_finite());
+    let n = points().count() as f64;
+    if n < 2.0 {
+        let mean = finite_mean(x);
+        return x.iter().map(|v| v - mean).collect();
+    }
+    let k_mean = points().map(|(k, _)| k as f64).sum::<f64>() / n;
+    let x_mean = points().map(|(_, v)| *v).sum::<f64>() / n;
+    let (sxy, sxx) = points().fold((0.0, 0.0), |(sxy, sxx), (k, v)| {
+        let dk = k as f64 - k_mean;
+        (sxy + dk * (v - x_mean), sxx + dk * dk)
+    });
+    let slope = sxy / sxx;
+    x.iter()
+        .enumerate()
+        .map(|(k, v)| v - x_mean - slope * (k as f64 - k_mean))
+        .collect()
+}
+
+/// Mean of the finite values (NaN if none).
+pub fn finite_mean(x: &[f64]) -> f64 {
+    let (sum, n) = x
+        .iter()
+        .filter(|v| v.is_finite())
+        .fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
+    if n == 0 {
+        f64::NAN
+    } else {
+        sum / n as f64
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::vector::VectorSeries;
+
+    fn flux4() -> VectorSeries {
+        VectorSeries::new(
+            vec![20_000.0, 20_100.0, f64::NAN, 19_900.0],
+            vec![1_000.0, -500.0, 300.0, 0.0],
+            vec![45_000.0, 44_900.0, 45_100.0, 45_050.0],
+        )
+    }
+
+    #[test]
+    fn holes_in_the_fluxgate_are_marked_not_dropped() {
+        let design = Design::new("p,e".parse().unwrap());
+        let beta = vec![1.0; design.width()];
+        let out = compensate(
+            &[1.0; 4],
+            &flux4(),
+            None,
+            &design,
+            &beta,
+            1.0,
+            Level::FileMean,
+        );
+        assert_eq!(out.compensated.len(), 4);
+        assert!(out.compensated[2].is_nan());
+        assert_eq!(out.uncomputable, 1);
+    }
+
+    #[test]
+    fn fixed_level_is_subtracted_as_given() {
+        let design = Design::new("b".parse().unwrap());
+        let out = compensate(
+            &[5.0; 4],
+            &flux4(),
+            None,
+            &design,
+            &[2.0],
+            1.0,
+            Level::Fixed(0.5),
+        );
+        assert_eq!(out.correction[0], 1.5);
+        assert_eq!(out.compensated[0], 3.5);
+    }
+
+    #[test]
+    fn detrend_removes_a_line_exactly() {
+        let x: Vec<f64> = (0..10).map(|k| 3.0 + 0.5 * k as f64).collect();
+        assert!(detrend(&x).iter().all(|v| v.abs() < 1e-12));
+        let with_hole = [1.0, f64::NAN, 3.0, 4.0];
+        let d = detrend(&with_hole);
+        assert!(d[1].is_nan() && d[0].abs() < 1e-12 && d[3].abs() < 1e-12);
+    }
+
+    #[test]
+    fn eddy_coefficients_scale_with_the_sample_rate() {
+        let design = Design::new("e3".parse().unwrap());
+        let flux = VectorSeries::new(
+            (0..20).map(|k| 20_000.0 + 10.0 * k as f64).collect(),
+            vec![0.0; 20],
+            vec![45_000.0; 20],
+        );
+        // Twice the sample rate halves the change per sample; doubling β keeps the field.
+        let slow = aircraft_field(&flux, None, &design, &[100.0, 0.0, 0.0], 1.0);
+        let fast = aircraft_field(&flux, None, &design, &[50.0, 0.0, 0.0], 2.0);
+        assert!((slow[5] - fast[5]).abs() < 1e-12);
+    }
+}

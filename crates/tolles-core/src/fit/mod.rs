@@ -1,0 +1,722 @@
+//! Fitting a Tolles-Lawson model: filter, trim, ridge least squares.
+//!
+//! ```
+//! use tolles_core::model::design::Design;
+//! use tolles_core::fit::{fit, FitSettings, Lambda};
+//! use tolles_core::model::vector::VectorSeries;
+//!
+//! // A fluxgate swinging through ±20° at 0.2 Hz, and a scalar that sees a 40 nT permanent field
+//! // along the aircraft's x axis.
+//! let fs = 10.0;
+//! let n = 2000;
+//! let angle = |k: usize| 0.35 * (2.0 * std::f64::consts::PI * 0.2 * k as f64 / fs).sin();
+//! let flux = VectorSeries::new(
+//!     (0..n).map(|k| 20_000.0 * angle(k).cos()).collect(),
+//!     (0..n).map(|k| 20_000.0 * angle(k).sin()).collect(),
+//!     vec![45_000.0; n],
+//! );
+//! let scalar: Vec<f64> = (0..n).map(|k| 50_000.0 + 40.0 * flux.x[k] / flux.magnitude(k)).collect();
+//! let settings = FitSettings {
+//!     design: Design::new("p".parse().unwrap()),
+//!     lambda: Lambda::Fixed(0.0),
+//!     ..FitSettings::magnav()
+//! };
+//! let model = fit(&scalar, &flux, fs, None, &settings).unwrap();
+//! assert!((model.coefficients[0] - 40.0).abs() < 1e-6);
+//! ```
+//!
+//! The procedure is MagNav.jl's `create_TL_coef`: build the design matrix `A` from the fluxgate,
+//! band-pass every column of `A` and the scalar with the same zero-phase filter (constant columns
+//! are left alone), drop `trim` samples at each end, and solve
+//! `(AᵀA + λI)·β = Aᵀy` with unscaled columns (MagNav's `linreg`).
+//!
+//! We solve the ridge problem as the least-squares problem `[A; √λ·I]·β ≈ [y; 0]` by a
+//! blocked Householder QR ("TSQR"), never forming `AᵀA`: on the MagNav test flight
+//! `cond(AᵀA) ≈ 4·10⁷`, so normal equations would lose about eight digits.
+//!
+//! Samples where the scalar or fluxgate is not finite are skipped; the remaining samples are cut
+//! into contiguous runs (also at time gaps, see [`crate::signal::segment`]) and each run is designed,
+//! filtered and trimmed on its own, so no derivative or filter reaches across a hole.
+
+pub mod crossval;
+pub mod ridge;
+
+use crate::fit::crossval::{cross_validate, penalty, CrossValidation, DEFAULT_FOLDS, LAMBDA_GRID};
+use crate::fit::ridge::{Ridge, RidgeError, RidgeSolution};
+use crate::model::design::{Design, Term};
+use crate::model::terms::TermSet;
+use crate::model::vector::{Fluxgates, VectorSeries};
+use crate::signal::filter::{Butterworth, FilterError};
+use crate::signal::segment::contiguous_runs;
+use nalgebra::DMatrix;
+use serde::{Deserialize, Serialize};
+use std::ops::Range;
+use thiserror::Error;
+
+/// Fluxgate magnitudes outside this range (nT) mean the data is not in nT or not a fluxgate.
+pub const FLUX_MAGNITUDE_RANGE_NT: (f64, f64) = (1_000.0, 100_000.0);
+
+// The pass band lives with the filters; re-exported because a fit's settings name it.
+pub use crate::signal::filter::Band;
+
+/// How strongly to regularise the least-squares solve.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Lambda {
+    /// Add this λ to every diagonal entry of `AᵀA`, columns unscaled: MagNav's `linreg`.
+    Fixed(f64),
+    /// Choose `λ_rel` by blocked cross-validation over time in `folds` contiguous folds and add
+    /// `λ_rel·diag(AᵀA)` (a ridge on standardised columns); see [`crate::fit::crossval`].
+    CrossValidated { folds: usize },
+}
+
+impl Lambda {
+    /// Cross-validation with the default number of folds.
+    pub fn auto() -> Self {
+        Lambda::CrossValidated {
+            folds: DEFAULT_FOLDS,
+        }
+    }
+}
+
+/// How to fit.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FitSettings {
+    /// Terms and `Bt_scale`.
+    pub design: Design,
+    /// Ridge regularisation.
+    pub lambda: Lambda,
+    /// Pass band of the filter applied to every column and the scalar.
+    pub band: Band,
+    /// Butterworth order (per edge for band-pass, as scipy and DSP.jl count).
+    pub order: usize,
+    /// Samples dropped at each end of each run after filtering.
+    pub trim: usize,
+    /// Other term sets cross-validation may choose instead of `design.terms` (only when λ is
+    /// cross-validated). An alternative must predict the held-out folds at least
+    /// [`TERM_CHOICE_MARGIN`] better to be chosen, since a larger set can also fit the earth
+    /// field's own variations through the fluxgate's magnitude.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub alternative_terms: Vec<TermSet>,
+}
+
+/// Relative improvement of held-out RMS an alternative term set needs over `design.terms`.
+pub const TERM_CHOICE_MARGIN: f64 = 0.02;
+
+impl FitSettings {
+    /// What `tolles fit` does by default: the 16 identifiable terms, or MagNav's 18 if
+    /// cross-validation finds them clearly better, λ by cross-validation, otherwise MagNav's
+    /// filter and trim.
+    pub fn recommended() -> Self {
+        Self {
+            design: Design::new(TermSet::identifiable()),
+            lambda: Lambda::auto(),
+            alternative_terms: vec![TermSet::magnav_default()],
+            ..Self::magnav()
+        }
+    }
+
+    /// The designs to try: `design` first, then its alternatives when λ is cross-validated.
+    fn candidate_designs(&self) -> Vec<Design> {
+        let mut designs = vec![self.design.clone()];
+        if matches!(self.lambda, Lambda::CrossValidated { .. }) {
+            designs.extend(self.alternative_terms.iter().map(|&terms| Design {
+                terms,
+                ..self.design.clone()
+            }));
+        }
+        designs
+    }
+
+    /// MagNav.jl's procedure as its tests run it: 18 terms, λ = 0.001, 0.1–0.9 Hz, order 4,
+    /// trim 20, `Bt_scale` 50 000.
+    pub fn magnav() -> Self {
+        Self {
+            design: Design::new(TermSet::magnav_default()),
+            lambda: Lambda::Fixed(0.001),
+            band: Band::MAGNAV,
+            order: 4,
+            trim: 20,
+            alternative_terms: Vec::new(),
+        }
+    }
+}
+
+/// Why a fit could not be made.
+#[derive(Debug, Error, PartialEq)]
+pub enum FitError {
+    #[error("scalar has {scalar} samples but the fluxgate has {flux}")]
+    LengthMismatch { scalar: usize, flux: usize },
+    #[error("sample rate must be positive and finite, got {0} Hz")]
+    SampleRate(f64),
+    #[error("ridge strength λ must be finite and ≥ 0, got {0}")]
+    Lambda(f64),
+    #[error("cross-validation needs at least 2 folds, got {0}")]
+    Folds(usize),
+    #[error("no ridge strength could be fitted on every cross-validation fold (too little data for {terms} terms); fix the ridge strength λ or use fewer terms")]
+    CrossValidation { terms: usize },
+    #[error("fluxgate {} magnitude {magnitude:.1} nT at sample {index} is outside 1,000–100,000 nT: is the fluxgate in nT?", fluxgate + 1)]
+    FluxMagnitude {
+        fluxgate: usize,
+        index: usize,
+        magnitude: f64,
+    },
+    #[error("the design is for {design} fluxgates but {given} were given")]
+    FluxgateCount { design: usize, given: usize },
+    #[error("fluxgate {} has {samples} samples but the first has {first}", fluxgate + 1)]
+    FluxgateLength {
+        fluxgate: usize,
+        samples: usize,
+        first: usize,
+    },
+    #[error("the scalar magnetometer is constant: there is nothing to fit")]
+    ConstantScalar,
+    #[error("the fluxgate is constant: the aircraft did not maneuver, so no term can be fitted")]
+    ConstantFlux,
+    #[error("only {usable} usable samples after filtering and trimming, fewer than the {terms} terms; use a longer flight, fewer terms or a smaller trim")]
+    TooFewSamples { usable: usize, terms: usize },
+    #[error(transparent)]
+    Ridge(#[from] RidgeError),
+    #[error(transparent)]
+    Filter(#[from] FilterError),
+}
+
+/// Everything a fit found out about how well it went.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Diagnostics {
+    /// Samples in the input.
+    pub samples_total: usize,
+    /// Samples skipped because the scalar or fluxgate was not finite.
+    pub samples_nonfinite: usize,
+    /// Samples in runs too short to filter and trim (skipped).
+    pub samples_in_short_runs: usize,
+    /// Samples that entered the least-squares solve (after trimming).
+    pub samples_used: usize,
+    /// Contiguous runs used.
+    pub runs_used: usize,
+    /// Standard deviation of the filtered scalar before fitting (nT).
+    pub filtered_std_before_nt: f64,
+    /// Standard deviation of the filtered residual `y − A·β` (nT).
+    pub residual_std_nt: f64,
+    /// `filtered_std_before_nt / residual_std_nt`.
+    pub improvement_ratio: f64,
+    /// Condition number of `AᵀA + λI` (2-norm).
+    pub condition_number: f64,
+    /// Fraction of the Nyquist band the filter passes; residuals are correlated over about
+    /// `1/fraction` samples, so the standard errors are inflated by `1/√fraction`.
+    pub effective_sample_fraction: f64,
+    /// The diagonal penalty added to `AᵀA`, one value per column (squared column units).
+    pub penalty: Vec<f64>,
+    /// How λ was chosen, when it was cross-validated.
+    pub cross_validation: Option<CrossValidation>,
+    /// Every term set cross-validation compared, with its held-out error (empty when only one
+    /// was tried).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub term_choice: Vec<TermScore>,
+    /// Standard error of each coefficient (coefficient units), from the ridge sandwich
+    /// covariance `σ²·G⁻¹AᵀAG⁻¹`, `G = AᵀA + λI`.
+    pub std_errors: Vec<f64>,
+}
+
+/// How well one candidate term set predicted held-out data.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TermScore {
+    /// The term set.
+    pub terms: TermSet,
+    /// Its cross-validated relative ridge strength, `None` if it could not be fitted.
+    pub lambda_rel: Option<f64>,
+    /// Its held-out RMS (nT), `None` if it could not be fitted.
+    pub heldout_rms_nt: Option<f64>,
+    /// True for the set the model uses.
+    pub chosen: bool,
+}
+
+/// A fitted model and its diagnostics.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Fit {
+    /// The settings used; `design.terms` is the term set chosen.
+    pub settings: FitSettings,
+    /// Sample rate (Hz) of the calibration data; eddy coefficients are per sample at this rate.
+    pub fs_hz: f64,
+    /// Names of the columns, in order (see [`Design::column_names`]).
+    pub columns: Vec<String>,
+    /// One coefficient per column (nT per unit of the column).
+    pub coefficients: Vec<f64>,
+    /// Mean of the unfiltered `A·β` over the calibration samples (nT): the level a streaming
+    /// compensator subtracts, since it cannot know a whole file's mean.
+    pub level_nt: f64,
+    /// Fit quality.
+    pub diagnostics: Diagnostics,
+}
+
+/// Fits a model to a calibration flight.
+///
+/// - `scalar`: the uncompensated scalar magnetometer (nT); non-finite samples are skipped;
+/// - `flux`: the fluxgate (nT, body frame FRD), or several, one per block of
+///   `settings.design` (see [`Design`]); a sample is skipped if any of them is not finite;
+/// - `fs_hz`: sample rate (Hz);
+/// - `tt`: optional time (seconds) used only to split runs at gaps.
+pub fn fit<'a>(
+    scalar: &[f64],
+    flux: impl Into<Fluxgates<'a>>,
+    fs_hz: f64,
+    tt: Option<&[f64]>,
+    settings: &FitSettings,
+) -> Result<Fit, FitError> {
+    let flux = flux.into();
+    check_inputs(scalar, &flux, fs_hz, settings)?;
+    let usable: Vec<bool> = (0..scalar.len())
+        .map(|k| scalar[k].is_finite() && flux.is_finite(k))
+        .collect();
+    check_not_constant(scalar, flux.series()[0], &usable)?;
+    let filter = settings.band.butterworth(settings.order, fs_hz)?;
+    let designs = settings.candidate_designs();
+    let union = union_of_terms(&designs);
+    let mut prepared = Vec::new();
+    let mut short = 0;
+    for run in contiguous_runs(&usable, tt) {
+        match prepare_run(
+            scalar,
+            &flux,
+            run.clone(),
+            filter.as_ref(),
+            settings,
+            &union,
+        )? {
+            Some(rows) => prepared.push(rows),
+            None => short += run.len(),
+        }
+    }
+    let chosen = choose_design(&prepared, &designs, &union, settings.lambda)?;
+    let design = &designs[chosen.index];
+    let mut before = RunningStd::default();
+    prepared
+        .iter()
+        .flat_map(|(_, y)| y)
+        .for_each(|v| before.push(*v));
+    let level_nt = mean_correction(&flux, &usable, tt, design, &chosen.solution.coefficients);
+    let diagnostics = diagnostics(
+        &chosen.solution,
+        DiagnosticCounts {
+            total: scalar.len(),
+            nonfinite: usable.iter().filter(|u| !**u).count(),
+            short,
+            runs_used: prepared.len(),
+            before_std: before.std(),
+            fraction: passband_fraction(settings.band, fs_hz),
+        },
+        chosen.cross_validation,
+        chosen.scores,
+    );
+    Ok(Fit {
+        settings: FitSettings {
+            design: design.clone(),
+            ..settings.clone()
+        },
+        fs_hz,
+        columns: design.column_names(&[]),
+        coefficients: chosen.solution.coefficients,
+        level_nt,
+        diagnostics,
+    })
+}
+
+/// Every term of `designs`, each once, in order of first appearance.
+fn union_of_terms(designs: &[Design]) -> Vec<Term> {
+    let mut union: Vec<Term> = Vec::new();
+    for term in designs.iter().flat_map(Design::design_terms) {
+        if !union.contains(&term) {
+            union.push(term);
+        }
+    }
+    union
+}
+
+/// The candidate design that won, its solution and the scores of all candidates.
+struct Chosen {
+    index: usize,
+    solution: RidgeSolution,
+    cross_validation: Option<CrossValidation>,
+    scores: Vec<TermScore>,
+}
+
+/// Solves every candidate design on the same folds and keeps the first one unless another
+/// predicts held-out data [`TERM_CHOICE_MARGIN`] better. The first design's failure is the
+/// fit's failure; an alternative that fails is only scored as such.
+fn choose_design(
+    prepared: &[Rows],
+    designs: &[Design],
+    union: &[Term],
+    lambda: Lambda,
+) -> Result<Chosen, FitError> {
+    let mut solved = Vec::new();
+    for (index, design) in designs.iter().enumerate() {
+        let picks: Vec<usize> = design
+            .design_terms()
+            .iter()
+            .map(|t| {
+                union
+                    .iter()
+                    .position(|u| u == t)
+                    .expect("union holds every term")
+            })
+            .collect();
+        let folds = fold_problems(prepared, &picks, lambda);
+        let rows: usize = folds.iter().map(Ridge::rows).sum();
+        let outcome = if rows < picks.len() {
+            Err(FitError::TooFewSamples {
+                usable: rows,
+                terms: picks.len(),
+            })
+        } else {
+            solve(&folds, lambda, &design.column_names(&[]))
+        };
+        match outcome {
+            Ok(s) => solved.push((index, s)),
+            Err(e) if index == 0 => return Err(e),
+            Err(_) => {}
+        }
+    }
+    let heldout: Vec<Option<f64>> = solved
+        .iter()
+        .map(|(_, (_, cv))| cv.as_ref().map(|c| c.expected_heldout_rms_nt))
+        .collect();
+    let mut best = 0;
+    if let Some(first) = heldout[0] {
+        let to_clear = first * (1.0 - TERM_CHOICE_MARGIN);
+        for (k, score) in heldout.iter().enumerate().skip(1) {
+            // The current best always has a score: the first one, or one that cleared the bar.
+            if score.is_some_and(|s| s < to_clear && heldout[best].is_some_and(|b| s < b)) {
+                best = k;
+            }
+        }
+    }
+    let scores = if designs.len() > 1 {
+        designs
+            .iter()
+            .enumerate()
+            .map(|(index, design)| {
+                let found = solved.iter().position(|(i, _)| *i == index);
+                let cv = found.and_then(|k| solved[k].1 .1.as_ref());
+                TermScore {
+                    terms: design.terms,
+                    lambda_rel: cv.map(|c| c.chosen_lambda_rel),
+                    heldout_rms_nt: cv.map(|c| c.expected_heldout_rms_nt),
+                    chosen: found == Some(best),
+                }
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
+    let (index, (solution, cross_validation)) = solved.swap_remove(best);
+    Ok(Chosen {
+        index,
+        solution,
+        cross_validation,
+        scores,
+    })
+}
+
+/// Splits the prepared rows, in time order, into contiguous folds (one fold for a fixed λ),
+/// keeping the columns `picks` of the prepared matrices.
+fn fold_problems(prepared: &[Rows], picks: &[usize], lambda: Lambda) -> Vec<Ridge> {
+    let count = match lambda {
+        Lambda::Fixed(_) => 1,
+        Lambda::CrossValidated { folds } => folds,
+    };
+    let total: usize = prepared.iter().map(|(_, y)| y.len()).sum();
+    let mut folds = vec![Ridge::new(picks.len()); count];
+    // Row r (counted over all runs) goes to fold ⌊r·count/total⌋; fold f ends before row
+    // ⌈(f+1)·total/count⌉. Each run is pushed in the pieces that fall in one fold.
+    let mut r = 0;
+    for (a, y) in prepared {
+        let n = y.len();
+        let mut start = 0;
+        while start < n {
+            let fold = (r + start) * count / total;
+            let fold_end = ((fold + 1) * total).div_ceil(count);
+            let end = (fold_end - r).min(n);
+            let columns: Vec<&[f64]> = picks
+                .iter()
+                .map(|&c| &a.as_slice()[c * n + start..c * n + end])
+                .collect();
+            folds[fold].push_columns(&columns, &y[start..end]);
+            start = end;
+        }
+        r += n;
+    }
+    folds
+}
+
+/// The final solve on all rows, with λ fixed or cross-validated.
+fn solve(
+    folds: &[Ridge],
+    lambda: Lambda,
+    columns: &[String],
+) -> Result<(RidgeSolution, Option<CrossValidation>), FitError> {
+    let mut all = folds[0].clone();
+    folds[1..].iter().for_each(|f| all.merge(f));
+    match lambda {
+        Lambda::Fixed(lambda) => Ok((all.solve(lambda, columns)?, None)),
+        Lambda::CrossValidated { .. } => {
+            let cv =
+                cross_validate(folds, &LAMBDA_GRID, columns).ok_or(FitError::CrossValidation {
+                    terms: columns.len(),
+                })?;
+            let weights = penalty(cv.chosen_lambda_rel, &all.column_sums_of_squares());
+            Ok((all.solve_penalised(&weights, columns)?, Some(cv)))
+        }
+    }
+}
+
+fn check_inputs(
+    scalar: &[f64],
+    flux: &Fluxgates,
+    fs_hz: f64,
+    settings: &FitSettings,
+) -> Result<(), FitError> {
+    if flux.count() != settings.design.fluxgates {
+        return Err(FitError::FluxgateCount {
+            design: settings.design.fluxgates,
+            given: flux.count(),
+        });
+    }
+    if let Some(fluxgate) = (0..flux.count()).find(|&f| flux.series()[f].len() != flux.len()) {
+        return Err(FitError::FluxgateLength {
+            fluxgate,
+            samples: flux.series()[fluxgate].len(),
+            first: flux.len(),
+        });
+    }
+    if scalar.len() != flux.len() {
+        return Err(FitError::LengthMismatch {
+            scalar: scalar.len(),
+            flux: flux.len(),
+        });
+    }
+    if !(fs_hz.is_finite() && fs_hz > 0.0) {
+        return Err(FitError::SampleRate(fs_hz));
+    }
+    match settings.lambda {
+        Lambda::Fixed(l) if !(l.is_finite() && l >= 0.0) => return Err(FitError::Lambda(l)),
+        Lambda::CrossValidated { folds } if folds < 2 => return Err(FitError::Folds(folds)),
+        _ => {}
+    }
+    check_flux_magnitude(flux.clone())
+}
+
+/// Rejects fluxgates whose finite samples have a magnitude outside
+/// [`FLUX_MAGNITUDE_RANGE_NT`]; reports the first such sample.
+pub fn check_flux_magnitude<'a>(flux: impl Into<Fluxgates<'a>>) -> Result<(), FitError> {
+    let (lo, hi) = FLUX_MAGNITUDE_RANGE_NT;
+    for (fluxgate, series) in flux.into().series().iter().enumerate() {
+        for k in 0..series.len() {
+            let magnitude = series.magnitude(k);
+            if magnitude.is_finite() && !(lo..=hi).contains(&magnitude) {
+                return Err(FitError::FluxMagnitude {
+                    fluxgate,
+                    index: k,
+                    magnitude,
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+fn check_not_constant(
+    scalar: &[f64],
+    flux: &VectorSeries,
+    usable: &[bool],
+) -> Result<(), FitError> {
+    let varies = |x: &[f64]| {
+        let mut values = x.iter().zip(usable).filter(|(_, u)| **u).map(|(v, _)| *v);
+        let first = values.next();
+        first.is_some_and(|f| values.any(|v| v != f))
+    };
+    if !varies(scalar) {
+        return Err(FitError::ConstantScalar);
+    }
+    if !(varies(&flux.x) || varies(&flux.y) || varies(&flux.z)) {
+        return Err(FitError::ConstantFlux);
+    }
+    Ok(())
+}
+
+/// Filtered, trimmed design rows and their scalar targets.
+type Rows = (DMatrix<f64>, Vec<f64>);
+
+/// Design, filter and trim one run; `None` if it is too short.
+fn prepare_run(
+    scalar: &[f64],
+    flux: &Fluxgates,
+    run: Range<usize>,
+    filter: Option<&Butterworth>,
+    settings: &FitSettings,
+    terms: &[Term],
+) -> Result<Option<Rows>, FitError> {
+    let trim = if filter.is_some() { settings.trim } else { 0 };
+    let needed = filter.map_or(0, |f| f.padlen() + 1).max(2 * trim + 1);
+    if run.len() < needed {
+        return Ok(None);
+    }
+    let mut a = settings.design.matrix_of(&flux.slice(run.clone()), terms);
+    let mut y = scalar[run].to_vec();
+    let n = y.len();
+    if let Some(f) = filter {
+        let mut signals: Vec<&mut [f64]> = a.as_mut_slice().chunks_mut(n).collect();
+        signals.push(&mut y);
+        crate::signal::filter::filtfilt_many_unless_constant(f, &mut signals)?;
+    }
+    let a = a.rows(trim, n - 2 * trim).into_owned();
+    let y = y[trim..n - trim].to_vec();
+    Ok(Some((a, y)))
+}
+
+/// Mean of the unfiltered correction `A·β` over the usable samples (nT).
+fn mean_correction(
+    flux: &Fluxgates,
+    usable: &[bool],
+    tt: Option<&[f64]>,
+    design: &Design,
+    coefficients: &[f64],
+) -> f64 {
+    let mut sum = 0.0;
+    let mut count = 0usize;
+    for run in contiguous_runs(usable, tt) {
+        let correction = design.apply(&flux.slice(run), coefficients);
+        sum += correction.iter().sum::<f64>();
+        count += correction.len();
+    }
+    if count == 0 {
+        0.0
+    } else {
+        sum / count as f64
+    }
+}
+
+/// Fraction of the band 0…fs/2 that the filter passes (1 when it does not filter).
+fn passband_fraction(band: Band, fs_hz: f64) -> f64 {
+    let nyquist = fs_hz / 2.0;
+    let valid = |f: f64| f > 0.0 && f < nyquist;
+    let lo = if valid(band.pass1_hz) {
+        band.pass1_hz
+    } else {
+        0.0
+    };
+    let hi = if valid(band.pass2_hz) {
+        band.pass2_hz
+    } else {
+        nyquist
+    };
+    ((hi - lo) / nyquist).clamp(f64::EPSILON, 1.0)
+}
+
+/// Population standard deviation accumulated one value at a time (Welford).
+#[derive(Debug, Default, Clone, Copy)]
+struct RunningStd {
+    n: usize,
+    mean: f64,
+    m2: f64,
+}
+
+impl RunningStd {
+    fn push(&mut self, x: f64) {
+        self.n += 1;
+        let delta = x - self.mean;
+        self.mean += delta / self.n as f64;
+        self.m2 += delta * (x - self.mean);
+    }
+
+    fn std(&self) -> f64 {
+        if self.n == 0 {
+            return f64::NAN;
+        }
+        (self.m2 / self.n as f64).sqrt()
+    }
+}
+
+struct DiagnosticCounts {
+    total: usize,
+    nonfinite: usize,
+    short: usize,
+    runs_used: usize,
+    before_std: f64,
+    fraction: f64,
+}
+
+fn diagnostics(
+    solution: &RidgeSolution,
+    c: DiagnosticCounts,
+    cross_validation: Option<CrossValidation>,
+    term_choice: Vec<TermScore>,
+) -> Diagnostics {
+    let p = solution.coefficients.len();
+    let dof = solution.rows.saturating_sub(p).max(1) as f64;
+    let residual_std = (solution.rss / solution.rows as f64).sqrt();
+    let sigma2 = solution.rss / dof / c.fraction;
+    Diagnostics {
+        samples_total: c.total,
+        samples_nonfinite: c.nonfinite,
+        samples_in_short_runs: c.short,
+        samples_used: solution.rows,
+        runs_used: c.runs_used,
+        filtered_std_before_nt: c.before_std,
+        residual_std_nt: residual_std,
+        improvement_ratio: c.before_std / residual_std,
+        condition_number: solution.condition_number(),
+        effective_sample_fraction: c.fraction,
+        penalty: solution.penalty().to_vec(),
+        cross_validation,
+        term_choice,
+        std_errors: solution.std_errors(sigma2),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn passband_fraction_follows_the_fallbacks() {
+        let band = |a, b| Band {
+            pass1_hz: a,
+            pass2_hz: b,
+        };
+        assert!((passband_fraction(band(0.1, 0.9), 10.0) - 0.16).abs() < 1e-12);
+        assert!((passband_fraction(band(0.0, 1.0), 10.0) - 0.2).abs() < 1e-12);
+        assert_eq!(passband_fraction(band(0.0, 99.0), 10.0), 1.0);
+    }
+
+    #[test]
+    fn folds_are_contiguous_and_cover_every_row() {
+        let a = DMatrix::from_fn(10, 1, |i, _| i as f64);
+        let y: Vec<f64> = (0..10).map(|i| i as f64).collect();
+        let folds = fold_problems(&[(a.clone(), y.clone()), (a, y)], &[0], Lambda::auto());
+        assert_eq!(
+            folds.iter().map(Ridge::rows).collect::<Vec<_>>(),
+            [4, 4, 4, 4, 4]
+        );
+    }
+
+    #[test]
+    fn settings_are_validated() {
+        let flux = VectorSeries::new(vec![30_000.0; 3], vec![0.0; 3], vec![40_000.0; 3]);
+        let mut s = FitSettings::magnav();
+        s.lambda = Lambda::Fixed(-1.0);
+        assert_eq!(
+            fit(&[1.0; 3], &flux, 10.0, None, &s).unwrap_err(),
+            FitError::Lambda(-1.0)
+        );
+        s.lambda = Lambda::CrossValidated { folds: 1 };
+        assert_eq!(
+            fit(&[1.0; 3], &flux, 10.0, None, &s).unwrap_err(),
+            FitError::Folds(1)
+        );
+        assert_eq!(
+            fit(&[1.0; 3], &flux, 0.0, None, &s).unwrap_err(),
+            FitError::SampleRate(0.0)
+        );
+    }
+}

@@ -1,0 +1,9 @@
+//! Flights and the world they happen in: attitude, flight plans, the earth's field, sensors and
+//! simulated flights with known truth.
+
+pub mod attitude;
+pub mod environment;
+pub mod igrf;
+pub mod plan;
+pub mod sensor;
+pub mod sim;

@@ -1,0 +1,395 @@
+//! The Tolles-Lawson design matrix: one row per sample, one column per term.
+//!
+//! ```
+//! use tolles_core::model::design::{Design, TermSet};
+//! use tolles_core::model::vector::VectorSeries;
+//!
+//! let flux = VectorSeries::new(vec![30_000.0; 3], vec![0.0; 3], vec![40_000.0; 3]);
+//! let a = Design::new(TermSet::magnav_default()).matrix(&flux);
+//! assert!((a[(0, 0)] - 0.6).abs() < 1e-15); // B̂x = 30000 / 50000
+//! assert!((a[(0, 3)] - 0.6 * 30_000.0 / 50_000.0).abs() < 1e-15); // B̂x·Bx / Bt_scale
+//! ```
+//!
+//! With B the fluxgate vector (nT, body frame), B̂ = B/|B|, Ḃ its central difference per sample
+//! (one-sided at the ends) and s = `bt_scale`:
+//! - permanent field: `B̂x, B̂y, B̂z` — the projection of a constant body-frame field on the
+//!   earth field direction;
+//! - induced field: `B̂i·Bj / s` — the projection of a field proportional to the earth field;
+//! - **eddy currents**: `B̂i·Ḃj / s` — the projection of a field proportional to the earth
+//!   field's rate of change as the aircraft turns (see [`Design::row`]);
+//! - bias: `1`.
+//!
+//! The column order is MagNav.jl's `create_TL_A` (see [`crate::model::terms`]).
+
+use crate::model::terms::Column;
+pub use crate::model::terms::TermSet;
+use crate::model::vector::{Fluxgates, VectorSeries};
+use nalgebra::DMatrix;
+use serde::{Deserialize, Serialize};
+
+/// MagNav.jl's scale for the induced and eddy columns (nT), so they are of order one.
+pub const MAGNAV_BT_SCALE: f64 = 50_000.0;
+
+/// Builds Tolles-Lawson design rows for a chosen [`TermSet`], over one or more fluxgates.
+///
+/// With several fluxgates each adds its own block of the chosen columns, computed from its own
+/// readings, in the order the fluxgates are given; the bias column, if chosen, appears once, in
+/// the first block. A fluxgate near a source of interference (a cable, a motor) sees that source,
+/// so its block lets the scalar's interference from that source be fitted too.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Design {
+    /// The terms, and so the columns of each fluxgate's block.
+    pub terms: TermSet,
+    /// Divisor of the induced and eddy columns (nT); MagNav uses 50 000.
+    pub bt_scale: f64,
+    /// Number of fluxgates whose blocks the design holds.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub fluxgates: usize,
+}
+
+fn one() -> usize {
+    1
+}
+
+fn is_one(n: &usize) -> bool {
+    *n == 1
+}
+
+/// One design column: a [`Column`] of the block of fluxgate `fluxgate` (0-based).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Term {
+    /// Index of the fluxgate whose readings the column is built from.
+    pub fluxgate: usize,
+    /// The column.
+    pub column: Column,
+}
+
+impl Design {
+    /// A one-fluxgate design with MagNav's `Bt_scale` of 50 000 nT.
+    pub fn new(terms: TermSet) -> Self {
+        Self {
+            terms,
+            bt_scale: MAGNAV_BT_SCALE,
+            fluxgates: 1,
+        }
+    }
+
+    /// The same terms over `fluxgates` fluxgates.
+    pub fn with_fluxgates(self, fluxgates: usize) -> Self {
+        Self { fluxgates, ..self }
+    }
+
+    /// The columns, in order (blocks after the first without the bias).
+    pub fn columns(&self) -> Vec<Column> {
+        self.design_terms().into_iter().map(|t| t.column).collect()
+    }
+
+    /// The columns with the fluxgate each belongs to, in order.
+    pub fn design_terms(&self) -> Vec<Term> {
+        let block = self.terms.columns();
+        (0..self.fluxgates)
+            .flat_map(|fluxgate| {
+                block
+                    .iter()
+                    .filter(move |c| fluxgate == 0 || **c != Column::Bias)
+                    .map(move |&column| Term { fluxgate, column })
+            })
+            .collect()
+    }
+
+    /// Column names: `perm_x`, … for one fluxgate; `NAME.perm_x`, … with several, NAME from
+    /// `fluxgate_names` (or `fluxgate1`, `fluxgate2`, … when it does not name them all).
+    pub fn column_names(&self, fluxgate_names: &[String]) -> Vec<String> {
+        self.design_terms()
+            .iter()
+            .map(|t| {
+                if self.fluxgates == 1 {
+                    t.column.to_string()
+                } else if fluxgate_names.len() == self.fluxgates {
+                    format!("{}.{}", fluxgate_names[t.fluxgate], t.column)
+                } else {
+                    format!("fluxgate{}.{}", t.fluxgate + 1, t.column)
+                }
+            })
+            .collect()
+    }
+
+    /// Number of columns.
+    pub fn width(&self) -> usize {
+        self.design_terms().len()
+    }
+
+    /// Writes the one-fluxgate design row for field `b` (nT) and its change per sample `db`
+    /// (nT/sample) into `out`, one value per entry of `columns`.
+    ///
+    /// The eddy-current columns are here: `B̂i·Ḃj / s`.
+    pub fn row(&self, columns: &[Column], b: [f64; 3], db: [f64; 3], out: &mut [f64]) {
+        let unit = unit_vector(b);
+        for (value, column) in out.iter_mut().zip(columns) {
+            *value = self.value(*column, unit, b, db);
+        }
+    }
+
+    fn value(&self, column: Column, unit: [f64; 3], b: [f64; 3], db: [f64; 3]) -> f64 {
+        match column {
+            Column::Permanent(i) => unit[i.index()],
+            Column::Induced(i, j) => unit[i.index()] * b[j.index()] / self.bt_scale,
+            Column::Eddy(i, j) => unit[i.index()] * db[j.index()] / self.bt_scale,
+            Column::Bias => 1.0,
+        }
+    }
+
+    /// The design matrix of one contiguous series (rows = samples), with the columns `terms`
+    /// (usually [`Design::design_terms`]).
+    ///
+    /// Built column by column (the matrix is column-major), with the same arithmetic as
+    /// [`Design::row`], so every entry is bit-for-bit what `row` gives.
+    ///
+    /// # Panics
+    /// If `terms` names a fluxgate that `flux` does not have: a programming error.
+    pub fn matrix_of<'a>(&self, flux: impl Into<Fluxgates<'a>>, terms: &[Term]) -> DMatrix<f64> {
+        let flux = flux.into();
+        let components: Vec<Components> = flux.series().iter().map(|s| Components::of(s)).collect();
+        let mut a = DMatrix::zeros(flux.len(), terms.len());
+        for (mut out, term) in a.column_iter_mut().zip(terms) {
+            let out = out.as_mut_slice();
+            let c = &components[term.fluxgate];
+            let scaled = |out: &mut [f64], u: &[f64], v: &[f64]| {
+                for ((o, u), v) in out.iter_mut().zip(u).zip(v) {
+                    *o = u * v / self.bt_scale;
+                }
+            };
+            match term.column {
+                Column::Permanent(i) => out.copy_from_slice(&c.unit[i.index()]),
+                Column::Induced(i, j) => scaled(out, &c.unit[i.index()], c.b[j.index()]),
+                Column::Eddy(i, j) => scaled(out, &c.unit[i.index()], &c.db[j.index()]),
+                Column::Bias => out.fill(1.0),
+            }
+        }
+        a
+    }
+
+    /// The design matrix of one contiguous series (rows = samples), all columns.
+    ///
+    /// # Panics
+    /// If `flux` holds fewer fluxgates than the design: a programming error.
+    pub fn matrix<'a>(&self, flux: impl Into<Fluxgates<'a>>) -> DMatrix<f64> {
+        self.matrix_of(flux, &self.design_terms())
+    }
+
+    /// `A·β` for one contiguous series, without storing `A` (nT).
+    ///
+    /// # Panics
+    /// If `coefficients` is not [`Design::width`] long or `flux` holds fewer fluxgates than the
+    /// design: programming errors.
+    pub fn apply<'a>(&self, flux: impl Into<Fluxgates<'a>>, coefficients: &[f64]) -> Vec<f64> {
+        let flux = flux.into();
+        let terms = self.design_terms();
+        assert_eq!(
+            terms.len(),
+            coefficients.len(),
+            "one coefficient per column"
+        );
+        // Column by column, adding each term in column order: the same sum as row by row.
+        let components: Vec<Components> = flux.series().iter().map(|s| Components::of(s)).collect();
+        let mut out = vec![0.0; flux.len()];
+        let add = |out: &mut [f64], u: &[f64], v: &[f64], beta: f64| {
+            for ((o, u), v) in out.iter_mut().zip(u).zip(v) {
+                *o += u * v / self.bt_scale * beta;
+            }
+        };
+        for (term, &beta) in terms.iter().zip(coefficients) {
+            let c = &components[term.fluxgate];
+            match term.column {
+                Column::Permanent(i) => {
+                    for (o, u) in out.iter_mut().zip(&c.unit[i.index()]) {
+                        *o += u * beta;
+                    }
+                }
+                Column::Induced(i, j) => add(&mut out, &c.unit[i.index()], c.b[j.index()], beta),
+                Column::Eddy(i, j) => add(&mut out, &c.unit[i.index()], &c.db[j.index()], beta),
+                Column::Bias => out.iter_mut().for_each(|o| *o += beta),
+            }
+        }
+        out
+    }
+}
+
+/// One fluxgate's components (nT), their changes per sample (nT/sample) and the unit vector.
+struct Components<'a> {
+    b: [&'a [f64]; 3],
+    db: [Vec<f64>; 3],
+    unit: [Vec<f64>; 3],
+}
+
+impl<'a> Components<'a> {
+    fn of(flux: &'a VectorSeries) -> Self {
+        let b = [flux.x.as_slice(), flux.y.as_slice(), flux.z.as_slice()];
+        let norm: Vec<f64> = (0..flux.len()).map(|k| flux.magnitude(k)).collect();
+        Self {
+            b,
+            db: b.map(central_difference),
+            unit: b.map(|c| c.iter().zip(&norm).map(|(v, m)| v / m).collect()),
+        }
+    }
+}
+
+fn unit_vector(b: [f64; 3]) -> [f64; 3] {
+    let norm = (b[0] * b[0] + b[1] * b[1] + b[2] * b[2]).sqrt();
+    b.map(|v| v / norm)
+}
+
+/// Change per sample by central differences, one-sided at both ends (MagNav's `fdm`).
+///
+/// Units: those of `x` per sample. A series of one sample has zero change.
+pub fn central_difference(x: &[f64]) -> Vec<f64> {
+    let n = x.len();
+    match n {
+        0 => Vec::new(),
+        1 => vec![0.0],
+        _ => {
+            let mut d = vec![0.0; n];
+            d[0] = x[1] - x[0];
+            d[n - 1] = x[n - 1] - x[n - 2];
+            for k in 1..n - 1 {
+                d[k] = (x[k + 1] - x[k - 1]) / 2.0;
+            }
+            d
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn swinging(phase: f64) -> VectorSeries {
+        let n = 6;
+        let angle = |k: usize| 0.3 * (k as f64 + phase).sin();
+        VectorSeries::new(
+            (0..n).map(|k| 20_000.0 * angle(k).cos()).collect(),
+            (0..n).map(|k| 20_000.0 * angle(k).sin()).collect(),
+            (0..n).map(|k| 45_000.0 + 10.0 * k as f64).collect(),
+        )
+    }
+
+    #[test]
+    fn several_fluxgates_give_side_by_side_blocks_with_one_bias() {
+        let (a, b) = (swinging(0.0), swinging(1.0));
+        let one = Design::new("p,i5,e8,b".parse().unwrap());
+        let two = one.clone().with_fluxgates(2);
+        let width = one.width();
+        assert_eq!(two.width(), 2 * width - 1);
+        let both = two.matrix(vec![&a, &b]);
+        let (ma, mb) = (one.matrix(&a), one.matrix(&b));
+        assert_eq!(both.columns(0, width), ma.columns(0, width));
+        assert_eq!(both.columns(width, width - 1), mb.columns(0, width - 1));
+        let names = two.column_names(&["flux_a".into(), "flux_b".into()]);
+        assert_eq!(names[width - 1], "flux_a.bias");
+        assert_eq!(names[width], "flux_b.perm_x");
+        assert_eq!(two.column_names(&[])[width], "fluxgate2.perm_x");
+    }
+
+    #[test]
+    fn matrix_entries_are_bit_for_bit_the_design_rows() {
+        let (f0, f1) = (swinging(0.3), swinging(2.0));
+        let d = Design::new("p,i,e,b".parse().unwrap()).with_fluxgates(2);
+        let terms = d.design_terms();
+        let a = d.matrix(vec![&f0, &f1]);
+        let change = |s: &VectorSeries| [&s.x, &s.y, &s.z].map(|c| central_difference(c));
+        let (d0, d1) = (change(&f0), change(&f1));
+        let mut value = [0.0];
+        for k in 0..f0.len() {
+            let b = [f0.at(k), f1.at(k)];
+            let db = [d0.each_ref().map(|c| c[k]), d1.each_ref().map(|c| c[k])];
+            for (c, t) in terms.iter().enumerate() {
+                let f = t.fluxgate;
+                d.row(&[t.column], b[f], db[f], &mut value);
+                assert_eq!(
+                    a[(k, c)].to_bits(),
+                    value[0].to_bits(),
+                    "row {k} column {c}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn a_one_fluxgate_design_is_stored_as_before() {
+        let json = serde_json::to_string(&Design::new("p".parse().unwrap())).unwrap();
+        assert!(!json.contains("fluxgates"), "{json}");
+        let two: Design = serde_json::from_str(&json.replace('}', r#","fluxgates":2}"#)).unwrap();
+        assert_eq!(two.fluxgates, 2);
+    }
+
+    #[test]
+    fn central_difference_is_one_sided_at_ends() {
+        assert_eq!(
+            central_difference(&[0.0, 1.0, 4.0, 9.0]),
+            [1.0, 2.0, 4.0, 5.0]
+        );
+        assert_eq!(central_difference(&[5.0]), [0.0]);
+        assert!(central_difference(&[]).is_empty());
+    }
+
+    #[test]
+    fn apply_equals_matrix_times_coefficients() {
+        let flux = VectorSeries::new(
+            vec![20_000.0, 20_100.0, 20_050.0, 19_900.0],
+            vec![1_000.0, -500.0, 300.0, 0.0],
+            vec![45_000.0, 44_900.0, 45_100.0, 45_050.0],
+        );
+        let d = Design::new("p,i,e,b".parse().unwrap());
+        let beta: Vec<f64> = (0..d.width()).map(|k| k as f64 - 7.5).collect();
+        let a = d.matrix(&flux);
+        let direct = a * nalgebra::DVector::from_vec(beta.clone());
+        let applied = d.apply(&flux, &beta);
+        for (u, v) in direct.iter().zip(&applied) {
+            assert!((u - v).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn matrix_rows_are_exactly_design_rows() {
+        let flux = VectorSeries::new(
+            vec![20_000.0, 20_100.3, 20_050.7, 19_900.1, 19_850.0],
+            vec![1_000.0, -500.2, 300.9, 0.0, 12.5],
+            vec![45_000.0, 44_900.4, 45_100.6, 45_050.8, 44_990.0],
+        );
+        let d = Design::new("p,i,e,b".parse().unwrap());
+        let columns = d.columns();
+        let a = d.matrix(&flux);
+        let db = [
+            central_difference(&flux.x),
+            central_difference(&flux.y),
+            central_difference(&flux.z),
+        ];
+        let mut row = vec![0.0; columns.len()];
+        for k in 0..flux.len() {
+            d.row(
+                &columns,
+                flux.at(k),
+                [db[0][k], db[1][k], db[2][k]],
+                &mut row,
+            );
+            for (c, v) in row.iter().enumerate() {
+                assert_eq!(a[(k, c)].to_bits(), v.to_bits(), "row {k} column {c}");
+            }
+        }
+    }
+
+    #[test]
+    fn permanent_columns_are_the_unit_vector() {
+        let flux = VectorSeries::new(
+            vec![0.0, 0.0],
+            vec![0.0, 48_000.0],
+            vec![50_000.0, 14_000.0],
+        );
+        let a = Design::new("p".parse().unwrap()).matrix(&flux);
+        assert_eq!(
+            a.row(0).iter().copied().collect::<Vec<_>>(),
+            [0.0, 0.0, 1.0]
+        );
+        assert!((a[(1, 1)] - 0.96).abs() < 1e-15 && (a[(1, 2)] - 0.28).abs() < 1e-15);
+    }
+}

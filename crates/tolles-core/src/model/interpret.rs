@@ -1,0 +1,261 @@
+//! Fitted coefficients as physical fields and in the Tolles patent's nomenclature.
+//!
+//! ```
+//! use tolles_core::model::design::Design;
+//! use tolles_core::model::interpret::AircraftField;
+//!
+//! let design = Design::new("p,i,e".parse().unwrap());
+//! let mut beta = vec![0.0; 18];
+//! beta[0] = 12.0; // permanent field along x (nT)
+//! beta[4] = 500.0; // induced xy column: s·(I_xy + I_yx)
+//! beta[10] = 5_000.0; // eddy xy column: s·fs·E_xy
+//! let field = AircraftField::from_coefficients(&design, &beta, 10.0);
+//! assert_eq!(field.permanent_nt, [12.0, 0.0, 0.0]);
+//! assert_eq!(field.induced[0][1], 0.005); // half of 500/50000: only the symmetric part is seen
+//! assert_eq!(field.eddy_s[0][1], 0.01); // 5000 / (50000 · 10 Hz)
+//! let patent = field.patent_terms();
+//! assert_eq!(patent.perm_nt.l, 12.0);
+//! assert_eq!(patent.induced.tl_lt, 0.01);
+//! assert_eq!(patent.eddy_s.tl, 0.01); // patent 'tl' = E[x][y]
+//! ```
+//!
+//! Conventions are those of [`crate::model::conventions`]. Only the symmetric, traceless part of the
+//! induced matrix and the traceless part of the eddy matrix reach a scalar magnetometer; the
+//! physical matrices reported here split each fitted off-diagonal column equally between `[i][j]`
+//! and `[j][i]`, and keep whatever trace the chosen terms imply (zero `zz` for `i5`/`e8`). The
+//! patent terms are differences and sums that do not depend on those choices.
+
+use crate::model::design::Design;
+use crate::model::terms::Column;
+use crate::patent::Term;
+use serde::{Deserialize, Serialize};
+
+/// The aircraft's field model `H = P + I·B + E·dB/dt` in the body frame (FRD).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct AircraftField {
+    /// Permanent field P (nT), `[x, y, z]`.
+    pub permanent_nt: [f64; 3],
+    /// Induced matrix I (dimensionless): `I[i][j]` is the field along i per unit earth field
+    /// along j.
+    pub induced: [[f64; 3]; 3],
+    /// Eddy-current matrix E (seconds): `E[i][j]` is the field along i (nT) per unit rate of
+    /// change (nT/s) of the earth field along j.
+    pub eddy_s: [[f64; 3]; 3],
+    /// Constant offset of the scalar (nT), from a `bias` column.
+    pub bias_nt: f64,
+}
+
+impl AircraftField {
+    /// Reads fitted coefficients; `fs_hz` is the sample rate (Hz) the eddy columns were built at.
+    ///
+    /// With several fluxgates only the first fluxgate's block is read: the other blocks describe
+    /// sources near the other fluxgates, not the aircraft's response to the earth field.
+    pub fn from_coefficients(design: &Design, coefficients: &[f64], fs_hz: f64) -> Self {
+        let s = design.bt_scale;
+        let mut field = Self::default();
+        for (term, beta) in design.design_terms().iter().zip(coefficients) {
+            if term.fluxgate != 0 {
+                continue;
+            }
+            match term.column {
+                Column::Permanent(i) => field.permanent_nt[i.index()] = *beta,
+                Column::Induced(i, j) if i == j => field.induced[i.index()][i.index()] = beta / s,
+                Column::Induced(i, j) => {
+                    field.induced[i.index()][j.index()] = beta / (2.0 * s);
+                    field.induced[j.index()][i.index()] = beta / (2.0 * s);
+                }
+                Column::Eddy(i, j) => field.eddy_s[i.index()][j.index()] = beta / (s * fs_hz),
+                Column::Bias => field.bias_nt = *beta,
+            }
+        }
+        field
+    }
+
+    /// The coefficients a fit with `design` at `fs_hz` should find for this field (to first
+    /// order in `H/|B|`, and up to the unobservable traces); zero for the blocks of fluxgates
+    /// after the first.
+    pub fn to_coefficients(&self, design: &Design, fs_hz: f64) -> Vec<f64> {
+        let s = design.bt_scale;
+        design
+            .design_terms()
+            .iter()
+            .map(|term| match term.column {
+                _ if term.fluxgate != 0 => 0.0,
+                Column::Permanent(i) => self.permanent_nt[i.index()],
+                Column::Induced(i, j) if i == j => s * self.induced[i.index()][i.index()],
+                Column::Induced(i, j) => {
+                    s * (self.induced[i.index()][j.index()] + self.induced[j.index()][i.index()])
+                }
+                Column::Eddy(i, j) => s * fs_hz * self.eddy_s[i.index()][j.index()],
+                Column::Bias => self.bias_nt,
+            })
+            .collect()
+    }
+
+    /// The 16 terms of the patent (L = x, T = y, V = z; eddy `ab` is the field along b from a
+    /// change along a, `E[b][a]`), as [`Term::value`] defines each.
+    pub fn patent_terms(&self) -> PatentTerms {
+        PatentTerms::from_values(Term::OBSERVABLE.map(|t| t.value(self)))
+    }
+}
+
+/// The patent's perm terms (nT): T along y (right), L along x (forward), V along z (down).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct PermTerms {
+    #[serde(rename = "T")]
+    pub t: f64,
+    #[serde(rename = "L")]
+    pub l: f64,
+    #[serde(rename = "V")]
+    pub v: f64,
+}
+
+/// The patent's five observable induced terms (dimensionless).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct InducedPatentTerms {
+    #[serde(rename = "VV-TT")]
+    pub vv_tt: f64,
+    #[serde(rename = "VV-LL")]
+    pub vv_ll: f64,
+    #[serde(rename = "TL+LT")]
+    pub tl_lt: f64,
+    #[serde(rename = "TV+VT")]
+    pub tv_vt: f64,
+    #[serde(rename = "LV+VL")]
+    pub lv_vl: f64,
+}
+
+/// The patent's eight observable eddy-current terms (seconds).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct EddyPatentTerms {
+    #[serde(rename = "vv-tt")]
+    pub vv_tt: f64,
+    #[serde(rename = "vv-ll")]
+    pub vv_ll: f64,
+    pub tl: f64,
+    pub tv: f64,
+    pub lt: f64,
+    pub lv: f64,
+    pub vl: f64,
+    pub vt: f64,
+}
+
+/// The 16 patent terms: 3 perm (nT), 5 induced (dimensionless), 8 eddy (s).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct PatentTerms {
+    #[serde(rename = "perm_nT")]
+    pub perm_nt: PermTerms,
+    pub induced: InducedPatentTerms,
+    pub eddy_s: EddyPatentTerms,
+}
+
+impl PatentTerms {
+    /// From the 16 values in [`Term::OBSERVABLE`] order (nT, dimensionless, s by section).
+    pub fn from_values(values: [f64; 16]) -> Self {
+        let [t, l, v, vv_tt, vv_ll, tl_lt, tv_vt, lv_vl, ev_tt, ev_ll, tl, tv, lt, lv, vl, vt] =
+            values;
+        PatentTerms {
+            perm_nt: PermTerms { t, l, v },
+            induced: InducedPatentTerms {
+                vv_tt,
+                vv_ll,
+                tl_lt,
+                tv_vt,
+                lv_vl,
+            },
+            eddy_s: EddyPatentTerms {
+                vv_tt: ev_tt,
+                vv_ll: ev_ll,
+                tl,
+                tv,
+                lt,
+                lv,
+                vl,
+                vt,
+            },
+        }
+    }
+
+    /// The 16 values in [`Term::OBSERVABLE`] order (nT, dimensionless, s by section).
+    pub fn values(&self) -> [f64; 16] {
+        let (p, i, e) = (&self.perm_nt, &self.induced, &self.eddy_s);
+        [
+            p.t, p.l, p.v, i.vv_tt, i.vv_ll, i.tl_lt, i.tv_vt, i.lv_vl, e.vv_tt, e.vv_ll, e.tl,
+            e.tv, e.lt, e.lv, e.vl, e.vt,
+        ]
+    }
+
+    /// The value of `term` (unit [`Term::unit`]); `None` for TT, LL and VV alone.
+    pub fn get(&self, term: Term) -> Option<f64> {
+        Some(self.values()[term.observable_index()?])
+    }
+
+    /// The 16 values in the patent's order with their names.
+    pub fn named(&self) -> [(&'static str, f64); 16] {
+        let values = self.values();
+        std::array::from_fn(|k| (Term::OBSERVABLE[k].name(), values[k]))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn coefficients_round_trip_through_the_physical_field() {
+        let design = Design::new("p,i,e,b".parse().unwrap());
+        let beta: Vec<f64> = (0..design.width()).map(|k| k as f64 * 3.0 - 20.0).collect();
+        let field = AircraftField::from_coefficients(&design, &beta, 160.0);
+        let back = field.to_coefficients(&design, 160.0);
+        for (u, v) in beta.iter().zip(&back) {
+            assert!((u - v).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn patent_terms_read_back_by_term_and_name() {
+        let mut field = AircraftField::default();
+        for k in 0..3 {
+            field.permanent_nt[k] = 10.0 + k as f64;
+            for j in 0..3 {
+                field.induced[k][j] = 1e-3 * (3 * k + j) as f64;
+                field.eddy_s[k][j] = 1e-4 * (3 * k + j + 1) as f64;
+            }
+        }
+        let terms = field.patent_terms();
+        assert_eq!(PatentTerms::from_values(terms.values()), terms);
+        for (term, (name, value)) in Term::OBSERVABLE.iter().zip(terms.named()) {
+            assert_eq!(term.name(), name);
+            assert_eq!(terms.get(*term), Some(value));
+        }
+        assert_eq!(
+            terms.induced.tl_lt,
+            field.induced[0][1] + field.induced[1][0]
+        );
+        assert_eq!(terms.get(Term::InducedTT), None);
+    }
+
+    #[test]
+    fn patent_eddy_letters_read_the_transposed_matrix() {
+        let mut field = AircraftField::default();
+        field.eddy_s[1][2] = 0.3; // field along y (T) from a change along z (V): patent 'vt'
+        field.eddy_s[2][0] = 0.7; // field along z (V) from a change along x (L): patent 'lv'
+        let e = field.patent_terms().eddy_s;
+        assert_eq!((e.vt, e.lv, e.tv, e.vl), (0.3, 0.7, 0.0, 0.0));
+    }
+
+    #[test]
+    fn patent_terms_ignore_the_trace() {
+        let a = AircraftField {
+            induced: [[0.01, 0.0, 0.0], [0.0, 0.02, 0.0], [0.0, 0.0, 0.05]],
+            ..AircraftField::default()
+        };
+        let mut b = a;
+        for k in 0..3 {
+            b.induced[k][k] += 0.1;
+        }
+        assert!((a.patent_terms().induced.vv_tt - 0.03).abs() < 1e-15);
+        let (ta, tb) = (a.patent_terms().induced, b.patent_terms().induced);
+        assert!((ta.vv_tt - tb.vv_tt).abs() < 1e-15 && (ta.vv_ll - tb.vv_ll).abs() < 1e-15);
+    }
+}

@@ -1,0 +1,8 @@
+//! What a Tolles-Lawson model is: conventions, terms, the design matrix, vector series and the
+//! physical reading of fitted coefficients.
+
+pub mod conventions;
+pub mod design;
+pub mod interpret;
+pub mod terms;
+pub mod vector;

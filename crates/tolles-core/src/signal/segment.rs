@@ -1,0 +1,110 @@
+//! Contiguous runs of usable samples.
+//!
+//! ```
+//! use tolles_core::signal::segment::contiguous_runs;
+//! let usable = [true, true, false, true, true, true];
+//! assert_eq!(contiguous_runs(&usable, None), vec![0..2, 3..6]);
+//! // A time gap also ends a run: derivatives and filters must not reach across it.
+//! let tt = [0.0, 0.1, 0.2, 5.0, 5.1, 5.2];
+//! assert_eq!(contiguous_runs(&[true; 6], Some(&tt)), vec![0..3, 3..6]);
+//! ```
+
+use std::ops::Range;
+
+/// A time step longer than this many median steps is a gap.
+pub const GAP_FACTOR: f64 = 1.5;
+
+/// Maximal runs of `usable` samples, also split where the time step (`tt`, seconds) exceeds
+/// [`GAP_FACTOR`] times the median step.
+pub fn contiguous_runs(usable: &[bool], tt: Option<&[f64]>) -> Vec<Range<usize>> {
+    let gap_after = gaps(tt, usable.len());
+    let mut runs = Vec::new();
+    let mut start: Option<usize> = None;
+    for (k, &ok) in usable.iter().enumerate() {
+        match (ok, start) {
+            (true, None) => start = Some(k),
+            (false, Some(s)) => {
+                runs.push(s..k);
+                start = None;
+            }
+            _ => {}
+        }
+        if let (Some(s), true) = (start, gap_after[k]) {
+            runs.push(s..k + 1);
+            start = None;
+        }
+    }
+    if let Some(s) = start {
+        runs.push(s..usable.len());
+    }
+    runs
+}
+
+/// `gap[k]` is true when the step from sample k to k+1 is a gap.
+fn gaps(tt: Option<&[f64]>, n: usize) -> Vec<bool> {
+    let mut gap = vec![false; n];
+    let Some(tt) = tt else { return gap };
+    let Some(step) = median_step(tt) else {
+        return gap;
+    };
+    for k in 0..n.saturating_sub(1) {
+        let dt = tt[k + 1] - tt[k];
+        gap[k] = dt.is_finite() && dt > GAP_FACTOR * step;
+    }
+    gap
+}
+
+/// Median of the finite positive time steps (seconds), if any.
+pub fn median_step(tt: &[f64]) -> Option<f64> {
+    let mut steps: Vec<f64> = tt
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .filter(|d| d.is_finite() && *d > 0.0)
+        .collect();
+    if steps.is_empty() {
+        return None;
+    }
+    let mid = steps.len() / 2;
+    let (_, m, _) = steps.select_nth_unstable_by(mid, f64::total_cmp);
+    Some(*m)
+}
+
+/// Index of the first sample whose time (seconds) is not after the previous finite one.
+pub fn first_non_increasing(tt: &[f64]) -> Option<usize> {
+    let mut last = f64::NEG_INFINITY;
+    for (k, &t) in tt.iter().enumerate() {
+        if !t.is_finite() {
+            continue;
+        }
+        if t <= last {
+            return Some(k);
+        }
+        last = t;
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn empty_and_all_unusable() {
+        assert!(contiguous_runs(&[], None).is_empty());
+        assert!(contiguous_runs(&[false, false], None).is_empty());
+    }
+
+    #[test]
+    fn median_step_ignores_gaps() {
+        let m = median_step(&[0.0, 0.1, 0.2, 9.0, 9.1]).unwrap();
+        assert!((m - 0.1).abs() < 1e-12);
+        assert_eq!(median_step(&[1.0]), None);
+    }
+
+    #[test]
+    fn non_increasing_time_is_found() {
+        assert_eq!(first_non_increasing(&[0.0, 1.0, 1.0]), Some(2));
+        assert_eq!(first_non_increasing(&[0.0, f64::NAN, 2.0, 1.5]), Some(3));
+        assert_eq!(first_non_increasing(&[0.0, 1.0, 2.0]), None);
+    }
+}
