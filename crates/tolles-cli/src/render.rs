@@ -2,6 +2,7 @@
 //! with the flag that fixes them where there is one.
 
 use tolles::{Error, Warning};
+use tolles_io::select::SelectError;
 
 /// What a command does with the rows a selection kept, for the message that says so.
 #[derive(Clone, Copy)]
@@ -54,6 +55,20 @@ pub fn error(e: Error) -> anyhow::Error {
         Error::BadSampleRate { fs_hz } => {
             anyhow::anyhow!("--fs must be a positive number of hertz, got {fs_hz}")
         }
+        Error::Select(SelectError::NoColumn {
+            path,
+            by,
+            column,
+            hint,
+        }) => anyhow::anyhow!("{}: --{by} needs a column {column:?}{hint}", path.display()),
+        Error::Select(SelectError::UnknownLine {
+            path,
+            line,
+            present,
+        }) => anyhow::anyhow!(
+            "{}: --line {line}: no row is on that line; the file's lines are {present}",
+            path.display()
+        ),
         other => anyhow::Error::new(other),
     }
 }

@@ -35,22 +35,26 @@ const LINES_SHOWN: usize = 10;
 /// Why rows could not be selected. Each message is one line that names the file.
 #[derive(Debug, Error)]
 pub enum SelectError {
-    /// A `--line` or `--time` value that does not parse; the message is only why, as clap names
-    /// the flag and value.
+    /// A line id or time range that does not parse; the message is only why, as the caller
+    /// names the value (a command line names its flag).
     #[error("{why}")]
     Parse {
-        flag: &'static str,
+        /// `line` or `time`.
+        by: &'static str,
         text: String,
         why: String,
     },
-    #[error("{path}: {flag} needs a column {column:?}{hint}")]
+    /// Selecting by `line` or `time` needs a column the file lacks.
+    #[error("{path}: selecting by {by} needs a column {column:?}{hint}")]
     NoColumn {
         path: PathBuf,
-        flag: &'static str,
+        /// `line` or `time`.
+        by: &'static str,
         column: &'static str,
         hint: String,
     },
-    #[error("{path}: --line {line}: no row is on that line; the file's lines are {present}")]
+    /// A line id no row is on.
+    #[error("{path}: line {line}: no row is on that line; the file's lines are {present}")]
     UnknownLine {
         path: PathBuf,
         line: String,
@@ -97,7 +101,7 @@ impl FromStr for LineId {
         let text = text.trim();
         if text.is_empty() {
             return Err(SelectError::Parse {
-                flag: "--line",
+                by: "line",
                 text: text.into(),
                 why: "an empty line id (two commas in a row, or one at an end?)".into(),
             });
@@ -139,7 +143,7 @@ impl FromStr for TimeRange {
     /// `START..END`, `START..` or `..END`, in seconds.
     fn from_str(text: &str) -> Result<Self, Self::Err> {
         let fail = |why: &str| SelectError::Parse {
-            flag: "--time",
+            by: "time",
             text: text.into(),
             why: why.into(),
         };
@@ -224,7 +228,7 @@ impl RowSelection {
         let mut keep = self.rows_on_lines(table)?;
         let mut rows_without_time = 0;
         if let Some(range) = &self.time {
-            let tt = column_for(table, TIME_COLUMN, "--time")?;
+            let tt = column_for(table, TIME_COLUMN, "time")?;
             let tt = table.numeric_at(tt)?;
             for (keep, t) in keep.iter_mut().zip(&tt) {
                 rows_without_time += usize::from(*keep && t.is_nan());
@@ -247,7 +251,7 @@ impl RowSelection {
         if self.lines.is_empty() {
             return Ok(vec![true; table.len()]);
         }
-        let column = &table.columns()[column_for(table, LINE_COLUMN, "--line")?];
+        let column = &table.columns()[column_for(table, LINE_COLUMN, "line")?];
         let mut found = vec![false; self.lines.len()];
         let keep = (0..table.len())
             .map(|k| {
@@ -337,11 +341,11 @@ impl RowSelection {
     }
 }
 
-/// The index of column `name`, or an error saying that `flag` needs it.
-fn column_for(table: &Table, name: &'static str, flag: &'static str) -> Result<usize, SelectError> {
+/// The index of column `name`, or an error saying that selecting `by` needs it.
+fn column_for(table: &Table, name: &'static str, by: &'static str) -> Result<usize, SelectError> {
     table.index_of(name).map_err(|_| SelectError::NoColumn {
         path: table.path().to_path_buf(),
-        flag,
+        by,
         column: name,
         hint: crate::table::suggest(table.headers(), name),
     })
@@ -457,7 +461,7 @@ mod tests {
             .apply(&t)
             .unwrap_err()
             .to_string();
-        assert!(near.contains("--line 1002.0201: no row"), "{near}");
+        assert!(near.contains("line 1002.0201: no row"), "{near}");
     }
 
     #[test]
@@ -488,7 +492,7 @@ mod tests {
             .unwrap_err();
         assert_eq!(
             e.to_string(),
-            "f.csv: --line 1005: no row is on that line; the file's lines are 1001, 1002.020, 1003"
+            "f.csv: line 1005: no row is on that line; the file's lines are 1001, 1002.020, 1003"
         );
         let mut many = String::from("line\n");
         for k in 0..25 {
@@ -505,11 +509,11 @@ mod tests {
     }
 
     #[test]
-    fn missing_columns_name_the_flag() {
+    fn missing_columns_name_the_selection() {
         let t = table("tt,mag\n0,1\n");
         let e = selection(&["1"], None).apply(&t).unwrap_err().to_string();
         assert!(
-            e.starts_with("f.csv: --line needs a column \"line\""),
+            e.starts_with("f.csv: selecting by line needs a column \"line\""),
             "{e}"
         );
         let t = table("time,line\n0,1\n");
@@ -517,7 +521,10 @@ mod tests {
             .apply(&t)
             .unwrap_err()
             .to_string();
-        assert!(e.starts_with("f.csv: --time needs a column \"tt\""), "{e}");
+        assert!(
+            e.starts_with("f.csv: selecting by time needs a column \"tt\""),
+            "{e}"
+        );
     }
 
     #[test]

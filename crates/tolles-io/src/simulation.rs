@@ -62,6 +62,11 @@ pub const COLUMNS: [(&str, &str); 18] = [
 
 /// Writes `flight` as CSV with the columns of [`COLUMNS`] that it has.
 pub fn write_flight(path: &Path, flight: &SimulatedFlight) -> Result<(), IoError> {
+    write_columns_to(path, &flight_columns(flight))
+}
+
+/// The columns of [`COLUMNS`] that `flight` has, named, in that order.
+pub fn flight_columns(flight: &SimulatedFlight) -> Vec<(&'static str, &[f64])> {
     let all: [&[f64]; 18] = [
         &flight.tt,
         &flight.line,
@@ -82,13 +87,12 @@ pub fn write_flight(path: &Path, flight: &SimulatedFlight) -> Result<(), IoError
         &flight.anomaly_nt,
         &flight.diurnal_nt,
     ];
-    let columns: Vec<(&str, &[f64])> = COLUMNS
+    COLUMNS
         .iter()
         .zip(all)
         .filter(|(_, values)| values.len() == flight.tt.len())
         .map(|((name, _), values)| (*name, values))
-        .collect();
-    write_columns_to(path, &columns)
+        .collect()
 }
 
 /// The true aircraft terms.
@@ -139,10 +143,14 @@ impl<'a> Sidecar<'a> {
         }
     }
 
+    /// The sidecar as pretty JSON text.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).expect("a sidecar always serialises")
+    }
+
     /// Writes the sidecar as pretty JSON.
     pub fn write(&self, path: &Path) -> Result<(), IoError> {
-        let text = serde_json::to_string_pretty(self).expect("a sidecar always serialises");
-        std::fs::write(path, text + "\n").map_err(|source| IoError::Write {
+        std::fs::write(path, self.to_json() + "\n").map_err(|source| IoError::Write {
             path: path.to_path_buf(),
             source,
         })

@@ -1,0 +1,439 @@
+//! The native half of the Python package `tolles`: the facade crate's workflows on columns
+//! handed over from pandas. The Python half (`tolles/__init__.py`) builds DataFrames and models.
+//!
+//! Columns cross the boundary as float64 NumPy arrays. Only the columns a workflow needs are
+//! copied in (once, into the table the library reads); every result column is handed back
+//! without a copy. The GIL is released while the library computes.
+
+use numpy::{IntoPyArray, PyReadonlyArray1};
+use pyo3::create_exception;
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyList;
+use std::path::{Path, PathBuf};
+use tolles::compensate::{CompensateRequest, LevelChoice};
+use tolles::fit::{FitRequest, Terms};
+use tolles::fom::FomRequest;
+use tolles::{Silent, Warning};
+use tolles_core::fit::{Band, Lambda};
+use tolles_io::model::ModelFile;
+use tolles_io::schema::{
+    output_name, vector_columns, PITCH, ROLL, SAMPLE_INTERVAL, TIME_COLUMN, YAW,
+};
+use tolles_io::select::RowSelection;
+use tolles_io::table::{find_column, Column, Table};
+
+create_exception!(
+    _tolles,
+    TollesError,
+    PyValueError,
+    "A flight, model or request tolles cannot use; the message names the file, row or column."
+);
+
+fn failed(e: impl std::fmt::Display) -> PyErr {
+    TollesError::new_err(e.to_string())
+}
+
+/// The warnings as sentences; which rows a selection kept is what the caller asked for, not a
+/// warning.
+fn texts(warnings: &[Warning]) -> Vec<String> {
+    warnings
+        .iter()
+        .filter(|w| !matches!(w, Warning::RowsSelected { .. }))
+        .map(ToString::to_string)
+        .collect()
+}
+
+/// A table of the named columns a workflow needs, taken from a DataFrame's columns: `names`
+/// are all its column names (matched as the CLI matches them), `get(i)` returns column `i` as a
+/// float64 array, `dt` is the sample interval (s) the file carried, if any.
+struct Frame<'py> {
+    source: PathBuf,
+    names: Vec<String>,
+    get: Bound<'py, PyAny>,
+    dt: Option<f64>,
+}
+
+impl<'py> Frame<'py> {
+    /// The table of the columns `wanted` (each once, in that order) and the time column if the
+    /// frame has one. A wanted column the frame lacks is an error that suggests near names.
+    fn table(&self, wanted: &[String]) -> PyResult<Table> {
+        let mut chosen: Vec<usize> = Vec::new();
+        let optional = [TIME_COLUMN.to_string()];
+        for (name, required) in wanted
+            .iter()
+            .map(|w| (w, true))
+            .chain(optional.iter().map(|o| (o, false)))
+        {
+            match find_column(&self.source, &self.names, name) {
+                Ok(k) if !chosen.contains(&k) => chosen.push(k),
+                Ok(_) => {}
+                Err(e) if required => return Err(failed(e)),
+                Err(_) => {}
+            }
+        }
+        let mut columns = Vec::with_capacity(chosen.len());
+        for &k in &chosen {
+            let array = self.get.call1((k,))?;
+            let array: PyReadonlyArray1<f64> = array.extract().map_err(|_| {
+                failed(format!(
+                    "{}: column {:?} is not numeric",
+                    self.source.display(),
+                    self.names[k]
+                ))
+            })?;
+            columns.push(Column::Numbers(array.as_array().to_vec()));
+        }
+        let headers = chosen.iter().map(|&k| self.names[k].clone()).collect();
+        let table = Table::from_columns(&self.source, headers, columns, None).map_err(failed)?;
+        let metadata = self.dt.map(|dt| (SAMPLE_INTERVAL.to_string(), dt));
+        Ok(table.with_metadata(metadata.into_iter().collect()))
+    }
+}
+
+/// The columns the fits of `model` read.
+fn model_columns(model: &ModelFile) -> Vec<String> {
+    let mut wanted = Vec::new();
+    for fit in &model.fits {
+        wanted.push(fit.scalar.clone());
+        wanted.extend(fit.vectors.iter().flat_map(|v| vector_columns(v)));
+    }
+    wanted
+}
+
+fn parse_model(json: &str) -> PyResult<ModelFile> {
+    ModelFile::from_json(json, "<model>").map_err(failed)
+}
+
+/// Reads a flight in any format tolles reads; returns (names, columns, metadata, warnings),
+/// each column a float64 array, or a list of str when its cells are not numbers.
+#[pyfunction]
+#[pyo3(signature = (path, lines=None, time=None))]
+#[allow(clippy::type_complexity)]
+fn read<'py>(
+    py: Python<'py>,
+    path: PathBuf,
+    lines: Option<Vec<String>>,
+    time: Option<String>,
+) -> PyResult<(
+    Vec<String>,
+    Bound<'py, PyList>,
+    Vec<(String, f64)>,
+    Vec<String>,
+)> {
+    let selection = RowSelection {
+        lines: lines
+            .unwrap_or_default()
+            .iter()
+            .map(|l| l.parse().map_err(failed))
+            .collect::<PyResult<_>>()?,
+        time: time.map(|t| t.parse().map_err(failed)).transpose()?,
+    };
+    let mut warnings = Vec::new();
+    let data = py
+        .detach(|| tolles::read::read(&path, &selection, &Silent, &mut warnings))
+        .map_err(failed)?;
+    let table = data.table;
+    let columns = PyList::empty(py);
+    for k in 0..table.headers().len() {
+        match (&table.columns()[k], table.numeric_at(k)) {
+            (_, Ok(values)) => columns.append(values.into_pyarray(py))?,
+            (Column::Text(text), Err(_)) => {
+                let cells: Vec<&str> = (0..text.len()).map(|r| text.get(r)).collect();
+                columns.append(cells)?
+            }
+            (Column::Numbers(_), Err(e)) => return Err(failed(e)),
+        }
+    }
+    let metadata = table.all_metadata().to_vec();
+    Ok((
+        table.headers().to_vec(),
+        columns,
+        metadata,
+        texts(&warnings),
+    ))
+}
+
+/// Fits a model; returns (model JSON, warnings).
+#[pyfunction]
+#[pyo3(signature = (source, names, get, dt, scalars, vectors, terms, lambda_, band, order, trim, fs))]
+#[allow(clippy::too_many_arguments)]
+fn fit(
+    py: Python<'_>,
+    source: PathBuf,
+    names: Vec<String>,
+    get: Bound<'_, PyAny>,
+    dt: Option<f64>,
+    scalars: Vec<String>,
+    vectors: Vec<String>,
+    terms: &str,
+    lambda_: Option<f64>,
+    band: (f64, f64),
+    order: usize,
+    trim: usize,
+    fs: Option<f64>,
+) -> PyResult<(String, Vec<String>)> {
+    let terms: Terms = terms.parse().map_err(failed)?;
+    let lambda = match lambda_ {
+        None => Lambda::auto(),
+        Some(x) if x.is_finite() && x >= 0.0 => Lambda::Fixed(x),
+        Some(x) => {
+            return Err(failed(format!(
+                "lambda_ must be \"auto\" or a number ≥ 0, got {x}"
+            )))
+        }
+    };
+    let request = FitRequest {
+        terms,
+        lambda,
+        band: Band {
+            pass1_hz: band.0,
+            pass2_hz: band.1,
+        },
+        order,
+        trim,
+        fs_hz: fs,
+        ..FitRequest::new(scalars, vectors)
+    };
+    let mut wanted = request.scalars.clone();
+    wanted.extend(request.vectors.iter().flat_map(|v| vector_columns(v)));
+    let table = Frame {
+        source,
+        names,
+        get,
+        dt,
+    }
+    .table(&wanted)?;
+    let mut warnings = Vec::new();
+    let model = py
+        .detach(|| tolles::fit::fit(&table, &request, &Silent, &mut warnings))
+        .map_err(failed)?;
+    Ok((model.to_json(), texts(&warnings)))
+}
+
+/// Compensates; returns ([(column name, values)], warnings).
+#[pyfunction]
+#[pyo3(signature = (source, names, get, dt, model, level, fs))]
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+fn compensate<'py>(
+    py: Python<'py>,
+    source: PathBuf,
+    names: Vec<String>,
+    get: Bound<'py, PyAny>,
+    dt: Option<f64>,
+    model: &str,
+    level: &str,
+    fs: Option<f64>,
+) -> PyResult<(Vec<(String, Bound<'py, numpy::PyArray1<f64>>)>, Vec<String>)> {
+    let model = parse_model(model)?;
+    let request = CompensateRequest {
+        fs_hz: fs,
+        level: level.parse::<LevelChoice>().map_err(failed)?,
+    };
+    let frame = Frame {
+        source,
+        names,
+        get,
+        dt,
+    };
+    let table = frame.table(&model_columns(&model))?;
+    let mut warnings = Vec::new();
+    let columns = py
+        .detach(|| tolles::compensate::compensate(&table, &model, &request, &mut warnings))
+        .map_err(failed)?;
+    let mut out = Vec::new();
+    for column in columns {
+        // Renamed against every column of the frame, not only those read.
+        let (name, renamed) = output_name(&frame.names, &column.name);
+        if renamed {
+            warnings.push(Warning::OutputRenamed {
+                path: frame.source.clone(),
+                wanted: column.name.clone(),
+                renamed: name.clone(),
+            });
+        }
+        out.push((name, column.values.into_pyarray(py)));
+    }
+    Ok((out, texts(&warnings)))
+}
+
+/// The figure of merit; returns (JSON as `tolles fom --json` prints it, warnings).
+#[pyfunction]
+#[pyo3(signature = (source, names, get, dt, scalar, model, band, order, fs))]
+#[allow(clippy::too_many_arguments)]
+fn fom(
+    py: Python<'_>,
+    source: PathBuf,
+    names: Vec<String>,
+    get: Bound<'_, PyAny>,
+    dt: Option<f64>,
+    scalar: String,
+    model: Option<&str>,
+    band: (f64, f64),
+    order: usize,
+    fs: Option<f64>,
+) -> PyResult<(String, Vec<String>)> {
+    let model = model.map(parse_model).transpose()?;
+    let fit = model
+        .as_ref()
+        .map(|m| tolles::fom::fit_for(m, Path::new("<model>"), &scalar))
+        .transpose()
+        .map_err(failed)?;
+    let mut wanted: Vec<String> = [ROLL, PITCH, YAW].map(String::from).to_vec();
+    wanted.push(scalar.clone());
+    if let Some(fit) = fit {
+        wanted.extend(fit.vectors.iter().flat_map(|v| vector_columns(v)));
+    }
+    let table = Frame {
+        source,
+        names,
+        get,
+        dt,
+    }
+    .table(&wanted)?;
+    let request = FomRequest {
+        band: Band {
+            pass1_hz: band.0,
+            pass2_hz: band.1,
+        },
+        order,
+        fs_hz: fs,
+        ..FomRequest::new(&scalar)
+    };
+    let mut warnings = Vec::new();
+    let outcome = py
+        .detach(|| tolles::fom::fom(&table, &request, fit, &mut warnings))
+        .map_err(failed)?;
+    let json = serde_json::to_string_pretty(&outcome.to_json()).map_err(failed)?;
+    Ok((json, texts(&warnings)))
+}
+
+/// The columns `compensate` adds to a frame with columns `names`, in the model's order.
+#[pyfunction]
+fn output_names(model: &str, names: Vec<String>) -> PyResult<Vec<String>> {
+    let model = parse_model(model)?;
+    Ok(model
+        .fits
+        .iter()
+        .map(|fit| output_name(&names, &fit.output_column).0)
+        .collect())
+}
+
+/// The model file at `path` as JSON text (checked).
+#[pyfunction]
+fn load_model(path: PathBuf) -> PyResult<String> {
+    Ok(tolles::model::load_model(&path).map_err(failed)?.to_json())
+}
+
+/// Checks model JSON text and returns it as tolles writes it.
+#[pyfunction]
+fn check_model(json: &str) -> PyResult<String> {
+    Ok(parse_model(json)?.to_json())
+}
+
+/// Writes model JSON text to `path` exactly as `tolles fit --out` does.
+#[pyfunction]
+fn save_model(json: &str, path: PathBuf) -> PyResult<()> {
+    tolles::model::save_model(&parse_model(json)?, &path).map_err(failed)
+}
+
+/// Simulates a flight; `options` is a JSON object of `SimulateRequest` fields by name.
+/// Returns (names, columns, sidecar JSON).
+#[pyfunction]
+fn simulate<'py>(
+    py: Python<'py>,
+    options: &str,
+) -> PyResult<(Vec<String>, Vec<Bound<'py, numpy::PyArray1<f64>>>, String)> {
+    let request = simulate_request(options)?;
+    let simulated = py
+        .detach(|| tolles::simulate::simulate(&request, &Silent))
+        .map_err(failed)?;
+    let columns = tolles_io::simulation::flight_columns(&simulated.flight);
+    let names = columns.iter().map(|(n, _)| n.to_string()).collect();
+    let arrays = columns
+        .iter()
+        .map(|(_, v)| v.to_vec().into_pyarray(py))
+        .collect();
+    let sidecar = tolles_io::simulation::Sidecar::new(
+        simulated.plan_kind.name(),
+        &simulated.plan,
+        &simulated.scenario,
+    );
+    Ok((names, arrays, sidecar.to_json()))
+}
+
+fn simulate_request(options: &str) -> PyResult<tolles::simulate::SimulateRequest> {
+    use tolles::simulate::{SimulateRequest, UniformField};
+    let value: serde_json::Value = serde_json::from_str(options).map_err(failed)?;
+    let object = value
+        .as_object()
+        .ok_or_else(|| failed("options must be a mapping"))?;
+    let mut r = SimulateRequest::default();
+    for (key, v) in object {
+        let number = || {
+            v.as_f64()
+                .ok_or_else(|| failed(format!("{key} must be a number, got {v}")))
+        };
+        let count = || {
+            v.as_u64()
+                .ok_or_else(|| failed(format!("{key} must be a whole number ≥ 0, got {v}")))
+        };
+        let text = || {
+            v.as_str()
+                .ok_or_else(|| failed(format!("{key} must be text, got {v}")))
+        };
+        match key.as_str() {
+            "plan" => r.plan = text()?.parse().map_err(failed)?,
+            "preset" => r.preset = text()?.parse().map_err(failed)?,
+            "seed" => r.seed = count()?,
+            "fs" => r.fs_hz = number()?,
+            "speed" => r.speed_mps = number()?,
+            "lat" => r.lat_deg = number()?,
+            "lon" => r.lon_deg = number()?,
+            "alt" => r.alt_m = number()?,
+            "date" => r.date = text()?.to_string(),
+            "uniform" => {
+                let [inclination_deg, declination_deg, intensity_nt]: [f64; 3] =
+                    serde_json::from_value(v.clone()).map_err(|_| {
+                        failed("uniform must be (inclination_deg, declination_deg, intensity_nT)")
+                    })?;
+                r.uniform = Some(UniformField {
+                    inclination_deg,
+                    declination_deg,
+                    intensity_nt,
+                });
+            }
+            "period" => r.period_s = number()?,
+            "cycles" => r.cycles = count()?.try_into().map_err(failed)?,
+            "roll" => r.roll_deg = Some(number()?),
+            "pitch" => r.pitch_deg = Some(number()?),
+            "yaw" => r.yaw_deg = number()?,
+            "lines" => r.lines = count()?.try_into().map_err(failed)?,
+            "line_duration" => r.line_duration_s = number()?,
+            "turbulence" => r.turbulence_deg = number()?,
+            "geology" => r.geology_nt = number()?,
+            "diurnal" => r.diurnal_nt = number()?,
+            "scalar_noise" => r.scalar_noise_nt = number()?,
+            "flux_noise" => r.flux_noise_nt = number()?,
+            "flux_lag" => r.flux_lag_s = number()?,
+            other => return Err(failed(format!("simulate has no option {other:?}"))),
+        }
+    }
+    Ok(r)
+}
+
+#[pymodule]
+fn _tolles(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("TollesError", m.py().get_type::<TollesError>())?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add_function(wrap_pyfunction!(read, m)?)?;
+    m.add_function(wrap_pyfunction!(fit, m)?)?;
+    m.add_function(wrap_pyfunction!(compensate, m)?)?;
+    m.add_function(wrap_pyfunction!(fom, m)?)?;
+    m.add_function(wrap_pyfunction!(output_names, m)?)?;
+    m.add_function(wrap_pyfunction!(load_model, m)?)?;
+    m.add_function(wrap_pyfunction!(check_model, m)?)?;
+    m.add_function(wrap_pyfunction!(save_model, m)?)?;
+    m.add_function(wrap_pyfunction!(simulate, m)?)?;
+    Ok(())
+}

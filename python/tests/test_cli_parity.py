@@ -1,0 +1,164 @@
+"""Python and the `tolles` command compute the same things on the same files: read, fit,
+compensate, FOM, and models passed both ways."""
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import tolles
+from conftest import fom_json, read_csv_columns
+
+TOL = 1e-9  # nT
+
+
+def max_diff(a, b):
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    assert a.shape == b.shape
+    assert np.array_equal(np.isnan(a), np.isnan(b)), "missing values differ"
+    ok = ~np.isnan(a)
+    return float(np.max(np.abs(a[ok] - b[ok]))) if ok.any() else 0.0
+
+
+def test_read_gives_the_file_columns_as_numbers(flights):
+    df = tolles.read(flights / "cal.csv")
+    raw = pd.read_csv(flights / "cal.csv")
+    assert list(df.columns) == list(raw.columns)
+    for c in raw.columns:
+        assert max_diff(df[c], raw[c]) == 0.0, c
+    assert df.attrs["source"].endswith("cal.csv")
+
+
+@pytest.mark.parametrize("ext", ["h5", "parquet"])
+def test_every_format_reads_the_same_numbers(flights, ext):
+    csv = tolles.read(flights / "survey.csv")
+    other = tolles.read(flights / f"survey.{ext}")
+    for c in csv.columns:
+        assert max_diff(other[c], csv[c]) == 0.0, c
+
+
+def test_a_fit_equals_the_cli_fit(flights):
+    model = tolles.fit(tolles.read(flights / "cal.csv"), scalar="mag_1_uc", vector="flux_a")
+    cli_model = tolles.load_model(flights / "model.json")
+    assert model.columns == cli_model.columns
+    assert max_diff(model.coefficients, cli_model.coefficients) <= 1e-9 * np.max(np.abs(cli_model.coefficients))
+    assert model.diagnostics["samples_used"] == cli_model.diagnostics["samples_used"]
+
+
+def test_saved_models_are_byte_identical_to_the_cli_s(flights, tmp_path):
+    model = tolles.fit(tolles.read(flights / "cal.csv"))
+    model.save(tmp_path / "py.json")
+    assert (tmp_path / "py.json").read_bytes() == (flights / "model.json").read_bytes()
+
+
+def test_compensate_equals_the_cli_output(flights, cli, tmp_path):
+    survey = tolles.read(flights / "survey.csv")
+    ours = tolles.compensate(survey, tolles.load_model(flights / "model.json"))
+    cli("compensate", flights / "survey.csv", "--model", flights / "model.json", "--out", tmp_path / "c.csv")
+    theirs = read_csv_columns(tmp_path / "c.csv")
+    assert list(ours.columns) == list(theirs.columns)
+    assert max_diff(ours["mag_1_c"], theirs["mag_1_c"]) <= TOL
+    assert survey.shape[1] + 1 == ours.shape[1]
+    assert "mag_1_c" not in survey.columns, "the input frame is left alone"
+
+
+def test_models_pass_from_python_to_the_cli(flights, cli, tmp_path):
+    cal = tolles.read(flights / "cal.csv")
+    model = tolles.fit(cal, terms="permanent,induced,eddy", lambda_=0.001)
+    model.save(tmp_path / "m.json")
+    cli("compensate", flights / "survey.csv", "--model", tmp_path / "m.json", "--out", tmp_path / "c.csv")
+    theirs = read_csv_columns(tmp_path / "c.csv")["mag_1_c"]
+    ours = tolles.compensate(tolles.read(flights / "survey.csv"), model)["mag_1_c"]
+    assert max_diff(ours, theirs) <= TOL
+
+
+def test_models_pass_from_the_cli_to_python_with_their_terms(flights):
+    model = tolles.load_model(flights / "model.json")
+    data = json.loads((flights / "model.json").read_text())["fits"][0]
+    assert model.scalars == ["mag_1_uc"]
+    assert model.patent == data["patent"]
+    assert set(model.patent) >= {"perm_nT", "induced", "eddy_s"}
+    assert model.level_nt == data["level_nt"] and abs(model.fs_hz - 10.0) < 1e-9
+    assert len(model.coefficients) == len(model.columns) == 16
+
+
+def test_the_model_level_does_not_depend_on_the_split(flights, cli, tmp_path):
+    survey = tolles.read(flights / "survey.csv")
+    model = tolles.load_model(flights / "model.json")
+    whole = tolles.compensate(survey, model, level="model")["mag_1_c"].to_numpy()
+    half = len(survey) // 2
+    first = tolles.compensate(survey.iloc[:half], model, level="model")["mag_1_c"].to_numpy()
+    # Away from the cut (the derivative there is one-sided), the halves equal the whole.
+    assert max_diff(first[: half - 2], whole[: half - 2]) <= TOL
+    cli("compensate", flights / "survey.csv", "--model", flights / "model.json", "--level", "model", "--out", tmp_path / "c.csv")
+    assert max_diff(whole, read_csv_columns(tmp_path / "c.csv")["mag_1_c"]) <= TOL
+
+
+def test_fom_equals_the_cli_json(flights, cli):
+    cal = tolles.read(flights / "cal.csv")
+    model = tolles.load_model(flights / "model.json")
+    assert tolles.fom(cal, scalar="mag_1_uc", model=model) == fom_json(
+        cli, flights / "cal.csv", "--scalar", "mag_1_uc", "--model", flights / "model.json"
+    )
+    assert tolles.fom(cal, "mag_1_uc", band=(0.1, 0.9)) == fom_json(
+        cli, flights / "cal.csv", "--scalar", "mag_1_uc", "--band", "0.1,0.9"
+    )
+
+
+def test_selected_lines_fit_as_the_cli_selects_them(flights, cli, tmp_path):
+    survey = tolles.read(flights / "survey.csv", line=[1001, 1002], time=(None, 1e9))
+    assert set(survey["line"].unique()) == {1001.0, 1002.0}
+    model = tolles.fit(survey, lambda_=0.01)
+    cli("fit", flights / "survey.csv", "--scalar", "mag_1_uc", "--vector", "flux_a", "--line", "1001,1002", "--lambda", "0.01", "--out", tmp_path / "m.json")
+    theirs = tolles.load_model(tmp_path / "m.json")
+    assert max_diff(model.coefficients, theirs.coefficients) <= 1e-9 * np.max(np.abs(theirs.coefficients))
+
+
+def test_several_scalars_give_one_model_and_a_column_each(flights):
+    cal = tolles.read(flights / "cal.csv")
+    cal["mag_2_uc"] = cal["mag_1_uc"] + 1.0
+    model = tolles.fit(cal, scalar=["mag_1_uc", "mag_2_uc"], vector="flux_a")
+    assert model.scalars == ["mag_1_uc", "mag_2_uc"]
+    out = tolles.compensate(cal, model)
+    assert max_diff(out["mag_2_c"] - 1.0, out["mag_1_c"]) < 1e-6
+    with pytest.raises(AttributeError):
+        model.coefficients
+
+
+def test_errors_name_the_column_and_warnings_are_warnings(flights):
+    cal = tolles.read(flights / "cal.csv")
+    with pytest.raises(tolles.TollesError, match="flux_b_x"):
+        tolles.fit(cal, vector="flux_b")
+    holed = cal.copy()
+    holed.loc[100:104, "flux_a_x"] = np.nan
+    with pytest.warns(tolles.TollesWarning, match="5 of"):
+        out = tolles.compensate(holed, tolles.load_model(flights / "model.json"))
+    assert out["mag_1_c"].isna().sum() == 5
+    with pytest.raises(tolles.TollesError, match="no such file|cannot open|No such"):
+        tolles.read(flights / "missing.csv")
+
+
+def test_a_frame_without_time_needs_a_sample_rate(flights):
+    cal = tolles.read(flights / "cal.csv").drop(columns=["tt"])
+    with pytest.raises(tolles.TollesError, match="sample rate"):
+        tolles.fit(cal)
+    assert tolles.fit(cal, fs=10.0).fs_hz == 10.0
+
+
+def test_an_existing_output_column_is_not_overwritten(flights):
+    survey = tolles.read(flights / "survey.csv")
+    survey["mag_1_c"] = 0.0
+    with pytest.warns(tolles.TollesWarning, match="mag_1_c_tolles"):
+        out = tolles.compensate(survey, tolles.load_model(flights / "model.json"))
+    assert (out["mag_1_c"] == 0.0).all() and out["mag_1_c_tolles"].notna().all()
+
+
+def test_simulate_equals_the_cli_flight(flights):
+    df = tolles.simulate(plan="box", seed=3)
+    raw = pd.read_csv(flights / "cal.csv")
+    for c in raw.columns:
+        assert max_diff(df[c], raw[c]) == 0.0, c
+    sidecar = json.loads((flights / "cal.json").read_text())
+    assert df.attrs["truth"] == sidecar
+    assert df.attrs["truth"]["plan_name"] == "box"

@@ -1,0 +1,481 @@
+"""tolles: remove an aircraft's own magnetic field from airborne magnetometer data.
+
+Learn the aircraft's permanent, induced and eddy-current fields from a calibration flight (a
+scalar magnetometer and a three-axis fluxgate) with the Tolles-Lawson model, and subtract them
+from survey data. The same library as the ``tolles`` command line: a model written by one is
+read by the other, and both compute the same numbers.
+
+>>> import tolles
+>>> cal = tolles.simulate(plan="box", seed=1)          # or tolles.read("Flt1003.h5")
+>>> model = tolles.fit(cal, scalar="mag_1_uc", vector="flux_a")
+>>> out = tolles.compensate(cal, model)                 # adds column mag_1_c (nT)
+>>> tolles.fom(out, scalar="mag_1_uc", model=model)["improvement_ratio"] > 10
+True
+
+Units: nT for fields, s for time, Hz for rates, degrees for attitude (yaw clockwise from north,
+pitch nose up, roll right wing down); fluxgates in the body frame FRD (x forward, y right,
+z down). Column names follow the DAF-MIT/SGL flight files: ``tt`` (s), ``mag_1_uc`` (nT),
+``flux_a_x/_y/_z`` (nT), ``ins_roll/_pitch/_yaw`` (deg), ``line``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import warnings as _warnings
+from typing import Any, Iterable, Mapping, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import pandas as pd
+
+from . import _tolles
+from ._tolles import TollesError, __version__
+
+__all__ = [
+    "Model",
+    "TollesError",
+    "TollesLawson",
+    "TollesWarning",
+    "compensate",
+    "fit",
+    "fom",
+    "load_model",
+    "read",
+    "simulate",
+    "__version__",
+]
+
+Names = Union[str, Sequence[str]]
+PathLike = Union[str, "os.PathLike[str]"]
+
+
+class TollesWarning(UserWarning):
+    """Something tolles noticed and worked around (missing values, a renamed column, ...)."""
+
+
+def _warn(messages: Iterable[str]) -> None:
+    for message in messages:
+        _warnings.warn(message, TollesWarning, stacklevel=3)
+
+
+def _names(value: Names, what: str) -> list:
+    """``"a,b"`` or ``["a", "b"]`` → ``["a", "b"]``."""
+    if isinstance(value, str):
+        names = [v.strip() for v in value.split(",") if v.strip()]
+    else:
+        names = [str(v).strip() for v in value]
+    if not names:
+        raise TollesError(f"{what} needs a column name, or several")
+    return names
+
+
+def _line_ids(line: Any) -> Optional[list]:
+    if line is None:
+        return None
+    if isinstance(line, str):
+        return [v.strip() for v in line.split(",")]
+    if isinstance(line, (int, float, np.number)):
+        return [repr(float(line)) if isinstance(line, float) else str(line)]
+    return [repr(float(v)) if isinstance(v, float) else str(v) for v in line]
+
+
+def _time_range(time: Any) -> Optional[str]:
+    if time is None or isinstance(time, str):
+        return time
+    start, end = time
+    fmt = lambda t: "" if t is None else repr(float(t))  # noqa: E731
+    return f"{fmt(start)}..{fmt(end)}"
+
+
+def read(path: PathLike, line: Any = None, time: Any = None) -> pd.DataFrame:
+    """Read a flight file into a DataFrame, exactly as the ``tolles`` command reads it.
+
+    Parameters
+    ----------
+    path : str or path
+        CSV (header row), Geosoft XYZ (``.xyz``), ASEG-GDF2 (``.dfn``/``.dat``), HDF5 (``.h5``,
+        ``.hdf5``, MATLAB v7.3 ``.mat``; every 1-D dataset at the root is a column, as in the
+        DAF-MIT/SGL flight files) or Parquet (``.parquet``, ``.pq``), chosen by extension.
+    line : id, list of ids or "id,id", optional
+        Keep only rows of these flight lines (column ``line``); ids match as numbers
+        (1002.02 matches 1002.020) or else as text.
+    time : (start, end) in s, or "START..END", optional
+        Keep only rows with ``tt`` in the range, both ends included; ``None`` leaves an end open.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One column per file column: float64 (missing values NaN) when its cells are numbers,
+        else str. ``df.attrs`` holds ``source`` (the path) and the scalars the file carries
+        besides its columns, such as HDF5's ``dt`` (s), which gives the sample rate.
+    """
+    names, columns, metadata, notes = _tolles.read(
+        os.fspath(path), _line_ids(line), _time_range(time)
+    )
+    _warn(notes)
+    df = pd.DataFrame(dict(zip(names, columns)), columns=names, copy=False)
+    df.attrs["source"] = os.fspath(path)
+    df.attrs.update(dict(metadata))
+    return df
+
+
+class _Columns:
+    """Hands a DataFrame's columns to the native code as float64 arrays, only when asked."""
+
+    def __init__(self, df: pd.DataFrame):
+        if not isinstance(df, pd.DataFrame):
+            raise TypeError(f"expected a pandas DataFrame, got {type(df).__name__}")
+        self.df = df
+        self.names = [str(c) for c in df.columns]
+        self.source = str(df.attrs.get("source", "<DataFrame>"))
+        dt = df.attrs.get("dt")
+        self.dt = float(dt) if dt is not None else None
+
+    def get(self, i: int) -> np.ndarray:
+        column = self.df.iloc[:, i]
+        try:
+            values = column.to_numpy(dtype=np.float64, na_value=np.nan)
+        except (TypeError, ValueError):
+            values = pd.to_numeric(column, errors="raise").to_numpy(dtype=np.float64)
+        return np.ascontiguousarray(values)
+
+    def args(self) -> tuple:
+        return (self.source, self.names, self.get, self.dt)
+
+
+class Model:
+    """A fitted Tolles-Lawson model: one fit per scalar magnetometer.
+
+    The same JSON model file as ``tolles fit --out`` writes (``Model.save``) and every other
+    command reads (``tolles.load_model``). With one fit, the attributes below are that fit's;
+    with several, use ``model.fits`` (a list of dicts) or ``model.fit_for("mag_4_uc")``.
+
+    Attributes
+    ----------
+    scalars : list of str
+        Uncompensated scalar columns, one per fit.
+    columns : list of str
+        Design column names, in coefficient order (MagNav.jl's A-matrix order).
+    coefficients : numpy.ndarray
+        Coefficients (nT per design column; the design's columns are nT-scaled by
+        Bt_scale = 50000 nT, as MagNav.jl's).
+    patent : dict
+        The 16 terms in the patent's nomenclature: ``perm_nT`` (nT), ``induced``
+        (dimensionless), ``eddy_s`` (s); axes L = x forward, T = y right, V = z down.
+    physical : dict
+        Permanent vector (nT), induced matrix (1) and eddy matrix (s).
+    diagnostics : dict
+        Samples used, residual (nT), improvement ratio, condition number, standard errors,
+        the cross-validation and the term-set choice.
+    level_nt : float
+        The calibration flight's mean correction (nT), subtracted by ``level="model"``.
+    fs_hz : float
+        The calibration's sample rate (Hz).
+    """
+
+    def __init__(self, json_text: str):
+        self._json = _tolles.check_model(json_text)
+        self._data = json.loads(self._json)
+
+    @property
+    def fits(self) -> list:
+        return self._data["fits"]
+
+    @property
+    def scalars(self) -> list:
+        return [f["scalar"] for f in self.fits]
+
+    def fit_for(self, scalar: str) -> dict:
+        """The fit of ``scalar`` as a dict (coefficients, settings, diagnostics, ...)."""
+        for f in self.fits:
+            if f["scalar"] == scalar:
+                return f
+        raise KeyError(f"no fit for scalar {scalar!r}; the model has fits for: {', '.join(self.scalars)}")
+
+    def _only(self) -> dict:
+        if len(self.fits) != 1:
+            raise AttributeError(
+                f"the model holds {len(self.fits)} fits ({', '.join(self.scalars)}); use model.fit_for(scalar)"
+            )
+        return self.fits[0]
+
+    @property
+    def columns(self) -> list:
+        return list(self._only()["columns"])
+
+    @property
+    def coefficients(self) -> np.ndarray:
+        return np.array(self._only()["coefficients"], dtype=np.float64)
+
+    @property
+    def patent(self) -> dict:
+        return self._only()["patent"]
+
+    @property
+    def physical(self) -> dict:
+        return self._only()["physical"]
+
+    @property
+    def diagnostics(self) -> dict:
+        return self._only()["diagnostics"]
+
+    @property
+    def level_nt(self) -> float:
+        return float(self._only()["level_nt"])
+
+    @property
+    def fs_hz(self) -> float:
+        return float(self._only()["fs_hz"])
+
+    def to_json(self) -> str:
+        """The model file's text."""
+        return self._json
+
+    def save(self, path: PathLike) -> None:
+        """Write the model file, byte for byte what ``tolles fit --out`` writes."""
+        _tolles.save_model(self._json, os.fspath(path))
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Model) and other._data == self._data
+
+    def __repr__(self) -> str:
+        parts = [f"{f['scalar']} ~ {','.join(f['vectors'])} ({len(f['coefficients'])} terms)" for f in self.fits]
+        return f"Model({'; '.join(parts)})"
+
+
+def load_model(path: PathLike) -> Model:
+    """Read a model file written by ``tolles fit`` or ``Model.save``."""
+    return Model(_tolles.load_model(os.fspath(path)))
+
+
+def _model(model: Union[Model, PathLike]) -> Model:
+    return model if isinstance(model, Model) else load_model(model)
+
+
+def fit(
+    df: pd.DataFrame,
+    scalar: Names = "mag_1_uc",
+    vector: Names = "flux_a",
+    *,
+    terms: str = "auto",
+    lambda_: Union[str, float] = "auto",
+    band: Tuple[float, float] = (0.1, 0.9),
+    order: int = 4,
+    trim: int = 20,
+    fs: Optional[float] = None,
+) -> Model:
+    """Learn the aircraft's field from a calibration flight, as ``tolles fit`` does.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        The calibration flight (e.g. from :func:`read`), with the scalar, the fluxgate columns
+        and, for the sample rate, ``tt`` (s) or ``df.attrs["dt"]`` (s) or ``fs``.
+    scalar : str or list of str
+        Uncompensated scalar column(s) (nT); several give one model with a fit per scalar.
+    vector : str or list of str
+        Fluxgate prefix(es): ``"flux_a"`` reads ``flux_a_x/_y/_z`` (nT, body frame FRD);
+        several build one design in which each fluxgate adds its own block of terms.
+    terms : str
+        ``"auto"`` (the 16 identifiable terms, or MagNav's 18 when cross-validation finds them
+        at least 2 % better), or a list such as ``"permanent,induced,eddy"`` (also ``p``, ``i``,
+        ``i5``, ``i3``, ``e``, ``e8``, ``e3``, ``bias``).
+    lambda_ : "auto" or float
+        Ridge strength: ``"auto"`` chooses λ·diag(AᵀA) by 5-fold blocked cross-validation; a
+        number adds that λ to AᵀA with unscaled columns, exactly as MagNav's ``linreg``.
+    band : (low, high) in Hz
+        Pass band of the zero-phase Butterworth filter (MagNav's 0.1–0.9 Hz).
+    order : int
+        Butterworth order per band edge.
+    trim : int
+        Samples dropped at each end of each run after filtering.
+    fs : float, optional
+        Sample rate (Hz) when the frame has no ``tt`` column and no ``dt``.
+    """
+    columns = _Columns(df)
+    lam = None if isinstance(lambda_, str) and lambda_.strip().lower() == "auto" else float(lambda_)
+    text, notes = _tolles.fit(
+        *columns.args(),
+        _names(scalar, "scalar"),
+        _names(vector, "vector"),
+        str(terms),
+        lam,
+        (float(band[0]), float(band[1])),
+        int(order),
+        int(trim),
+        None if fs is None else float(fs),
+    )
+    _warn(notes)
+    return Model(text)
+
+
+def compensate(
+    df: pd.DataFrame,
+    model: Union[Model, PathLike],
+    level: str = "mean",
+    fs: Optional[float] = None,
+) -> pd.DataFrame:
+    """Remove the aircraft's field from survey data, as ``tolles compensate`` does.
+
+    Returns a new DataFrame with every column of ``df`` and one compensated column (nT) per
+    fit, named after the scalar with ``_uc`` replaced by ``_c`` (``mag_1_uc`` → ``mag_1_c``;
+    ``…_tolles`` if ``df`` already has that column). Rows that cannot be compensated
+    (missing values) are NaN.
+
+    Parameters
+    ----------
+    level : "mean" or "model"
+        ``"mean"`` keeps the correction's mean over these rows in the data (MagNav's choice, and
+        the CLI's default). ``"model"`` subtracts the calibration's stored mean (``level_nt``),
+        so a row's result does not depend on how the data was split (use it on partitions).
+    fs : float, optional
+        The survey's sample rate (Hz); default from ``tt``, else the model's.
+    """
+    columns = _Columns(df)
+    model = _model(model)
+    if len(df) == 0:
+        # Nothing to compute; the empty result names its columns (Dask infers `meta` so).
+        names = _tolles.output_names(model.to_json(), columns.names)
+        added, notes = [(n, np.empty(0, dtype=np.float64)) for n in names], []
+    else:
+        added, notes = _tolles.compensate(
+            *columns.args(), model.to_json(), str(level), None if fs is None else float(fs)
+        )
+    _warn(notes)
+    out = df.copy(deep=False)
+    for name, values in added:
+        out[name] = pd.Series(values, index=df.index, copy=False)
+    return out
+
+
+def fom(
+    df: pd.DataFrame,
+    scalar: str = "mag_1_uc",
+    model: Union[Model, PathLike, None] = None,
+    *,
+    band: Tuple[float, float] = (0.05, 1.0),
+    order: int = 4,
+    fs: Optional[float] = None,
+) -> dict:
+    """Figure of merit of a compensation box: exactly ``tolles fom --json``, as a dict.
+
+    The box's 12 maneuvers (roll, pitch, yaw on headings 0, 90, 180, 270°) are found in
+    ``ins_roll``, ``ins_pitch``, ``ins_yaw`` (deg) and ``tt`` (s); the FOM (nT) is the sum of
+    the peak-to-peaks of the band-passed scalar over them. With ``model``, also after
+    compensation (under ``"compensated"``) and the improvement ratio.
+    """
+    columns = _Columns(df)
+    text, notes = _tolles.fom(
+        *columns.args(),
+        str(scalar),
+        None if model is None else _model(model).to_json(),
+        (float(band[0]), float(band[1])),
+        int(order),
+        None if fs is None else float(fs),
+    )
+    _warn(notes)
+    return json.loads(text)
+
+
+def simulate(plan: str = "box", preset: str = "cabin", seed: int = 1, **options: Any) -> pd.DataFrame:
+    """A flight whose truth is known, as ``tolles simulate`` writes it.
+
+    ``plan``: ``"box"``, ``"patent"`` or ``"survey"``; ``preset``: ``"tail-stinger"``,
+    ``"cabin"`` or ``"uav"``. Other options, named like the command's flags: ``fs`` (Hz),
+    ``speed`` (m/s), ``lat``/``lon`` (deg), ``alt`` (m), ``date`` ("YYYY-MM-DD"),
+    ``uniform`` ((inclination_deg, declination_deg, intensity_nT) instead of IGRF),
+    ``period`` (s), ``cycles``, ``roll``/``pitch``/``yaw`` (deg), ``lines``,
+    ``line_duration`` (s), ``turbulence`` (deg), ``geology`` (nT), ``diurnal`` (nT),
+    ``scalar_noise`` (nT), ``flux_noise`` (nT), ``flux_lag`` (s).
+
+    The result's ``attrs["truth"]`` holds the JSON sidecar: every parameter and the true
+    terms (physical and patent).
+    """
+    request = dict(options, plan=plan, preset=preset, seed=seed)
+    if "uniform" in request and request["uniform"] is not None:
+        request["uniform"] = [float(v) for v in request["uniform"]]
+    names, columns, sidecar = _tolles.simulate(json.dumps(request))
+    df = pd.DataFrame(dict(zip(names, columns)), columns=names, copy=False)
+    df.attrs["source"] = f"<simulated {plan}>"
+    df.attrs["truth"] = json.loads(sidecar)
+    return df
+
+
+_Base: tuple
+try:  # scikit-learn is optional: with it, the estimator gets its cloning, tags and HTML repr.
+    from sklearn.base import BaseEstimator as _SkBase, TransformerMixin as _SkMixin
+
+    _Base = (_SkMixin, _SkBase)
+except ImportError:  # pragma: no cover - exercised when scikit-learn is absent
+    _Base = (object,)
+
+
+class TollesLawson(*_Base):  # type: ignore[misc]
+    """A scikit-learn style transformer: ``fit`` learns a model from a calibration flight,
+    ``transform`` compensates a DataFrame (adding ``mag_1_c``, …).
+
+    Parameters are those of :func:`fit` plus ``level`` of :func:`compensate`; after ``fit``,
+    ``model_`` holds the :class:`Model`.
+
+    >>> from sklearn.pipeline import make_pipeline            # doctest: +SKIP
+    >>> pipe = make_pipeline(TollesLawson(scalar="mag_1_uc", vector="flux_a"))  # doctest: +SKIP
+    >>> survey_c = pipe.fit(cal).transform(survey)            # doctest: +SKIP
+    """
+
+    def __init__(
+        self,
+        scalar: Names = "mag_1_uc",
+        vector: Names = "flux_a",
+        terms: str = "auto",
+        lambda_: Union[str, float] = "auto",
+        band: Tuple[float, float] = (0.1, 0.9),
+        order: int = 4,
+        trim: int = 20,
+        fs: Optional[float] = None,
+        level: str = "mean",
+    ):
+        self.scalar = scalar
+        self.vector = vector
+        self.terms = terms
+        self.lambda_ = lambda_
+        self.band = band
+        self.order = order
+        self.trim = trim
+        self.fs = fs
+        self.level = level
+
+    _PARAMS = ("scalar", "vector", "terms", "lambda_", "band", "order", "trim", "fs", "level")
+
+    def get_params(self, deep: bool = True) -> dict:
+        return {name: getattr(self, name) for name in self._PARAMS}
+
+    def set_params(self, **params: Any) -> "TollesLawson":
+        for name, value in params.items():
+            if name not in self._PARAMS:
+                raise ValueError(f"TollesLawson has no parameter {name!r}")
+            setattr(self, name, value)
+        return self
+
+    def fit(self, X: pd.DataFrame, y: Any = None) -> "TollesLawson":
+        """Fit on the calibration flight ``X`` (``y`` is ignored: the scalar is a column)."""
+        self.model_ = fit(
+            X,
+            self.scalar,
+            self.vector,
+            terms=self.terms,
+            lambda_=self.lambda_,
+            band=self.band,
+            order=self.order,
+            trim=self.trim,
+            fs=self.fs,
+        )
+        return self
+
+    def transform(self, X: pd.DataFrame) -> pd.DataFrame:
+        """``X`` with the compensated columns added (nT)."""
+        if not hasattr(self, "model_"):
+            raise AttributeError("TollesLawson is not fitted yet; call fit first")
+        return compensate(X, self.model_, level=self.level, fs=self.fs)
+
+    def fit_transform(self, X: pd.DataFrame, y: Any = None, **fit_params: Any) -> pd.DataFrame:
+        return self.fit(X, y).transform(X)

@@ -1,0 +1,56 @@
+"""Type stubs of the native module; use the functions of ``tolles`` instead."""
+
+from typing import Any, Callable, List, Optional, Sequence, Tuple
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+class TollesError(ValueError):
+    """A flight, model or request tolles cannot use; the message names the file, row or column."""
+
+Getter = Callable[[int], npt.NDArray[np.float64]]
+
+def read(
+    path: str, lines: Optional[Sequence[str]] = ..., time: Optional[str] = ...
+) -> Tuple[List[str], List[Any], List[Tuple[str, float]], List[str]]: ...
+def fit(
+    source: str,
+    names: Sequence[str],
+    get: Getter,
+    dt: Optional[float],
+    scalars: Sequence[str],
+    vectors: Sequence[str],
+    terms: str,
+    lambda_: Optional[float],
+    band: Tuple[float, float],
+    order: int,
+    trim: int,
+    fs: Optional[float],
+) -> Tuple[str, List[str]]: ...
+def compensate(
+    source: str,
+    names: Sequence[str],
+    get: Getter,
+    dt: Optional[float],
+    model: str,
+    level: str,
+    fs: Optional[float],
+) -> Tuple[List[Tuple[str, npt.NDArray[np.float64]]], List[str]]: ...
+def fom(
+    source: str,
+    names: Sequence[str],
+    get: Getter,
+    dt: Optional[float],
+    scalar: str,
+    model: Optional[str],
+    band: Tuple[float, float],
+    order: int,
+    fs: Optional[float],
+) -> Tuple[str, List[str]]: ...
+def output_names(model: str, names: Sequence[str]) -> List[str]: ...
+def load_model(path: str) -> str: ...
+def check_model(json: str) -> str: ...
+def save_model(json: str, path: str) -> None: ...
+def simulate(options: str) -> Tuple[List[str], List[npt.NDArray[np.float64]], str]: ...
