@@ -23,6 +23,9 @@ use tolles_io::schema::{
 use tolles_io::select::RowSelection;
 use tolles_io::table::{find_column, Column, Table};
 
+/// Float64 columns handed to Python without a copy.
+type Arrays<'py> = Vec<Bound<'py, numpy::PyArray1<f64>>>;
+
 create_exception!(
     _tolles,
     TollesError,
@@ -340,10 +343,7 @@ fn save_model(json: &str, path: PathBuf) -> PyResult<()> {
 /// Simulates a flight; `options` is a JSON object of `SimulateRequest` fields by name.
 /// Returns (names, columns, sidecar JSON).
 #[pyfunction]
-fn simulate<'py>(
-    py: Python<'py>,
-    options: &str,
-) -> PyResult<(Vec<String>, Vec<Bound<'py, numpy::PyArray1<f64>>>, String)> {
+fn simulate<'py>(py: Python<'py>, options: &str) -> PyResult<(Vec<String>, Arrays<'py>, String)> {
     let request = simulate_request(options)?;
     let simulated = py
         .detach(|| tolles::simulate::simulate(&request, &Silent))
