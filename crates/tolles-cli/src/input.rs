@@ -13,27 +13,6 @@ pub fn read_table(path: &Path) -> Result<Table> {
     crate::select::Selection::default().read(path, crate::render::Use::Other)
 }
 
-/// The error for time `t` (s) at `place` of `path` that is not after the time `before` (s).
-pub fn time_not_increasing(path: &Path, place: &str, t: f64, before: f64) -> anyhow::Error {
-    anyhow!(
-        "{}: {place}, column {TIME_COLUMN:?}: time does not increase ({t} after {before}); sort the file or remove repeated rows",
-        path.display(),
-    )
-}
-
-/// The error for a fluxgate `vector` whose magnitude (nT) at `place` of `path` is implausible.
-pub fn flux_magnitude_error(
-    path: &Path,
-    place: &str,
-    vector: &str,
-    magnitude: f64,
-) -> anyhow::Error {
-    anyhow!(
-        "{}: {place}: fluxgate {vector} magnitude {magnitude:.1} nT is outside 1,000–100,000 nT; are columns {vector}_x/_y/_z in nT?",
-        path.display()
-    )
-}
-
 /// The sample rate (Hz) of `table`: `fs` (from `--fs`) if given, else 1 / median step of `tt`,
 /// else 1 / the file's `dt` scalar (s; SGL HDF5 files carry one).
 pub fn sample_rate(table: &Table, tt: Option<&[f64]>, fs: Option<f64>) -> Result<f64> {

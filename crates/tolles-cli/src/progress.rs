@@ -83,11 +83,3 @@ pub fn spinner(message: &str) -> ProgressBar {
     spinner.enable_steady_tick(Duration::from_millis(120));
     spinner
 }
-
-/// Turns `progress` into a bar of `total` units from zero, now described by `message`.
-pub fn restyle_as_bar(progress: &ProgressBar, total: u64, message: &str) {
-    progress.set_style(bar(total, message).style());
-    progress.set_length(total);
-    progress.set_position(0);
-    progress.set_message(message.to_string());
-}

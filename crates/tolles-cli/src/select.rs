@@ -37,11 +37,6 @@ impl Selection {
         }
     }
 
-    /// True when no --line or --time was given: every row is used.
-    pub fn is_everything(&self) -> bool {
-        self.rows().is_empty()
-    }
-
     /// Reads `path` and keeps the selected rows (all without flags), saying on stderr what the
     /// reader left out and which rows were selected.
     pub fn read(&self, path: &Path, purpose: Use) -> Result<Table> {

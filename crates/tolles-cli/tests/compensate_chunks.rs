@@ -388,3 +388,49 @@ fn a_jittered_clock_takes_more_median_passes_and_still_matches() {
     assert!(ok, "{stderr}");
     assert_eq!(csv.lines().count(), 80_001);
 }
+
+#[test]
+fn the_model_level_in_chunks_writes_what_reading_whole_writes() {
+    let dir = TempDir::new().unwrap();
+    let lines = flight_and_model(dir.path());
+    write(dir.path(), "survey.csv", &lines);
+    let args = ["survey.csv", "--model", "m.json", "--level", "model"];
+    assert!(is_chunked(dir.path(), &args));
+    let (ok, csv, stderr) = same_both_ways(dir.path(), &args);
+    assert!(ok, "{stderr}");
+    let (_, mean, _) = compensate(dir.path(), &args[..3], None);
+    assert!(csv != mean, "the model's level is not the file's mean");
+    // An error after the checks warns the same way too: a text column cannot go to Parquet.
+    let lat = lines[0].split(',').position(|h| h == "lat").unwrap();
+    let mut text = lines.clone();
+    text[1 + 1000] = set(&text[1 + 1000], lat, "N45");
+    write(dir.path(), "text.csv", &text);
+    let args = [
+        "text.csv",
+        "--model",
+        "m.json",
+        "--level",
+        "model",
+        "--out",
+        "t.parquet",
+    ];
+    let (ok, _, stderr) = same_both_ways(dir.path(), &args);
+    assert!(!ok && stderr.contains("rows have no mag_1_c"), "{stderr}");
+}
+
+#[test]
+fn an_unknown_memory_policy_is_an_error() {
+    let dir = TempDir::new().unwrap();
+    let out = tolles()
+        .current_dir(dir.path())
+        .args(["compensate", "survey.csv", "--model", "m.json"])
+        .env("TOLLES_MEMORY", "sometimes")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        stderr.contains("TOLLES_MEMORY must be auto, bounded or whole, got \"sometimes\""),
+        "{stderr}"
+    );
+}

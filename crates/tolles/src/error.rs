@@ -74,6 +74,19 @@ pub enum Error {
     /// A request whose settings contradict each other or are out of range.
     #[error("{0}")]
     Invalid(String),
+    /// A chunk size of zero rows.
+    #[error("rows per chunk must be positive")]
+    NoChunkRows,
+    /// The anonymous temporary file that keeps numbers between passes over a file failed.
+    #[error("temporary file: {source}")]
+    TemporaryFile { source: std::io::Error },
+    /// A file read more than once did not hold the same number of rows each time.
+    #[error("{}: the file changed while it was read ({expected} rows, then {rows})", path.display())]
+    FileChanged {
+        path: PathBuf,
+        expected: usize,
+        rows: usize,
+    },
     /// Writing an output stream failed.
     #[error("{what}: {source}")]
     Write {

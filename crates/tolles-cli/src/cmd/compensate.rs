@@ -2,9 +2,10 @@
 
 use crate::progress::Terminal;
 use crate::render::{self, OrRender, Use};
-use anyhow::Result;
+use anyhow::{anyhow, bail, Result};
 use std::path::PathBuf;
-use tolles::compensate::{CompensateRequest, FileRequest};
+use tolles::compensate::{CompensateRequest, FileRequest, Memory};
+use tolles::Error;
 
 const EXAMPLES: &str = "\
 Examples:
@@ -43,20 +44,27 @@ pub struct Args {
     pub select: crate::select::Selection,
 }
 
+/// Environment variable: `bounded` always reads the survey in chunks where it can, `whole` never
+/// does, `auto` (the default) does when reading it whole could take more than half of the memory
+/// available.
+const MEMORY_VAR: &str = "TOLLES_MEMORY";
+/// Environment variable: rows per chunk; giving it asks for chunks.
+const CHUNK_ROWS_VAR: &str = "TOLLES_CHUNK_ROWS";
+
 pub fn run(args: Args) -> Result<()> {
+    let memory = memory()?;
+    let chunk_rows = chunk_rows();
     let model = tolles::model::load_model(&args.model).or_render()?;
-    if super::compensate_stream::applies(&args, &model) {
-        return super::compensate_stream::run(&args, &model);
-    }
     let request = FileRequest {
-        survey: args.survey.clone(),
-        out: args.out.clone(),
+        survey: args.survey,
+        out: args.out,
         compensate: CompensateRequest {
             fs_hz: args.fs,
             level: args.level,
         },
         selection: args.select.rows(),
-        ..FileRequest::default()
+        memory,
+        chunk_rows: chunk_rows.as_ref().map(|(_, rows)| *rows),
     };
     let mut warnings = Vec::new();
     let stdout = std::io::stdout();
@@ -69,8 +77,32 @@ pub fn run(args: Args) -> Result<()> {
         &mut warnings,
     );
     render::warnings(&mut warnings, Use::Compensate);
-    done.or_render()?;
-    Ok(())
+    match done {
+        Err(Error::NoChunkRows) => {
+            let text = chunk_rows.map(|(text, _)| text).unwrap_or_default();
+            bail!("{CHUNK_ROWS_VAR} must be a positive number of rows, got {text:?}")
+        }
+        done => done.or_render().map(drop),
+    }
+}
+
+/// The memory policy `TOLLES_MEMORY` names (auto when unset).
+fn memory() -> Result<Memory> {
+    let Some(text) = std::env::var_os(MEMORY_VAR) else {
+        return Ok(Memory::Auto);
+    };
+    let text = text.to_string_lossy();
+    text.parse()
+        .map_err(|_| anyhow!("{MEMORY_VAR} must be auto, bounded or whole, got {text:?}"))
+}
+
+/// `TOLLES_CHUNK_ROWS` as written, and as rows. Text that is not a number of rows becomes 0,
+/// which the library refuses only where it reads in chunks: a setting the whole-file path
+/// ignores stays harmless.
+fn chunk_rows() -> Option<(String, usize)> {
+    let text = std::env::var(CHUNK_ROWS_VAR).ok()?;
+    let rows = text.trim().parse().unwrap_or(0);
+    Some((text, rows))
 }
 
 fn parse_level(text: &str) -> Result<tolles::compensate::LevelChoice, String> {

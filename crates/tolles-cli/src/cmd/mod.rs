@@ -1,7 +1,6 @@
 //! One module per subcommand.
 
 pub mod compensate;
-pub mod compensate_stream;
 pub mod demo;
 pub mod fit;
 pub mod fom;

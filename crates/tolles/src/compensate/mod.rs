@@ -1,6 +1,10 @@
 //! Applying a model to survey data: `compensated = uncompensated − (A·β − level)`, one column
 //! per fit, on all cores; for a file, whole in memory or a chunk of rows at a time.
 
+mod chunked;
+
+pub use chunked::{needs_bounded_memory, reads_in_chunks};
+
 use crate::error::{Error, Result};
 use crate::read::{Flight, Selection};
 use crate::warning::Warning;
@@ -218,6 +222,7 @@ pub struct FileRequest {
     /// Whether the survey may be read in chunks.
     pub memory: Memory,
     /// Rows per chunk; giving it asks for chunks (as [`Memory::Bounded`], unless `Whole`).
+    /// Zero is an error ([`Error::NoChunkRows`]), but only where the survey is read in chunks.
     pub chunk_rows: Option<usize>,
 }
 
@@ -243,7 +248,8 @@ pub fn check_model(model: &ModelFile, path: &Path) -> Result<()> {
 /// Compensates the survey file of `request` with `model` and writes it with one compensated
 /// column per fit after its own: to `request.out`, or as CSV to `writer`. Every input row is
 /// written (with a selection, every selected row); rows that cannot be compensated get an empty
-/// cell and are counted in `warnings`.
+/// cell and are counted in `warnings`. The survey is read whole, or a chunk of rows at a time
+/// where [`reads_in_chunks`] says so; either way the output and the warnings are the same.
 pub fn compensate_file(
     model: &ModelFile,
     request: &FileRequest,
@@ -251,6 +257,9 @@ pub fn compensate_file(
     progress: &dyn crate::progress::Progress,
     warnings: &mut Vec<Warning>,
 ) -> Result<FileOutcome> {
+    if reads_in_chunks(model, request) {
+        return chunked::compensate_file(model, request, writer, progress, warnings);
+    }
     let data = crate::read::read(&request.survey, &request.selection, progress, warnings)?;
     let columns = compensate(&data.table, model, &request.compensate, warnings)?;
     let destination = match &request.out {

@@ -1,0 +1,118 @@
+//! What pass 1 found, checked fit by fit in the order the whole-file path meets it, so that
+//! both paths fail with the same error and warn the same way before it.
+
+use super::scan::{clone_error, FitColumns, Plan, Scan};
+use crate::error::{Error, Result};
+use crate::read::sample_rate_from;
+use crate::warning::Warning;
+use std::path::Path;
+use tolles_core::design::Design;
+use tolles_core::stream::ScalarSpec;
+use tolles_io::model::{ModelFile, ScalarModel};
+use tolles_io::IoError;
+
+/// One fit, checked and ready to compute.
+pub(super) struct ReadyFit {
+    /// The uncompensated scalar.
+    pub scalar: String,
+    /// The compensated column the model names (before any renaming).
+    pub output: String,
+    /// Index into [`Plan::fluxgates`].
+    pub fluxgate: usize,
+    design: Design,
+    coefficients: Vec<f64>,
+    /// The survey's sample rate / the calibration flight's.
+    fs_ratio: f64,
+    /// The calibration flight's mean `A·β` stored in the model (nT).
+    pub model_level_nt: f64,
+    /// A given sample rate far from the time column's.
+    pub rate_warning: Option<Warning>,
+}
+
+impl ReadyFit {
+    /// The streaming compensator's description of this fit, subtracting `level_nt` (nT).
+    pub fn spec(&self, level_nt: f64) -> ScalarSpec {
+        ScalarSpec::new(
+            &self.scalar,
+            self.fluxgate,
+            self.design.clone(),
+            &self.coefficients,
+            level_nt,
+            self.fs_ratio,
+        )
+    }
+}
+
+/// Checks the fits of `model` in order: per fit its scalar, its fluxgate's x, y, z, the time
+/// column, the fluxgate's magnitude, then the sample rate (`fs_hz` if given, Hz). Returns the
+/// fits before the first that fails, and its error.
+pub(super) fn check_in_order(
+    survey: &Path,
+    plan: &Plan,
+    scan: &Scan,
+    model: &ModelFile,
+    fs_hz: Option<f64>,
+) -> (Vec<ReadyFit>, Option<Error>) {
+    let mut ready = Vec::new();
+    for (fit, columns) in model.fits.iter().zip(&plan.fits) {
+        match check_fit(survey, plan, scan, fit, columns, fs_hz) {
+            Ok(f) => ready.push(f),
+            Err(e) => return (ready, Some(e)),
+        }
+    }
+    (ready, None)
+}
+
+fn check_fit(
+    survey: &Path,
+    plan: &Plan,
+    scan: &Scan,
+    fit: &ScalarModel,
+    columns: &FitColumns,
+    fs_hz: Option<f64>,
+) -> Result<ReadyFit> {
+    let column = |position: &Result<usize, IoError>| -> Result<()> {
+        let found = position.as_ref().map_err(clone_error)?;
+        match &scan.bad_cell[*found] {
+            Some(e) => Err(clone_error(e).into()),
+            None => Ok(()),
+        }
+    };
+    column(&columns.scalar)?;
+    let (vector, axes) = &plan.fluxgates[columns.fluxgate];
+    axes.iter().try_for_each(column)?;
+    if let Some(p) = plan.tt {
+        column(&Ok(p))?;
+        if let Some((place, t, before)) = &scan.not_increasing {
+            return Err(Error::TimeNotIncreasing {
+                path: survey.to_path_buf(),
+                place: place.clone(),
+                t: *t,
+                before: *before,
+            });
+        }
+    }
+    if let Some((place, magnitude)) = &scan.bad_magnitude[columns.fluxgate] {
+        return Err(Error::FluxMagnitude {
+            path: survey.to_path_buf(),
+            place: place.clone(),
+            vector: vector.clone(),
+            magnitude: *magnitude,
+        });
+    }
+    // Chunked formats carry no `dt` scalar: the rate comes from the time column or is given.
+    let (fs_hz, rate_warning) = match (fs_hz, plan.tt) {
+        (None, None) => (fit.fit.fs_hz, None),
+        (fs, _) => sample_rate_from(survey, None, scan.median_step, fs)?,
+    };
+    Ok(ReadyFit {
+        scalar: fit.scalar.clone(),
+        output: fit.output_column.clone(),
+        fluxgate: columns.fluxgate,
+        design: fit.fit.settings.design.clone(),
+        coefficients: fit.fit.coefficients.clone(),
+        fs_ratio: fs_hz / fit.fit.fs_hz,
+        model_level_nt: fit.fit.level_nt,
+        rate_warning,
+    })
+}
