@@ -38,6 +38,21 @@ def test_every_format_reads_the_same_numbers(flights, ext):
         assert max_diff(other[c], csv[c]) == 0.0, c
 
 
+def test_geosoft_xyz_reads_as_the_cli_reads_it(flights, cli, tmp_path):
+    raw = pd.read_csv(flights / "cal.csv")
+    body = ["/ exported for the test", "/ " + " ".join(c for c in raw.columns if c != "line")]
+    for line, rows in raw.groupby("line", sort=False):
+        body.append(f"Line {line:g}")
+        body += [" ".join(repr(v) for v in row) for row in rows.drop(columns="line").itertuples(index=False)]
+    (tmp_path / "cal.xyz").write_text("\n".join(body) + "\n")
+    df = tolles.read(tmp_path / "cal.xyz")
+    for c in raw.columns:
+        assert max_diff(df[c], raw[c]) == 0.0, c
+    model = tolles.fit(df, lambda_=0.01)
+    cli("fit", tmp_path / "cal.xyz", "--scalar", "mag_1_uc", "--vector", "flux_a", "--lambda", "0.01", "--out", tmp_path / "m.json")
+    assert model == tolles.load_model(tmp_path / "m.json")
+
+
 def test_a_fit_equals_the_cli_fit(flights):
     model = tolles.fit(tolles.read(flights / "cal.csv"), scalar="mag_1_uc", vector="flux_a")
     cli_model = tolles.load_model(flights / "model.json")

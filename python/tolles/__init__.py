@@ -79,6 +79,19 @@ def _line_ids(line: Any) -> Optional[list]:
     return [repr(float(v)) if isinstance(v, float) else str(v) for v in line]
 
 
+def _band(band: Any) -> Tuple[float, float]:
+    """``(0.1, 0.9)`` or ``"0.1,0.9"`` (Hz)."""
+    if isinstance(band, str):
+        band = [v for v in band.split(",")]
+    low, high = band
+    return (float(low), float(high))
+
+
+def _terms(terms: Any) -> str:
+    """``"auto"``, ``"permanent,induced,eddy"`` or ``["permanent", "induced", "eddy"]``."""
+    return terms if isinstance(terms, str) else ",".join(str(t) for t in terms)
+
+
 def _time_range(time: Any) -> Optional[str]:
     if time is None or isinstance(time, str):
         return time
@@ -276,7 +289,7 @@ def fit(
     vector : str or list of str
         Fluxgate prefix(es): ``"flux_a"`` reads ``flux_a_x/_y/_z`` (nT, body frame FRD);
         several build one design in which each fluxgate adds its own block of terms.
-    terms : str
+    terms : str or list of str
         ``"auto"`` (the 16 identifiable terms, or MagNav's 18 when cross-validation finds them
         at least 2 % better), or a list such as ``"permanent,induced,eddy"`` (also ``p``, ``i``,
         ``i5``, ``i3``, ``e``, ``e8``, ``e3``, ``bias``).
@@ -298,9 +311,9 @@ def fit(
         *columns.args(),
         _names(scalar, "scalar"),
         _names(vector, "vector"),
-        str(terms),
+        _terms(terms),
         lam,
-        (float(band[0]), float(band[1])),
+        _band(band),
         int(order),
         int(trim),
         None if fs is None else float(fs),
@@ -379,7 +392,7 @@ def fom(
         *columns.args(),
         str(scalar),
         None if model is None else _model(model).to_json(),
-        (float(band[0]), float(band[1])),
+        _band(band),
         int(order),
         None if fs is None else float(fs),
     )

@@ -22,7 +22,7 @@ use std::path::Path;
 /// Geosoft's dummy: a cell written `*` is a missing value.
 pub const DUMMY: &str = "*";
 
-/// The column that receives each row's `Line`/`Tie` number.
+// The column that receives each row's `Line`/`Tie` number.
 use crate::schema::LINE_COLUMN;
 
 /// Reads a Geosoft XYZ file.
