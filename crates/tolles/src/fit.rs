@@ -138,3 +138,59 @@ pub fn fit(
         .collect::<Result<Vec<_>>>()?;
     Ok(ModelFile::new(models))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::simulate::PlanKind;
+    use crate::testing::flight;
+
+    fn names(v: &[&str]) -> Vec<String> {
+        v.iter().map(|s| s.to_string()).collect()
+    }
+
+    #[test]
+    fn several_scalars_give_one_model_in_the_order_asked() {
+        let table = flight(PlanKind::Box, 1);
+        let request = FitRequest::new(names(&["truth_earth", "mag_1_uc"]), names(&["flux_a"]));
+        let model = fit(&table, &request, &crate::Silent, &mut Vec::new()).unwrap();
+        let scalars: Vec<&str> = model.fits.iter().map(|f| f.scalar.as_str()).collect();
+        assert_eq!(scalars, ["truth_earth", "mag_1_uc"]);
+        // The earth field alone has no aircraft in it: its fit explains (almost) nothing.
+        let explained = |k: usize| model.fits[k].fit.diagnostics.improvement_ratio;
+        assert!(
+            explained(1) > 50.0 * explained(0),
+            "{} {}",
+            explained(0),
+            explained(1)
+        );
+    }
+
+    #[test]
+    fn magnav_settings_fit_magnav_s_eighteen_terms() {
+        let table = flight(PlanKind::Box, 2);
+        let request = FitRequest::magnav(names(&["mag_1_uc"]), names(&["flux_a"]));
+        let model = fit(&table, &request, &crate::Silent, &mut Vec::new()).unwrap();
+        assert_eq!(model.fits[0].fit.coefficients.len(), 18);
+        assert_eq!(model.fits[0].fit.settings.lambda, Lambda::Fixed(0.001));
+    }
+
+    #[test]
+    fn a_missing_fluxgate_and_a_repeated_scalar_are_errors() {
+        let table = flight(PlanKind::Box, 1);
+        let mut warnings = Vec::new();
+        let request = FitRequest::new(names(&["mag_1_uc"]), names(&["flux_b"]));
+        let e = fit(&table, &request, &crate::Silent, &mut warnings).unwrap_err();
+        assert!(e.to_string().contains("flux_b_x"), "{e}");
+        let request = FitRequest::new(names(&["mag_1_uc", "mag_1_uc"]), names(&["flux_a"]));
+        let e = fit(&table, &request, &crate::Silent, &mut warnings).unwrap_err();
+        assert!(matches!(e, crate::Error::RepeatedColumn { .. }), "{e}");
+    }
+
+    #[test]
+    fn terms_parse_auto_or_a_list() {
+        assert_eq!("AUTO".parse::<Terms>().unwrap(), Terms::Auto);
+        assert!(matches!("p,i,e".parse::<Terms>().unwrap(), Terms::Fixed(_)));
+        assert!("nonsense".parse::<Terms>().is_err());
+    }
+}

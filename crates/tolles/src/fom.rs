@@ -236,3 +236,56 @@ fn finite(v: f64) -> Value {
         Value::Null
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fit::{fit, FitRequest};
+    use crate::simulate::PlanKind;
+    use crate::testing::flight;
+
+    #[test]
+    fn a_box_s_fom_drops_with_its_model_and_the_json_says_so() {
+        let table = flight(PlanKind::Box, 6);
+        let request = FitRequest::new(vec!["mag_1_uc".into()], vec!["flux_a".into()]);
+        let model = fit(&table, &request, &crate::Silent, &mut Vec::new()).unwrap();
+        let fit = fit_for(&model, Path::new("m.json"), "mag_1_uc").unwrap();
+        let mut warnings = Vec::new();
+        let outcome = fom(
+            &table,
+            &FomRequest::new("mag_1_uc"),
+            Some(fit),
+            &mut warnings,
+        )
+        .unwrap();
+        assert!(warnings.is_empty(), "{warnings:?}");
+        assert_eq!(outcome.before.counted().count(), 12);
+        let json = outcome.to_json();
+        assert!(json["improvement_ratio"].as_f64().unwrap() > 50.0, "{json}");
+        assert_eq!(json["maneuvers"].as_array().unwrap().len(), 12);
+        assert!(json["compensated"]["fom_nT"].as_f64().unwrap() < json["fom_nT"].as_f64().unwrap());
+    }
+
+    #[test]
+    fn a_survey_has_no_maneuvers_and_says_so() {
+        let table = flight(PlanKind::Survey, 6);
+        let mut warnings = Vec::new();
+        let outcome = fom(&table, &FomRequest::new("mag_1_uc"), None, &mut warnings).unwrap();
+        assert!(outcome.to_json()["improvement_ratio"].is_null());
+        assert!(
+            warnings
+                .iter()
+                .any(|w| matches!(w, Warning::NoManeuvers { .. })),
+            "{warnings:?}"
+        );
+    }
+
+    #[test]
+    fn a_model_without_the_scalar_names_the_ones_it_has() {
+        let model = ModelFile::new(Vec::new());
+        assert!(matches!(
+            fit_for(&model, Path::new("m.json"), "x"),
+            Err(Error::EmptyModel { .. })
+        ));
+    }
+}

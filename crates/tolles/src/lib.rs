@@ -62,6 +62,8 @@ pub mod model;
 pub mod progress;
 pub mod read;
 pub mod simulate;
+#[cfg(test)]
+mod testing;
 pub mod warning;
 
 pub use error::{Error, Result};

@@ -272,3 +272,96 @@ pub fn compensate_file(
         rows: data.table.len(),
     })
 }
+
+#[cfg(test)]
+mod whole_tests {
+    use super::*;
+    use crate::fit::{fit, FitRequest};
+    use crate::simulate::PlanKind;
+    use crate::testing::flight;
+    use tolles_io::table::Column;
+
+    fn model() -> ModelFile {
+        let request = FitRequest::new(vec!["mag_1_uc".into()], vec!["flux_a".into()]);
+        fit(
+            &flight(PlanKind::Box, 3),
+            &request,
+            &crate::Silent,
+            &mut Vec::new(),
+        )
+        .unwrap()
+    }
+
+    fn rows(table: &Table, range: std::ops::Range<usize>) -> Table {
+        let keep: Vec<bool> = (0..table.len()).map(|k| range.contains(&k)).collect();
+        table.select_rows(&keep)
+    }
+
+    fn compensated(table: &Table, model: &ModelFile, level: LevelChoice) -> Vec<f64> {
+        let request = CompensateRequest { fs_hz: None, level };
+        let columns = compensate(table, model, &request, &mut Vec::new()).unwrap();
+        columns.into_iter().next().unwrap().values
+    }
+
+    #[test]
+    fn the_model_level_makes_rows_independent_of_the_split() {
+        let (survey, model) = (flight(PlanKind::Survey, 4), model());
+        let whole = compensated(&survey, &model, LevelChoice::Model);
+        let half = survey.len() / 2;
+        let first = compensated(&rows(&survey, 0..half), &model, LevelChoice::Model);
+        // Away from the cut, where the eddy terms' derivative is one-sided.
+        for k in 0..half - 1 {
+            assert!((first[k] - whole[k]).abs() < 1e-9, "row {k}");
+        }
+        let mean_level = compensated(&rows(&survey, 0..half), &model, LevelChoice::FileMean);
+        assert!(
+            (mean_level[0] - first[0]).abs() > 1e-6,
+            "the file mean is another level"
+        );
+    }
+
+    #[test]
+    fn missing_values_are_counted_and_a_taken_name_is_renamed() {
+        let survey = flight(PlanKind::Survey, 5);
+        let mut headers = survey.headers().to_vec();
+        let mut columns = survey.columns().to_vec();
+        let x = headers.iter().position(|h| h == "flux_a_x").unwrap();
+        if let Column::Numbers(values) = &mut columns[x] {
+            values[10] = f64::NAN;
+        }
+        headers.push("mag_1_c".into());
+        columns.push(Column::Numbers(vec![0.0; survey.len()]));
+        let survey = Table::from_columns("s.csv", headers, columns, None).unwrap();
+        let mut warnings = Vec::new();
+        let out = compensate(
+            &survey,
+            &model(),
+            &CompensateRequest::default(),
+            &mut warnings,
+        )
+        .unwrap();
+        assert_eq!(out[0].name, "mag_1_c_tolles");
+        assert_eq!(out[0].uncomputable, 1);
+        assert!(out[0].values[10].is_nan());
+        assert!(
+            matches!(warnings[0], Warning::Uncomputable { rows: 1, .. }),
+            "{warnings:?}"
+        );
+        assert!(
+            matches!(warnings[1], Warning::OutputRenamed { .. }),
+            "{warnings:?}"
+        );
+    }
+
+    #[test]
+    fn level_and_memory_policies_parse() {
+        assert_eq!("model".parse::<LevelChoice>().unwrap(), LevelChoice::Model);
+        assert_eq!(
+            "Mean".parse::<LevelChoice>().unwrap(),
+            LevelChoice::FileMean
+        );
+        assert!("median".parse::<LevelChoice>().is_err());
+        assert_eq!("bounded".parse::<Memory>().unwrap(), Memory::Bounded);
+        assert!("garbage".parse::<Memory>().is_err());
+    }
+}

@@ -1,0 +1,28 @@
+//! Flights for the unit tests: simulated, held in memory as the readers would hold them.
+
+use crate::simulate::{simulate, PlanKind, SimulateRequest};
+use crate::Silent;
+use tolles_io::simulation::flight_columns;
+use tolles_io::table::{Column, Table};
+
+/// A cabin installation flying `plan`, as a table of number columns named like the CLI's CSV.
+pub fn flight(plan: PlanKind, seed: u64) -> Table {
+    let request = SimulateRequest {
+        plan,
+        seed,
+        lines: 2,
+        ..SimulateRequest::default()
+    };
+    let simulated = simulate(&request, &Silent).expect("a valid simulation");
+    let columns = flight_columns(&simulated.flight);
+    Table::from_columns(
+        format!("{}.csv", plan.name()),
+        columns.iter().map(|(name, _)| name.to_string()).collect(),
+        columns
+            .iter()
+            .map(|(_, v)| Column::Numbers(v.to_vec()))
+            .collect(),
+        None,
+    )
+    .expect("simulated columns form a table")
+}
