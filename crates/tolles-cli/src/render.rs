@@ -1,7 +1,14 @@
-//! What the library returns, said on the command line: warnings on standard error, and errors
-//! with the flag that fixes them where there is one.
+//! What the library returns, said on the command line: warnings on standard error, errors
+//! with the flag that fixes them where there is one, a fit's summary, and a report as HTML.
+//! Shared by the commands whose results these are and by `demo`, which shows them all.
 
+use crate::progress::Terminal;
+use anyhow::Context;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use tolles::report::ReportRequest;
 use tolles::{Error, Warning};
+use tolles_io::model::ScalarModel;
 use tolles_io::select::SelectError;
 
 /// What a command does with the rows a selection kept, for the message that says so.
@@ -81,5 +88,103 @@ pub trait OrRender<T> {
 impl<T> OrRender<T> for Result<T, Error> {
     fn or_render(self) -> anyhow::Result<T> {
         self.map_err(error)
+    }
+}
+
+/// Builds the report `request` asks for and writes it as HTML to the directory `out`, saying
+/// on stderr what was noticed; returns the path of index.html.
+pub fn report(request: &ReportRequest, out: &Path) -> anyhow::Result<PathBuf> {
+    let mut noticed = Vec::new();
+    let data = tolles::report::build(request, &Terminal::default(), &mut noticed);
+    warnings(&mut noticed, Use::Other);
+    tolles_report::flight::write(&data.or_render()?, out)
+        .with_context(|| format!("writing the report to {}", out.display()))
+}
+
+/// What a fit of the flight `cal` found, on stderr: samples used, residual, the term sets and
+/// ridge compared, the coefficients and the patent's terms.
+pub fn fit_summary(model: &ScalarModel, cal: &Path) -> std::io::Result<()> {
+    let d = &model.fit.diagnostics;
+    let mut err = std::io::stderr().lock();
+    writeln!(
+        err,
+        "fit {} ~ {} ({}) on {}: {} of {} samples used",
+        model.scalar,
+        model.vectors.join(","),
+        model.fit.settings.design.terms,
+        cal.display(),
+        d.samples_used,
+        d.samples_total
+    )?;
+    if d.samples_nonfinite > 0 {
+        writeln!(
+            err,
+            "  skipped {} samples with missing or non-finite values",
+            d.samples_nonfinite
+        )?;
+    }
+    if d.samples_in_short_runs > 0 {
+        writeln!(
+            err,
+            "  skipped {} samples in runs too short to filter",
+            d.samples_in_short_runs
+        )?;
+    }
+    writeln!(
+        err,
+        "  filtered scalar {:.4} nT -> residual {:.4} nT (improvement ×{:.2}), cond(AᵀA+Λ) = {:.3e}",
+        d.filtered_std_before_nt, d.residual_std_nt, d.improvement_ratio, d.condition_number
+    )?;
+    for score in &d.term_choice {
+        writeln!(
+            err,
+            "  terms {:<28} held-out residual {}{}",
+            score.terms.to_string(),
+            score
+                .heldout_rms_nt
+                .map_or("(could not be fitted)".to_string(), |r| format!(
+                    "{r:.4} nT"
+                )),
+            if score.chosen { "  <- chosen" } else { "" }
+        )?;
+    }
+    if let Some(cv) = &d.cross_validation {
+        writeln!(
+            err,
+            "  ridge: λ = {}·diag(AᵀA) chosen by {}-fold blocked cross-validation; expected residual on new data {:.4} nT",
+            short_number(cv.chosen_lambda_rel),
+            cv.folds,
+            cv.expected_heldout_rms_nt
+        )?;
+    }
+    writeln!(
+        err,
+        "  {:<12} {:>14} {:>12}",
+        "term", "coefficient", "std error"
+    )?;
+    for ((name, beta), se) in model
+        .fit
+        .columns
+        .iter()
+        .zip(&model.fit.coefficients)
+        .zip(&d.std_errors)
+    {
+        writeln!(err, "  {name:<12} {beta:>14.6} {se:>12.4}")?;
+    }
+    let p = &model.patent;
+    writeln!(
+        err,
+        "  patent terms: perm T {:.3} L {:.3} V {:.3} nT; induced VV-TT {:.5} VV-LL {:.5} TL+LT {:.5} TV+VT {:.5} LV+VL {:.5}",
+        p.perm_nt.t, p.perm_nt.l, p.perm_nt.v, p.induced.vv_tt, p.induced.vv_ll, p.induced.tl_lt, p.induced.tv_vt, p.induced.lv_vl
+    )?;
+    Ok(())
+}
+
+/// `0`, `1e-8`, `0.001`: the shortest honest text for a ridge strength.
+fn short_number(x: f64) -> String {
+    if x == 0.0 || (1e-3..1e3).contains(&x.abs()) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
     }
 }

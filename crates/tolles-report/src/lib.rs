@@ -30,8 +30,12 @@
 //! thinned per pixel column ([`decimate`]) so each SVG stays small; gaps (NaN) break lines.
 //! The self-check writes `ok N images` (or `broken: …`) into `<div id="tolles-check">` once
 //! the page has loaded; `scripts/check-report` reads it from headless Chromium.
+//!
+//! [`flight`] lays out the compensation report of a flight from what
+//! [`tolles::report::build`] computes.
 
 pub mod decimate;
+pub mod flight;
 pub mod html;
 pub mod plot;
 

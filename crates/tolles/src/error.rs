@@ -2,9 +2,13 @@
 //! column, so a user can fix the input. No message names a command-line flag; the CLI adds its
 //! own flag hints where one helps.
 
+use std::io::ErrorKind;
 use std::path::PathBuf;
+use tolles_core::filter::FilterError;
 use tolles_core::fit::FitError;
 use tolles_core::fom::FomError;
+use tolles_core::igrf::IgrfError;
+use tolles_core::spectrum::SpectrumError;
 use tolles_io::schema::TIME_COLUMN;
 use tolles_io::select::SelectError;
 use tolles_io::IoError;
@@ -93,6 +97,41 @@ pub enum Error {
         what: String,
         source: std::io::Error,
     },
+    /// A date that is not written `YYYY-MM-DD`.
+    #[error("the date must be YYYY-MM-DD, got {text:?}")]
+    DateFormat { text: String },
+    /// A `YYYY-MM-DD` date that is not a day of the calendar.
+    #[error("date {text}: {reason}")]
+    Date { text: String, reason: IgrfError },
+    /// A maneuver period that is not a positive number of seconds.
+    #[error("the maneuver period must be a positive number of seconds, got {period_s}")]
+    BadPeriod {
+        /// The period asked for (s).
+        period_s: f64,
+    },
+    /// A fit a live stream cannot apply: it uses several fluxgates.
+    #[error("{}: the fit of {scalar} uses {} fluxgates ({}); a stream handles one fluxgate per scalar", path.display(), vectors.len(), vectors.join(","))]
+    StreamFluxgates {
+        path: PathBuf,
+        scalar: String,
+        vectors: Vec<String>,
+    },
+    /// A live stream's header that lacks a column the model needs, or cannot be read.
+    #[error("{0}")]
+    StreamHeader(String),
+    /// Reading or writing a live stream failed (see [`Error::is_disconnect`]).
+    #[error(transparent)]
+    StreamIo(std::io::Error),
+    /// A filter could not be designed for the data's sample rate.
+    #[error(transparent)]
+    Filter(#[from] FilterError),
+    /// A spectrum could not be computed, e.g. too few samples without gaps.
+    #[error("spectrum of the {signal} scalar: {reason}")]
+    Spectrum {
+        /// Which signal: `uncompensated` or `compensated`.
+        signal: &'static str,
+        reason: SpectrumError,
+    },
 }
 
 /// The result of a workflow.
@@ -105,8 +144,18 @@ impl Error {
         let io = match self {
             Error::Write { source, .. } => Some(source),
             Error::Io(IoError::Write { source, .. }) => Some(source),
+            Error::StreamIo(source) => Some(source),
             _ => None,
         };
-        io.is_some_and(|e| e.kind() == std::io::ErrorKind::BrokenPipe)
+        io.is_some_and(|e| e.kind() == ErrorKind::BrokenPipe)
+    }
+
+    /// True when the other end of a live stream went away (broken pipe, reset or aborted
+    /// connection): that ends the stream, not the server.
+    pub fn is_disconnect(&self) -> bool {
+        matches!(self, Error::StreamIo(e) if matches!(
+            e.kind(),
+            ErrorKind::BrokenPipe | ErrorKind::ConnectionReset | ErrorKind::ConnectionAborted
+        ))
     }
 }

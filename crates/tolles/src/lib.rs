@@ -43,7 +43,13 @@
 //! - [`model`]: saving and loading models;
 //! - [`compensate`]: applying a model, whole in memory or in bounded memory ([`compensate::Memory`]);
 //! - [`fom`]: the figure of merit of a compensation box, before and after;
-//! - [`simulate`]: flights with known truth.
+//! - [`simulate`]: flights with known truth;
+//! - [`stream`]: real-time compensation of CSV lines from any reader (standard input, TCP
+//!   clients) to any writer, with health counters and a latency histogram;
+//! - [`report`]: what a flight's compensation report shows (signals, spectra, FOM by maneuver),
+//!   computed; the `tolles-report` crate lays it out as HTML;
+//! - [`demo`]: the built-in example's flights and how its compensated survey compares with the
+//!   truth.
 //!
 //! Every workflow takes typed requests and returns typed results; errors are [`Error`], one line
 //! naming the file, row or column; warnings are values ([`Warning`]) added to a vector the
@@ -55,13 +61,16 @@
 //! The numerics live in [`tolles_core`], the formats in [`tolles_io`].
 
 pub mod compensate;
+pub mod demo;
 pub mod error;
 pub mod fit;
 pub mod fom;
 pub mod model;
 pub mod progress;
 pub mod read;
+pub mod report;
 pub mod simulate;
+pub mod stream;
 #[cfg(test)]
 mod testing;
 pub mod warning;

@@ -181,6 +181,17 @@ pub struct Simulated {
 pub fn simulate(request: &SimulateRequest, progress: &dyn Progress) -> Result<Simulated> {
     let plan = plan(request);
     let scenario = scenario(request)?;
+    simulate_plan(request.plan, plan, scenario, progress)
+}
+
+/// Flies `plan`, a plan of kind `kind`, with `scenario`: for callers that build plans and
+/// scenarios beyond what a [`SimulateRequest`] says (the demo, tests).
+pub fn simulate_plan(
+    kind: PlanKind,
+    plan: Plan,
+    scenario: Scenario,
+    progress: &dyn Progress,
+) -> Result<Simulated> {
     let mut reported: Option<usize> = None;
     let flight = simulate_with_progress(&plan, &scenario, &mut |done, total| {
         let before = *reported.get_or_insert_with(|| {
@@ -193,7 +204,7 @@ pub fn simulate(request: &SimulateRequest, progress: &dyn Progress) -> Result<Si
     .map_err(|e| Error::Invalid(format!("simulating the flight: {e}")))?;
     progress.finish();
     Ok(Simulated {
-        plan_kind: request.plan,
+        plan_kind: kind,
         plan,
         scenario,
         flight,
@@ -255,8 +266,14 @@ fn scenario(r: &SimulateRequest) -> Result<Scenario> {
         Preset::Cabin => Installation::Cabin,
         Preset::Uav => Installation::Uav,
     };
-    positive("sample rate (Hz)", r.fs_hz)?;
-    positive("maneuver period (s)", r.period_s)?;
+    if !positive(r.fs_hz) {
+        return Err(Error::BadSampleRate { fs_hz: r.fs_hz });
+    }
+    if !positive(r.period_s) {
+        return Err(Error::BadPeriod {
+            period_s: r.period_s,
+        });
+    }
     let mut scenario = installation.scenario(r.seed);
     scenario.fs_hz = r.fs_hz;
     scenario.speed_mps = r.speed_mps;
@@ -296,7 +313,9 @@ fn environment(r: &SimulateRequest) -> Result<Environment> {
 
 /// `YYYY-MM-DD` as a decimal year.
 pub fn parse_date(text: &str) -> Result<f64> {
-    let bad = || Error::Invalid(format!("the date must be YYYY-MM-DD, got {text:?}"));
+    let bad = || Error::DateFormat {
+        text: text.to_string(),
+    };
     let parts: Vec<&str> = text.split('-').collect();
     let [y, m, d] = parts[..] else {
         return Err(bad());
@@ -304,14 +323,65 @@ pub fn parse_date(text: &str) -> Result<f64> {
     let (Ok(y), Ok(m), Ok(d)) = (y.parse(), m.parse(), d.parse()) else {
         return Err(bad());
     };
-    decimal_year(y, m, d).map_err(|e| Error::Invalid(format!("date {text}: {e}")))
+    decimal_year(y, m, d).map_err(|reason| Error::Date {
+        text: text.to_string(),
+        reason,
+    })
 }
 
-fn positive(what: &str, value: f64) -> Result<()> {
-    if !(value.is_finite() && value > 0.0) {
-        return Err(Error::Invalid(format!(
-            "the {what} must be a positive number, got {value}"
-        )));
+fn positive(value: f64) -> bool {
+    value.is_finite() && value > 0.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::progress::Silent;
+
+    #[test]
+    fn settings_out_of_range_are_typed_errors() {
+        let fs = SimulateRequest {
+            fs_hz: 0.0,
+            ..SimulateRequest::default()
+        };
+        assert!(
+            matches!(simulate(&fs, &Silent), Err(Error::BadSampleRate { fs_hz }) if fs_hz == 0.0)
+        );
+        let period = SimulateRequest {
+            period_s: -1.0,
+            ..SimulateRequest::default()
+        };
+        assert!(matches!(
+            simulate(&period, &Silent),
+            Err(Error::BadPeriod { .. })
+        ));
+        assert!(matches!(
+            parse_date("yesterday"),
+            Err(Error::DateFormat { .. })
+        ));
+        let e = parse_date("2025-02-30").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "date 2025-02-30: 2025-02-30 is not a calendar date"
+        );
+        assert!((parse_date("2025-07-01").unwrap() - 2025.4959).abs() < 1e-4);
     }
-    Ok(())
+
+    #[test]
+    fn a_request_and_its_plan_and_scenario_fly_the_same_flight() {
+        let request = SimulateRequest {
+            cycles: 1,
+            ..SimulateRequest::default()
+        };
+        let a = simulate(&request, &Silent).unwrap();
+        let b = simulate_plan(
+            PlanKind::Box,
+            plan(&request),
+            scenario(&request).unwrap(),
+            &Silent,
+        )
+        .unwrap();
+        assert_eq!(a.flight.scalar, b.flight.scalar);
+        assert_eq!(b.plan_kind, PlanKind::Box);
+    }
 }

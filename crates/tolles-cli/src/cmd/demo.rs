@@ -1,19 +1,18 @@
-//! `tolles demo`: the built-in example, end to end through the same code paths as the
-//! `fit` and `compensate` commands.
+//! `tolles demo`: the built-in example, end to end through the same library calls as the
+//! `simulate`, `fit`, `compensate`, `fom` and `report` commands.
 
-use crate::cmd;
+use crate::progress::Terminal;
 use crate::render::{self, OrRender, Use};
 use anyhow::{Context, Result};
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use tolles_core::filter::magnav_bandpass;
-use tolles_core::interpret::AircraftField;
-use tolles_core::metrics::{improvement_ratio, noise_level, std_dev};
-use tolles_core::plan::{BoxPlan, Plan, SurveyPlan};
-use tolles_core::sim::{simulate, Installation, Scenario, SimulatedFlight};
-use tolles_io::model::ModelFile;
-use tolles_io::simulation::{write_flight, Sidecar, SCALAR, VECTOR};
-use tolles_io::table::Table;
+use tolles::compensate::FileRequest;
+use tolles::demo::DemoOutcome;
+use tolles::fit::FitRequest;
+use tolles::fom::FomRequest;
+use tolles::model::ModelFile;
+use tolles::report::ReportRequest;
+use tolles_io::simulation::{SCALAR, VECTOR};
 
 /// Simulate a calibration box and a survey, fit, compensate and compare with the truth.
 ///
@@ -35,69 +34,53 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("{}: cannot create directory", args.out.display()))?;
-    let installation = Installation::Cabin;
-    let truth = installation.aircraft();
-    let cal_path = args.out.join("calibration.csv");
-    let survey_path = args.out.join("survey.csv");
-    let model_path = args.out.join("model.json");
-    let compensated_path = args.out.join("survey_compensated.csv");
-    let box_plan = BoxPlan::default().build();
-    let cal = fly(
-        "box",
-        &box_plan,
-        &installation.scenario(args.seed),
-        &cal_path,
-    )?;
-    let survey_plan = SurveyPlan::default().build();
-    let survey_scenario = installation.scenario(args.seed + 1);
-    let survey = fly("survey", &survey_plan, &survey_scenario, &survey_path)?;
+    let out = &args.out;
+    std::fs::create_dir_all(out)
+        .with_context(|| format!("{}: cannot create directory", out.display()))?;
+    let (cal, survey) = (out.join("calibration.csv"), out.join("survey.csv"));
+    let (model_path, compensated) = (out.join("model.json"), out.join("survey_compensated.csv"));
+    let flights = tolles::demo::flights(args.seed, &Terminal::default()).or_render()?;
+    tolles::simulate::write(&flights.calibration, &cal).or_render()?;
+    tolles::simulate::write(&flights.survey, &survey).or_render()?;
     println!(
         "Simulated a cabin installation at 10 Hz over IGRF-14 with geology and diurnal variation: a calibration box (N, E, S, W; roll ±10°, pitch ±5°, yaw ±5°) of {} samples and a survey of 4 lines, {} samples.",
-        cal.tt.len(),
-        survey.tt.len()
+        flights.calibration.flight.tt.len(),
+        flights.survey.flight.tt.len()
     );
     std::io::stdout().flush()?;
     println!(
         "\n$ tolles fit {} --scalar {SCALAR} --vector {VECTOR} --out {}",
-        cal_path.display(),
+        cal.display(),
         model_path.display()
     );
-    fit(&cal_path, &model_path)?;
+    fit(&cal, &model_path)?;
     std::io::stdout().flush()?;
     println!(
         "\n$ tolles compensate {} --model {} --out {}",
-        survey_path.display(),
+        survey.display(),
         model_path.display(),
-        compensated_path.display()
+        compensated.display()
     );
-    cmd::compensate::run(cmd::compensate::Args {
-        survey: survey_path,
-        model: model_path.clone(),
-        out: Some(compensated_path.clone()),
-        fs: None,
-        level: Default::default(),
-        select: Default::default(),
-    })?;
+    // Read back, as a user repeating the steps by hand would.
+    let model = tolles::model::load_model(&model_path).or_render()?;
+    compensate(&model, survey, &compensated)?;
     std::io::stdout().flush()?;
-    report(&survey, &compensated_path, &model_path, &truth)?;
-    figure_of_merit(&cal_path, &model_path)?;
-    let report_dir = args.out.join("report");
+    let fit = &model.fits[0];
+    let outcome = tolles::demo::compare(&flights.survey, &compensated, fit).or_render()?;
+    print_outcome(&outcome)?;
+    figure_of_merit(&cal, &model)?;
+    let report_dir = out.join("report");
     println!(
         "\n$ tolles report {} --scalar {SCALAR} --model {} --out {}",
-        cal_path.display(),
+        cal.display(),
         model_path.display(),
         report_dir.display()
     );
-    let index = cmd::report::write(&cmd::report::Args {
-        flight: cal_path,
-        scalar: SCALAR.into(),
+    let request = ReportRequest {
         model: Some(model_path),
-        out: report_dir,
-        band: "0.05,1".into(),
-        fs: None,
-    })?;
+        ..ReportRequest::new(cal, SCALAR)
+    };
+    let index = render::report(&request, &report_dir)?;
     println!(
         "Open {} in a browser (it needs no network).",
         index.display()
@@ -107,25 +90,42 @@ pub fn run(args: Args) -> Result<()> {
 
 /// `tolles fit CAL --scalar mag_1_uc --vector flux_a --out MODEL` with the defaults.
 fn fit(cal: &Path, model: &Path) -> Result<()> {
-    cmd::fit::run_request(
-        cal,
-        &tolles::fit::FitRequest::new(vec![SCALAR.into()], vec![VECTOR.into()]),
-        Some(model),
-    )
+    let table = crate::select::Selection::default().read(cal, Use::Fit)?;
+    let request = FitRequest::new(vec![SCALAR.into()], vec![VECTOR.into()]);
+    let mut warnings = Vec::new();
+    let fitted = tolles::fit::fit(&table, &request, &Terminal::default(), &mut warnings);
+    render::warnings(&mut warnings, Use::Fit);
+    let fitted = fitted.or_render()?;
+    render::fit_summary(&fitted.fits[0], table.path())?;
+    tolles::model::save_model(&fitted, model).or_render()
+}
+
+/// `tolles compensate SURVEY --model MODEL --out OUT`.
+fn compensate(model: &ModelFile, survey: PathBuf, out: &Path) -> Result<()> {
+    let request = FileRequest {
+        survey,
+        out: Some(out.to_path_buf()),
+        ..FileRequest::default()
+    };
+    let mut warnings = Vec::new();
+    let progress = Terminal::default();
+    let sink = &mut std::io::sink();
+    let done = tolles::compensate::compensate_file(model, &request, sink, &progress, &mut warnings);
+    render::warnings(&mut warnings, Use::Compensate);
+    done.or_render()?;
+    Ok(())
 }
 
 /// Prints the FOM of the calibration box before and after compensation.
-fn figure_of_merit(cal: &Path, model: &Path) -> Result<()> {
-    let model_file = ModelFile::read(model)?;
+fn figure_of_merit(cal: &Path, model: &ModelFile) -> Result<()> {
     let table = crate::select::Selection::default().read(cal, Use::Other)?;
-    let settings = tolles_core::fom::FomSettings::default();
-    let request = tolles::fom::FomRequest {
-        band: settings.band,
-        order: settings.order,
-        ..tolles::fom::FomRequest::new(SCALAR)
-    };
     let mut warnings = Vec::new();
-    let outcome = tolles::fom::fom(&table, &request, Some(&model_file.fits[0]), &mut warnings);
+    let outcome = tolles::fom::fom(
+        &table,
+        &FomRequest::new(SCALAR),
+        Some(&model.fits[0]),
+        &mut warnings,
+    );
     render::warnings(&mut warnings, Use::Other);
     let outcome = outcome.or_render()?;
     let after = outcome.after.as_ref().expect("a model was given");
@@ -138,54 +138,33 @@ fn figure_of_merit(cal: &Path, model: &Path) -> Result<()> {
         "  FOM before {:8.3} nT   after {:7.3} nT   improvement ×{:.0}",
         outcome.before.fom_nt,
         after.fom_nt,
-        outcome.before.fom_nt / after.fom_nt
+        tolles::tolles_core::fom::improvement_ratio(&outcome.before, after)
     );
     Ok(())
 }
 
-/// Simulates `plan` and writes it as a flight CSV with truth columns, plus its sidecar.
-fn fly(name: &str, plan: &Plan, scenario: &Scenario, path: &Path) -> Result<SimulatedFlight> {
-    let flight = simulate(plan, scenario)?;
-    write_flight(path, &flight)?;
-    Sidecar::new(name, plan, scenario).write(&cmd::simulate::sidecar_path(path))?;
-    Ok(flight)
-}
-
-fn report(
-    survey: &SimulatedFlight,
-    compensated: &Path,
-    model: &Path,
-    truth: &AircraftField,
-) -> Result<()> {
-    let table = Table::read_csv(compensated)?;
-    let clean = table.numeric("mag_1_c")?;
-    let error =
-        |x: &[f64]| -> Vec<f64> { x.iter().zip(&survey.earth_nt).map(|(a, b)| a - b).collect() };
-    let filter = magnav_bandpass(0.1, 0.9, 4, 10.0)?;
-    let (before, after) = (
-        noise_level(&survey.scalar, filter.as_ref())?,
-        noise_level(&clean, filter.as_ref())?,
-    );
+/// The survey against the simulator's truth, and the aircraft's field true and fitted.
+fn print_outcome(outcome: &DemoOutcome) -> Result<()> {
     let mut out = std::io::stdout().lock();
+    let (lo, hi) = outcome.band_hz;
     writeln!(out, "\nSurvey result against the simulator's truth:")?;
     writeln!(
         out,
         "  error (scalar − earth field), std:   before {:8.3} nT   after {:8.4} nT",
-        std_dev(&error(&survey.scalar)),
-        std_dev(&error(&clean))
+        outcome.error_before_nt, outcome.error_after_nt
     )?;
     writeln!(
         out,
-        "  band-passed 0.1–0.9 Hz noise level:  before {before:8.3} nT   after {after:8.4} nT   improvement ×{:.0}",
-        improvement_ratio(before, after)
+        "  band-passed {lo}–{hi} Hz noise level:  before {:8.3} nT   after {:8.4} nT   improvement ×{:.0}",
+        outcome.noise_before_nt, outcome.noise_after_nt, outcome.improvement
     )?;
-    let found = &ModelFile::read(model)?.fits[0].patent;
     writeln!(
         out,
         "\nThe aircraft's field in the Tolles patent's terms (L = forward, T = right, V = down):"
     )?;
     writeln!(out, "  {:<7} {:>12} {:>12}", "term", "true", "fitted")?;
-    for ((name, t), (_, f)) in truth.patent_terms().named().iter().zip(found.named()) {
+    for term in &outcome.terms {
+        let (name, t, f) = (term.name, term.truth, term.fitted);
         writeln!(out, "  {name:<7} {t:>12.4e} {f:>12.4e}")?;
     }
     writeln!(

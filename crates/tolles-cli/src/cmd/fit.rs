@@ -8,7 +8,6 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use tolles::fit::{FitRequest, Terms};
 use tolles_core::fit::{Band, Lambda};
-use tolles_io::model::ScalarModel;
 use tolles_io::table::Table;
 
 /// Default terms: the 16 a scalar magnetometer can identify, or MagNav's 18 when
@@ -92,19 +91,13 @@ pub fn run(args: Args) -> Result<()> {
     fit_and_save(&table, &request, args.out.as_deref())
 }
 
-/// Fits the whole flight at `cal` as `request` says and writes the model to `out` (or stdout).
-pub fn run_request(cal: &Path, request: &FitRequest, out: Option<&Path>) -> Result<()> {
-    let table = crate::select::Selection::default().read(cal, Use::Fit)?;
-    fit_and_save(&table, request, out)
-}
-
 fn fit_and_save(table: &Table, request: &FitRequest, out: Option<&Path>) -> Result<()> {
     let mut warnings = Vec::new();
     let fitted = tolles::fit::fit(table, request, &Terminal::default(), &mut warnings);
     render::warnings(&mut warnings, Use::Fit);
     let model = fitted.or_render()?;
     for fit in &model.fits {
-        print_summary(fit, table.path())?;
+        render::fit_summary(fit, table.path())?;
     }
     match out {
         Some(path) => tolles::model::save_model(&model, path).or_render()?,
@@ -128,90 +121,4 @@ fn request(args: &Args) -> Result<FitRequest> {
             name_list(&args.vector, "--vector")?,
         )
     })
-}
-
-fn print_summary(model: &ScalarModel, cal: &Path) -> Result<()> {
-    let d = &model.fit.diagnostics;
-    let mut err = std::io::stderr().lock();
-    writeln!(
-        err,
-        "fit {} ~ {} ({}) on {}: {} of {} samples used",
-        model.scalar,
-        model.vectors.join(","),
-        model.fit.settings.design.terms,
-        cal.display(),
-        d.samples_used,
-        d.samples_total
-    )?;
-    if d.samples_nonfinite > 0 {
-        writeln!(
-            err,
-            "  skipped {} samples with missing or non-finite values",
-            d.samples_nonfinite
-        )?;
-    }
-    if d.samples_in_short_runs > 0 {
-        writeln!(
-            err,
-            "  skipped {} samples in runs too short to filter",
-            d.samples_in_short_runs
-        )?;
-    }
-    writeln!(
-        err,
-        "  filtered scalar {:.4} nT -> residual {:.4} nT (improvement ×{:.2}), cond(AᵀA+Λ) = {:.3e}",
-        d.filtered_std_before_nt, d.residual_std_nt, d.improvement_ratio, d.condition_number
-    )?;
-    for score in &d.term_choice {
-        writeln!(
-            err,
-            "  terms {:<28} held-out residual {}{}",
-            score.terms.to_string(),
-            score
-                .heldout_rms_nt
-                .map_or("(could not be fitted)".to_string(), |r| format!(
-                    "{r:.4} nT"
-                )),
-            if score.chosen { "  <- chosen" } else { "" }
-        )?;
-    }
-    if let Some(cv) = &d.cross_validation {
-        writeln!(
-            err,
-            "  ridge: λ = {}·diag(AᵀA) chosen by {}-fold blocked cross-validation; expected residual on new data {:.4} nT",
-            short_number(cv.chosen_lambda_rel),
-            cv.folds,
-            cv.expected_heldout_rms_nt
-        )?;
-    }
-    writeln!(
-        err,
-        "  {:<12} {:>14} {:>12}",
-        "term", "coefficient", "std error"
-    )?;
-    for ((name, beta), se) in model
-        .fit
-        .columns
-        .iter()
-        .zip(&model.fit.coefficients)
-        .zip(&d.std_errors)
-    {
-        writeln!(err, "  {name:<12} {beta:>14.6} {se:>12.4}")?;
-    }
-    let p = &model.patent;
-    writeln!(
-        err,
-        "  patent terms: perm T {:.3} L {:.3} V {:.3} nT; induced VV-TT {:.5} VV-LL {:.5} TL+LT {:.5} TV+VT {:.5} LV+VL {:.5}",
-        p.perm_nt.t, p.perm_nt.l, p.perm_nt.v, p.induced.vv_tt, p.induced.vv_ll, p.induced.tl_lt, p.induced.tv_vt, p.induced.lv_vl
-    )?;
-    Ok(())
-}
-
-/// `0`, `1e-8`, `0.001`: the shortest honest text for a ridge strength.
-fn short_number(x: f64) -> String {
-    if x == 0.0 || (1e-3..1e3).contains(&x.abs()) {
-        format!("{x}")
-    } else {
-        format!("{x:e}")
-    }
 }

@@ -1,13 +1,12 @@
 //! `tolles simulate`: flights whose truth is known.
 
-use anyhow::{bail, Context, Result};
+use crate::progress::Terminal;
+use crate::render;
+use anyhow::{anyhow, Result};
 use clap::ValueEnum;
-use std::path::{Path, PathBuf};
-use tolles_core::environment::{Diurnal, Environment, Geology, Location};
-use tolles_core::igrf::decimal_year;
-use tolles_core::plan::{BoxPlan, PatentPlan, Plan, SurveyPlan};
-use tolles_core::sim::{simulate_with_progress, EarthField, Installation, Scenario};
-use tolles_io::simulation::{write_flight, Sidecar};
+use std::path::PathBuf;
+use tolles::simulate::{self, PlanKind, SimulateRequest, UniformField};
+use tolles::Error;
 
 const EXAMPLES: &str = "\
 Examples:
@@ -25,16 +24,6 @@ pub enum PlanName {
     Patent,
     /// Straight survey lines with turbulence, joined by 180° turns
     Survey,
-}
-
-impl PlanName {
-    fn name(self) -> &'static str {
-        match self {
-            PlanName::Box => "box",
-            PlanName::Patent => "patent",
-            PlanName::Survey => "survey",
-        }
-    }
 }
 
 /// A typical installation.
@@ -138,126 +127,75 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let plan = plan(&args);
-    let scenario = scenario(&args)?;
-    let bar = crate::progress::bar(0, "simulating");
-    let flight = simulate_with_progress(&plan, &scenario, &mut |done, total| {
-        bar.set_length(total as u64);
-        bar.set_position(done as u64);
-    })
-    .context("simulating the flight")?;
-    bar.finish_and_clear();
-    write_flight(&args.out, &flight)?;
-    let sidecar = sidecar_path(&args.out);
-    Sidecar::new(args.plan.name(), &plan, &scenario).write(&sidecar)?;
+    let request = request(&args);
+    let simulated = simulate::simulate(&request, &Terminal::default()).map_err(error)?;
+    let sidecar = simulate::write(&simulated, &args.out).map_err(error)?;
     eprintln!(
         "simulated {} plan: {} samples at {} Hz ({:.0} s) -> {} and {}",
-        args.plan.name(),
-        flight.tt.len(),
+        simulated.plan_kind.name(),
+        simulated.flight.tt.len(),
         args.fs,
-        plan.duration_s(),
+        simulated.plan.duration_s(),
         args.out.display(),
         sidecar.display()
     );
     Ok(())
 }
 
-/// `flight.csv` → `flight.json`.
-pub fn sidecar_path(csv: &Path) -> PathBuf {
-    csv.with_extension("json")
-}
-
-fn plan(args: &Args) -> Plan {
-    match args.plan {
-        PlanName::Box => BoxPlan {
-            roll_deg: args.roll.unwrap_or(10.0),
-            pitch_deg: args.pitch.unwrap_or(5.0),
-            yaw_deg: args.yaw,
-            period_s: args.period,
-            cycles: args.cycles,
-            ..BoxPlan::default()
-        }
-        .build(),
-        PlanName::Patent => PatentPlan {
-            roll_deg: args.roll.unwrap_or(15.0),
-            pitch_deg: args.pitch.unwrap_or(10.0),
-            period_s: args.period,
-            cycles: args.cycles,
-            ..PatentPlan::default()
-        }
-        .build(),
-        PlanName::Survey => SurveyPlan {
-            lines: args.lines,
-            line_s: args.line_duration,
-            turbulence_deg: args.turbulence,
-            seed: args.seed,
-            ..SurveyPlan::default()
-        }
-        .build(),
-    }
-}
-
-fn scenario(args: &Args) -> Result<Scenario> {
-    let installation = match args.preset {
-        Preset::TailStinger => Installation::TailStinger,
-        Preset::Cabin => Installation::Cabin,
-        Preset::Uav => Installation::Uav,
-    };
-    check_positive("--fs", args.fs)?;
-    check_positive("--period", args.period)?;
-    let mut scenario = installation.scenario(args.seed);
-    scenario.fs_hz = args.fs;
-    scenario.speed_mps = args.speed;
-    scenario.environment = environment(args)?;
-    scenario.sensors.scalar_noise_nt = args.scalar_noise;
-    scenario.sensors.flux_noise_nt = args.flux_noise;
-    scenario.sensors.fluxgate.lag_s = args.flux_lag;
-    Ok(scenario)
-}
-
-fn environment(args: &Args) -> Result<Environment> {
-    let mut env = match (args.inclination, args.declination, args.intensity) {
-        (Some(inclination_deg), Some(declination_deg), Some(intensity_nt)) => {
-            Environment::uniform(EarthField {
-                intensity_nt,
-                inclination_deg,
-                declination_deg,
-            })
-        }
-        _ => Environment::at(Location {
-            lat_deg: args.lat,
-            lon_deg: args.lon,
-            alt_m: args.alt,
-            year: parse_date(&args.date)?,
+/// The library request the flags ask for.
+fn request(args: &Args) -> SimulateRequest {
+    let uniform = match (args.inclination, args.declination, args.intensity) {
+        (Some(inclination_deg), Some(declination_deg), Some(intensity_nt)) => Some(UniformField {
+            inclination_deg,
+            declination_deg,
+            intensity_nt,
         }),
+        _ => None,
     };
-    if args.geology > 0.0 {
-        env.geology = Some(Geology::random(40, args.geology, 15_000.0, args.seed));
+    SimulateRequest {
+        plan: match args.plan {
+            PlanName::Box => PlanKind::Box,
+            PlanName::Patent => PlanKind::Patent,
+            PlanName::Survey => PlanKind::Survey,
+        },
+        seed: args.seed,
+        preset: match args.preset {
+            Preset::TailStinger => simulate::Preset::TailStinger,
+            Preset::Cabin => simulate::Preset::Cabin,
+            Preset::Uav => simulate::Preset::Uav,
+        },
+        fs_hz: args.fs,
+        speed_mps: args.speed,
+        lat_deg: args.lat,
+        lon_deg: args.lon,
+        alt_m: args.alt,
+        date: args.date.clone(),
+        uniform,
+        period_s: args.period,
+        cycles: args.cycles,
+        roll_deg: args.roll,
+        pitch_deg: args.pitch,
+        yaw_deg: args.yaw,
+        lines: args.lines,
+        line_duration_s: args.line_duration,
+        turbulence_deg: args.turbulence,
+        geology_nt: args.geology,
+        diurnal_nt: args.diurnal,
+        scalar_noise_nt: args.scalar_noise,
+        flux_noise_nt: args.flux_noise,
+        flux_lag_s: args.flux_lag,
     }
-    if args.diurnal > 0.0 {
-        env.diurnal = Some(Diurnal {
-            amplitude_nt: args.diurnal,
-            period_s: 3_600.0,
-            phase_rad: 0.4,
-        });
-    }
-    Ok(env)
 }
 
-fn parse_date(text: &str) -> Result<f64> {
-    let parts: Vec<&str> = text.split('-').collect();
-    let [y, m, d] = parts[..] else {
-        bail!("--date must be YYYY-MM-DD, got {text:?}")
-    };
-    let (Ok(y), Ok(m), Ok(d)) = (y.parse(), m.parse(), d.parse()) else {
-        bail!("--date must be YYYY-MM-DD, got {text:?}")
-    };
-    decimal_year(y, m, d).with_context(|| format!("--date {text}"))
-}
-
-fn check_positive(name: &str, value: f64) -> Result<()> {
-    if !(value.is_finite() && value > 0.0) {
-        bail!("{name} must be a positive number, got {value}");
+/// A library error, naming the flag that sets what it is about.
+fn error(e: Error) -> anyhow::Error {
+    match e {
+        Error::BadSampleRate { fs_hz } => anyhow!("--fs must be a positive number, got {fs_hz}"),
+        Error::BadPeriod { period_s } => {
+            anyhow!("--period must be a positive number, got {period_s}")
+        }
+        Error::DateFormat { text } => anyhow!("--date must be YYYY-MM-DD, got {text:?}"),
+        Error::Date { text, reason } => anyhow!("--date {text}: {reason}"),
+        other => render::error(other),
     }
-    Ok(())
 }

@@ -1,0 +1,436 @@
+//! The compensation report of a flight: [`tolles::report::ReportData`] laid out as a page —
+//! summary cards, signals, spectra, the figure of merit maneuver by maneuver and, with a model,
+//! its coefficients, patent terms and fit diagnostics.
+
+use crate::plot::{BarChart, BarSeries, Colour, LinePlot, Series};
+use crate::{Report, ReportError};
+use std::path::{Path, PathBuf};
+use tolles::report::{ManeuverRow, ReportData};
+use tolles::tolles_core::maneuver::Maneuver;
+use tolles::tolles_core::spectrum::Spectrum;
+use tolles::tolles_io::model::ScalarModel;
+
+/// Lays out `data` and writes it as `dir/index.html` with its plots; returns the page's path.
+pub fn write(data: &ReportData, dir: &Path) -> Result<PathBuf, ReportError> {
+    page(data).write(dir)
+}
+
+/// The report of `data`.
+pub fn page(data: &ReportData) -> Report {
+    let request = &data.request;
+    let mut report = Report::new(format!("Compensation report: {}", request.flight.display()))
+        .subtitle(format!(
+            "Scalar {} at {:.3} Hz, {} samples; figure-of-merit band {}–{} Hz.",
+            request.scalar,
+            data.fom.fs_hz,
+            data.fom.tt.len(),
+            request.band.pass1_hz,
+            request.band.pass2_hz
+        ));
+    report = summary(report, data);
+    report = signals(report, data);
+    report = spectra(report, data);
+    report = figure_of_merit(report, data);
+    if let Some(fit) = &data.fit {
+        report = model(report, fit);
+        report = diagnostics(report, fit);
+    }
+    report
+}
+
+fn summary(report: Report, data: &ReportData) -> Report {
+    let before = &data.fom.before;
+    let mut items = vec![
+        ("FOM before", format!("{:.3} nT", before.fom_nt)),
+        ("noise before", format!("{:.3} nT", before.noise_level_nt)),
+    ];
+    if let Some(after) = &data.fom.after {
+        items.push(("FOM after", format!("{:.3} nT", after.fom_nt)));
+        items.push(("noise after", format!("{:.4} nT", after.noise_level_nt)));
+        items.push((
+            "improvement",
+            format!("×{:.1}", before.fom_nt / after.fom_nt),
+        ));
+    }
+    items.push((
+        "maneuvers found",
+        format!("{} of 12", 12 - before.missing.len()),
+    ));
+    report.summary(&borrowed(&items))
+}
+
+fn borrowed<'a>(items: &'a [(&'a str, String)]) -> Vec<(&'a str, &'a str)> {
+    items.iter().map(|(k, v)| (*k, v.as_str())).collect()
+}
+
+fn signals(mut report: Report, data: &ReportData) -> Report {
+    let t = &data.fom.tt;
+    let series =
+        |name: &str, y: &[f64], colour| Series::new(name, t.clone(), y.to_vec()).colour(colour);
+    let (before, after) = (&data.uncompensated, data.compensated.as_ref());
+    let mut raw = vec![series(
+        "uncompensated",
+        &before.centred,
+        Colour::UNCOMPENSATED,
+    )];
+    let mut filtered = vec![series(
+        "uncompensated",
+        &before.bandpassed,
+        Colour::UNCOMPENSATED,
+    )];
+    if let Some(after) = after {
+        raw.push(series("compensated", &after.centred, Colour::COMPENSATED));
+        filtered.push(series(
+            "compensated",
+            &after.bandpassed,
+            Colour::COMPENSATED,
+        ));
+    }
+    if let Some(truth) = &data.truth {
+        raw.push(series("truth (earth field)", truth, Colour::REFERENCE));
+    }
+    let band = &data.request.band;
+    report = report
+        .section("Signals")
+        .line_plot(LinePlot {
+            title: "Scalar magnetometer, mean removed".into(),
+            x_label: "time (s)".into(),
+            y_label: "field − mean (nT)".into(),
+            series: raw,
+            caption: Some(
+                "What compensation removes is the difference between the two curves.".into(),
+            ),
+            ..LinePlot::default()
+        })
+        .line_plot(LinePlot {
+            title: format!(
+                "Band-passed {}–{} Hz (the maneuver noise)",
+                band.pass1_hz, band.pass2_hz
+            ),
+            x_label: "time (s)".into(),
+            y_label: "band-passed field (nT)".into(),
+            series: filtered,
+            ..LinePlot::default()
+        });
+    if let Some(error) = &data.error {
+        report = report.line_plot(LinePlot {
+            title: "Compensated minus truth".into(),
+            x_label: "time (s)".into(),
+            y_label: "error (nT)".into(),
+            series: vec![series(
+                "compensated − truth",
+                &error.centred,
+                Colour::COMPENSATED,
+            )],
+            caption: Some(format!(
+                "Standard deviation {:.4} nT (the simulator's truth column {}).",
+                error.std_nt,
+                tolles::report::TRUTH_COLUMN
+            )),
+            ..LinePlot::default()
+        });
+    }
+    report
+}
+
+fn spectra(report: Report, data: &ReportData) -> Report {
+    let inputs = std::iter::once((
+        "uncompensated",
+        &data.spectrum_before,
+        Colour::UNCOMPENSATED,
+    ))
+    .chain(
+        data.spectrum_after
+            .iter()
+            .map(|psd| ("compensated", psd, Colour::COMPENSATED)),
+    );
+    let mut series = Vec::new();
+    let mut caption = String::new();
+    for (name, psd, colour) in inputs {
+        caption = spectrum_caption(psd);
+        // Bin 0 (the mean) has no place on a log-frequency reading of noise.
+        let (f, density) = (psd.frequency_hz[1..].to_vec(), psd.density[1..].to_vec());
+        series.push(Series::new(name, f, density).colour(colour));
+    }
+    report.line_plot(LinePlot {
+        title: "Power spectral density".into(),
+        x_label: "frequency (Hz)".into(),
+        y_label: "PSD (nT²/Hz)".into(),
+        series,
+        log_y: true,
+        caption: Some(caption),
+        ..LinePlot::default()
+    })
+}
+
+fn spectrum_caption(psd: &Spectrum) -> String {
+    format!(
+        "Welch's method, Hann window, {} samples per segment ({:.4} Hz resolution), {} segments.",
+        psd.segment_len,
+        psd.resolution_hz(),
+        psd.segments
+    )
+}
+
+fn figure_of_merit(mut report: Report, data: &ReportData) -> Report {
+    report = report.section("Figure of merit");
+    let rows = &data.maneuvers;
+    if rows.is_empty() {
+        return report.paragraph("No compensation-box maneuvers were found in the attitude channels, so there is no figure of merit.");
+    }
+    report = report.bar_chart(fom_chart(data));
+    let cells: Vec<Vec<String>> = rows.iter().map(maneuver_cells).collect();
+    report = report.table(
+        &[
+            "maneuver",
+            "time (s)",
+            "amplitude (°)",
+            "before (nT)",
+            "after (nT)",
+        ],
+        &cells,
+    );
+    let missing = &data.fom.before.missing;
+    if !missing.is_empty() {
+        let missing: Vec<String> = missing
+            .iter()
+            .map(|s| format!("{} on {}°", s.kind, s.heading_deg))
+            .collect();
+        report = report.paragraph(format!("Missing from the box: {}.", missing.join(", ")));
+    }
+    report
+}
+
+fn fom_chart(data: &ReportData) -> BarChart {
+    let rows = &data.maneuvers;
+    let before: Vec<f64> = rows.iter().map(|m| m.before_nt).collect();
+    let mut series = vec![BarSeries::new("uncompensated", before).colour(Colour::UNCOMPENSATED)];
+    if data.fom.after.is_some() {
+        // A gap in the bars where the compensated FOM lacks the maneuver.
+        let after = rows
+            .iter()
+            .map(|m| m.after_nt.unwrap_or(f64::NAN))
+            .collect();
+        series.push(BarSeries::new("compensated", after).colour(Colour::COMPENSATED));
+    }
+    let after = data
+        .fom
+        .after
+        .as_ref()
+        .map_or(String::new(), |a| format!(", {:.3} nT after", a.fom_nt));
+    BarChart {
+        title: "Peak-to-peak of the band-passed scalar, maneuver by maneuver".into(),
+        y_label: "peak-to-peak (nT)".into(),
+        categories: rows.iter().map(|m| label(&m.maneuver)).collect(),
+        series,
+        caption: Some(format!(
+            "FOM = sum of the bars: {:.3} nT before{after}.",
+            data.fom.before.fom_nt
+        )),
+    }
+}
+
+/// `roll 090°`: the kind and the cardinal heading (or the measured one).
+fn label(m: &Maneuver) -> String {
+    format!(
+        "{} {:03.0}°",
+        m.kind,
+        m.cardinal_heading_deg().unwrap_or(m.heading_deg)
+    )
+}
+
+fn maneuver_cells(row: &ManeuverRow) -> Vec<String> {
+    let m = &row.maneuver;
+    vec![
+        label(m),
+        format!("{:.1}–{:.1}", m.start_tt, m.end_tt),
+        format!("{:.1}", m.amplitude_deg),
+        format!("{:.3}", row.before_nt),
+        row.after_nt.map_or("—".into(), |a| format!("{a:.4}")),
+    ]
+}
+
+/// Coefficients with standard errors and the patent's terms.
+fn model(report: Report, model: &ScalarModel) -> Report {
+    let fit = &model.fit;
+    // Several fluxgates name their columns `flux_b.perm_x`: the unit follows the column part.
+    let unit = |name: &str| match name.rsplit('.').next().unwrap_or(name).split('_').next() {
+        Some("perm") | Some("bias") => "nT",
+        _ => "nT per column unit",
+    };
+    let rows: Vec<Vec<String>> = fit
+        .columns
+        .iter()
+        .zip(&fit.coefficients)
+        .zip(&fit.diagnostics.std_errors)
+        .map(|((name, beta), se)| {
+            let cells = [name.clone(), format!("{beta:.6}"), format!("{se:.4}")];
+            [cells.to_vec(), vec![unit(name).into()]].concat()
+        })
+        .collect();
+    let fluxgates = if model.vectors.len() > 1 {
+        "fluxgates"
+    } else {
+        "fluxgate"
+    };
+    let report = report
+        .section("Model")
+        .paragraph(format!(
+            "Fit of {} against {fluxgates} {} with terms {}; sample rate {:.3} Hz.",
+            model.scalar,
+            model.vectors.join(", "),
+            fit.settings.design.terms,
+            fit.fs_hz
+        ))
+        .table(&["column", "coefficient", "standard error", "unit"], &rows);
+    patent(report, model)
+}
+
+fn patent(report: Report, model: &ScalarModel) -> Report {
+    let rows: Vec<Vec<String>> = model
+        .patent
+        .named()
+        .iter()
+        .map(|(name, value)| {
+            // Eddy terms are lower case (s), permanent ones T, L, V (nT), induced ones ratios.
+            let unit = match name.chars().next() {
+                Some(c) if c.is_lowercase() => "s",
+                _ if ["T", "L", "V"].contains(name) => "nT",
+                _ => "1",
+            };
+            vec![name.to_string(), format!("{value:.5e}"), unit.into()]
+        })
+        .collect();
+    report
+        .paragraph(if model.vectors.len() > 1 {
+            "The first fluxgate's block in the Tolles patent's terms (L = forward, T = right, V = down):"
+        } else {
+            "The same model in the Tolles patent's terms (L = forward, T = right, V = down):"
+        })
+        .table(&["term", "value", "unit"], &rows)
+}
+
+/// The fit's diagnostics, its cross-validation and the term sets it compared.
+fn diagnostics(mut report: Report, model: &ScalarModel) -> Report {
+    let d = &model.fit.diagnostics;
+    let mut items = vec![
+        (
+            "samples used",
+            format!("{} of {}", d.samples_used, d.samples_total),
+        ),
+        (
+            "samples skipped (missing values)",
+            d.samples_nonfinite.to_string(),
+        ),
+        (
+            "filtered scalar before",
+            format!("{:.4} nT", d.filtered_std_before_nt),
+        ),
+        ("filtered residual", format!("{:.4} nT", d.residual_std_nt)),
+        ("improvement ratio", format!("{:.2}", d.improvement_ratio)),
+        (
+            "condition number of AᵀA + Λ",
+            format!("{:.3e}", d.condition_number),
+        ),
+    ];
+    if let Some(cv) = &d.cross_validation {
+        items.push((
+            "ridge λ (× diag AᵀA)",
+            format!("{:e}", cv.chosen_lambda_rel),
+        ));
+        items.push((
+            "expected held-out residual",
+            format!("{:.4} nT", cv.expected_heldout_rms_nt),
+        ));
+    }
+    report = report
+        .section("Fit diagnostics")
+        .key_values(&borrowed(&items));
+    if let Some(cv) = &d.cross_validation {
+        let rows: Vec<Vec<String>> = cv
+            .grid
+            .iter()
+            .map(|p| {
+                let rms = p.heldout_rms_nt;
+                let rms = rms.map_or("not solvable".into(), |r| format!("{r:.5}"));
+                vec![format!("{:e}", p.lambda_rel), rms]
+            })
+            .collect();
+        report = report
+            .paragraph(format!(
+                "{}-fold blocked cross-validation over time:",
+                cv.folds
+            ))
+            .table(&["λ (× diag AᵀA)", "held-out RMS (nT)"], &rows);
+    }
+    term_choice(report, model)
+}
+
+fn term_choice(report: Report, model: &ScalarModel) -> Report {
+    let choice = &model.fit.diagnostics.term_choice;
+    if choice.is_empty() {
+        return report;
+    }
+    let rows: Vec<Vec<String>> = choice
+        .iter()
+        .map(|t| {
+            vec![
+                t.terms.to_string(),
+                t.lambda_rel.map_or("-".into(), |l| format!("{l:e}")),
+                t.heldout_rms_nt
+                    .map_or("could not be fitted".into(), |r| format!("{r:.5}")),
+                if t.chosen { "chosen" } else { "" }.into(),
+            ]
+        })
+        .collect();
+    report
+        .paragraph(
+            "Term sets compared on the same folds (an alternative to the first must be 2 % better):",
+        )
+        .table(
+            &["terms", "λ (× diag AᵀA)", "held-out RMS (nT)", ""],
+            &rows,
+        )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tolles::report::{build, ReportRequest};
+    use tolles::{fit, simulate, Silent};
+
+    #[test]
+    fn a_simulated_box_gives_every_section_and_plot() {
+        let dir = tempfile::tempdir().unwrap();
+        let flight = dir.path().join("box.csv");
+        let simulated = simulate::simulate(&Default::default(), &Silent).unwrap();
+        simulate::write(&simulated, &flight).unwrap();
+        let mut warnings = Vec::new();
+        let table = tolles::read::read(&flight, &Default::default(), &Silent, &mut warnings)
+            .unwrap()
+            .table;
+        let request = fit::FitRequest::new(vec!["mag_1_uc".into()], vec!["flux_a".into()]);
+        let model = fit::fit(&table, &request, &Silent, &mut warnings).unwrap();
+        let model_path = dir.path().join("m.json");
+        tolles::model::save_model(&model, &model_path).unwrap();
+        let request = ReportRequest {
+            model: Some(model_path),
+            ..ReportRequest::new(&flight, "mag_1_uc")
+        };
+        let data = build(&request, &Silent, &mut warnings).unwrap();
+        let index = write(&data, &dir.path().join("report")).unwrap();
+        let html = std::fs::read_to_string(index).unwrap();
+        for text in [
+            "FOM after",
+            "12 of 12",
+            "Compensated minus truth",
+            "Fit diagnostics",
+            "Term sets compared",
+            "roll 090°",
+        ] {
+            assert!(html.contains(text), "{text} missing");
+        }
+        let plots = std::fs::read_dir(dir.path().join("report/plots")).unwrap();
+        assert_eq!(plots.count(), 5);
+    }
+}

@@ -1,0 +1,167 @@
+//! The built-in example: a cabin installation flies a calibration box and a survey whose truth
+//! is known; after fitting the box and compensating the survey, [`compare`] says how close the
+//! result came to the truth.
+
+use crate::error::Result;
+use crate::progress::Progress;
+use crate::simulate::{simulate_plan, PlanKind, Simulated};
+use std::path::Path;
+use tolles_core::filter::magnav_bandpass;
+use tolles_core::metrics::{improvement_ratio, noise_level, std_dev};
+use tolles_core::plan::{BoxPlan, SurveyPlan};
+use tolles_core::sim::Installation;
+use tolles_io::model::ScalarModel;
+use tolles_io::table::Table;
+
+/// Pass band (Hz) of the survey's noise levels: MagNav's 0.1–0.9 Hz.
+pub const NOISE_BAND_HZ: (f64, f64) = (0.1, 0.9);
+
+/// Butterworth order per edge of the noise band.
+const NOISE_ORDER: usize = 4;
+
+/// The demo's two flights.
+#[derive(Debug, Clone)]
+pub struct DemoFlights {
+    /// The compensation box: N, E, S, W; roll ±10°, pitch ±5°, yaw ±5°.
+    pub calibration: Simulated,
+    /// Four survey lines.
+    pub survey: Simulated,
+}
+
+/// Simulates the demo's flights: a cabin installation at 10 Hz over IGRF-14 with geology and
+/// diurnal variation, the box with noise seed `seed`, the survey with `seed + 1`.
+pub fn flights(seed: u64, progress: &dyn Progress) -> Result<DemoFlights> {
+    let installation = Installation::Cabin;
+    let calibration = simulate_plan(
+        PlanKind::Box,
+        BoxPlan::default().build(),
+        installation.scenario(seed),
+        progress,
+    )?;
+    let survey = simulate_plan(
+        PlanKind::Survey,
+        SurveyPlan::default().build(),
+        installation.scenario(seed + 1),
+        progress,
+    )?;
+    Ok(DemoFlights {
+        calibration,
+        survey,
+    })
+}
+
+/// How the compensated survey compares with the simulator's truth.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DemoOutcome {
+    /// Standard deviation of scalar − earth field before compensation (nT).
+    pub error_before_nt: f64,
+    /// The same after compensation (nT).
+    pub error_after_nt: f64,
+    /// Band ([`NOISE_BAND_HZ`]) of the noise levels (Hz).
+    pub band_hz: (f64, f64),
+    /// Standard deviation of the band-passed scalar before compensation (nT).
+    pub noise_before_nt: f64,
+    /// The same after compensation (nT).
+    pub noise_after_nt: f64,
+    /// Noise before / after (dimensionless).
+    pub improvement: f64,
+    /// The aircraft's field in the Tolles patent's 16 terms, true and fitted (perm in nT,
+    /// induced dimensionless, eddy in s).
+    pub terms: Vec<Term>,
+}
+
+/// One of the patent's terms.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Term {
+    /// The patent's name (`T`, `VV-TT`, `tl`, …).
+    pub name: &'static str,
+    /// The simulated aircraft's value.
+    pub truth: f64,
+    /// The fit's value.
+    pub fitted: f64,
+}
+
+/// Compares the survey compensated by `fit` (column `fit.output_column` of the CSV file
+/// `compensated`, one row per survey sample) with the survey's truth.
+pub fn compare(survey: &Simulated, compensated: &Path, fit: &ScalarModel) -> Result<DemoOutcome> {
+    let table = Table::read_csv(compensated)?;
+    let clean = table.numeric(&fit.output_column)?;
+    let flight = &survey.flight;
+    let error =
+        |x: &[f64]| -> Vec<f64> { x.iter().zip(&flight.earth_nt).map(|(a, b)| a - b).collect() };
+    let (lo, hi) = NOISE_BAND_HZ;
+    let filter = magnav_bandpass(lo, hi, NOISE_ORDER, survey.scenario.fs_hz)?;
+    let noise_before_nt = noise_level(&flight.scalar, filter.as_ref())?;
+    let noise_after_nt = noise_level(&clean, filter.as_ref())?;
+    let truth = survey.scenario.aircraft.patent_terms();
+    let terms = truth
+        .named()
+        .iter()
+        .zip(fit.patent.named())
+        .map(|(&(name, truth), (_, fitted))| Term {
+            name,
+            truth,
+            fitted,
+        })
+        .collect();
+    Ok(DemoOutcome {
+        error_before_nt: std_dev(&error(&flight.scalar)),
+        error_after_nt: std_dev(&error(&clean)),
+        band_hz: NOISE_BAND_HZ,
+        noise_before_nt,
+        noise_after_nt,
+        improvement: improvement_ratio(noise_before_nt, noise_after_nt),
+        terms,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::compensate::{compensate_file, FileRequest};
+    use crate::fit::{fit, FitRequest};
+    use crate::progress::Silent;
+
+    #[test]
+    fn the_demo_recovers_the_truth() {
+        let flights = flights(1, &Silent).unwrap();
+        assert_eq!(flights.calibration.flight.tt.len(), 4661);
+        assert_eq!(flights.survey.flight.tt.len(), 6601);
+        assert_eq!(flights.survey.plan_kind, PlanKind::Survey);
+        let dir = tempfile::tempdir().unwrap();
+        let (cal, survey, out) = (
+            dir.path().join("cal.csv"),
+            dir.path().join("survey.csv"),
+            dir.path().join("out.csv"),
+        );
+        crate::simulate::write(&flights.calibration, &cal).unwrap();
+        crate::simulate::write(&flights.survey, &survey).unwrap();
+        let mut warnings = Vec::new();
+        let data = crate::read::read(&cal, &Default::default(), &Silent, &mut warnings).unwrap();
+        let request = FitRequest::new(vec!["mag_1_uc".into()], vec!["flux_a".into()]);
+        let model = fit(&data.table, &request, &Silent, &mut warnings).unwrap();
+        let request = FileRequest {
+            survey,
+            out: Some(out.clone()),
+            ..FileRequest::default()
+        };
+        compensate_file(
+            &model,
+            &request,
+            &mut std::io::sink(),
+            &Silent,
+            &mut warnings,
+        )
+        .unwrap();
+        let outcome = compare(&flights.survey, &out, &model.fits[0]).unwrap();
+        assert!(warnings.is_empty(), "{warnings:?}");
+        assert!(
+            outcome.error_before_nt > 10.0 && outcome.error_after_nt < 0.1,
+            "{outcome:?}"
+        );
+        assert!(outcome.improvement > 50.0, "{outcome:?}");
+        assert_eq!(outcome.terms.len(), 16);
+        let l = outcome.terms.iter().find(|t| t.name == "L").unwrap();
+        assert!((l.fitted - l.truth).abs() < 0.02 * l.truth.abs(), "{l:?}");
+    }
+}

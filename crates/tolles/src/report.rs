@@ -1,0 +1,279 @@
+//! What a compensation report of a flight shows, computed: the scalar before and after
+//! compensation (mean removed and band-passed), its error against a simulator's truth, spectra,
+//! and the figure of merit maneuver by maneuver. The `tolles-report` crate lays it out as HTML.
+
+use crate::error::{Error, Result};
+use crate::fom::{fit_for, fom, FomOutcome, FomRequest};
+use crate::progress::Progress;
+use crate::warning::Warning;
+use std::path::PathBuf;
+use tolles_core::fit::Band;
+use tolles_core::fom::{bandpassed, FomSettings};
+use tolles_core::maneuver::Maneuver;
+use tolles_core::metrics::std_dev;
+use tolles_core::spectrum::{welch, Spectrum};
+use tolles_io::model::{ModelFile, ScalarModel};
+
+/// The column of a simulated flight that holds the true earth field (nT).
+pub const TRUTH_COLUMN: &str = "truth_earth";
+
+/// What to report on.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReportRequest {
+    /// The flight, in any format [`crate::read`] reads, with attitude and the scalar.
+    pub flight: PathBuf,
+    /// The uncompensated scalar column (nT).
+    pub scalar: String,
+    /// A model file with a fit for the scalar; without one, only the uncompensated flight.
+    pub model: Option<PathBuf>,
+    /// Band-pass (Hz) of the figure of merit and the band-passed plots; default 0.05–1 Hz.
+    pub band: Band,
+    /// Butterworth order per band edge; default 4.
+    pub order: usize,
+    /// Sample rate (Hz) when the flight has no time column (or to override it).
+    pub fs_hz: Option<f64>,
+}
+
+impl ReportRequest {
+    /// A report on `scalar` of `flight` without a model, in the FOM's default band.
+    pub fn new(flight: impl Into<PathBuf>, scalar: &str) -> Self {
+        let fom = FomRequest::new(scalar);
+        Self {
+            flight: flight.into(),
+            scalar: scalar.to_string(),
+            model: None,
+            band: fom.band,
+            order: fom.order,
+            fs_hz: None,
+        }
+    }
+}
+
+/// Everything a report shows.
+#[derive(Debug, Clone)]
+pub struct ReportData {
+    /// The request it answers.
+    pub request: ReportRequest,
+    /// The flight's FOM before and, with a model, after; also its time (s), sample rate (Hz)
+    /// and scalar (nT).
+    pub fom: FomOutcome,
+    /// The scalar's fit, with a model.
+    pub fit: Option<ScalarModel>,
+    /// The scalar before compensation.
+    pub uncompensated: Trace,
+    /// The scalar after compensation, with a model.
+    pub compensated: Option<Trace>,
+    /// The true earth field minus its mean (nT), when the flight has a truth column.
+    pub truth: Option<Vec<f64>>,
+    /// Compensated minus truth, with a model and a truth column.
+    pub error: Option<TruthError>,
+    /// Power spectral density of the scalar before compensation (nT²/Hz).
+    pub spectrum_before: Spectrum,
+    /// The same after compensation, with a model.
+    pub spectrum_after: Option<Spectrum>,
+    /// The counted box maneuvers, in the order found.
+    pub maneuvers: Vec<ManeuverRow>,
+}
+
+/// One signal, as plotted.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Trace {
+    /// Minus its mean over the finite samples (nT).
+    pub centred: Vec<f64>,
+    /// Band-passed in the request's band (nT); NaN where it cannot be.
+    pub bandpassed: Vec<f64>,
+}
+
+/// The compensated scalar's error against a simulator's truth.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TruthError {
+    /// Compensated − truth, minus its mean (nT).
+    pub centred: Vec<f64>,
+    /// Its standard deviation (nT).
+    pub std_nt: f64,
+}
+
+/// A counted maneuver of the box and its peak-to-peak before and after compensation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ManeuverRow {
+    /// The maneuver.
+    pub maneuver: Maneuver,
+    /// Peak-to-peak of the band-passed uncompensated scalar (nT).
+    pub before_nt: f64,
+    /// The same compensated (nT), with a model (and the maneuver found in its FOM, as it is).
+    pub after_nt: Option<f64>,
+}
+
+/// Reads the flight (and the model) of `request` and computes what its report shows. What was
+/// noticed (rows that cannot be compensated, maneuvers with gaps) is added to `warnings`.
+pub fn build(
+    request: &ReportRequest,
+    progress: &dyn Progress,
+    warnings: &mut Vec<Warning>,
+) -> Result<ReportData> {
+    let model = request
+        .model
+        .as_deref()
+        .map(|path| ModelFile::read(path).map(|m| (m, path)))
+        .transpose()?;
+    let fit = model
+        .as_ref()
+        .map(|(model, path)| fit_for(model, path, &request.scalar).cloned())
+        .transpose()?;
+    let read = crate::read::read(&request.flight, &Default::default(), progress, warnings)?;
+    let truth = read.table.numeric(TRUTH_COLUMN).ok();
+    let fom_request = FomRequest {
+        band: request.band,
+        order: request.order,
+        fs_hz: request.fs_hz,
+        ..FomRequest::new(&request.scalar)
+    };
+    let outcome = fom(&read.table, &fom_request, fit.as_ref(), warnings)?;
+    let trace_of = |x: &[f64]| trace(x, &outcome, request);
+    Ok(ReportData {
+        uncompensated: trace_of(&outcome.scalar)?,
+        compensated: outcome.compensated.as_deref().map(trace_of).transpose()?,
+        error: outcome
+            .compensated
+            .as_deref()
+            .zip(truth.as_deref())
+            .map(|(c, truth)| truth_error(c, truth)),
+        truth: truth.as_deref().map(centred),
+        spectrum_before: spectrum(&outcome.scalar, outcome.fs_hz, "uncompensated")?,
+        spectrum_after: outcome
+            .compensated
+            .as_deref()
+            .map(|c| spectrum(c, outcome.fs_hz, "compensated"))
+            .transpose()?,
+        maneuvers: maneuver_rows(&outcome),
+        request: request.clone(),
+        fit,
+        fom: outcome,
+    })
+}
+
+fn trace(x: &[f64], outcome: &FomOutcome, request: &ReportRequest) -> Result<Trace> {
+    let settings = FomSettings {
+        band: request.band,
+        order: request.order,
+    };
+    let bandpassed =
+        bandpassed(x, Some(&outcome.tt), outcome.fs_hz, &settings).map_err(|source| {
+            Error::Fom {
+                path: request.flight.clone(),
+                source,
+            }
+        })?;
+    Ok(Trace {
+        centred: centred(x),
+        bandpassed,
+    })
+}
+
+/// `x` minus the mean of its finite values (nT).
+fn centred(x: &[f64]) -> Vec<f64> {
+    let finite: Vec<f64> = x.iter().copied().filter(|v| v.is_finite()).collect();
+    let mean = finite.iter().sum::<f64>() / finite.len().max(1) as f64;
+    x.iter().map(|v| v - mean).collect()
+}
+
+fn truth_error(compensated: &[f64], truth: &[f64]) -> TruthError {
+    let error: Vec<f64> = compensated.iter().zip(truth).map(|(a, b)| a - b).collect();
+    let centred = centred(&error);
+    TruthError {
+        std_nt: std_dev(&centred),
+        centred,
+    }
+}
+
+fn spectrum(x: &[f64], fs_hz: f64, signal: &'static str) -> Result<Spectrum> {
+    welch(x, fs_hz).map_err(|reason| Error::Spectrum { signal, reason })
+}
+
+/// The counted maneuvers, each with its compensated peak-to-peak found by its start.
+fn maneuver_rows(outcome: &FomOutcome) -> Vec<ManeuverRow> {
+    let after_of = |m: &Maneuver| {
+        let after = outcome.after.as_ref()?;
+        let same = after
+            .maneuvers
+            .iter()
+            .find(|a| a.maneuver.start == m.start)?;
+        Some(same.peak_to_peak_nt)
+    };
+    outcome
+        .before
+        .counted()
+        .map(|m| ManeuverRow {
+            maneuver: m.maneuver.clone(),
+            before_nt: m.peak_to_peak_nt,
+            after_nt: after_of(&m.maneuver),
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::progress::Silent;
+    use crate::simulate::{simulate, write, SimulateRequest};
+
+    #[test]
+    fn a_report_of_a_simulated_box_before_and_after() {
+        let dir = tempfile::tempdir().unwrap();
+        let flight = dir.path().join("box.csv");
+        write(
+            &simulate(&SimulateRequest::default(), &Silent).unwrap(),
+            &flight,
+        )
+        .unwrap();
+        let mut warnings = Vec::new();
+        let before = build(
+            &ReportRequest::new(&flight, "mag_1_uc"),
+            &Silent,
+            &mut warnings,
+        )
+        .unwrap();
+        assert!(before.compensated.is_none() && before.error.is_none());
+        assert_eq!(before.maneuvers.len(), 12);
+        assert!(before.maneuvers.iter().all(|m| m.after_nt.is_none()));
+        assert_eq!(before.truth.as_ref().unwrap().len(), before.fom.tt.len());
+
+        let data = crate::read::read(&flight, &Default::default(), &Silent, &mut warnings).unwrap();
+        let fit_request =
+            crate::fit::FitRequest::new(vec!["mag_1_uc".into()], vec!["flux_a".into()]);
+        let model = crate::fit::fit(&data.table, &fit_request, &Silent, &mut warnings).unwrap();
+        let model_path = dir.path().join("m.json");
+        crate::model::save_model(&model, &model_path).unwrap();
+        let request = ReportRequest {
+            model: Some(model_path),
+            ..ReportRequest::new(&flight, "mag_1_uc")
+        };
+        let after = build(&request, &Silent, &mut warnings).unwrap();
+        assert!(warnings.is_empty(), "{warnings:?}");
+        let error = after.error.as_ref().unwrap();
+        assert!(error.std_nt < 0.1, "{}", error.std_nt);
+        let mean = after.uncompensated.centred.iter().sum::<f64>();
+        assert!(mean.abs() < 1e-6 * after.fom.tt.len() as f64);
+        let spectrum = after.spectrum_after.as_ref().unwrap();
+        assert_eq!(
+            spectrum.frequency_hz.len(),
+            after.spectrum_before.frequency_hz.len()
+        );
+        for m in &after.maneuvers {
+            assert!(m.after_nt.unwrap() < m.before_nt / 10.0, "{m:?}");
+        }
+    }
+
+    #[test]
+    fn a_model_without_the_scalar_is_an_error_naming_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let model = dir.path().join("m.json");
+        crate::model::save_model(&ModelFile::new(Vec::new()), &model).unwrap();
+        let request = ReportRequest {
+            model: Some(model),
+            ..ReportRequest::new(dir.path().join("none.csv"), "mag_1_uc")
+        };
+        let e = build(&request, &Silent, &mut Vec::new()).unwrap_err();
+        assert!(matches!(e, Error::EmptyModel { .. }), "{e}");
+    }
+}

@@ -1,0 +1,572 @@
+//! Real-time compensation of CSV lines: one output line for every input line, from any reader
+//! (standard input, a TCP connection) to any writer, with counters and a latency histogram.
+//!
+//! ```
+//! use std::path::Path;
+//! use tolles::stream::{serve, Setup, Stats, StreamRequest};
+//! # use tolles::{fit, simulate, Silent};
+//! # let flight = simulate::simulate(&Default::default(), &Silent).unwrap();
+//! # let dir = tempfile::tempdir().unwrap();
+//! # let path = dir.path().join("box.csv");
+//! # simulate::write(&flight, &path).unwrap();
+//! # let data = tolles::read::read(&path, &Default::default(), &Silent, &mut Vec::new()).unwrap();
+//! # let request = fit::FitRequest::new(vec!["mag_1_uc".into()], vec!["flux_a".into()]);
+//! # let model = fit::fit(&data.table, &request, &Silent, &mut Vec::new()).unwrap();
+//! let setup = Setup::new(&model, Path::new("model.json"), &StreamRequest::default()).unwrap();
+//! let stats = Stats::default();
+//! let input = "tt,mag_1_uc,flux_a_x,flux_a_y,flux_a_z\n0,50000,20000,3000,45000\n0.1,50001,,3000,45000\n";
+//! let mut output = Vec::new();
+//! serve(&setup, &stats, input.as_bytes(), &mut output).unwrap();
+//! let text = String::from_utf8(output).unwrap();
+//! let lines: Vec<&str> = text.lines().collect();
+//! assert_eq!(lines[0], "tt,mag_1_uc,flux_a_x,flux_a_y,flux_a_z,mag_1_c,status");
+//! assert_eq!(lines.len(), 3); // one line out for every line in
+//! assert!(lines[2].ends_with(",missing flux_a_x"));
+//! assert_eq!(stats.take_health().flagged, 1);
+//! ```
+//!
+//! The level subtracted is the calibration flight's mean of the correction stored in the model
+//! (a stream cannot know a file's mean), so the result differs from [`crate::compensate`] by a
+//! constant. A time step over 1.5 nominal steps, a step backwards, a bad value or a malformed
+//! line restarts the derivative, as batch compensation splits runs (see
+//! [`tolles_core::stream`]). Output is flushed whenever no more input is waiting; writes block
+//! when the reader is slow, so nothing queues without bound.
+
+use crate::error::{Error, Result};
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::{TcpListener, TcpStream};
+use std::path::Path;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, PoisonError};
+use std::time::{Duration, Instant};
+use tolles_core::adapt::AdaptSettings;
+pub use tolles_core::stream::Derivative;
+use tolles_core::stream::{Output, Sample, ScalarSpec, StreamCompensator};
+use tolles_io::model::ModelFile;
+use tolles_io::stream_line::{Layout, Line};
+
+/// How to stream.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StreamRequest {
+    /// Fluxgate derivative: `Central` waits one sample for the next (as batch compensation),
+    /// `Causal` answers at once with a backward difference.
+    pub derivative: Derivative,
+    /// Nominal sample rate of the stream (Hz); default: the model's.
+    pub fs_hz: Option<f64>,
+    /// Keep learning the coefficients during maneuvers (Kalman filter on the 0.1–0.9 Hz
+    /// band-passed design rows, prior 5 nT per coefficient, updated only when a band-passed
+    /// row's norm exceeds 0.02); each stream starts from the model's coefficients.
+    pub adapt: bool,
+}
+
+impl Default for StreamRequest {
+    fn default() -> Self {
+        Self {
+            derivative: Derivative::Central,
+            fs_hz: None,
+            adapt: false,
+        }
+    }
+}
+
+/// Everything a new stream needs from the model; one setup serves any number of streams.
+#[derive(Debug, Clone)]
+pub struct Setup {
+    specs: Vec<ScalarSpec>,
+    fluxgates: Vec<String>,
+    outputs: Vec<String>,
+    fs_hz: f64,
+    derivative: Derivative,
+    adapt: bool,
+}
+
+impl Setup {
+    /// The streaming form of `model` (read from `path`, which names it in errors). Every fit
+    /// must use a single fluxgate; fits may share one.
+    pub fn new(model: &ModelFile, path: &Path, request: &StreamRequest) -> Result<Self> {
+        crate::compensate::check_model(model, path)?;
+        let fs_hz = request.fs_hz.unwrap_or(model.fits[0].fit.fs_hz);
+        if !(fs_hz.is_finite() && fs_hz > 0.0) {
+            return Err(Error::BadSampleRate { fs_hz });
+        }
+        let mut fluxgates: Vec<String> = Vec::new();
+        let mut specs = Vec::new();
+        for m in &model.fits {
+            let [vector] = &m.vectors[..] else {
+                return Err(Error::StreamFluxgates {
+                    path: path.to_path_buf(),
+                    scalar: m.scalar.clone(),
+                    vectors: m.vectors.clone(),
+                });
+            };
+            let j = match fluxgates.iter().position(|f| f == vector) {
+                Some(j) => j,
+                None => {
+                    fluxgates.push(vector.clone());
+                    fluxgates.len() - 1
+                }
+            };
+            let fit = &m.fit;
+            let design = fit.settings.design.clone();
+            let ratio = fs_hz / fit.fs_hz;
+            specs.push(ScalarSpec::new(
+                &m.scalar,
+                j,
+                design,
+                &fit.coefficients,
+                fit.level_nt,
+                ratio,
+            ));
+        }
+        Ok(Setup {
+            outputs: model.fits.iter().map(|m| m.output_column.clone()).collect(),
+            specs,
+            fluxgates,
+            fs_hz,
+            derivative: request.derivative,
+            adapt: request.adapt,
+        })
+    }
+
+    /// The stream's nominal sample rate (Hz).
+    pub fn fs_hz(&self) -> f64 {
+        self.fs_hz
+    }
+}
+
+/// One stream: a header line, then lines until the end of `input`; exactly one line out for
+/// every line in, in order (the input as given, the compensated values, `status`). A header
+/// without the model's columns is an error before anything is written.
+pub fn serve(setup: &Setup, stats: &Stats, input: impl Read, output: impl Write) -> Result<()> {
+    let mut input = BufReader::new(input);
+    let mut out = std::io::BufWriter::new(output);
+    let mut raw = Vec::new();
+    if !read_line(&mut input, &mut raw)? {
+        return Ok(());
+    }
+    let layout = layout(setup, &raw)?;
+    writeln!(out, "{}", layout.output_header).map_err(Error::StreamIo)?;
+    out.flush().map_err(Error::StreamIo)?;
+    let mut stream = StreamCompensator::new(
+        setup.specs.clone(),
+        setup.fluxgates.clone(),
+        setup.fs_hz,
+        setup.derivative,
+    );
+    if setup.adapt {
+        stream.adapt(&AdaptSettings::default())?;
+    }
+    let mut text = String::new();
+    while read_line(&mut input, &mut raw)? {
+        let arrived = Instant::now();
+        stats.samples_in.fetch_add(1, Ordering::Relaxed);
+        let line = layout.parse(&raw);
+        let (scalars, fluxgates, flags) = (
+            line.scalars.clone(),
+            line.fluxgates.clone(),
+            line.flags.clone(),
+        );
+        let sample = line.well_formed.then_some(Sample {
+            time_s: line.time_s,
+            scalars: &scalars,
+            fluxgates: &fluxgates,
+        });
+        stream.push((line, arrived), sample, flags, |o| {
+            format_output(&layout, stats, o, &mut text)
+        });
+        out.write_all(text.as_bytes()).map_err(Error::StreamIo)?;
+        text.clear();
+        if input.buffer().is_empty() {
+            // Nothing more is waiting: send what we have now, to keep latency low.
+            out.flush().map_err(Error::StreamIo)?;
+        }
+    }
+    stream.finish(|o| format_output(&layout, stats, o, &mut text));
+    out.write_all(text.as_bytes()).map_err(Error::StreamIo)?;
+    out.flush().map_err(Error::StreamIo)
+}
+
+/// Where the header line `raw` puts the model's columns.
+fn layout(setup: &Setup, raw: &[u8]) -> Result<Layout> {
+    let header = String::from_utf8_lossy(raw);
+    let header = header.trim_start_matches('\u{feff}');
+    let scalars: Vec<&str> = setup.specs.iter().map(|s| s.name.as_str()).collect();
+    let fluxgates: Vec<&str> = setup.fluxgates.iter().map(String::as_str).collect();
+    let outputs: Vec<&str> = setup.outputs.iter().map(String::as_str).collect();
+    Layout::from_header(header, &scalars, &fluxgates, &outputs).map_err(Error::StreamHeader)
+}
+
+fn format_output(
+    layout: &Layout,
+    stats: &Stats,
+    o: Output<'_, (Line, Instant)>,
+    text: &mut String,
+) {
+    let (line, arrived) = &o.payload;
+    layout.write_output(line, o.compensated, &o.status(), text);
+    stats.record_out(arrived.elapsed(), o.is_ok());
+}
+
+/// Reads one line into `raw` without its line ending; false at end of input.
+fn read_line(input: &mut impl BufRead, raw: &mut Vec<u8>) -> Result<bool> {
+    raw.clear();
+    if input.read_until(b'\n', raw).map_err(Error::StreamIo)? == 0 {
+        return Ok(false);
+    }
+    if raw.last() == Some(&b'\n') {
+        raw.pop();
+    }
+    if raw.last() == Some(&b'\r') {
+        raw.pop();
+    }
+    Ok(true)
+}
+
+/// One TCP client's stream, answered on the same connection. When it fails for a reason other
+/// than the client going away, the client gets one `error: …` line saying why.
+pub fn serve_tcp(setup: &Setup, stats: &Stats, connection: TcpStream) -> Result<()> {
+    let io = Error::StreamIo;
+    connection.set_nodelay(true).map_err(io)?;
+    let reader = connection.try_clone().map_err(io)?;
+    let mut reply = connection.try_clone().map_err(io)?;
+    let result = serve(setup, stats, reader, connection);
+    if let Err(e) = &result {
+        if !e.is_disconnect() {
+            // The client should learn why its stream ended, too; if it cannot, it is gone.
+            let _ = reply.write_all(format!("error: {}\n", one_line(e)).as_bytes());
+        }
+    }
+    result
+}
+
+/// `e` and its causes on one line, `cause: deeper cause`.
+fn one_line(e: &dyn std::error::Error) -> String {
+    let mut text = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        text.push_str(&format!(": {c}"));
+        cause = c.source();
+    }
+    text
+}
+
+/// What happened to a TCP client, for the caller to report.
+#[derive(Debug)]
+pub enum Event {
+    /// Accepting a connection failed; the server goes on.
+    AcceptFailed(std::io::Error),
+    /// A client's stream ended: `Ok` at the end of its input, else why
+    /// ([`Error::is_disconnect`] when the client went away).
+    Ended { peer: String, result: Result<()> },
+}
+
+/// Serves every client of `listener`, each on its own thread, until accepting ends (in
+/// practice, never); `on_event` hears of failed accepts and of each stream's end.
+pub fn listen(
+    listener: &TcpListener,
+    setup: Arc<Setup>,
+    stats: Arc<Stats>,
+    on_event: impl Fn(Event) + Send + Sync + 'static,
+) {
+    let on_event = Arc::new(on_event);
+    for connection in listener.incoming() {
+        let connection = match connection {
+            Ok(c) => c,
+            Err(e) => {
+                on_event(Event::AcceptFailed(e));
+                continue;
+            }
+        };
+        let (setup, stats, on_event) = (setup.clone(), stats.clone(), on_event.clone());
+        std::thread::spawn(move || {
+            let peer = connection
+                .peer_addr()
+                .map_or("?".to_string(), |a| a.to_string());
+            let result = serve_tcp(&setup, &stats, connection);
+            on_event(Event::Ended { peer, result });
+        });
+    }
+}
+
+/// Counters shared by all streams, and the latency histogram since the last
+/// [`Stats::take_health`].
+#[derive(Debug, Default)]
+pub struct Stats {
+    samples_in: AtomicU64,
+    samples_out: AtomicU64,
+    flagged: AtomicU64,
+    latency: Mutex<Histogram>,
+}
+
+/// A stream's health: counters since the start, latency since the previous report.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Health {
+    /// Input lines read (after the header).
+    pub samples_in: u64,
+    /// Output lines written.
+    pub samples_out: u64,
+    /// Output lines whose status is not `ok`.
+    pub flagged: u64,
+    /// Latency from a line read to its output line written; `None` when no line was written.
+    pub latency: Option<Latency>,
+}
+
+/// Latency quantiles, each the upper edge of a 1 µs bin (µs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Latency {
+    /// Half the lines took less than this (µs).
+    pub p50_us: u64,
+    /// 99 % of the lines took less than this (µs).
+    pub p99_us: u64,
+    /// The longest (µs), even past the histogram's 100 ms.
+    pub max_us: u128,
+}
+
+impl Stats {
+    fn record_out(&self, latency: Duration, ok: bool) {
+        self.samples_out.fetch_add(1, Ordering::Relaxed);
+        if !ok {
+            self.flagged.fetch_add(1, Ordering::Relaxed);
+        }
+        self.histogram().record(latency);
+    }
+
+    /// The counters since the start and the latency since the previous call, which starts a
+    /// new latency window.
+    pub fn take_health(&self) -> Health {
+        let latency = std::mem::take(&mut *self.histogram()).summary();
+        Health {
+            samples_in: self.samples_in.load(Ordering::Relaxed),
+            samples_out: self.samples_out.load(Ordering::Relaxed),
+            flagged: self.flagged.load(Ordering::Relaxed),
+            latency,
+        }
+    }
+
+    fn histogram(&self) -> std::sync::MutexGuard<'_, Histogram> {
+        // A thread that panicked cannot have left the counts half-updated in a way that
+        // matters for a health line, so they are still worth reporting.
+        self.latency.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+}
+
+/// Latencies in 1 µs bins up to 100 ms; longer ones only count toward the maximum.
+#[derive(Debug, Clone)]
+pub struct Histogram {
+    bins: Vec<u64>,
+    count: u64,
+    max: Duration,
+}
+
+const BINS: usize = 100_000;
+
+impl Default for Histogram {
+    fn default() -> Self {
+        Self {
+            bins: vec![0; BINS],
+            count: 0,
+            max: Duration::ZERO,
+        }
+    }
+}
+
+impl Histogram {
+    /// Counts one latency.
+    pub fn record(&mut self, latency: Duration) {
+        let bin = (latency.as_micros() as usize).min(BINS - 1);
+        self.bins[bin] += 1;
+        self.count += 1;
+        self.max = self.max.max(latency);
+    }
+
+    /// Upper edge (µs) of the bin holding quantile `q` (0–1).
+    pub fn quantile_us(&self, q: f64) -> u64 {
+        let target = ((q * self.count as f64).ceil() as u64).max(1);
+        let mut seen = 0;
+        for (k, n) in self.bins.iter().enumerate() {
+            seen += n;
+            if seen >= target {
+                return k as u64 + 1;
+            }
+        }
+        BINS as u64
+    }
+
+    /// p50, p99 and the maximum; `None` when nothing was recorded.
+    pub fn summary(&self) -> Option<Latency> {
+        (self.count > 0).then(|| Latency {
+            p50_us: self.quantile_us(0.5),
+            p99_us: self.quantile_us(0.99),
+            max_us: self.max.as_micros(),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+    use tolles_core::design::Design;
+
+    const HEADER: &str = "tt,line,mag_1_uc,flux_a_x,flux_a_y,flux_a_z";
+
+    fn setup() -> Setup {
+        let design = Design::new("p,i,e".parse().unwrap());
+        let beta: Vec<f64> = (0..design.width()).map(|k| 1.0 + k as f64).collect();
+        Setup {
+            specs: vec![ScalarSpec::new("mag_1_uc", 0, design, &beta, 3.0, 1.0)],
+            fluxgates: vec!["flux_a".to_string()],
+            outputs: vec!["mag_1_c".to_string()],
+            fs_hz: 10.0,
+            derivative: Derivative::Central,
+            adapt: true,
+        }
+    }
+
+    fn valid_line(k: usize) -> Vec<u8> {
+        let t = k as f64;
+        format!(
+            "{},7,{},{},{},{}",
+            0.1 * t,
+            50_000.0 + t,
+            20_000.0 + 100.0 * (0.3 * t).sin(),
+            -3_000.0 + 50.0 * (0.2 * t).cos(),
+            45_000.0
+        )
+        .into_bytes()
+    }
+
+    /// Garbage: any bytes but line breaks, with fewer commas than a real line.
+    fn garbage() -> impl Strategy<Value = Vec<u8>> {
+        proptest::collection::vec(
+            any::<u8>().prop_filter("no line breaks", |b| *b != b'\n' && *b != b'\r'),
+            0..40,
+        )
+        .prop_filter("not a full record", |g| {
+            g.iter().filter(|b| **b == b',').count() < 5
+        })
+    }
+
+    proptest! {
+        #[test]
+        fn every_line_in_gets_one_line_out_in_order(
+            items in proptest::collection::vec(prop_oneof![3 => Just(None), 1 => garbage().prop_map(Some)], 0..60),
+        ) {
+            let mut input = HEADER.as_bytes().to_vec();
+            input.push(b'\n');
+            let mut lines = Vec::new();
+            let mut valid = 0;
+            for item in &items {
+                let line = item.clone().unwrap_or_else(|| { valid += 1; valid_line(valid - 1) });
+                input.extend_from_slice(&line);
+                input.push(b'\n');
+                lines.push((item.is_none(), line));
+            }
+            let mut output = Vec::new();
+            serve(&setup(), &Stats::default(), &input[..], &mut output).unwrap();
+            let text = String::from_utf8(output).unwrap();
+            let out: Vec<&str> = text.lines().collect();
+            prop_assert_eq!(out.len(), lines.len() + 1);
+            prop_assert_eq!(out[0], format!("{HEADER},mag_1_c,status"));
+            for (k, (is_valid, line)) in lines.iter().enumerate() {
+                let row = out[k + 1];
+                if *is_valid {
+                    let line = std::str::from_utf8(line).unwrap();
+                    prop_assert!(row.starts_with(line), "{} vs {}", row, line);
+                    let beside_garbage = (k > 0 && !lines[k - 1].0) || lines.get(k + 1).is_some_and(|l| !l.0);
+                    if !beside_garbage {
+                        prop_assert!(row.ends_with(",ok"), "{}", row);
+                    }
+                } else {
+                    prop_assert!(row.contains("malformed"), "{}", row);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn stats_count_lines_and_flags_and_each_report_starts_a_new_latency_window() {
+        let stats = Stats::default();
+        let input = format!(
+            "{HEADER}\n{}\nnot a line\n",
+            String::from_utf8(valid_line(0)).unwrap()
+        );
+        serve(&setup(), &stats, input.as_bytes(), std::io::sink()).unwrap();
+        let health = stats.take_health();
+        assert_eq!((health.samples_in, health.samples_out), (2, 2));
+        assert_eq!(health.flagged, 1);
+        assert!(health.latency.is_some());
+        assert_eq!(stats.take_health().latency, None);
+    }
+
+    #[test]
+    fn a_header_without_the_model_columns_is_an_error_and_nothing_is_written() {
+        let mut output = Vec::new();
+        let input = "tt,mag_1_uc,flux_a_x,flux_a_z\n1,2,3,4\n";
+        let e = serve(&setup(), &Stats::default(), input.as_bytes(), &mut output).unwrap_err();
+        assert!(matches!(&e, Error::StreamHeader(_)));
+        assert_eq!(e.to_string(), "header has no column \"flux_a_y\"");
+        assert!(output.is_empty());
+    }
+
+    #[test]
+    fn a_reader_that_went_away_is_a_disconnect() {
+        struct Gone;
+        impl Write for Gone {
+            fn write(&mut self, _: &[u8]) -> std::io::Result<usize> {
+                Err(std::io::ErrorKind::BrokenPipe.into())
+            }
+            fn flush(&mut self) -> std::io::Result<()> {
+                Err(std::io::ErrorKind::BrokenPipe.into())
+            }
+        }
+        let input = format!("{HEADER}\n");
+        let e = serve(&setup(), &Stats::default(), input.as_bytes(), Gone).unwrap_err();
+        assert!(e.is_disconnect() && e.is_broken_pipe());
+    }
+
+    #[test]
+    fn histogram_quantiles_are_upper_bin_edges() {
+        let mut h = Histogram::default();
+        assert_eq!(h.summary(), None);
+        for us in 0..100 {
+            h.record(Duration::from_micros(us));
+        }
+        h.record(Duration::from_millis(250));
+        let s = h.summary().unwrap();
+        assert_eq!((s.p50_us, s.p99_us, s.max_us), (51, 100, 250_000));
+    }
+
+    #[test]
+    fn fits_with_several_fluxgates_cannot_stream() {
+        let mut model = fitted_model();
+        model.fits[0].vectors.push("flux_b".into());
+        let e = Setup::new(&model, Path::new("m.json"), &StreamRequest::default()).unwrap_err();
+        assert!(matches!(e, Error::StreamFluxgates { .. }), "{e}");
+        let model = fitted_model();
+        let request = StreamRequest {
+            fs_hz: Some(0.0),
+            ..StreamRequest::default()
+        };
+        let e = Setup::new(&model, Path::new("m.json"), &request).unwrap_err();
+        assert!(matches!(e, Error::BadSampleRate { .. }), "{e}");
+        let setup = Setup::new(&model, Path::new("m.json"), &StreamRequest::default()).unwrap();
+        assert_eq!(setup.fs_hz(), model.fits[0].fit.fs_hz);
+    }
+
+    /// A model of one scalar on one fluxgate, fitted to a short simulated box.
+    fn fitted_model() -> ModelFile {
+        use crate::{fit, simulate, Silent};
+        let request = simulate::SimulateRequest {
+            cycles: 1,
+            ..Default::default()
+        };
+        let flight = simulate::simulate(&request, &Silent).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("box.csv");
+        simulate::write(&flight, &path).unwrap();
+        let data = crate::read::read(&path, &Default::default(), &Silent, &mut Vec::new()).unwrap();
+        let request = fit::FitRequest::magnav(vec!["mag_1_uc".into()], vec!["flux_a".into()]);
+        fit::fit(&data.table, &request, &Silent, &mut Vec::new()).unwrap()
+    }
+}
