@@ -235,6 +235,20 @@ impl Term {
         }
     }
 
+    /// The term named `name` ([`Term::name`]), if any.
+    pub fn from_name(name: &str) -> Option<Term> {
+        Term::ALL.into_iter().find(|t| t.name() == name)
+    }
+
+    /// The unit of the term's value: `nT` (perm), none (induced), `s` (eddy).
+    pub fn unit(self) -> &'static str {
+        match self.section() {
+            Section::Perm => "nT",
+            Section::Induced => "",
+            Section::Eddy => "s",
+        }
+    }
+
     /// The generating function in our notation: `l, t, v` are the body-frame direction cosines
     /// of the earth field (x, y, z), a dot is d/dt.
     pub fn formula(self) -> &'static str {
@@ -979,5 +993,18 @@ mod tests {
         let vv_tt = closed_form(Maneuver::Roll, Term::InducedVVTT, 0.2, 0.3, 1.0);
         let tt = closed_form(Maneuver::Roll, Term::InducedTT, 0.2, 0.3, 1.0);
         assert_eq!(vv_tt.fundamental, -tt.fundamental);
+    }
+
+    #[test]
+    fn terms_are_found_by_name_and_carry_their_unit() {
+        for term in Term::ALL {
+            assert_eq!(Term::from_name(term.name()), Some(term));
+        }
+        assert_eq!(Term::from_name("X"), None);
+        let units: Vec<&str> = ["T", "VV-TT", "tl"]
+            .iter()
+            .map(|n| Term::from_name(n).unwrap().unit())
+            .collect();
+        assert_eq!(units, ["nT", "", "s"]);
     }
 }
