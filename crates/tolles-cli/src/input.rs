@@ -2,7 +2,6 @@
 
 use anyhow::{anyhow, bail, Context, Result};
 use std::path::Path;
-use tolles_core::segment::median_step;
 use tolles_io::table::Table;
 
 /// The time column; when present it gives the sample rate and marks gaps.
@@ -34,15 +33,8 @@ pub fn flux_magnitude_error(
     )
 }
 
-/// The sample rate (Hz) of `table`: `fs` (from `--fs`) if given, else 1 / median step of `tt`,
-/// else 1 / the file's `dt` scalar (s; SGL HDF5 files carry one).
-pub fn sample_rate(table: &Table, tt: Option<&[f64]>, fs: Option<f64>) -> Result<f64> {
-    let step = tt.and_then(median_step);
-    sample_rate_from(table.path(), table.metadata("dt"), step, fs)
-}
-
-/// [`sample_rate`] from its ingredients: the file's `dt` scalar (s) and the median step of its
-/// time column (s), if any.
+/// The sample rate (Hz): `fs` (from `--fs`) if given, else 1 / the median step of the time
+/// column (s), else 1 / the file's `dt` scalar (s; SGL HDF5 files carry one).
 pub fn sample_rate_from(
     path: &Path,
     dt: Option<f64>,

@@ -54,6 +54,11 @@ pub fn error(e: Error) -> anyhow::Error {
         Error::BadSampleRate { fs_hz } => {
             anyhow::anyhow!("--fs must be a positive number of hertz, got {fs_hz}")
         }
+        Error::NoSuchManeuver { name, found, .. } => anyhow::anyhow!(
+            "--ignore {name:?}: no such maneuver in the flight; found: {}",
+            found.join(", ")
+        ),
+        Error::ManeuverList(e) => anyhow::anyhow!("--maneuvers: {e}"),
         other => anyhow::Error::new(other),
     }
 }

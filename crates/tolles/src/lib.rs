@@ -43,7 +43,9 @@
 //! - [`model`]: saving and loading models;
 //! - [`compensate`]: applying a model, whole in memory or in bounded memory ([`compensate::Memory`]);
 //! - [`fom`]: the figure of merit of a compensation box, before and after;
-//! - [`simulate`]: flights with known truth.
+//! - [`simulate`]: flights with known truth;
+//! - [`procedure`]: the Tolles patent's step-by-step procedure on a flight, beside least squares;
+//! - [`plan`]: how well a planned or flown calibration flight determines each term.
 //!
 //! Every workflow takes typed requests and returns typed results; errors are [`Error`], one line
 //! naming the file, row or column; warnings are values ([`Warning`]) added to a vector the
@@ -59,6 +61,8 @@ pub mod error;
 pub mod fit;
 pub mod fom;
 pub mod model;
+pub mod plan;
+pub mod procedure;
 pub mod progress;
 pub mod read;
 pub mod simulate;
