@@ -3,8 +3,8 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use tolles_core::design::Design;
-use tolles_core::stream::{Derivative, Sample, ScalarSpec, StreamCompensator};
+use tolles_core::model::design::Design;
+use tolles_core::compensate::stream::{Derivative, Sample, ScalarSpec, StreamCompensator};
 use tolles_io::stream_line::{split_fields, Layout};
 
 const HEADER: &str = "tt,mag_1_uc,flux_a_x,flux_a_y,flux_a_z";
@@ -22,7 +22,7 @@ fuzz_target!(|data: &[u8]| {
         StreamCompensator::new(vec![spec], vec!["flux_a".into()], 10.0, Derivative::Central);
     let mut out = String::new();
     let mut emitted = 0;
-    let mut check = |o: tolles_core::stream::Output<'_, (usize, tolles_io::stream_line::Line)>| {
+    let mut check = |o: tolles_core::compensate::stream::Output<'_, (usize, tolles_io::stream_line::Line)>| {
         let (k, line) = &o.payload;
         assert_eq!(*k, emitted, "in order");
         emitted += 1;

@@ -1,54 +1,12 @@
-//! Reading flight tables and turning core errors into messages that name the file and line.
+//! Flag values shared by several commands: name lists, pass bands, and reading a whole flight.
 
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{bail, Context, Result};
 use std::path::Path;
-use tolles_core::segment::median_step;
 use tolles_io::table::Table;
-
-/// The time column; when present it gives the sample rate and marks gaps.
-pub const TIME_COLUMN: &str = "tt";
 
 /// Reads a flight table whole, saying on stderr what the reader left out.
 pub fn read_table(path: &Path) -> Result<Table> {
     crate::select::Selection::default().read(path, crate::render::Use::Other)
-}
-
-/// The sample rate (Hz) of `table`: `fs` (from `--fs`) if given, else 1 / median step of `tt`,
-/// else 1 / the file's `dt` scalar (s; SGL HDF5 files carry one).
-pub fn sample_rate(table: &Table, tt: Option<&[f64]>, fs: Option<f64>) -> Result<f64> {
-    let step = tt.and_then(median_step);
-    sample_rate_from(table.path(), table.metadata("dt"), step, fs)
-}
-
-/// [`sample_rate`] from its ingredients: the file's `dt` scalar (s) and the median step of its
-/// time column (s), if any.
-pub fn sample_rate_from(
-    path: &Path,
-    dt: Option<f64>,
-    median_step: Option<f64>,
-    fs: Option<f64>,
-) -> Result<f64> {
-    let from_dt = dt
-        .filter(|dt| dt.is_finite() && *dt > 0.0)
-        .map(|dt| 1.0 / dt);
-    let from_time = median_step.map(|dt| 1.0 / dt).or(from_dt);
-    match (fs, from_time) {
-        (Some(fs), _) if !(fs.is_finite() && fs > 0.0) => {
-            bail!("--fs must be a positive number of hertz, got {fs}")
-        }
-        (Some(fs), Some(t)) if ((fs - t) / t).abs() > 0.01 => {
-            eprintln!(
-                "warning: --fs {fs} Hz differs from the {t:.6} Hz of column {TIME_COLUMN:?}; using --fs"
-            );
-            Ok(fs)
-        }
-        (Some(fs), _) => Ok(fs),
-        (None, Some(t)) => Ok(t),
-        (None, None) => Err(anyhow!(
-            "{}: no time column {TIME_COLUMN:?} to take the sample rate from; give it with --fs HZ",
-            path.display()
-        )),
-    }
 }
 
 /// `mag_3_uc,mag_4_uc` → the names, each once; `what` names the option in errors.

@@ -76,6 +76,11 @@ pub fn error(e: Error) -> anyhow::Error {
             "{}: --line {line}: no row is on that line; the file's lines are {present}",
             path.display()
         ),
+        Error::NoSuchManeuver { name, found, .. } => anyhow::anyhow!(
+            "--ignore {name:?}: no such maneuver in the flight; found: {}",
+            found.join(", ")
+        ),
+        Error::ManeuverList(e) => anyhow::anyhow!("--maneuvers: {e}"),
         other => anyhow::Error::new(other),
     }
 }

@@ -7,8 +7,8 @@ use common::tolles;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use tempfile::TempDir;
-use tolles_core::plan::BoxPlan;
-use tolles_core::sim::{simulate, Installation, Scenario};
+use tolles_core::flight::plan::BoxPlan;
+use tolles_core::flight::sim::{simulate, Installation, Scenario};
 use tolles_io::table::write_columns_to;
 
 /// Runs `tolles ARGS`, expecting success; returns stdout.

@@ -51,12 +51,15 @@
 //!
 //! [`patent`]: the Tolles patent's maneuver model: direction cosines, generating functions,
 //! printed tables
+//! - [`patent::detect`]: finding the patent's rolls, pitches, wing-ups and cloverleaf turns;
 //! - [`patent::harmonics`]: the patent's roll and pitch tables computed by Fourier analysis;
 //! - [`patent::procedure`]: the patent's step-by-step compensation procedure, digitised.
 //!
 //! [`flight`]: flights and the world they happen in
 //! - [`flight::attitude`]: rotations between the navigation and body frames;
 //! - [`flight::plan`]: flight plans (compensation box, patent procedure, survey lines);
+//! - [`flight::maneuver_list`]: a plan from a list of maneuvers (`roll@0,wingup@90`);
+//! - [`flight::field_estimate`]: the earth field's dip and intensity from a flight's own sensors;
 //! - [`flight::environment`]: the earth's field along a flight (IGRF, geology, diurnal);
 //! - [`flight::igrf`]: IGRF-14 reference field of the earth;
 //! - [`flight::sensor`]: fluxgate and magnetometer error models;
@@ -71,28 +74,3 @@ pub mod maneuvers;
 pub mod model;
 pub mod patent;
 pub mod signal;
-
-// ---------------------------------------------------------------------------------------------
-// Transitional flat paths.
-//
-// Before the modules were grouped, every module sat at the crate root (`tolles_core::terms`,
-// `tolles_core::maneuver`, ...). These re-exports keep that code compiling; they are hidden from
-// the documentation and will be removed once the downstream crates use the grouped paths.
-// New code inside and outside this crate should use the grouped paths.
-// ---------------------------------------------------------------------------------------------
-#[doc(hidden)]
-pub use compensate::{adapt, stream};
-#[doc(hidden)]
-pub use fit::{crossval, ridge};
-#[doc(hidden)]
-pub use flight::{attitude, environment, igrf, plan, sensor, sim};
-#[doc(hidden)]
-pub use maneuvers::detect as maneuver;
-#[doc(hidden)]
-pub use maneuvers::{fom, identifiability};
-#[doc(hidden)]
-pub use model::{conventions, design, interpret, terms, vector};
-#[doc(hidden)]
-pub use patent::{harmonics, procedure};
-#[doc(hidden)]
-pub use signal::{demodulate, filter, median, metrics, segment, spectrum};

@@ -23,7 +23,7 @@ use crate::error::IoError;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 use tolles_core::fit::Fit;
-use tolles_core::interpret::{AircraftField, PatentTerms};
+use tolles_core::model::interpret::{AircraftField, PatentTerms};
 
 /// The `format` tag of a model file.
 pub const FORMAT: &str = "tolles-model";

@@ -2,8 +2,8 @@
 //! every parameter and the true aircraft terms.
 //!
 //! ```no_run
-//! use tolles_core::plan::BoxPlan;
-//! use tolles_core::sim::{simulate, Installation};
+//! use tolles_core::flight::plan::BoxPlan;
+//! use tolles_core::flight::sim::{simulate, Installation};
 //! use tolles_io::simulation::{write_flight, Sidecar};
 //! let plan = BoxPlan::default().build();
 //! let scenario = Installation::Cabin.scenario(1);
@@ -17,9 +17,9 @@ use crate::schema;
 use crate::table::write_columns_to;
 use serde::Serialize;
 use std::path::Path;
-use tolles_core::interpret::{AircraftField, PatentTerms};
-use tolles_core::plan::Plan;
-use tolles_core::sim::{Scenario, SimulatedFlight};
+use tolles_core::flight::plan::Plan;
+use tolles_core::flight::sim::{Scenario, SimulatedFlight};
+use tolles_core::model::interpret::{AircraftField, PatentTerms};
 
 /// The scalar column of a simulated flight (SGL's name for an uncompensated magnetometer).
 pub const SCALAR: &str = "mag_1_uc";

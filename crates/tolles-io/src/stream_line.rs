@@ -19,7 +19,7 @@
 
 use std::borrow::Cow;
 use std::fmt::Write;
-use tolles_core::stream::Flag;
+use tolles_core::compensate::stream::Flag;
 
 pub use crate::schema::TIME_COLUMN;
 

@@ -19,7 +19,7 @@
 use crate::error::IoError;
 use std::io::Read;
 use std::path::{Path, PathBuf};
-use tolles_core::vector::VectorSeries;
+use tolles_core::model::vector::VectorSeries;
 
 /// How a text column marks a missing value besides an empty cell or `NaN`.
 #[derive(Debug, Clone, Default, PartialEq)]

@@ -9,7 +9,7 @@
 
 use std::f64::consts::PI;
 
-use tolles_core::spectrum::welch;
+use tolles_core::signal::spectrum::welch;
 use tolles_report::plot::{BarChart, BarSeries, Colour, LinePlot, Series};
 use tolles_report::Report;
 

@@ -6,8 +6,8 @@ use crate::plot::{BarChart, BarSeries, Colour, LinePlot, Series};
 use crate::{Report, ReportError};
 use std::path::{Path, PathBuf};
 use tolles::report::{ManeuverRow, ReportData};
-use tolles::tolles_core::maneuver::Maneuver;
-use tolles::tolles_core::spectrum::Spectrum;
+use tolles::tolles_core::maneuvers::detect::Maneuver;
+use tolles::tolles_core::signal::spectrum::Spectrum;
 use tolles::tolles_io::model::ScalarModel;
 
 /// Lays out `data` and writes it as `dir/index.html` with its plots; returns the page's path.

@@ -6,10 +6,10 @@ use crate::error::Result;
 use crate::progress::Progress;
 use crate::simulate::{simulate_plan, PlanKind, Simulated};
 use std::path::Path;
-use tolles_core::filter::magnav_bandpass;
-use tolles_core::metrics::{improvement_ratio, noise_level, std_dev};
-use tolles_core::plan::{BoxPlan, SurveyPlan};
-use tolles_core::sim::Installation;
+use tolles_core::flight::plan::{BoxPlan, SurveyPlan};
+use tolles_core::flight::sim::Installation;
+use tolles_core::signal::filter::magnav_bandpass;
+use tolles_core::signal::metrics::{improvement_ratio, noise_level, std_dev};
 use tolles_io::model::ScalarModel;
 use tolles_io::table::Table;
 

@@ -4,11 +4,14 @@
 
 use std::io::ErrorKind;
 use std::path::PathBuf;
-use tolles_core::filter::FilterError;
 use tolles_core::fit::FitError;
-use tolles_core::fom::FomError;
-use tolles_core::igrf::IgrfError;
-use tolles_core::spectrum::SpectrumError;
+use tolles_core::flight::igrf::IgrfError;
+use tolles_core::flight::maneuver_list::ManeuverListError;
+use tolles_core::maneuvers::fom::FomError;
+use tolles_core::maneuvers::identifiability::PlanningError;
+use tolles_core::patent::procedure::ProcedureError;
+use tolles_core::signal::filter::FilterError;
+use tolles_core::signal::spectrum::SpectrumError;
 use tolles_io::schema::TIME_COLUMN;
 use tolles_io::select::SelectError;
 use tolles_io::IoError;
@@ -91,6 +94,52 @@ pub enum Error {
         expected: usize,
         rows: usize,
     },
+    /// A flight without the time column a workflow (`what`) needs.
+    #[error("{}: {what} needs the time column {TIME_COLUMN:?} (s)", path.display())]
+    NoTimeColumn { path: PathBuf, what: &'static str },
+    /// A time column without two increasing finite times.
+    #[error("{}: column {TIME_COLUMN:?} has no time step", path.display())]
+    NoTimeStep { path: PathBuf },
+    /// A column without a single finite value.
+    #[error("{}: column {column:?} has no finite value", path.display())]
+    NoFiniteValue { path: PathBuf, column: String },
+    /// A fluxgate with a missing value where a workflow needs every sample.
+    #[error("{}: {place}: the fluxgate has a missing value; {what} needs a complete fluxgate record", path.display())]
+    IncompleteFluxgate {
+        path: PathBuf,
+        place: String,
+        what: &'static str,
+    },
+    /// No maneuver found in a flight's attitude.
+    #[error("{}: no {kind} maneuvers found in {columns}", path.display())]
+    NoManeuversFound {
+        path: PathBuf,
+        kind: &'static str,
+        columns: String,
+    },
+    /// A maneuver to leave out that the flight does not have.
+    #[error("{}: no maneuver {name:?} in the flight to leave out; found: {}", path.display(), found.join(", "))]
+    NoSuchManeuver {
+        path: PathBuf,
+        name: String,
+        /// The labels of the maneuvers found (`roll on 045°`).
+        found: Vec<String>,
+    },
+    /// The patent's procedure could not run.
+    #[error("{}: {reason}", path.display())]
+    Procedure {
+        path: PathBuf,
+        reason: ProcedureError,
+    },
+    /// A maneuver list (`roll@0,wingup@90`) that is not a plan.
+    #[error("maneuver list: {0}")]
+    ManeuverList(ManeuverListError),
+    /// A planned flight that could not be simulated or filtered.
+    #[error(transparent)]
+    Planning(#[from] PlanningError),
+    /// A flight the band-pass cannot filter (its sample rate, or too few samples).
+    #[error("{}: {reason}", path.display())]
+    Filter { path: PathBuf, reason: FilterError },
     /// Writing an output stream failed.
     #[error("{what}: {source}")]
     Write {
@@ -124,7 +173,7 @@ pub enum Error {
     StreamIo(std::io::Error),
     /// A filter could not be designed for the data's sample rate.
     #[error(transparent)]
-    Filter(#[from] FilterError),
+    FilterDesign(#[from] FilterError),
     /// A spectrum could not be computed, e.g. too few samples without gaps.
     #[error("spectrum of the {signal} scalar: {reason}")]
     Spectrum {

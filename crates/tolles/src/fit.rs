@@ -6,9 +6,9 @@ use crate::read::{checked_names, Flight};
 use crate::warning::Warning;
 use rayon::prelude::*;
 use std::str::FromStr;
-use tolles_core::design::Design;
 use tolles_core::fit::{fit as fit_scalar, Band, FitSettings, Lambda};
-use tolles_core::terms::TermSet;
+use tolles_core::model::design::Design;
+use tolles_core::model::terms::TermSet;
 use tolles_io::model::{ModelFile, ScalarModel};
 use tolles_io::table::Table;
 

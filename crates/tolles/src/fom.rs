@@ -8,10 +8,10 @@ use crate::warning::Warning;
 use serde_json::{json, Value};
 use std::path::Path;
 use tolles_core::fit::Band;
-use tolles_core::fom::{
+use tolles_core::maneuvers::detect::{detect_maneuvers, Maneuver, ManeuverSettings};
+use tolles_core::maneuvers::fom::{
     fom as fom_of, improvement_ratio, FomReport, FomSettings, ManeuverFom, Slot,
 };
-use tolles_core::maneuver::{detect_maneuvers, Maneuver, ManeuverSettings};
 use tolles_io::model::{ModelFile, ScalarModel};
 use tolles_io::schema::{PITCH, ROLL, YAW};
 use tolles_io::table::Table;

@@ -50,6 +50,8 @@
 //!   computed; the `tolles-report` crate lays it out as HTML;
 //! - [`demo`]: the built-in example's flights and how its compensated survey compares with the
 //!   truth.
+//! - [`procedure`]: the Tolles patent's step-by-step procedure on a flight, beside least squares;
+//! - [`plan`]: how well a planned or flown calibration flight determines each term.
 //!
 //! Every workflow takes typed requests and returns typed results; errors are [`Error`], one line
 //! naming the file, row or column; warnings are values ([`Warning`]) added to a vector the
@@ -66,6 +68,8 @@ pub mod error;
 pub mod fit;
 pub mod fom;
 pub mod model;
+pub mod plan;
+pub mod procedure;
 pub mod progress;
 pub mod read;
 pub mod report;

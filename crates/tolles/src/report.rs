@@ -8,10 +8,10 @@ use crate::progress::Progress;
 use crate::warning::Warning;
 use std::path::PathBuf;
 use tolles_core::fit::Band;
-use tolles_core::fom::{bandpassed, FomSettings};
-use tolles_core::maneuver::Maneuver;
-use tolles_core::metrics::std_dev;
-use tolles_core::spectrum::{welch, Spectrum};
+use tolles_core::maneuvers::detect::Maneuver;
+use tolles_core::maneuvers::fom::{bandpassed, FomSettings};
+use tolles_core::signal::metrics::std_dev;
+use tolles_core::signal::spectrum::{welch, Spectrum};
 use tolles_io::model::{ModelFile, ScalarModel};
 
 /// The column of a simulated flight that holds the true earth field (nT).

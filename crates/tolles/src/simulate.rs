@@ -5,10 +5,10 @@ use crate::error::{Error, Result};
 use crate::progress::{Progress, Stage};
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
-use tolles_core::environment::{Diurnal, Environment, Geology, Location};
-use tolles_core::igrf::decimal_year;
-use tolles_core::plan::{BoxPlan, PatentPlan, Plan, SurveyPlan};
-use tolles_core::sim::{
+use tolles_core::flight::environment::{Diurnal, Environment, Geology, Location};
+use tolles_core::flight::igrf::decimal_year;
+use tolles_core::flight::plan::{BoxPlan, PatentPlan, Plan, SurveyPlan};
+use tolles_core::flight::sim::{
     simulate_with_progress, EarthField, Installation, Scenario, SimulatedFlight,
 };
 use tolles_io::simulation::{write_flight, Sidecar};

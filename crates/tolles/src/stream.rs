@@ -29,7 +29,7 @@
 //! (a stream cannot know a file's mean), so the result differs from [`crate::compensate`] by a
 //! constant. A time step over 1.5 nominal steps, a step backwards, a bad value or a malformed
 //! line restarts the derivative, as batch compensation splits runs (see
-//! [`tolles_core::stream`]). Output is flushed whenever no more input is waiting; writes block
+//! [`tolles_core::compensate::stream`]). Output is flushed whenever no more input is waiting; writes block
 //! when the reader is slow, so nothing queues without bound.
 
 use crate::error::{Error, Result};
@@ -39,9 +39,9 @@ use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
-use tolles_core::adapt::AdaptSettings;
-pub use tolles_core::stream::Derivative;
-use tolles_core::stream::{Output, Sample, ScalarSpec, StreamCompensator};
+use tolles_core::compensate::adapt::AdaptSettings;
+pub use tolles_core::compensate::stream::Derivative;
+use tolles_core::compensate::stream::{Output, Sample, ScalarSpec, StreamCompensator};
 use tolles_io::model::ModelFile;
 use tolles_io::stream_line::{Layout, Line};
 
@@ -406,7 +406,7 @@ impl Histogram {
 mod tests {
     use super::*;
     use proptest::prelude::*;
-    use tolles_core::design::Design;
+    use tolles_core::model::design::Design;
 
     const HEADER: &str = "tt,line,mag_1_uc,flux_a_x,flux_a_y,flux_a_z";
 

@@ -49,6 +49,8 @@ pub enum Warning {
         end_tt: f64,
         samples: usize,
     },
+    /// The least-squares fit the patent's procedure is compared with failed.
+    NoLeastSquares { path: PathBuf, reason: String },
     /// Not a problem: which rows a selection kept, so the caller can say what it works on.
     RowsSelected {
         path: PathBuf,
@@ -92,6 +94,11 @@ impl fmt::Display for Warning {
             Warning::ManeuverGap { path, kind, heading, start_tt, end_tt, samples } => write!(
                 f,
                 "{}: {kind} on heading {heading}° at {start_tt:.1}–{end_tt:.1} s: {samples} samples have no band-passed value (missing data); its peak-to-peak uses the rest",
+                path.display()
+            ),
+            Warning::NoLeastSquares { path, reason } => write!(
+                f,
+                "{}: no least-squares comparison: {reason}",
                 path.display()
             ),
             Warning::RowsSelected { path, selection } => {

@@ -7,7 +7,7 @@ use std::io::Write;
 use std::path::PathBuf;
 use tolles::fom::{heading_text, FomOutcome, FomRequest};
 use tolles_core::fit::Band;
-use tolles_core::fom::improvement_ratio;
+use tolles_core::maneuvers::fom::improvement_ratio;
 
 const EXAMPLES: &str = "\
 Examples:

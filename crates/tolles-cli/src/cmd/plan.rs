@@ -1,17 +1,14 @@
 //! `tolles plan`: how well a calibration flight determines each term, before or after flying it.
 
-use anyhow::{bail, Context, Result};
+use crate::progress::Terminal;
+use crate::render::{self, OrRender, Use};
+use anyhow::{anyhow, Result};
 use clap::ValueEnum;
 use std::io::Write;
-use tolles_core::design::Design;
-use tolles_core::environment::Environment;
-use tolles_core::filter::magnav_bandpass;
-use tolles_core::identifiability::{
-    analyse_mapped, candidate_blocks, patent_map, planned_blocks, suggest, Block, Identifiability,
-};
-use tolles_core::interpret::AircraftField;
-use tolles_core::plan::{Axis, BoxPlan, Motion, PatentPlan, Plan, Segment};
-use tolles_core::sim::{EarthField, Scenario};
+use tolles::plan::{BuiltinPlan, Maneuvers, PlanOutcome, PlanRequest, BAND_HZ};
+use tolles_core::flight::plan::Axis;
+use tolles_core::flight::sim::EarthField;
+use tolles_core::patent::Term;
 
 const EXAMPLES: &str = "\
 Examples:
@@ -81,281 +78,69 @@ pub struct Args {
     pub intensity: f64,
     /// Terms of the model
     #[arg(long, default_value = "permanent,i5,e8")]
-    pub terms: tolles_core::terms::TermSet,
+    pub terms: tolles_core::model::terms::TermSet,
     /// Print JSON instead of a table
     #[arg(long)]
     pub json: bool,
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let design = Design::new(args.terms);
-    let mut scenario = Scenario::new(AircraftField::default(), 0);
-    let mut earth = EarthField {
-        intensity_nt: args.intensity,
-        inclination_deg: args.inclination,
-        declination_deg: args.declination,
+    let request = PlanRequest {
+        maneuvers: maneuvers(&args)?,
+        terms: args.terms,
+        noise_nt: args.noise,
+        field: EarthField {
+            intensity_nt: args.intensity,
+            inclination_deg: args.inclination,
+            declination_deg: args.declination,
+        },
     };
-    let blocks = match &args.flight {
-        Some(path) => {
-            let vector = args.vector.as_deref().ok_or_else(|| {
-                anyhow::anyhow!("a flight needs --vector PREFIX (its fluxgate columns)")
-            })?;
-            let flown = flown_blocks(path, vector, &design)?;
-            scenario.fs_hz = flown.fs_hz;
-            earth.inclination_deg = flown.dip_deg;
-            earth.intensity_nt = flown.intensity_nt;
-            flown.blocks
-        }
-        None => {
-            scenario.environment = Environment::uniform(earth);
-            let plan = match &args.maneuvers {
-                Some(list) => plan_from_list(list)?,
-                None => builtin(&args),
-            };
-            let filter = magnav_bandpass(0.1, 0.9, 4, scenario.fs_hz)?;
-            planned_blocks(&plan, &scenario, &design, filter.as_ref())?
-        }
-    };
-    scenario.environment = Environment::uniform(earth);
-    let filter = magnav_bandpass(0.1, 0.9, 4, scenario.fs_hz)?;
-    let candidates = candidate_blocks(&scenario, &design, filter.as_ref())?;
-    report(
-        &blocks,
-        &candidates,
-        &design,
-        scenario.fs_hz,
-        args.noise,
-        args.json,
-    )
-}
-
-/// What a flown flight contributes: one block per detected maneuver, and the field it flew in.
-struct Flown {
-    blocks: Vec<Block>,
-    fs_hz: f64,
-    dip_deg: f64,
-    intensity_nt: f64,
-}
-
-fn flown_blocks(path: &std::path::Path, vector: &str, design: &Design) -> Result<Flown> {
-    use tolles_core::maneuver::{detect_harmonic_maneuvers, ManeuverSettings};
-    let table = crate::input::read_table(path)?;
-    let flux = table.vector(vector)?;
-    let tt = tolles::read::time_column(&table)
-        .map_err(crate::render::error)?
-        .ok_or_else(|| anyhow::anyhow!("{}: needs a time column tt", path.display()))?;
-    let fs_hz = crate::input::sample_rate(&table, Some(&tt), None)?;
-    let (roll, pitch, yaw) = (
-        table.numeric("ins_roll")?,
-        table.numeric("ins_pitch")?,
-        table.numeric("ins_yaw")?,
-    );
-    if let Some(k) = (0..flux.len()).find(|&k| !flux.is_finite(k)) {
-        bail!(
-            "{}: line {}: the fluxgate has a missing value; identifiability needs a complete fluxgate record",
-            path.display(),
-            table.line_of(k)
-        );
-    }
-    let maneuvers =
-        detect_harmonic_maneuvers(&tt, &roll, &pitch, &yaw, &ManeuverSettings::default());
-    if maneuvers.is_empty() {
-        bail!(
-            "{}: no harmonic maneuvers found in ins_roll, ins_pitch, ins_yaw",
-            path.display()
-        );
-    }
-    let windows: Vec<(String, std::ops::Range<usize>)> = maneuvers
-        .iter()
-        .map(|m| {
-            (
-                format!(
-                    "{} on {:03.0}° at {:.0} s",
-                    m.kind, m.heading_deg_measured, m.start_tt
-                ),
-                m.range(),
-            )
-        })
-        .collect();
-    let filter = magnav_bandpass(0.1, 0.9, 4, fs_hz)?;
-    let blocks =
-        tolles_core::identifiability::flight_blocks(&flux, design, filter.as_ref(), &windows)?;
-    let (dip_deg, intensity_nt) = level_field(&flux, &roll, &pitch);
-    Ok(Flown {
-        blocks,
-        fs_hz,
-        dip_deg,
-        intensity_nt,
-    })
-}
-
-/// Dip (degrees) and intensity (nT) of the fluxgate over the samples flown within 2° of level.
-fn level_field(
-    flux: &tolles_core::vector::VectorSeries,
-    roll: &[f64],
-    pitch: &[f64],
-) -> (f64, f64) {
-    let level: Vec<usize> = (0..flux.len())
-        .filter(|&k| roll[k].abs() < 2.0 && pitch[k].abs() < 2.0)
-        .collect();
-    let chosen: Vec<usize> = if level.is_empty() {
-        (0..flux.len()).collect()
-    } else {
-        level
-    };
-    let n = chosen.len().max(1) as f64;
-    let intensity = chosen.iter().map(|&k| flux.magnitude(k)).sum::<f64>() / n;
-    let dip = chosen
-        .iter()
-        .map(|&k| (flux.z[k] / flux.magnitude(k)).asin())
-        .sum::<f64>()
-        / n;
-    (dip.to_degrees(), intensity)
-}
-
-fn builtin(args: &Args) -> Plan {
-    let keep = |kind: Kind, amplitude: f64| {
-        if args.without.contains(&kind) {
-            0.0
-        } else {
-            amplitude
-        }
-    };
-    match args.plan {
-        PlanName::Box => BoxPlan {
-            roll_deg: keep(Kind::Roll, 10.0),
-            pitch_deg: keep(Kind::Pitch, 5.0),
-            yaw_deg: keep(Kind::Yaw, 5.0),
-            ..BoxPlan::default()
-        }
-        .build(),
-        PlanName::Patent => PatentPlan {
-            roll_deg: keep(Kind::Roll, 15.0),
-            pitch_deg: keep(Kind::Pitch, 10.0),
-            ..PatentPlan::default()
-        }
-        .build(),
-    }
-}
-
-/// `roll@0,pitch@90,wingup@270` → a plan with those maneuvers, each between straight legs.
-fn plan_from_list(list: &str) -> Result<Plan> {
-    let mut segments = Vec::new();
-    for item in list.split(',').map(str::trim).filter(|s| !s.is_empty()) {
-        let Some((kind, heading)) = item.split_once('@') else {
-            bail!("--maneuvers: {item:?} is not KIND@HEADING (e.g. roll@90)")
-        };
-        let heading: f64 = heading
-            .parse()
-            .with_context(|| format!("--maneuvers: {heading:?} is not a heading in degrees"))?;
-        let (duration_s, motion) = match kind {
-            "roll" => (18.0, harmonic(Axis::Roll, 10.0)),
-            "pitch" => (18.0, harmonic(Axis::Pitch, 5.0)),
-            "yaw" => (18.0, harmonic(Axis::Yaw, 5.0)),
-            // A right wing-up on an easterly heading, a left one otherwise, as in the patent.
-            "wingup" => (
-                20.0,
-                Motion::Hold {
-                    roll_deg: if heading.rem_euclid(360.0) < 180.0 {
-                        -40.0
-                    } else {
-                        40.0
-                    },
-                },
-            ),
-            other => bail!("--maneuvers: unknown kind {other:?}; use roll, pitch, yaw or wingup"),
-        };
-        let leg = |line: usize, duration_s, motion| Segment {
-            line: line as f64 + 1.0,
-            heading_deg: heading,
-            duration_s,
-            motion,
-        };
-        segments.push(leg(segments.len(), 15.0, Motion::Straight));
-        segments.push(leg(segments.len(), duration_s, motion));
-    }
-    if segments.is_empty() {
-        bail!("--maneuvers: the list is empty");
-    }
-    let heading = segments.last().map_or(0.0, |s: &Segment| s.heading_deg);
-    segments.push(Segment {
-        line: segments.len() as f64 + 1.0,
-        heading_deg: heading,
-        duration_s: 15.0,
-        motion: Motion::Straight,
-    });
-    Ok(Plan::new(segments))
-}
-
-fn harmonic(axis: Axis, amplitude_deg: f64) -> Motion {
-    Motion::Harmonic {
-        axis,
-        amplitude_deg,
-        period_s: 6.0,
-    }
-}
-
-fn report(
-    blocks: &[Block],
-    candidates: &[Block],
-    design: &Design,
-    fs_hz: f64,
-    noise: f64,
-    json: bool,
-) -> Result<()> {
-    let (names, map) = patent_map(design, fs_hz);
-    let analysis = analyse_mapped(blocks, &names, &map, noise);
-    let fixes: Vec<(String, Vec<(String, f64)>)> = analysis
-        .terms
-        .iter()
-        .enumerate()
-        .filter(|(_, t)| t.collinear)
-        .map(|(j, t)| {
-            (
-                t.name.clone(),
-                suggest(blocks, candidates, &map, j)
-                    .into_iter()
-                    .take(3)
-                    .collect(),
-            )
-        })
-        .collect();
+    let mut warnings = Vec::new();
+    let outcome = tolles::plan::plan(&request, &Terminal::default(), &mut warnings);
+    render::warnings(&mut warnings, Use::Other);
+    let outcome = outcome.or_render()?;
     let mut out = std::io::stdout().lock();
-    if json {
-        let value = serde_json::json!({ "identifiability": analysis, "suggestions": fixes });
-        writeln!(out, "{}", serde_json::to_string_pretty(&value)?)?;
-        return Ok(());
-    }
-    print_table(&mut out, &analysis)?;
-    if !fixes.is_empty() {
-        writeln!(
-            out,
-            "\nPoorly determined terms and the maneuvers that would help most:"
-        )?;
-        for (name, ranked) in &fixes {
-            let text: Vec<String> = ranked
-                .iter()
-                .map(|(l, r)| format!("{l} (std error ×{r:.2})"))
-                .collect();
-            writeln!(out, "  {name:<6} add {}", text.join(", or "))?;
-        }
+    if args.json {
+        writeln!(out, "{}", serde_json::to_string_pretty(&outcome.to_json())?)?;
+    } else {
+        print_table(&mut out, &outcome)?;
     }
     Ok(())
 }
 
-fn unit(name: &str) -> &'static str {
-    match name {
-        "T" | "L" | "V" => "nT",
-        n if n.chars().next().is_some_and(char::is_uppercase) => "",
-        _ => "s",
+/// The maneuvers the flags name: a flight, a list or a built-in plan.
+fn maneuvers(args: &Args) -> Result<Maneuvers> {
+    if let Some(path) = &args.flight {
+        let vector = args.vector.clone();
+        let vector = vector
+            .ok_or_else(|| anyhow!("a flight needs --vector PREFIX (its fluxgate columns)"))?;
+        return Ok(Maneuvers::Flown {
+            path: path.clone(),
+            vector,
+        });
     }
+    if let Some(list) = &args.maneuvers {
+        return Ok(Maneuvers::List(list.clone()));
+    }
+    let plan = match args.plan {
+        PlanName::Box => BuiltinPlan::Box,
+        PlanName::Patent => BuiltinPlan::Patent,
+    };
+    let axis = |kind: &Kind| match kind {
+        Kind::Roll => Axis::Roll,
+        Kind::Pitch => Axis::Pitch,
+        Kind::Yaw => Axis::Yaw,
+    };
+    let without = args.without.iter().map(axis).collect();
+    Ok(Maneuvers::Builtin { plan, without })
 }
 
-fn print_table(out: &mut impl Write, analysis: &Identifiability) -> Result<()> {
+fn print_table(out: &mut impl Write, outcome: &PlanOutcome) -> Result<()> {
+    let analysis = &outcome.identifiability;
     writeln!(
         out,
-        "Identifiability of the 16 Tolles terms (noise {} nT, band-pass 0.1–0.9 Hz):",
-        analysis.noise_nt
+        "Identifiability of the 16 Tolles terms (noise {} nT, band-pass {}–{} Hz):",
+        analysis.noise_nt, BAND_HZ.0, BAND_HZ.1
     )?;
     writeln!(
         out,
@@ -380,12 +165,26 @@ fn print_table(out: &mut impl Write, analysis: &Identifiability) -> Result<()> {
             "  {:<6} {:>11.3e} {:<2} {:>9} {:<9}  {:<44}  {}",
             t.name,
             t.std_error,
-            unit(&t.name),
+            Term::from_name(&t.name).map_or("", Term::unit),
             ratio(t.vif),
             if t.collinear { "collinear" } else { "ok" },
             carriers.join(", "),
             partners.join(", ")
         )?;
+    }
+    if !outcome.suggestions.is_empty() {
+        writeln!(
+            out,
+            "\nPoorly determined terms and the maneuvers that would help most:"
+        )?;
+    }
+    for s in &outcome.suggestions {
+        let text: Vec<String> = s
+            .maneuvers
+            .iter()
+            .map(|(l, r)| format!("{l} (std error ×{r:.2})"))
+            .collect();
+        writeln!(out, "  {:<6} add {}", s.term, text.join(", or "))?;
     }
     Ok(())
 }

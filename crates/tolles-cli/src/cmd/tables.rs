@@ -3,7 +3,7 @@
 
 use anyhow::{Context, Result};
 use std::io::Write;
-use tolles_core::harmonics::{HarmonicManeuver, HarmonicTable, TableRow};
+use tolles_core::patent::harmonics::{HarmonicManeuver, HarmonicTable, TableRow};
 use tolles_core::patent::{Maneuver, Provenance, Section};
 
 const EXAMPLES: &str = "\

@@ -3,7 +3,9 @@
 
 pub mod attitude;
 pub mod environment;
+pub mod field_estimate;
 pub mod igrf;
+pub mod maneuver_list;
 pub mod plan;
 pub mod sensor;
 pub mod sim;

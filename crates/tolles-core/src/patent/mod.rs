@@ -38,6 +38,7 @@
 //! signs; [`printed_table`] keeps them as printed, with the misprints listed in
 //! [`PrintedRow::misprint`].
 
+pub mod detect;
 pub mod harmonics;
 pub mod procedure;
 // The printed tables are long data; they live in their own file but belong to this module's API.
@@ -590,5 +591,18 @@ mod tests {
             assert_eq!(term.observable_index(), Some(k));
         }
         assert_eq!(Term::InducedTT.observable_index(), None);
+    }
+
+    #[test]
+    fn terms_are_found_by_name_and_carry_their_unit() {
+        for term in Term::ALL {
+            assert_eq!(Term::from_name(term.name()), Some(term));
+        }
+        assert_eq!(Term::from_name("X"), None);
+        let units: Vec<&str> = ["T", "VV-TT", "tl"]
+            .iter()
+            .map(|n| Term::from_name(n).unwrap().unit())
+            .collect();
+        assert_eq!(units, ["nT", "", "s"]);
     }
 }

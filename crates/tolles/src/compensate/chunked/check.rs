@@ -6,8 +6,8 @@ use crate::error::{Error, Result};
 use crate::read::sample_rate_from;
 use crate::warning::Warning;
 use std::path::Path;
-use tolles_core::design::Design;
-use tolles_core::stream::ScalarSpec;
+use tolles_core::compensate::stream::ScalarSpec;
+use tolles_core::model::design::Design;
 use tolles_io::model::{ModelFile, ScalarModel};
 use tolles_io::IoError;
 

@@ -7,8 +7,8 @@ use super::scan::{numbers, temporary, Plan, Scan};
 use crate::error::{Error, Result};
 use crate::progress::Progress;
 use std::path::{Path, PathBuf};
-use tolles_core::segment::GAP_FACTOR;
-use tolles_core::stream::{Derivative, Output, Sample, ScalarSpec, StreamCompensator};
+use tolles_core::compensate::stream::{Derivative, Output, Sample, ScalarSpec, StreamCompensator};
+use tolles_core::signal::segment::GAP_FACTOR;
 use tolles_io::chunks::{ChunkReader, SpillReader};
 use tolles_io::IoError;
 

@@ -3,8 +3,8 @@
 use crate::error::{Error, Result};
 use crate::progress::Progress;
 use tolles_core::fit::{check_flux_magnitude, FitError};
-use tolles_core::median::{MedianPass, MedianSearch};
-use tolles_core::vector::VectorSeries;
+use tolles_core::model::vector::VectorSeries;
+use tolles_core::signal::median::{MedianPass, MedianSearch};
 use tolles_io::chunks::{ChunkReader, NumberSpill, DEFAULT_CHUNK_ROWS};
 use tolles_io::format::Format;
 use tolles_io::model::ModelFile;

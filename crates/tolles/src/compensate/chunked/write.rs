@@ -6,7 +6,7 @@ use crate::error::{Error, Result};
 use crate::progress::Progress;
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use tolles_core::stream::{Output, ScalarSpec};
+use tolles_core::compensate::stream::{Output, ScalarSpec};
 use tolles_io::chunks::{ChunkReader, CsvChunkWriter, ParquetChunkWriter};
 use tolles_io::format::Format;
 use tolles_io::table::Table;
