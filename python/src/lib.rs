@@ -311,6 +311,114 @@ fn fom(
     Ok((json, texts(&warnings)))
 }
 
+/// The patent's procedure; returns (JSON as `tolles procedure --json` prints it, warnings).
+#[pyfunction]
+#[pyo3(signature = (source, names, get, dt, scalar, vector, dip_deg, declination_deg, ignore))]
+#[allow(clippy::too_many_arguments)]
+fn procedure(
+    py: Python<'_>,
+    source: PathBuf,
+    names: Vec<String>,
+    get: Bound<'_, PyAny>,
+    dt: Option<f64>,
+    scalar: String,
+    vector: Option<String>,
+    dip_deg: Option<f64>,
+    declination_deg: f64,
+    ignore: Vec<String>,
+) -> PyResult<(String, Vec<String>)> {
+    use tolles::procedure::{Direction, ProcedureRequest};
+    let direction = match (vector, dip_deg) {
+        (Some(vector), None) => Direction::Fluxgate { vector },
+        (None, Some(dip_deg)) => Direction::Attitude { dip_deg },
+        _ => {
+            return Err(failed(
+                "give either a fluxgate (vector) or the field's dip (dip), not both",
+            ))
+        }
+    };
+    let mut wanted: Vec<String> = [ROLL, PITCH, YAW].map(String::from).to_vec();
+    wanted.push(scalar.clone());
+    if let Direction::Fluxgate { vector } = &direction {
+        wanted.extend(vector_columns(vector));
+    }
+    let table = Frame {
+        source,
+        names,
+        get,
+        dt,
+    }
+    .table(&wanted)?;
+    let request = ProcedureRequest {
+        declination_deg,
+        ignore,
+        ..ProcedureRequest::new(&scalar, direction)
+    };
+    let mut warnings = Vec::new();
+    let outcome = py
+        .detach(|| tolles::procedure::procedure(&table, &request, &mut warnings))
+        .map_err(failed)?;
+    let json = serde_json::to_string_pretty(&outcome.to_json()).map_err(failed)?;
+    Ok((json, texts(&warnings)))
+}
+
+/// How well a plan or a flown flight determines each term; returns (JSON as `tolles plan
+/// --json` prints it, warnings). `maneuvers` is `box`, `patent`, or a list `roll@0,…`.
+#[pyfunction]
+#[pyo3(signature = (maneuvers, without, flight, vector, terms, noise_nt, dip_deg, declination_deg, intensity_nt))]
+#[allow(clippy::too_many_arguments)]
+fn plan(
+    py: Python<'_>,
+    maneuvers: String,
+    without: Vec<String>,
+    flight: Option<PathBuf>,
+    vector: String,
+    terms: &str,
+    noise_nt: f64,
+    dip_deg: f64,
+    declination_deg: f64,
+    intensity_nt: f64,
+) -> PyResult<(String, Vec<String>)> {
+    use tolles::plan::{BuiltinPlan, Maneuvers, PlanRequest};
+    use tolles_core::flight::plan::Axis;
+    let axis = |name: &String| match name.trim().to_ascii_lowercase().as_str() {
+        "roll" => Ok(Axis::Roll),
+        "pitch" => Ok(Axis::Pitch),
+        "yaw" => Ok(Axis::Yaw),
+        other => Err(failed(format!(
+            "without: expected roll, pitch or yaw, got {other:?}"
+        ))),
+    };
+    let maneuvers = match (flight, maneuvers.trim().to_ascii_lowercase().as_str()) {
+        (Some(path), _) => Maneuvers::Flown { path, vector },
+        (None, "box") | (None, "patent") => Maneuvers::Builtin {
+            plan: if maneuvers.trim().eq_ignore_ascii_case("box") {
+                BuiltinPlan::Box
+            } else {
+                BuiltinPlan::Patent
+            },
+            without: without.iter().map(axis).collect::<PyResult<_>>()?,
+        },
+        (None, _) => Maneuvers::List(maneuvers),
+    };
+    let request = PlanRequest {
+        maneuvers,
+        terms: terms.parse().map_err(failed)?,
+        noise_nt,
+        field: tolles_core::flight::sim::EarthField {
+            intensity_nt,
+            inclination_deg: dip_deg,
+            declination_deg,
+        },
+    };
+    let mut warnings = Vec::new();
+    let outcome = py
+        .detach(|| tolles::plan::plan(&request, &Silent, &mut warnings))
+        .map_err(failed)?;
+    let json = serde_json::to_string_pretty(&outcome.to_json()).map_err(failed)?;
+    Ok((json, texts(&warnings)))
+}
+
 /// The columns `compensate` adds to a frame with columns `names`, in the model's order.
 #[pyfunction]
 fn output_names(model: &str, names: Vec<String>) -> PyResult<Vec<String>> {
@@ -431,6 +539,8 @@ fn _tolles(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(compensate, m)?)?;
     m.add_function(wrap_pyfunction!(fom, m)?)?;
     m.add_function(wrap_pyfunction!(output_names, m)?)?;
+    m.add_function(wrap_pyfunction!(procedure, m)?)?;
+    m.add_function(wrap_pyfunction!(plan, m)?)?;
     m.add_function(wrap_pyfunction!(load_model, m)?)?;
     m.add_function(wrap_pyfunction!(check_model, m)?)?;
     m.add_function(wrap_pyfunction!(save_model, m)?)?;

@@ -40,6 +40,8 @@ __all__ = [
     "fit",
     "fom",
     "load_model",
+    "plan",
+    "procedure",
     "read",
     "simulate",
     "__version__",
@@ -422,6 +424,79 @@ def simulate(plan: str = "box", preset: str = "cabin", seed: int = 1, **options:
     df.attrs["source"] = f"<simulated {plan}>"
     df.attrs["truth"] = json.loads(sidecar)
     return df
+
+
+def procedure(
+    df: pd.DataFrame,
+    scalar: str = "mag_1_uc",
+    vector: Optional[str] = "flux_a",
+    *,
+    dip: Optional[float] = None,
+    declination: float = 0.0,
+    ignore: Union[str, Sequence[str], None] = None,
+) -> dict:
+    """The Tolles patent's compensation procedure, step by step, beside a least-squares fit of
+    the same 16 terms: exactly ``tolles procedure --json``, as a dict.
+
+    The maneuvers (rolls, pitches, wing-ups, cloverleaf) are found in ``ins_roll``,
+    ``ins_pitch``, ``ins_yaw`` (deg) and ``tt`` (s). The field's direction in the aircraft comes
+    from the fluxgate ``vector`` (nT), or, with ``vector=None``, from the attitude and the
+    field's ``dip`` (deg, down positive). ``declination`` (deg east) turns yaw into magnetic
+    heading; ``ignore`` leaves maneuvers out by label (``"roll on 045"``). Terms are in nT
+    (perm), dimensionless (induced) and s (eddy); axes L = x, T = y, V = z.
+    """
+    if dip is not None and vector == "flux_a":
+        vector = None
+    columns = _Columns(df)
+    ignored = [] if ignore is None else _names(ignore, "ignore")
+    text, notes = _tolles.procedure(
+        *columns.args(),
+        str(scalar),
+        vector,
+        None if dip is None else float(dip),
+        float(declination),
+        ignored,
+    )
+    _warn(notes)
+    return json.loads(text)
+
+
+def plan(
+    maneuvers: str = "box",
+    *,
+    without: Union[str, Sequence[str], None] = None,
+    flight: Optional[PathLike] = None,
+    vector: str = "flux_a",
+    terms: str = "permanent,i5,e8",
+    noise: float = 0.01,
+    dip: float = 68.0,
+    declination: float = 0.0,
+    intensity: float = 52000.0,
+) -> dict:
+    """How well a calibration flight determines each term, before or after flying it: exactly
+    ``tolles plan --json``, as a dict.
+
+    ``maneuvers``: ``"box"``, ``"patent"`` or a list such as ``"roll@0,pitch@90,wingup@270"``
+    (headings in deg); ``without`` leaves the box's or patent plan's ``roll``, ``pitch`` or
+    ``yaw`` maneuvers out. ``flight``: the path of a flown flight instead, whose maneuvers are
+    found in its attitude and weighed with its fluxgate ``vector`` (dip and intensity then come
+    from the fluxgate). ``noise`` (nT) sets the standard errors' scale; ``dip`` (deg),
+    ``declination`` (deg) and ``intensity`` (nT) the earth field of a plan.
+    """
+    axes = [] if without is None else _names(without, "without")
+    text, notes = _tolles.plan(
+        str(maneuvers),
+        axes,
+        None if flight is None else os.fspath(flight),
+        str(vector),
+        _terms(terms),
+        float(noise),
+        float(dip),
+        float(declination),
+        float(intensity),
+    )
+    _warn(notes)
+    return json.loads(text)
 
 
 _Base: tuple

@@ -49,6 +49,28 @@ def fom(
     order: int,
     fs: Optional[float],
 ) -> Tuple[str, List[str]]: ...
+def procedure(
+    source: str,
+    names: Sequence[str],
+    get: Getter,
+    dt: Optional[float],
+    scalar: str,
+    vector: Optional[str],
+    dip_deg: Optional[float],
+    declination_deg: float,
+    ignore: Sequence[str],
+) -> Tuple[str, List[str]]: ...
+def plan(
+    maneuvers: str,
+    without: Sequence[str],
+    flight: Optional[str],
+    vector: str,
+    terms: str,
+    noise_nt: float,
+    dip_deg: float,
+    declination_deg: float,
+    intensity_nt: float,
+) -> Tuple[str, List[str]]: ...
 def output_names(model: str, names: Sequence[str]) -> List[str]: ...
 def load_model(path: str) -> str: ...
 def check_model(json: str) -> str: ...

@@ -2,7 +2,7 @@
 //! is at hand: dip and intensity from the fluxgate in level flight, intensity from the scalar.
 //!
 //! ```
-//! use tolles_core::field_estimate::level_field;
+//! use tolles_core::flight::field_estimate::level_field;
 //! use tolles_core::model::vector::VectorSeries;
 //!
 //! // Level flight north at dip 60°, intensity 50 000 nT (FRD: x north, z down).

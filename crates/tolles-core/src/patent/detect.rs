@@ -2,7 +2,7 @@
 //! and cloverleaf turns, as windows the [`crate::patent::procedure`] reads.
 //!
 //! ```
-//! use tolles_core::patent_maneuvers::detect_patent_maneuvers;
+//! use tolles_core::patent::detect::detect_patent_maneuvers;
 //! use tolles_core::patent::procedure::ManeuverKind;
 //!
 //! // 60 s at 10 Hz: level, then a 40° bank held for 20 s on a steady heading of 090°.
