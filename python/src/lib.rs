@@ -58,6 +58,15 @@ struct Frame<'py> {
 }
 
 impl<'py> Frame<'py> {
+    fn new(source: PathBuf, names: Vec<String>, get: Bound<'py, PyAny>, dt: Option<f64>) -> Self {
+        Self {
+            source,
+            names,
+            get,
+            dt,
+        }
+    }
+
     /// The table of the columns `wanted` (each once, in that order) and the time column if the
     /// frame has one. A wanted column the frame lacks is an error that suggests near names.
     fn table(&self, wanted: &[String]) -> PyResult<Table> {
@@ -102,6 +111,19 @@ fn model_columns(model: &ModelFile) -> Vec<String> {
         wanted.extend(fit.vectors.iter().flat_map(|v| vector_columns(v)));
     }
     wanted
+}
+
+/// The attitude columns a maneuver search reads, and `scalar`.
+fn attitude_and(scalar: &str) -> Vec<String> {
+    let mut wanted: Vec<String> = [ROLL, PITCH, YAW].map(String::from).to_vec();
+    wanted.push(scalar.to_string());
+    wanted
+}
+
+/// An outcome's JSON, as the CLI prints it, and the warnings.
+fn json_reply(value: serde_json::Value, warnings: &[Warning]) -> PyResult<(String, Vec<String>)> {
+    let json = serde_json::to_string_pretty(&value).map_err(failed)?;
+    Ok((json, texts(warnings)))
 }
 
 fn parse_model(json: &str) -> PyResult<ModelFile> {
@@ -200,13 +222,7 @@ fn fit(
     };
     let mut wanted = request.scalars.clone();
     wanted.extend(request.vectors.iter().flat_map(|v| vector_columns(v)));
-    let table = Frame {
-        source,
-        names,
-        get,
-        dt,
-    }
-    .table(&wanted)?;
+    let table = Frame::new(source, names, get, dt).table(&wanted)?;
     let mut warnings = Vec::new();
     let model = py
         .detach(|| tolles::fit::fit(&table, &request, &Silent, &mut warnings))
@@ -233,12 +249,7 @@ fn compensate<'py>(
         fs_hz: fs,
         level: level.parse::<LevelChoice>().map_err(failed)?,
     };
-    let frame = Frame {
-        source,
-        names,
-        get,
-        dt,
-    };
+    let frame = Frame::new(source, names, get, dt);
     let table = frame.table(&model_columns(&model))?;
     let mut warnings = Vec::new();
     let columns = py
@@ -282,18 +293,11 @@ fn fom(
         .map(|m| tolles::fom::fit_for(m, Path::new("<model>"), &scalar))
         .transpose()
         .map_err(failed)?;
-    let mut wanted: Vec<String> = [ROLL, PITCH, YAW].map(String::from).to_vec();
-    wanted.push(scalar.clone());
+    let mut wanted = attitude_and(&scalar);
     if let Some(fit) = fit {
         wanted.extend(fit.vectors.iter().flat_map(|v| vector_columns(v)));
     }
-    let table = Frame {
-        source,
-        names,
-        get,
-        dt,
-    }
-    .table(&wanted)?;
+    let table = Frame::new(source, names, get, dt).table(&wanted)?;
     let request = FomRequest {
         band: Band {
             pass1_hz: band.0,
@@ -307,8 +311,7 @@ fn fom(
     let outcome = py
         .detach(|| tolles::fom::fom(&table, &request, fit, &mut warnings))
         .map_err(failed)?;
-    let json = serde_json::to_string_pretty(&outcome.to_json()).map_err(failed)?;
-    Ok((json, texts(&warnings)))
+    json_reply(outcome.to_json(), &warnings)
 }
 
 /// The patent's procedure; returns (JSON as `tolles procedure --json` prints it, warnings).
@@ -337,18 +340,11 @@ fn procedure(
             ))
         }
     };
-    let mut wanted: Vec<String> = [ROLL, PITCH, YAW].map(String::from).to_vec();
-    wanted.push(scalar.clone());
+    let mut wanted = attitude_and(&scalar);
     if let Direction::Fluxgate { vector } = &direction {
         wanted.extend(vector_columns(vector));
     }
-    let table = Frame {
-        source,
-        names,
-        get,
-        dt,
-    }
-    .table(&wanted)?;
+    let table = Frame::new(source, names, get, dt).table(&wanted)?;
     let request = ProcedureRequest {
         declination_deg,
         ignore,
@@ -358,8 +354,7 @@ fn procedure(
     let outcome = py
         .detach(|| tolles::procedure::procedure(&table, &request, &mut warnings))
         .map_err(failed)?;
-    let json = serde_json::to_string_pretty(&outcome.to_json()).map_err(failed)?;
-    Ok((json, texts(&warnings)))
+    json_reply(outcome.to_json(), &warnings)
 }
 
 /// How well a plan or a flown flight determines each term; returns (JSON as `tolles plan
@@ -415,8 +410,7 @@ fn plan(
     let outcome = py
         .detach(|| tolles::plan::plan(&request, &Silent, &mut warnings))
         .map_err(failed)?;
-    let json = serde_json::to_string_pretty(&outcome.to_json()).map_err(failed)?;
-    Ok((json, texts(&warnings)))
+    json_reply(outcome.to_json(), &warnings)
 }
 
 /// The columns `compensate` adds to a frame with columns `names`, in the model's order.

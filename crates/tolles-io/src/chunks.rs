@@ -512,8 +512,9 @@ mod tests {
     use super::*;
     use crate::table::write_with_column;
 
+    /// A file in one directory shared by every run, so runs do not leave a directory each.
     fn temp(name: &str, text: &str) -> PathBuf {
-        let dir = std::env::temp_dir().join(format!("tolles-chunks-{}-{name}", std::process::id()));
+        let dir = std::env::temp_dir().join(format!("tolles-chunks-tests/{name}"));
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join(name);
         std::fs::write(&path, text).unwrap();
