@@ -1,7 +1,7 @@
 //! File formats for tolles.
 //!
 //! - [`table`]: flight data as a table of named columns, read from CSV with a header row;
-//! - [`format`]: which format a flight file is in, [`table::Table::read`] for any of them;
+//! - [`format`](mod@format): which format a flight file is in, [`table::Table::read`] for any of them;
 //! - [`xyz`], [`gdf`], [`hdf5`], [`parquet`]: Geosoft XYZ, ASEG-GDF2, HDF5 and Parquet tables;
 //! - [`chunks`]: flight tables read and written a chunk of rows at a time (bounded memory);
 //! - [`model`]: the model file (JSON) that `tolles fit` writes and `tolles compensate` reads;
