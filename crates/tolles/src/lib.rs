@@ -43,15 +43,15 @@
 //! - [`model`]: saving and loading models;
 //! - [`compensate`]: applying a model, whole in memory or in bounded memory ([`compensate::Memory`]);
 //! - [`fom`]: the figure of merit of a compensation box, before and after;
-//! - [`simulate`]: flights with known truth;
+//! - [`procedure`]: the Tolles patent's step-by-step procedure on a flight, beside least squares;
+//! - [`plan`]: how well a planned or flown calibration flight determines each term;
 //! - [`stream`]: real-time compensation of CSV lines from any reader (standard input, TCP
 //!   clients) to any writer, with health counters and a latency histogram;
+//! - [`simulate`]: flights with known truth;
 //! - [`report`]: what a flight's compensation report shows (signals, spectra, FOM by maneuver),
 //!   computed; the `tolles-report` crate lays it out as HTML;
 //! - [`demo`]: the built-in example's flights and how its compensated survey compares with the
 //!   truth.
-//! - [`procedure`]: the Tolles patent's step-by-step procedure on a flight, beside least squares;
-//! - [`plan`]: how well a planned or flown calibration flight determines each term.
 //!
 //! Every workflow takes typed requests and returns typed results; errors are [`Error`], one line
 //! naming the file, row or column; warnings are values ([`Warning`]) added to a vector the
