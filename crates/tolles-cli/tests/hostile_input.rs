@@ -74,3 +74,16 @@ fn huge_headers_fail_fast() {
         "{e}"
     );
 }
+
+#[test]
+fn an_unterminated_quote_names_the_line_it_opens_on() {
+    let dir = TempDir::new().unwrap();
+    let csv = dir.path().join("q.csv");
+    let text = "tt,mag,flux_x,flux_y,flux_z\n0,1,2,3,4\n0.1,\"5,2,3,4\n0.2,1,2,3,4\n0.3,1,2,3,4\n";
+    std::fs::write(&csv, text).unwrap();
+    let e = fit_fails(&csv);
+    assert!(
+        e.contains("q.csv: line 3: a quote opened on this line is never closed"),
+        "{e}"
+    );
+}

@@ -512,10 +512,31 @@ pub(crate) fn read_located<R: Read>(
         Err(error) => {
             let end = reader.position().line();
             let start = error.position().map_or(0, |p| p.line());
+            if unterminated_quote(reader, record, &error) {
+                return Err(IoError::Malformed {
+                    path: path.to_path_buf(),
+                    line: start,
+                    message: "a quote opened on this line is never closed".to_string(),
+                });
+            }
             let line = start.max(end.saturating_sub(1));
             Err(csv_error_at(path, error, line))
         }
     }
+}
+
+/// True when a ragged `record` (the csv crate fills it before checking its length) has a
+/// line break in a cell and runs to the end of the file: the csv crate reads an unclosed
+/// quote to the end, so without this the error named the last line.
+fn unterminated_quote<R: Read>(
+    reader: &mut csv::Reader<R>,
+    record: &csv::StringRecord,
+    error: &csv::Error,
+) -> bool {
+    let ragged = matches!(error.kind(), csv::ErrorKind::UnequalLengths { .. });
+    // The file is failing anyway, so reading on to see whether it ended costs nothing.
+    let mut at_end = || matches!(reader.read_record(&mut csv::StringRecord::new()), Ok(false));
+    ragged && record.as_slice().contains('\n') && at_end()
 }
 
 pub(crate) fn csv_error(path: &Path, error: csv::Error) -> IoError {
