@@ -31,7 +31,8 @@
 use crate::error::IoError;
 use crate::format::Format;
 use crate::table::{
-    check_header, csv_error, into_io, read_located, write_rows, Column, Table, TextColumn,
+    bounded_header, check_header, csv_error, into_io, read_located, write_rows, Bounded, Column,
+    Table, TextColumn,
 };
 use crate::xyz::XyzChunks;
 use ::parquet::column::reader::ColumnReader;
@@ -62,7 +63,7 @@ pub struct ChunkReader {
 
 enum Source {
     Csv {
-        reader: Box<csv::Reader<BufReader<File>>>,
+        reader: Box<csv::Reader<Bounded<File>>>,
         record: csv::StringRecord,
     },
     Xyz {
@@ -90,7 +91,7 @@ impl ChunkReader {
                 let mut reader = csv::ReaderBuilder::new()
                     .has_headers(true)
                     .trim(csv::Trim::All)
-                    .from_reader(BufReader::new(file));
+                    .from_reader(bounded_header(file, path)?);
                 let headers: Vec<String> = reader
                     .headers()
                     .map_err(|e| csv_error(path, e))?
@@ -215,7 +216,7 @@ impl ChunkReader {
 
 /// Reads up to `rows` CSV records into a table of the `keep` columns (all when `None`).
 fn read_csv_rows(
-    reader: &mut csv::Reader<BufReader<File>>,
+    reader: &mut csv::Reader<Bounded<File>>,
     record: &mut csv::StringRecord,
     path: &Path,
     headers: &[String],

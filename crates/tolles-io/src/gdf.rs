@@ -41,13 +41,23 @@ pub struct Field {
 /// Reads a GDF pair given the path of either its `.dfn` or its `.dat` file.
 pub fn read(path: &Path) -> Result<Table, IoError> {
     let (dfn, dat) = pair(path)?;
-    let text = |p: &Path| {
-        std::fs::read_to_string(p).map_err(|source| IoError::Open {
-            path: p.to_path_buf(),
-            source,
-        })
-    };
     from_text(&text(&dfn)?, &dfn, &text(&dat)?, &dat)
+}
+
+/// The file's text; bytes that are not UTF-8 are an error naming their line.
+fn text(path: &Path) -> Result<String, IoError> {
+    let bytes = std::fs::read(path).map_err(|source| IoError::Open {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    String::from_utf8(bytes).map_err(|e| {
+        let valid = &e.as_bytes()[..e.utf8_error().valid_up_to()];
+        IoError::Malformed {
+            path: path.to_path_buf(),
+            line: valid.iter().filter(|&&b| b == b'\n').count() as u64 + 1,
+            message: "not UTF-8 text".to_string(),
+        }
+    })
 }
 
 /// Reads a GDF pair from its texts; the names are used in error messages.
@@ -57,7 +67,9 @@ pub fn from_text(
     dat: &str,
     dat_name: impl AsRef<Path>,
 ) -> Result<Table, IoError> {
-    let (record_type, fields) = parse_dfn(dfn, dfn_name.as_ref())?;
+    // Every field takes at least one character of a record, so no .dat holds more fields
+    // than it has bytes; a larger repeat count is refused before its columns are made.
+    let (record_type, fields) = parse_dfn(dfn, dfn_name.as_ref(), dat.len() + 1)?;
     read_records(dat, dat_name.as_ref(), &record_type, &fields)
 }
 
@@ -89,8 +101,13 @@ fn pair(path: &Path) -> Result<(PathBuf, PathBuf), IoError> {
     }
 }
 
-/// The data record type and its fields, from `.dfn` text.
-pub fn parse_dfn(text: &str, path: &Path) -> Result<(String, Vec<Field>), IoError> {
+/// The data record type and its fields, from `.dfn` text; more than `max_fields` fields is an
+/// error.
+pub fn parse_dfn(
+    text: &str,
+    path: &Path,
+    max_fields: usize,
+) -> Result<(String, Vec<Field>), IoError> {
     let mut record_type: Option<String> = None;
     let mut fields = Vec::new();
     for (k, line) in text.lines().enumerate() {
@@ -124,7 +141,8 @@ pub fn parse_dfn(text: &str, path: &Path) -> Result<(String, Vec<Field>), IoErro
             if field.to_ascii_uppercase().starts_with("END DEFN") {
                 return finish(path, record_type, fields);
             }
-            fields.extend(parse_field(field).map_err(fail)?);
+            let room = max_fields.saturating_sub(fields.len());
+            fields.extend(parse_field(field, room).map_err(fail)?);
         }
     }
     finish(path, record_type, fields)
@@ -153,8 +171,8 @@ fn record_type_of(head: &str) -> String {
         .unwrap_or_default()
 }
 
-/// The columns one `NAME : FORMAT : ATTRIBUTES` definition makes.
-fn parse_field(field: &str) -> Result<Vec<Field>, String> {
+/// The columns one `NAME : FORMAT : ATTRIBUTES` definition makes; more than `room` is an error.
+fn parse_field(field: &str, room: usize) -> Result<Vec<Field>, String> {
     let mut parts = field.splitn(3, ':');
     let name = parts.next().unwrap_or("").trim();
     let format = parts.next().map(str::trim).unwrap_or("");
@@ -166,6 +184,11 @@ fn parse_field(field: &str) -> Result<Vec<Field>, String> {
     }
     let (repeat, kind, width) = parse_format(format)
         .ok_or_else(|| format!("field {name:?}: {format:?} is not a Fortran format like F10.3"))?;
+    if repeat > room {
+        return Err(format!(
+            "field {name:?}: {repeat} repeats are more fields than the .dat file can hold"
+        ));
+    }
     let attributes = parts.next().unwrap_or("");
     let attribute = |key: &str| {
         attributes
@@ -230,14 +253,21 @@ fn read_records(
         .collect();
     let mut lines = Vec::new();
     for (k, line) in text.lines().enumerate() {
-        if line.trim().is_empty() || !is_data_record(line, record_type) {
+        if line.trim().is_empty() || line.starts_with("COMM") {
             continue;
         }
-        let cells = split_record(line, fields).map_err(|message| IoError::Malformed {
+        let fail = |message| IoError::Malformed {
             path: path.to_path_buf(),
             line: k as u64 + 1,
             message,
-        })?;
+        };
+        if !line.trim_start().starts_with(record_type) {
+            // Never dropped silently: such records are not read yet, so the file is refused.
+            return Err(fail(format!(
+                "the record does not start with the data record type {record_type:?} the .dfn defines"
+            )));
+        }
+        let cells = split_record(line, fields).map_err(fail)?;
         for (column, cell) in columns.iter_mut().zip(cells) {
             column.push(cell);
         }
@@ -252,14 +282,6 @@ fn read_records(
         }
     }
     Table::from_columns(path, headers, kept, Some(lines))
-}
-
-fn is_data_record(line: &str, record_type: &str) -> bool {
-    if record_type.is_empty() {
-        !line.starts_with("COMM")
-    } else {
-        line.trim_start().starts_with(record_type)
-    }
 }
 
 /// The cells of one record: fixed-width when it fits the formats, else whitespace-separated.
@@ -285,15 +307,18 @@ fn split_record<'a>(line: &'a str, fields: &[Field]) -> Result<Vec<&'a str>, Str
 /// numeric field holds a number or blanks.
 fn fixed_width<'a>(line: &'a str, fields: &[Field]) -> Option<Vec<&'a str>> {
     let line = line.trim_end();
-    let total: usize = fields.iter().map(|f| f.width).sum();
+    // Checked: a .dfn may give widths near usize::MAX.
+    let total = fields
+        .iter()
+        .try_fold(0usize, |t, f| t.checked_add(f.width))?;
     let last = fields.last()?.width;
-    if !line.is_ascii() || line.len() > total || line.len() + last <= total {
+    if !line.is_ascii() || line.len() > total || line.len().saturating_add(last) <= total {
         return None;
     }
     let mut cells = Vec::with_capacity(fields.len());
-    let mut start = 0;
+    let mut start = 0usize;
     for field in fields {
-        let end = (start + field.width).min(line.len());
+        let end = start.saturating_add(field.width).min(line.len());
         let cell = line[start..end].trim();
         if !field.text && !cell.is_empty() && cell.parse::<f64>().is_err() {
             return None;
@@ -359,6 +384,43 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert_eq!(err, "t.dfn: no DEFN record defines a data field");
+    }
+
+    #[test]
+    fn huge_widths_and_repeats_are_errors_not_panics() {
+        let dfn = |f: &str| format!("DEFN 1 ST=RECD,RT=;TT:F10.1\nDEFN 2 ST=RECD,RT=;{f}\n");
+        let err = from_text(&dfn("X:1000000000F10.3"), "t.dfn", "1 2\n", "t.dat")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.starts_with("t.dfn: line 2: field \"X\": 1000000000 repeats"),
+            "{err}"
+        );
+        let err = from_text(
+            &dfn("X:18446744073709551615F10.3"),
+            "t.dfn",
+            "1 2\n",
+            "t.dat",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(err.contains("repeats are more fields"), "{err}");
+        let t = from_text(&dfn("B:F18446744073709551613.0"), "t.dfn", "1 2\n", "t.dat").unwrap();
+        assert_eq!(t.numeric("B").unwrap(), [2.0]);
+    }
+
+    #[test]
+    fn records_of_another_type_are_errors_not_dropped() {
+        let dfn = "DEFN 1 ST=RECD,RT=DATA;RT:A4\nDEFN 2 ST=RECD,RT=DATA;TT:F10.1\n\
+                   DEFN 3 ST=RECD,RT=DATA;END DEFN\n";
+        let dat = "COMM a comment\nDATA       0.0\nXXXX       0.1\nDATA       0.2\n";
+        let err = from_text(dfn, "t.dfn", dat, "t.dat")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.starts_with("t.dat: line 3: the record does not start"),
+            "{err}"
+        );
     }
 
     #[test]

@@ -39,10 +39,7 @@ pub fn from_reader(reader: impl Read, name: impl AsRef<Path>) -> Result<Table, I
     let path = name.as_ref();
     let mut state = Parser::default();
     for (k, line) in BufReader::new(reader).lines().enumerate() {
-        let line = line.map_err(|source| IoError::Open {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let line = line.map_err(|source| line_error(path, k as u64 + 1, source))?;
         state
             .line(k as u64 + 1, &line)
             .map_err(|message| IoError::Malformed {
@@ -54,9 +51,60 @@ pub fn from_reader(reader: impl Read, name: impl AsRef<Path>) -> Result<Table, I
     state.finish(path)
 }
 
+/// The error for a line that could not be read: text that is not UTF-8 names its line.
+fn line_error(path: &Path, line: u64, source: std::io::Error) -> IoError {
+    if source.kind() == std::io::ErrorKind::InvalidData {
+        IoError::Malformed {
+            path: path.to_path_buf(),
+            line,
+            message: "not UTF-8 text".to_string(),
+        }
+    } else {
+        IoError::Open {
+            path: path.to_path_buf(),
+            source,
+        }
+    }
+}
+
+/// The `/` lines that may name the columns: for each number of names, only the last such
+/// line, and at most [`CANDIDATE_BYTES`] of them, so a file of comments needs little memory.
+#[derive(Default)]
+struct Candidates {
+    /// (number of names, the line), oldest first.
+    lines: Vec<(usize, String)>,
+    bytes: usize,
+}
+
+/// The most text of candidate header lines kept; the oldest go first.
+const CANDIDATE_BYTES: usize = 8 << 20;
+
+impl Candidates {
+    fn push(&mut self, comment: &str) {
+        if comment.len() > crate::table::MAX_HEADER_BYTES {
+            return; // no header is that long; it is only a comment
+        }
+        let count = comment.split_whitespace().count();
+        if let Some(k) = self.lines.iter().position(|(n, _)| *n == count) {
+            self.bytes -= self.lines.remove(k).1.len();
+        }
+        self.bytes += comment.len();
+        self.lines.push((count, comment.to_string()));
+        while self.bytes > CANDIDATE_BYTES {
+            self.bytes -= self.lines.remove(0).1.len();
+        }
+    }
+
+    /// The names of the last line with `count` names.
+    fn names(&self, count: usize) -> Option<Vec<String>> {
+        let (_, line) = self.lines.iter().find(|(n, _)| *n == count)?;
+        Some(line.split_whitespace().map(str::to_string).collect())
+    }
+}
+
 #[derive(Default)]
 struct Parser {
-    comments: Vec<Vec<String>>,
+    comments: Candidates,
     headers: Option<Vec<String>>,
     columns: Vec<TextColumn>,
     block: Option<TextColumn>,
@@ -72,8 +120,7 @@ impl Parser {
         }
         if let Some(comment) = trimmed.strip_prefix('/') {
             if self.headers.is_none() {
-                let names = comment.trim_start_matches('/').split_whitespace();
-                self.comments.push(names.map(str::to_string).collect());
+                self.comments.push(comment.trim_start_matches('/'));
             }
             return Ok(());
         }
@@ -104,15 +151,9 @@ impl Parser {
 
     /// Picks the header for a first data row of `fields` fields.
     fn start(&mut self, fields: usize) -> Result<(), String> {
-        let headers = self
-            .comments
-            .iter()
-            .rev()
-            .find(|names| names.len() == fields)
-            .cloned()
-            .ok_or_else(|| {
-                format!("{fields} fields, but no `/` header line before it names {fields} columns")
-            })?;
+        let headers = self.comments.names(fields).ok_or_else(|| {
+            format!("{fields} fields, but no `/` header line before it names {fields} columns")
+        })?;
         self.columns = vec![TextColumn::new(dummy()); fields];
         if !headers.iter().any(|h| h.eq_ignore_ascii_case(LINE_COLUMN)) {
             self.block = Some(TextColumn::new(dummy()));
@@ -184,10 +225,7 @@ impl<R: Read> XyzChunks<R> {
         while self.parser.lines.len() < rows {
             let Some(line) = self.lines.next() else { break };
             self.number += 1;
-            let line = line.map_err(|source| IoError::Open {
-                path: self.path.clone(),
-                source,
-            })?;
+            let line = line.map_err(|source| line_error(&self.path, self.number, source))?;
             self.parser
                 .line(self.number, &line)
                 .map_err(|message| IoError::Malformed {
@@ -227,6 +265,24 @@ mod tests {
 
     fn read(text: &str) -> Result<Table, IoError> {
         from_reader(text.as_bytes(), "t.xyz")
+    }
+
+    #[test]
+    fn comment_lines_keep_bounded_memory() {
+        let mut parser = Parser::default();
+        for k in 0..100_000u64 {
+            parser.line(k + 1, "/ a comment of six words").unwrap();
+            parser
+                .line(k + 1, &format!("/{}", " x".repeat(k as usize % 3000)))
+                .unwrap();
+        }
+        let kept = &parser.comments;
+        assert!(kept.bytes <= CANDIDATE_BYTES && kept.lines.len() <= 3000);
+        parser.line(100_001, "1 2 3 4 5").unwrap();
+        assert_eq!(
+            parser.headers.unwrap(),
+            ["a", "comment", "of", "six", "words"]
+        );
     }
 
     #[test]
