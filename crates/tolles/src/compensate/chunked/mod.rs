@@ -217,6 +217,9 @@ impl<'r> Scanned<'r> {
             note: note.clone(),
         }));
         let plan = scan::Plan::new(&reader, model, numeric_output(request));
+        if let Some(missing) = plan.nothing_to_read() {
+            return Err(missing.into());
+        }
         let headers = reader.headers().to_vec();
         let scan = scan::scan(reader.only(plan.read.clone()), &plan, progress)?;
         Ok(Self {
