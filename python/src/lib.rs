@@ -17,9 +17,7 @@ use tolles::fom::FomRequest;
 use tolles::{Silent, Warning};
 use tolles_core::fit::{Band, Lambda};
 use tolles_io::model::ModelFile;
-use tolles_io::schema::{
-    output_name, vector_columns, PITCH, ROLL, SAMPLE_INTERVAL, TIME_COLUMN, YAW,
-};
+use tolles_io::schema::{vector_columns, PITCH, ROLL, SAMPLE_INTERVAL, TIME_COLUMN, YAW};
 use tolles_io::select::RowSelection;
 use tolles_io::table::{find_column, Column, Table};
 
@@ -256,9 +254,10 @@ fn compensate<'py>(
         .detach(|| tolles::compensate::compensate(&table, &model, &request, &mut warnings))
         .map_err(failed)?;
     let mut out = Vec::new();
-    for column in columns {
-        // Renamed against every column of the frame, not only those read.
-        let (name, renamed) = output_name(&frame.names, &column.name);
+    // Renamed against every column of the frame, not only those read.
+    let wanted: Vec<&str> = columns.iter().map(|c| c.name.as_str()).collect();
+    let names = tolles_io::schema::output_names(&frame.names, &wanted);
+    for (column, (name, renamed)) in columns.into_iter().zip(names) {
         if renamed {
             warnings.push(Warning::OutputRenamed {
                 path: frame.source.clone(),
@@ -417,10 +416,14 @@ fn plan(
 #[pyfunction]
 fn output_names(model: &str, names: Vec<String>) -> PyResult<Vec<String>> {
     let model = parse_model(model)?;
-    Ok(model
+    let wanted: Vec<&str> = model
         .fits
         .iter()
-        .map(|fit| output_name(&names, &fit.output_column).0)
+        .map(|f| f.output_column.as_str())
+        .collect();
+    Ok(tolles_io::schema::output_names(&names, &wanted)
+        .into_iter()
+        .map(|(name, _)| name)
         .collect())
 }
 

@@ -351,6 +351,111 @@ fn an_existing_output_column_is_not_overwritten() {
         .ends_with("mag_c,flux_x,flux_y,flux_z,mag_c_tolles"));
 }
 
+/// Issue 11 item 10: an input holding both `mag_c` and `mag_c_tolles` gets `mag_c_tolles2`,
+/// read whole and in chunks, and tolles reads its own output again.
+#[test]
+fn added_columns_never_repeat_an_input_column() {
+    let dir = TempDir::new().unwrap();
+    let cal = write(&dir, "cal.csv", &rolling_csv(400));
+    let model = dir.path().join("m.json");
+    let model = model.to_str().unwrap();
+    tolles()
+        .args(fit_args(&cal))
+        .args(["--out", model])
+        .assert()
+        .success();
+    let text = rolling_csv(400).replacen(",fx,", ",mag_c,", 1);
+    let text = text.replacen("tt,", "mag_c_tolles,", 1);
+    let survey = write(&dir, "s.csv", &text);
+    for (key, value) in [("TOLLES_MEMORY", "whole"), ("TOLLES_CHUNK_ROWS", "64")] {
+        let out = dir.path().join("out.csv");
+        tolles()
+            .env(key, value)
+            .args(["compensate", &survey, "--model", model, "--out"])
+            .arg(&out)
+            .assert()
+            .success();
+        let csv = std::fs::read_to_string(&out).unwrap();
+        let header = csv.lines().next().unwrap();
+        assert!(header.ends_with(",mag_c_tolles2"), "{key}: {header}");
+        tolles()
+            .env(key, value)
+            .args(["compensate", out.to_str().unwrap(), "--model", model])
+            .assert()
+            .success();
+    }
+}
+
+/// Runs `tolles compensate ARGS` in `dir` under a file-size limit of 100 blocks, with `env`
+/// set; `ignore` makes exceeding the limit an error (EFBIG) rather than SIGXFSZ killing it.
+fn compensate_limited(dir: &Path, args: &[&str], env: (&str, &str), ignore: bool) -> bool {
+    let trap = if ignore { "trap '' XFSZ; " } else { "" };
+    let script = format!("{trap}ulimit -f 100; exec \"$0\" compensate \"$@\"");
+    let bin = assert_cmd::cargo::cargo_bin("tolles");
+    std::process::Command::new("sh")
+        .current_dir(dir)
+        .env(env.0, env.1)
+        .args(["-c", &script])
+        .arg(bin)
+        .args(args)
+        .output()
+        .unwrap()
+        .status
+        .success()
+}
+
+/// Issue 11 item 4: a write cut short by a file-size limit leaves the target as it was (even
+/// when it is the input) and, when the process lives to clean up, no temporary file.
+#[test]
+fn an_output_cut_short_leaves_the_target_as_it_was() {
+    let dir = TempDir::new().unwrap();
+    let cal = write(&dir, "cal.csv", &rolling_csv(400));
+    tolles()
+        .args(fit_args(&cal))
+        .args(["--out", "m.json"])
+        .current_dir(dir.path())
+        .assert()
+        .success();
+    let text = rolling_csv(6000);
+    assert!(text.len() > 100 * 1024, "the survey outgrows the limit");
+    let whole = ("TOLLES_MEMORY", "whole");
+    let chunked = ("TOLLES_CHUNK_ROWS", "256");
+    for (out, env, ignore) in [
+        ("s.csv", whole, false),
+        ("s.csv", whole, true),
+        ("o.csv", chunked, true),
+        ("o.parquet", chunked, true),
+        ("o.parquet", whole, true),
+    ] {
+        write(&dir, "s.csv", &text);
+        let args = ["s.csv", "--model", "m.json", "--out", out];
+        assert!(
+            !compensate_limited(dir.path(), &args, env, ignore),
+            "{out} {env:?}"
+        );
+        let survey = std::fs::read_to_string(dir.path().join("s.csv")).unwrap();
+        assert!(survey == text, "{out} {env:?}: the survey changed");
+        let mut names: Vec<String> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().into_string().unwrap())
+            .collect();
+        names.sort();
+        let left: Vec<&String> = names.iter().filter(|n| n.starts_with(".tolles-")).collect();
+        assert!(
+            ignore || !left.is_empty(),
+            "killed: the temporary file stays"
+        );
+        for name in &left {
+            assert!(name.ends_with(".tmp"), "{name}");
+            std::fs::remove_file(dir.path().join(name)).unwrap();
+        }
+        let expected = ["cal.csv", "m.json", "s.csv"];
+        if ignore {
+            assert!(names == expected, "{out} {env:?}: {names:?}");
+        }
+    }
+}
+
 #[test]
 fn help_carries_worked_examples() {
     for args in [

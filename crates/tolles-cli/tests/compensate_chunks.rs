@@ -434,3 +434,16 @@ fn an_unknown_memory_policy_is_an_error() {
         "{stderr}"
     );
 }
+
+/// Issue 11 item 14: a survey without any of the model's columns is reported by the column it
+/// lacks, in chunks as reading whole does, not as an empty file.
+#[test]
+fn a_survey_without_the_models_columns_names_the_missing_column() {
+    let dir = TempDir::new().unwrap();
+    flight_and_model(dir.path());
+    std::fs::write(dir.path().join("s.csv"), "a,b\n1,2\n3,4\n").unwrap();
+    let args = ["s.csv", "--model", "m.json"];
+    assert!(is_chunked(dir.path(), &args));
+    let (ok, _, stderr) = same_both_ways(dir.path(), &args);
+    assert!(!ok && stderr.contains("no column \"mag_1_uc\""), "{stderr}");
+}

@@ -188,6 +188,84 @@ fn stream_over_tcp_equals_batch_up_to_a_constant_for_each_client() {
     }
 }
 
+/// A TCP client on `address` that sends `input` (then ends its side) and reads the reply,
+/// within 20 s.
+fn client(address: &str, input: Vec<u8>) -> std::thread::JoinHandle<String> {
+    let connection = TcpStream::connect(address).unwrap();
+    connection
+        .set_read_timeout(Some(std::time::Duration::from_secs(20)))
+        .unwrap();
+    std::thread::spawn(move || {
+        let mut writer = connection.try_clone().unwrap();
+        let sender = std::thread::spawn(move || {
+            // The server may close first: what it answered is what counts.
+            let _ = writer.write_all(&input);
+            let _ = writer.shutdown(Shutdown::Write);
+        });
+        let mut out = Vec::new();
+        let _ = (&connection).read_to_end(&mut out);
+        sender.join().unwrap();
+        String::from_utf8_lossy(&out).into_owned()
+    })
+}
+
+/// Issue 11 item 5: a client sending a line over 1 MiB gets an `error:` line and is closed, an
+/// idle client is closed after `--idle-timeout`, and another client's stream goes on.
+#[test]
+fn a_hostile_tcp_client_ends_only_its_own_stream() {
+    let dir = TempDir::new().unwrap();
+    let survey = model_and_survey(dir.path());
+    let header = survey.lines().next().unwrap().to_string();
+    let args = [
+        "stream",
+        "--model",
+        "m.json",
+        "--quiet",
+        "--idle-timeout",
+        "1",
+    ];
+    let mut server = std::process::Command::new(assert_cmd::cargo::cargo_bin("tolles"))
+        .current_dir(dir.path())
+        .args(args)
+        .args(["--listen", "127.0.0.1:0"])
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stderr = BufReader::new(server.stderr.take().unwrap());
+    let mut first = String::new();
+    stderr.read_line(&mut first).unwrap();
+    let address = first
+        .trim()
+        .strip_prefix("listening on ")
+        .unwrap()
+        .to_string();
+    let mut long = format!("{header}\n").into_bytes();
+    long.extend(std::iter::repeat_n(b'7', 3 << 20));
+    let long = client(&address, long);
+    let idle = TcpStream::connect(&address).unwrap();
+    idle.set_read_timeout(Some(std::time::Duration::from_secs(20)))
+        .unwrap();
+    let mut idle_reply = String::new();
+    let _ = (&idle).read_to_string(&mut idle_reply);
+    let good = client(&address, survey.clone().into_bytes())
+        .join()
+        .unwrap();
+    let long = long.join().unwrap();
+    server.kill().unwrap();
+    server.wait().unwrap();
+    let lines: Vec<&str> = long.lines().collect();
+    assert_eq!(lines.len(), 2, "{long:.300}");
+    assert_eq!(
+        lines[1],
+        "error: a line over 1048576 bytes; the stream is closed"
+    );
+    assert_eq!(
+        idle_reply,
+        "error: no input for 1 s; the connection is closed\n"
+    );
+    assert_eq!(good.lines().count(), survey.lines().count(), "{good:.300}");
+}
+
 #[test]
 fn a_reader_that_goes_away_ends_the_stream_without_a_panic() {
     let dir = TempDir::new().unwrap();

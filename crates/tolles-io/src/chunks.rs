@@ -28,6 +28,7 @@
 //! Parquet row group is read a chunk at a time too); a reader can be told to keep only some
 //! columns ([`ChunkReader::only`]), which for Parquet means the others are never decoded.
 
+use crate::atomic::AtomicFile;
 use crate::error::IoError;
 use crate::format::Format;
 use crate::table::{
@@ -377,23 +378,27 @@ impl<W: Write> CsvChunkWriter<W> {
 
 /// Writes Parquet a chunk at a time, one row group per chunk, in the layout of
 /// [`crate::parquet::write`]: optional float64 columns, NaN as null.
+/// `path` is replaced only by [`ParquetChunkWriter::finish`] ([`crate::atomic`]).
 pub struct ParquetChunkWriter {
     path: PathBuf,
     writer: SerializedFileWriter<File>,
+    file: AtomicFile,
 }
 
 impl ParquetChunkWriter {
-    /// Creates `path` for the columns `names`.
+    /// Starts `path` for the columns `names`.
     pub fn create(path: &Path, names: &[String]) -> Result<Self, IoError> {
-        let file = File::create(path).map_err(|source| IoError::Write {
+        let file = AtomicFile::create(path)?;
+        let handle = file.file().try_clone().map_err(|source| IoError::Write {
             path: path.to_path_buf(),
             source,
         })?;
         let names: Vec<&str> = names.iter().map(String::as_str).collect();
-        let writer = crate::parquet::new_writer(file, &names).map_err(|e| fail(path, e))?;
+        let writer = crate::parquet::new_writer(handle, &names).map_err(|e| fail(path, e))?;
         Ok(Self {
             path: path.to_path_buf(),
             writer,
+            file,
         })
     }
 
@@ -421,11 +426,11 @@ impl ParquetChunkWriter {
         Ok(())
     }
 
-    /// Writes the file's footer.
+    /// Writes the file's footer and puts the file in place.
     pub fn finish(self) -> Result<(), IoError> {
         let path = self.path;
         self.writer.close().map_err(|e| fail(&path, e))?;
-        Ok(())
+        self.file.commit()
     }
 }
 

@@ -93,6 +93,7 @@ impl Table {
 
 /// Writes `table` plus the `extra` columns to `path` in `format` (see [`write_with_column`] for
 /// CSV). HDF5 and Parquet hold numbers only, so every input column must be numeric there.
+/// The file is written whole or not at all ([`crate::atomic`]), so `path` may be the input.
 pub fn write_table(
     table: &Table,
     extra: &[(String, Vec<f64>)],
@@ -100,17 +101,7 @@ pub fn write_table(
     format: Format,
 ) -> Result<(), IoError> {
     match format {
-        Format::Csv => {
-            let fail = |source| IoError::Write {
-                path: path.to_path_buf(),
-                source,
-            };
-            let file = std::fs::File::create(path).map_err(fail)?;
-            let mut out = std::io::BufWriter::new(file);
-            write_with_column(table, extra, &mut out)
-                .and_then(|_| std::io::Write::flush(&mut out))
-                .map_err(fail)
-        }
+        Format::Csv => crate::atomic::write_with(path, |out| write_with_column(table, extra, out)),
         Format::Hdf5 => crate::hdf5::write(path, &numeric_columns(table, extra)?),
         Format::Parquet => crate::parquet::write(path, &numeric_columns(table, extra)?),
         Format::Xyz | Format::Gdf => Err(IoError::Invalid {

@@ -96,10 +96,11 @@ pub fn write(path: &Path, columns: &[(String, Vec<f64>)]) -> Result<(), IoError>
     for (name, values) in columns {
         builder.create_dataset(name).with_f64_data(values);
     }
-    builder.write(path).map_err(|e| IoError::Write {
+    let bytes = builder.finish().map_err(|e| IoError::Write {
         path: path.to_path_buf(),
         source: std::io::Error::other(e.to_string()),
-    })
+    })?;
+    crate::atomic::write_bytes(path, &bytes)
 }
 
 /// The longest dataset name written (bytes). A name is stored in a message whose size has 16

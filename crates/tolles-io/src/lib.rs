@@ -1,5 +1,6 @@
 //! File formats for tolles.
 //!
+//! - [`atomic`]: every file written whole or not at all (a temporary file renamed over it);
 //! - [`table`]: flight data as a table of named columns, read from CSV with a header row;
 //! - [`format`](mod@format): which format a flight file is in, [`table::Table::read`] for any of them;
 //! - [`xyz`], [`gdf`], [`hdf5`], [`parquet`]: Geosoft XYZ, ASEG-GDF2, HDF5 and Parquet tables;
@@ -11,6 +12,7 @@
 //!
 //! Every error names the file, and where it can the line and column, so a user can fix the input.
 
+pub mod atomic;
 pub mod chunks;
 pub mod error;
 pub mod format;

@@ -143,18 +143,20 @@ where
     Ok(())
 }
 
-/// Writes `columns` as optional float64 columns (NaN as null) to a new Parquet file.
+/// Writes `columns` as optional float64 columns (NaN as null) to a new Parquet file, whole or
+/// not at all ([`crate::atomic`]).
 pub fn write(path: &Path, columns: &[(String, Vec<f64>)]) -> Result<(), IoError> {
     let fail = |e: ParquetError| IoError::Write {
         path: path.to_path_buf(),
         source: std::io::Error::other(e.to_string()),
     };
-    let file = std::fs::File::create(path).map_err(|source| IoError::Write {
+    let file = crate::atomic::AtomicFile::create(path)?;
+    let names: Vec<&str> = columns.iter().map(|(name, _)| name.as_str()).collect();
+    let handle = file.file().try_clone().map_err(|source| IoError::Write {
         path: path.to_path_buf(),
         source,
     })?;
-    let names: Vec<&str> = columns.iter().map(|(name, _)| name.as_str()).collect();
-    let mut writer = new_writer(file, &names).map_err(fail)?;
+    let mut writer = new_writer(handle, &names).map_err(fail)?;
     let rows = columns.first().map_or(0, |(_, v)| v.len());
     for start in (0..rows).step_by(ROW_GROUP) {
         let end = (start + ROW_GROUP).min(rows);
@@ -169,7 +171,7 @@ pub fn write(path: &Path, columns: &[(String, Vec<f64>)]) -> Result<(), IoError>
         group.close().map_err(fail)?;
     }
     writer.close().map_err(fail)?;
-    Ok(())
+    file.commit()
 }
 
 /// A writer of optional float64 columns `names`; NaN is written as null.

@@ -42,12 +42,59 @@ pub fn compensated_name(scalar: &str) -> String {
 
 /// The name a compensated column `wanted` is written under in a table with `headers`, and
 /// whether it had to be renamed: when the input already has `wanted` (SGL files carry their
-/// own `mag_1_c`), ours becomes `wanted_tolles` so no input column is overwritten.
+/// own `mag_1_c`), ours becomes `wanted_tolles`, or `wanted_tolles2`, `…3` when that is taken
+/// too, so no input column is overwritten and no name repeats (tolles reads its own output).
 /// A column counts as taken when [`crate::table::find_column`] would find it (also by case).
 pub fn output_name(headers: &[String], wanted: &str) -> (String, bool) {
-    if crate::table::find_column(std::path::Path::new(""), headers, wanted).is_ok() {
-        (format!("{wanted}{RENAMED_SUFFIX}"), true)
-    } else {
-        (wanted.to_string(), false)
+    let taken =
+        |name: &str| crate::table::find_column(std::path::Path::new(""), headers, name).is_ok();
+    if !taken(wanted) {
+        return (wanted.to_string(), false);
+    }
+    let renamed = (1..)
+        .map(|k| match k {
+            1 => format!("{wanted}{RENAMED_SUFFIX}"),
+            k => format!("{wanted}{RENAMED_SUFFIX}{k}"),
+        })
+        .find(|name| !taken(name))
+        .expect("a finite header leaves some suffix free");
+    (renamed, true)
+}
+
+/// [`output_name`] for several added columns at once: each is also kept apart from those
+/// named before it, so two added columns never share a name.
+pub fn output_names(headers: &[String], wanted: &[&str]) -> Vec<(String, bool)> {
+    let mut taken = headers.to_vec();
+    wanted
+        .iter()
+        .map(|w| {
+            let named = output_name(&taken, w);
+            taken.push(named.0.clone());
+            named
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn strings(names: &[&str]) -> Vec<String> {
+        names.iter().map(|s| s.to_string()).collect()
+    }
+
+    #[test]
+    fn renamed_past_every_taken_name() {
+        let headers = strings(&["mag_1_c", "mag_1_c_tolles", "MAG_1_C_TOLLES2"]);
+        let name = output_name(&headers, "mag_1_c");
+        assert_eq!(name, ("mag_1_c_tolles3".to_string(), true));
+    }
+
+    #[test]
+    fn added_columns_never_repeat() {
+        let headers = strings(&["mag_1_c"]);
+        let names = output_names(&headers, &["mag_1_c", "mag_1_c_tolles", "status"]);
+        let names: Vec<&str> = names.iter().map(|(n, _)| n.as_str()).collect();
+        assert_eq!(names, ["mag_1_c_tolles", "mag_1_c_tolles_tolles", "status"]);
     }
 }

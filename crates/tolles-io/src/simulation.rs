@@ -150,9 +150,6 @@ impl<'a> Sidecar<'a> {
 
     /// Writes the sidecar as pretty JSON.
     pub fn write(&self, path: &Path) -> Result<(), IoError> {
-        std::fs::write(path, self.to_json() + "\n").map_err(|source| IoError::Write {
-            path: path.to_path_buf(),
-            source,
-        })
+        crate::atomic::write_bytes(path, (self.to_json() + "\n").as_bytes())
     }
 }

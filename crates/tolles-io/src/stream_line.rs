@@ -55,8 +55,8 @@ pub struct Line {
 
 impl Layout {
     /// Finds `scalars` and the fluxgate prefixes `fluxgates` (`flux_a` → `flux_a_x/_y/_z`) in
-    /// `header`; `added` are the compensated columns' names (renamed `NAME_tolles` when the input
-    /// already has them), followed by `status`. Err names a missing column.
+    /// `header`; `added` are the compensated columns' names, followed by `status`, each renamed
+    /// by [`crate::schema::output_names`] when taken. Err names a missing column.
     pub fn from_header(
         header: &str,
         scalars: &[&str],
@@ -84,17 +84,10 @@ impl Layout {
             })
             .collect::<Result<_, String>>()?;
         let mut output_header = header.to_string();
-        for name in added.iter().chain(&["status"]) {
+        let wanted: Vec<&str> = added.iter().copied().chain(["status"]).collect();
+        for (name, _) in crate::schema::output_names(&names, &wanted) {
             output_header.push(',');
-            let taken = names.iter().any(|n| n == name);
-            push_field(
-                &mut output_header,
-                &if taken {
-                    format!("{name}{}", crate::schema::RENAMED_SUFFIX)
-                } else {
-                    name.to_string()
-                },
-            );
+            push_field(&mut output_header, &name);
         }
         Ok(Self {
             width: names.len(),
@@ -294,6 +287,14 @@ mod tests {
             &["mag_1_c"],
         );
         assert_eq!(e.unwrap_err(), "header has no column \"flux_a_y\"");
+    }
+
+    #[test]
+    fn added_columns_take_names_free_in_the_header() {
+        let header = "mag_1_c_tolles,mag_1_c,mag_1_uc,flux_a_x,flux_a_y,flux_a_z,status";
+        let l = Layout::from_header(header, &["mag_1_uc"], &["flux_a"], &["mag_1_c"]).unwrap();
+        let added = l.output_header.strip_prefix(header).unwrap();
+        assert_eq!(added, ",mag_1_c_tolles2,status_tolles");
     }
 
     #[test]

@@ -633,17 +633,9 @@ pub fn write_columns(columns: &[(&str, &[f64])], out: impl std::io::Write) -> st
     writer.flush()
 }
 
-/// Creates `path` and writes `columns` to it (see [`write_columns`]).
+/// Writes `columns` to `path` (see [`write_columns`]), whole or not at all ([`crate::atomic`]).
 pub fn write_columns_to(path: &Path, columns: &[(&str, &[f64])]) -> Result<(), IoError> {
-    let fail = |source| IoError::Write {
-        path: path.to_path_buf(),
-        source,
-    };
-    let file = std::fs::File::create(path).map_err(fail)?;
-    let mut out = std::io::BufWriter::new(file);
-    write_columns(columns, &mut out)
-        .and_then(|_| std::io::Write::flush(&mut out))
-        .map_err(fail)
+    crate::atomic::write_with(path, |out| write_columns(columns, out))
 }
 
 /// Shortest text that reads back as the same f64; empty for a missing value.

@@ -401,10 +401,18 @@ fn create_dir(path: &Path) -> Result<(), ReportError> {
     })
 }
 
+/// Writes `path` whole or not at all, so a failed write leaves no half page.
 fn write_file(path: &Path, text: &str) -> Result<(), ReportError> {
-    std::fs::write(path, text).map_err(|source| ReportError::Io {
-        path: path.to_path_buf(),
-        source,
+    use tolles::tolles_io::IoError;
+    tolles::tolles_io::atomic::write_bytes(path, text.as_bytes()).map_err(|e| match e {
+        IoError::Write { source, .. } => ReportError::Io {
+            path: path.to_path_buf(),
+            source,
+        },
+        other => ReportError::Io {
+            path: path.to_path_buf(),
+            source: std::io::Error::other(other.to_string()),
+        },
     })
 }
 

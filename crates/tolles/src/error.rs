@@ -168,6 +168,12 @@ pub enum Error {
     /// A live stream's header that lacks a column the model needs, or cannot be read.
     #[error("{0}")]
     StreamHeader(String),
+    /// A live stream's line longer than the limit; the stream is closed.
+    #[error("a line over {limit} bytes; the stream is closed")]
+    StreamLineTooLong { limit: usize },
+    /// A live stream's client sent nothing for the idle timeout; the connection is closed.
+    #[error("no input for {} s; the connection is closed", timeout.as_secs_f64())]
+    StreamIdle { timeout: std::time::Duration },
     /// Reading or writing a live stream failed (see [`Error::is_disconnect`]).
     #[error(transparent)]
     StreamIo(std::io::Error),

@@ -33,7 +33,7 @@
 //! when the reader is slow, so nothing queues without bound.
 
 use crate::error::{Error, Result};
-use std::io::{BufRead, BufReader, Read, Write};
+use std::io::{BufRead, BufReader, ErrorKind, Read, Write};
 use std::net::{TcpListener, TcpStream};
 use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -41,7 +41,7 @@ use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 use tolles_core::compensate::adapt::AdaptSettings;
 pub use tolles_core::compensate::stream::Derivative;
-use tolles_core::compensate::stream::{Output, Sample, ScalarSpec, StreamCompensator};
+use tolles_core::compensate::stream::{Flag, Output, Sample, ScalarSpec, StreamCompensator};
 use tolles_io::model::ModelFile;
 use tolles_io::stream_line::{Layout, Line};
 
@@ -57,7 +57,19 @@ pub struct StreamRequest {
     /// band-passed design rows, prior 5 nT per coefficient, updated only when a band-passed
     /// row's norm exceeds 0.02); each stream starts from the model's coefficients.
     pub adapt: bool,
+    /// The longest line accepted (bytes, without its line ending), so one client cannot grow
+    /// the server without bound: on standard input a longer line gets a `malformed` output
+    /// line, over TCP it ends that client's stream. Default [`DEFAULT_MAX_LINE_BYTES`].
+    pub max_line_bytes: usize,
+    /// How long a TCP client may send nothing before its connection is closed (its thread
+    /// freed); `None` waits for ever. Default [`DEFAULT_IDLE_TIMEOUT`].
+    pub idle_timeout: Option<Duration>,
 }
+
+/// The default longest line: 1 MiB, far beyond any flight record.
+pub const DEFAULT_MAX_LINE_BYTES: usize = 1 << 20;
+/// The default idle timeout of a TCP client: 5 minutes.
+pub const DEFAULT_IDLE_TIMEOUT: Duration = Duration::from_secs(300);
 
 impl Default for StreamRequest {
     fn default() -> Self {
@@ -65,6 +77,8 @@ impl Default for StreamRequest {
             derivative: Derivative::Central,
             fs_hz: None,
             adapt: false,
+            max_line_bytes: DEFAULT_MAX_LINE_BYTES,
+            idle_timeout: Some(DEFAULT_IDLE_TIMEOUT),
         }
     }
 }
@@ -78,6 +92,8 @@ pub struct Setup {
     fs_hz: f64,
     derivative: Derivative,
     adapt: bool,
+    max_line_bytes: usize,
+    idle_timeout: Option<Duration>,
 }
 
 impl Setup {
@@ -125,6 +141,8 @@ impl Setup {
             fs_hz,
             derivative: request.derivative,
             adapt: request.adapt,
+            max_line_bytes: request.max_line_bytes,
+            idle_timeout: request.idle_timeout,
         })
     }
 
@@ -137,12 +155,35 @@ impl Setup {
 /// One stream: a header line, then lines until the end of `input`; exactly one line out for
 /// every line in, in order (the input as given, the compensated values, `status`). A header
 /// without the model's columns is an error before anything is written.
+/// A line over [`StreamRequest::max_line_bytes`] gets a `malformed` output line.
 pub fn serve(setup: &Setup, stats: &Stats, input: impl Read, output: impl Write) -> Result<()> {
+    serve_lines(setup, stats, input, output, LongLine::Flag)
+}
+
+/// What a line over the limit does to the stream.
+#[derive(Clone, Copy, PartialEq)]
+enum LongLine {
+    /// One `malformed` output line, and the stream goes on.
+    Flag,
+    /// The stream ends with [`Error::StreamLineTooLong`].
+    End,
+}
+
+fn serve_lines(
+    setup: &Setup,
+    stats: &Stats,
+    input: impl Read,
+    output: impl Write,
+    long: LongLine,
+) -> Result<()> {
+    let limit = setup.max_line_bytes;
     let mut input = BufReader::new(input);
     let mut out = std::io::BufWriter::new(output);
     let mut raw = Vec::new();
-    if !read_line(&mut input, &mut raw)? {
-        return Ok(());
+    match read_line(&mut input, &mut raw, limit)? {
+        Got::End => return Ok(()),
+        Got::TooLong => return Err(Error::StreamLineTooLong { limit }),
+        Got::Line => {}
     }
     let layout = layout(setup, &raw)?;
     writeln!(out, "{}", layout.output_header).map_err(Error::StreamIo)?;
@@ -157,10 +198,18 @@ pub fn serve(setup: &Setup, stats: &Stats, input: impl Read, output: impl Write)
         stream.adapt(&AdaptSettings::default())?;
     }
     let mut text = String::new();
-    while read_line(&mut input, &mut raw)? {
+    loop {
+        let got = read_line(&mut input, &mut raw, limit)?;
+        let line = match got {
+            Got::End => break,
+            Got::TooLong if long == LongLine::End => {
+                return Err(Error::StreamLineTooLong { limit });
+            }
+            Got::TooLong => too_long(&layout, limit),
+            Got::Line => layout.parse(&raw),
+        };
         let arrived = Instant::now();
         stats.samples_in.fetch_add(1, Ordering::Relaxed);
-        let line = layout.parse(&raw);
         let (scalars, fluxgates, flags) = (
             line.scalars.clone(),
             line.fluxgates.clone(),
@@ -207,36 +256,112 @@ fn format_output(
     stats.record_out(arrived.elapsed(), o.is_ok());
 }
 
-/// Reads one line into `raw` without its line ending; false at end of input.
-fn read_line(input: &mut impl BufRead, raw: &mut Vec<u8>) -> Result<bool> {
+/// The output line of an input line over `limit` bytes: its cells are not kept.
+fn too_long(layout: &Layout, limit: usize) -> Line {
+    let mut line = layout.parse(b"");
+    line.flags = vec![Flag::Malformed(format!("line over {limit} bytes"))];
+    line
+}
+
+/// What [`read_line`] found.
+enum Got {
+    End,
+    Line,
+    /// A line over the limit, read to its end and dropped.
+    TooLong,
+}
+
+/// Reads one line into `raw` without its line ending, keeping at most `limit` bytes (+2 for
+/// the line ending): a longer line is read on to its end but not kept.
+fn read_line(input: &mut impl BufRead, raw: &mut Vec<u8>, limit: usize) -> Result<Got> {
     raw.clear();
-    if input.read_until(b'\n', raw).map_err(Error::StreamIo)? == 0 {
-        return Ok(false);
+    let cap = limit.saturating_add(2) as u64;
+    let n = input
+        .take(cap)
+        .read_until(b'\n', raw)
+        .map_err(Error::StreamIo)?;
+    if n == 0 {
+        return Ok(Got::End);
     }
-    if raw.last() == Some(&b'\n') {
+    let ended = raw.last() == Some(&b'\n');
+    if ended {
         raw.pop();
     }
     if raw.last() == Some(&b'\r') {
         raw.pop();
     }
-    Ok(true)
+    if raw.len() > limit {
+        if !ended {
+            skip_line(input)?;
+        }
+        raw.clear();
+        return Ok(Got::TooLong);
+    }
+    Ok(Got::Line)
+}
+
+/// Reads past the rest of a line without keeping it.
+fn skip_line(input: &mut impl BufRead) -> Result<()> {
+    loop {
+        let buffer = input.fill_buf().map_err(Error::StreamIo)?;
+        if buffer.is_empty() {
+            return Ok(());
+        }
+        match buffer.iter().position(|&b| b == b'\n') {
+            Some(k) => {
+                input.consume(k + 1);
+                return Ok(());
+            }
+            None => {
+                let n = buffer.len();
+                input.consume(n);
+            }
+        }
+    }
 }
 
 /// One TCP client's stream, answered on the same connection. When it fails for a reason other
 /// than the client going away, the client gets one `error: …` line saying why.
+/// A line over the limit or no input for the idle timeout ends the stream the same way.
 pub fn serve_tcp(setup: &Setup, stats: &Stats, connection: TcpStream) -> Result<()> {
     let io = Error::StreamIo;
     connection.set_nodelay(true).map_err(io)?;
+    connection
+        .set_read_timeout(setup.idle_timeout)
+        .map_err(io)?;
     let reader = connection.try_clone().map_err(io)?;
     let mut reply = connection.try_clone().map_err(io)?;
-    let result = serve(setup, stats, reader, connection);
+    let result = serve_lines(setup, stats, reader, connection, LongLine::End);
+    let result = result.map_err(|e| idle(e, setup.idle_timeout));
     if let Err(e) = &result {
         if !e.is_disconnect() {
             // The client should learn why its stream ended, too; if it cannot, it is gone.
             let _ = reply.write_all(format!("error: {}\n", one_line(e)).as_bytes());
+            close_gently(&reply);
         }
     }
     result
+}
+
+/// A read that timed out, as [`Error::StreamIdle`].
+fn idle(e: Error, timeout: Option<Duration>) -> Error {
+    match (&e, timeout) {
+        (Error::StreamIo(io), Some(timeout))
+            if matches!(io.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) =>
+        {
+            Error::StreamIdle { timeout }
+        }
+        _ => e,
+    }
+}
+
+/// Ends the reply and reads briefly on: closing with unread input would reset the connection,
+/// and the client could lose the `error:` line before reading it.
+fn close_gently(connection: &TcpStream) {
+    let _ = connection.shutdown(std::net::Shutdown::Write);
+    let _ = connection.set_read_timeout(Some(Duration::from_secs(1)));
+    let mut rest = connection.take(64 << 20);
+    let _ = std::io::copy(&mut rest, &mut std::io::sink());
 }
 
 /// `e` and its causes on one line, `cause: deeper cause`.
@@ -420,7 +545,42 @@ mod tests {
             fs_hz: 10.0,
             derivative: Derivative::Central,
             adapt: true,
+            max_line_bytes: DEFAULT_MAX_LINE_BYTES,
+            idle_timeout: None,
         }
+    }
+
+    /// Issue 11 item 5: a line over the limit is not kept; it gets one `malformed` line out.
+    #[test]
+    fn a_line_over_the_limit_gets_one_malformed_line() {
+        let setup = Setup {
+            max_line_bytes: 100,
+            ..setup()
+        };
+        let mut input = format!("{HEADER}\n").into_bytes();
+        for line in [
+            valid_line(0),
+            vec![b'9'; 5000],
+            valid_line(1),
+            vec![b'8'; 101],
+        ] {
+            input.extend(line);
+            input.push(b'\n');
+        }
+        input.extend(valid_line(2));
+        let mut output = Vec::new();
+        serve(&setup, &Stats::default(), &input[..], &mut output).unwrap();
+        let text = String::from_utf8(output).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines.len(), 6, "{text}");
+        for k in [2, 4] {
+            assert!(
+                lines[k].ends_with(",malformed: line over 100 bytes"),
+                "{}",
+                lines[k]
+            );
+        }
+        assert!(lines[5].starts_with("0.2,7,"), "{}", lines[5]);
     }
 
     fn valid_line(k: usize) -> Vec<u8> {

@@ -2,7 +2,7 @@
 
 use crate::input::read_table;
 use crate::render::{self, OrRender, Use};
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use std::io::Write;
 use std::path::PathBuf;
 use tolles::procedure::{Direction, ProcedureOutcome, ProcedureRequest};
@@ -94,8 +94,7 @@ pub fn run(args: Args) -> Result<()> {
     let outcome = outcome.or_render()?;
     let text = serde_json::to_string_pretty(&outcome.to_json())?;
     if let Some(path) = &args.out {
-        std::fs::write(path, format!("{text}\n"))
-            .with_context(|| format!("cannot write {}", path.display()))?;
+        tolles::tolles_io::atomic::write_bytes(path, format!("{text}\n").as_bytes())?;
     }
     let mut out = std::io::stdout().lock();
     if args.json {

@@ -63,6 +63,9 @@ pub struct Args {
     /// No health lines on stderr
     #[arg(long)]
     pub quiet: bool,
+    /// Close a TCP client that sends nothing for this many seconds (0: never)
+    #[arg(long, value_name = "SECONDS", default_value_t = 300.0)]
+    pub idle_timeout: f64,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -80,6 +83,8 @@ pub fn run(args: Args) -> Result<()> {
         },
         fs_hz: args.fs,
         adapt: args.adapt,
+        idle_timeout: idle_timeout(args.idle_timeout)?,
+        ..StreamRequest::default()
     };
     let setup = Arc::new(Setup::new(&model, &args.model, &request).map_err(setup_error)?);
     let stats = Arc::new(Stats::default());
@@ -164,4 +169,15 @@ fn health(stats: &Stats) -> String {
         "stream: {} in, {} out, {} flagged; {latency}",
         h.samples_in, h.samples_out, h.flagged
     )
+}
+
+/// `--idle-timeout` as a duration; 0 waits for ever.
+fn idle_timeout(seconds: f64) -> Result<Option<std::time::Duration>> {
+    match std::time::Duration::try_from_secs_f64(seconds) {
+        Ok(d) if d.is_zero() => Ok(None),
+        Ok(d) => Ok(Some(d)),
+        Err(_) => Err(anyhow!(
+            "--idle-timeout must be a number of seconds ≥ 0, got {seconds}"
+        )),
+    }
 }

@@ -16,7 +16,7 @@ use tolles_core::compensate::{compensate as compensate_scalar, Compensation, Lev
 use tolles_core::fit::check_flux_magnitude;
 use tolles_io::format::{write_table, Format};
 use tolles_io::model::{ModelFile, ScalarModel};
-use tolles_io::schema::output_name;
+use tolles_io::schema::output_names;
 use tolles_io::select::RowSelection;
 use tolles_io::table::{write_with_column, Table};
 
@@ -87,7 +87,13 @@ pub fn compensate(
         })
         .collect();
     let mut columns = Vec::new();
-    for (fit, result) in model.fits.iter().zip(results) {
+    let wanted: Vec<&str> = model
+        .fits
+        .iter()
+        .map(|f| f.output_column.as_str())
+        .collect();
+    let names = output_names(table.headers(), &wanted);
+    for ((fit, result), (name, renamed)) in model.fits.iter().zip(results).zip(names) {
         let (result, noticed) = result?;
         warnings.extend(noticed);
         if result.uncomputable > 0 {
@@ -98,7 +104,6 @@ pub fn compensate(
                 column: fit.output_column.clone(),
             });
         }
-        let (name, renamed) = output_name(table.headers(), &fit.output_column);
         if renamed {
             warnings.push(Warning::OutputRenamed {
                 path: table.path().to_path_buf(),

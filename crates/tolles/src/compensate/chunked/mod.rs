@@ -35,7 +35,7 @@ use std::path::Path;
 use tolles_io::chunks::{ChunkReader, DEFAULT_CHUNK_ROWS};
 use tolles_io::format::Format;
 use tolles_io::model::ModelFile;
-use tolles_io::schema::output_name;
+use tolles_io::schema::output_names;
 
 /// True when [`super::compensate_file`] reads the survey of `request` in chunks: CSV, XYZ or
 /// Parquet input that is a regular file (it is read several times), CSV or Parquet output that
@@ -172,7 +172,7 @@ fn run(
         .zip(levels_nt(&fits, levels.as_deref(), fixed))
         .map(|(f, level_nt)| f.spec(level_nt))
         .collect();
-    let names: Vec<String> = fits.iter().map(|f| report.name(f).0).collect();
+    let names: Vec<String> = report.names(&fits).into_iter().map(|n| n.0).collect();
     let target = write::Target {
         out: request.out.as_deref(),
         writer,
@@ -217,6 +217,9 @@ impl<'r> Scanned<'r> {
             note: note.clone(),
         }));
         let plan = scan::Plan::new(&reader, model, numeric_output(request));
+        if let Some(missing) = plan.nothing_to_read() {
+            return Err(missing.into());
+        }
         let headers = reader.headers().to_vec();
         let scan = scan::scan(reader.only(plan.read.clone()), &plan, progress)?;
         Ok(Self {
@@ -286,10 +289,10 @@ impl Report<'_> {
     /// Per fit: a given sample rate far from the time column's, its `uncomputable` rows, and
     /// its column renamed.
     fn fits(&self, fits: &[ReadyFit], uncomputable: &[usize], warnings: &mut Vec<Warning>) {
-        for (fit, &rows) in fits.iter().zip(uncomputable) {
+        let names = self.names(fits);
+        for ((fit, &rows), (name, renamed)) in fits.iter().zip(uncomputable).zip(names) {
             warnings.extend(fit.rate_warning.clone());
             self.uncomputable(fit, rows, warnings);
-            let (name, renamed) = self.name(fit);
             if renamed {
                 warnings.push(Warning::OutputRenamed {
                     path: self.survey.to_path_buf(),
@@ -300,9 +303,10 @@ impl Report<'_> {
         }
     }
 
-    /// The name `fit`'s column is written under, and whether it had to be renamed.
-    fn name(&self, fit: &ReadyFit) -> (String, bool) {
-        output_name(self.headers, &fit.output)
+    /// The names the fits' columns are written under, and whether each had to be renamed.
+    fn names(&self, fits: &[ReadyFit]) -> Vec<(String, bool)> {
+        let wanted: Vec<&str> = fits.iter().map(|f| f.output.as_str()).collect();
+        output_names(self.headers, &wanted)
     }
 
     /// The counts of empty cells written that differ from those pass 2 reported.

@@ -74,6 +74,16 @@ impl Plan {
         }
     }
 
+    /// When the file has none of the columns the model uses (nor time), the first fit's missing
+    /// scalar, as the whole-file path reports it: reading no column at all would otherwise
+    /// find no rows and call the file empty.
+    pub fn nothing_to_read(&self) -> Option<IoError> {
+        match self.read.is_empty() {
+            true => self.fits.first()?.scalar.as_ref().err().map(clone_error),
+            false => None,
+        }
+    }
+
     /// Positions (in a chunk of the columns read) of the columns the computation uses: the
     /// scalars, fluxgates and time; the others are read only to be checked.
     pub fn used(&self) -> Vec<usize> {

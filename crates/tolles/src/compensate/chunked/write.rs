@@ -7,6 +7,7 @@ use crate::progress::Progress;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use tolles_core::compensate::stream::{Output, ScalarSpec};
+use tolles_io::atomic::AtomicFile;
 use tolles_io::chunks::{ChunkReader, CsvChunkWriter, ParquetChunkWriter};
 use tolles_io::format::Format;
 use tolles_io::table::Table;
@@ -76,12 +77,15 @@ fn sink<'w>(
             Box::new(ParquetChunkWriter::create(path, &all)?)
         }
         Some(path) => {
-            let file = std::fs::File::create(path).map_err(|source| IoError::Write {
+            let file = AtomicFile::create(path)?;
+            let handle = file.file().try_clone().map_err(|source| IoError::Write {
                 path: path.to_path_buf(),
                 source,
             })?;
-            let out = Box::new(std::io::BufWriter::new(file));
-            Box::new(CsvSink::new(out, Some(path), headers, names)?)
+            let out = Box::new(std::io::BufWriter::new(handle));
+            let mut sink = CsvSink::new(out, Some(path), headers, names)?;
+            sink.file = Some(file);
+            Box::new(sink)
         }
     })
 }
@@ -146,6 +150,8 @@ struct CsvSink<'w> {
     writer: CsvChunkWriter<Box<dyn Write + 'w>>,
     /// The file written, or `None` for the caller's writer.
     path: Option<PathBuf>,
+    /// What is renamed over `path` once every row is written, so a failure leaves it as it was.
+    file: Option<AtomicFile>,
 }
 
 impl<'w> CsvSink<'w> {
@@ -158,7 +164,11 @@ impl<'w> CsvSink<'w> {
     ) -> Result<Self> {
         let path = path.map(Path::to_path_buf);
         let writer = CsvChunkWriter::new(out, headers, names).map_err(|e| fail(&path, e))?;
-        Ok(Self { writer, path })
+        Ok(Self {
+            writer,
+            path,
+            file: None,
+        })
     }
 }
 
@@ -188,7 +198,11 @@ impl ChunkSink for CsvSink<'_> {
     fn finish(self: Box<Self>) -> Result<()> {
         let path = self.path;
         let mut out = self.writer.finish().map_err(|e| fail(&path, e))?;
-        out.flush().map_err(|e| fail(&path, e))
+        out.flush().map_err(|e| fail(&path, e))?;
+        match self.file {
+            Some(file) => Ok(file.commit()?),
+            None => Ok(()),
+        }
     }
 }
 
