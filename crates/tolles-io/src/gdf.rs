@@ -195,6 +195,11 @@ fn parse_field(field: &str) -> Result<Vec<Field>, String> {
     })
 }
 
+/// Largest repeat count and field width accepted: far beyond any survey channel (array channels
+/// hold hundreds of values), small enough that a damaged `.dfn` cannot make the reader allocate
+/// without bound (a repeat count of 10^17 aborted it).
+const MAX_COUNT: usize = 1 << 16;
+
 /// Repeat count, kind letter and width of a Fortran format such as `3F10.3`, `I5` or `A4`.
 fn parse_format(format: &str) -> Option<(usize, char, usize)> {
     let upper = format.to_ascii_uppercase();
@@ -209,7 +214,7 @@ fn parse_format(format: &str) -> Option<(usize, char, usize)> {
     }
     let spec = &upper[letter_at + 1..];
     let width: usize = spec.split('.').next()?.parse().ok()?;
-    (width > 0).then_some((repeat, kind, width))
+    (width > 0 && width <= MAX_COUNT && repeat <= MAX_COUNT).then_some((repeat, kind, width))
 }
 
 /// The data records of `.dat` text as a table.
@@ -359,6 +364,19 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert_eq!(err, "t.dfn: no DEFN record defines a data field");
+    }
+
+    #[test]
+    fn huge_repeat_counts_are_refused() {
+        // Found by fuzzing (fuzz/fuzz_targets/gdf.rs): the reader aborted on capacity overflow.
+        let dfn = "DEFN   S=;MAG_1_UC:888888888888888888F12.3:NU2.114.000   40000.874\n";
+        let err = from_text(dfn, "t.dfn", "", "t.dat")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("is not a Fortran format"), "{err}");
+        assert!(parse_format("70000F12.3").is_none());
+        assert!(parse_format("F99999999.3").is_none());
+        assert_eq!(parse_format("256F12.3"), Some((256, 'F', 12)));
     }
 
     #[test]
