@@ -118,7 +118,7 @@ impl ChunkReader {
                 (headers, Source::Xyz { chunks, pending })
             }
             Format::Parquet => {
-                let parquet = ParquetChunks::open(file, path)?;
+                let parquet = crate::parquet::contained(path, || ParquetChunks::open(file, path))?;
                 notes = parquet.notes.clone();
                 check_header(path, &parquet.headers)?;
                 (parquet.headers.clone(), Source::Parquet(Box::new(parquet)))
@@ -205,7 +205,10 @@ impl ChunkReader {
             }
             .map(|t| select(t, self.keep.as_deref()))
             .transpose()?,
-            Source::Parquet(p) => p.next_rows(&self.path, self.rows, self.rows_read == 0)?,
+            Source::Parquet(p) => {
+                let (path, first) = (&self.path, self.rows_read == 0);
+                crate::parquet::contained(path, || p.next_rows(path, self.rows, first))?
+            }
         };
         if let Some(t) = &table {
             self.first_row = self.rows_read;

@@ -218,6 +218,11 @@ fn parse_field(field: &str, room: usize) -> Result<Vec<Field>, String> {
     })
 }
 
+/// Largest repeat count and field width accepted: far beyond any survey channel (array channels
+/// hold hundreds of values), small enough that a damaged `.dfn` cannot make the reader allocate
+/// without bound (a repeat count of 10^17 aborted it).
+const MAX_COUNT: usize = 1 << 16;
+
 /// Repeat count, kind letter and width of a Fortran format such as `3F10.3`, `I5` or `A4`.
 fn parse_format(format: &str) -> Option<(usize, char, usize)> {
     let upper = format.to_ascii_uppercase();
@@ -232,7 +237,7 @@ fn parse_format(format: &str) -> Option<(usize, char, usize)> {
     }
     let spec = &upper[letter_at + 1..];
     let width: usize = spec.split('.').next()?.parse().ok()?;
-    (width > 0).then_some((repeat, kind, width))
+    (width > 0 && width <= MAX_COUNT && repeat <= MAX_COUNT).then_some((repeat, kind, width))
 }
 
 /// The data records of `.dat` text as a table.
@@ -389,11 +394,11 @@ mod tests {
     #[test]
     fn huge_widths_and_repeats_are_errors_not_panics() {
         let dfn = |f: &str| format!("DEFN 1 ST=RECD,RT=;TT:F10.1\nDEFN 2 ST=RECD,RT=;{f}\n");
-        let err = from_text(&dfn("X:1000000000F10.3"), "t.dfn", "1 2\n", "t.dat")
+        let err = from_text(&dfn("X:60000F10.3"), "t.dfn", "1 2\n", "t.dat")
             .unwrap_err()
             .to_string();
         assert!(
-            err.starts_with("t.dfn: line 2: field \"X\": 1000000000 repeats"),
+            err.starts_with("t.dfn: line 2: field \"X\": 60000 repeats"),
             "{err}"
         );
         let err = from_text(
@@ -404,9 +409,11 @@ mod tests {
         )
         .unwrap_err()
         .to_string();
-        assert!(err.contains("repeats are more fields"), "{err}");
-        let t = from_text(&dfn("B:F18446744073709551613.0"), "t.dfn", "1 2\n", "t.dat").unwrap();
-        assert_eq!(t.numeric("B").unwrap(), [2.0]);
+        assert!(err.contains("is not a Fortran format"), "{err}");
+        let err = from_text(&dfn("B:F18446744073709551613.0"), "t.dfn", "1 2\n", "t.dat")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("is not a Fortran format"), "{err}");
     }
 
     #[test]
@@ -421,6 +428,19 @@ mod tests {
             err.starts_with("t.dat: line 3: the record does not start"),
             "{err}"
         );
+    }
+
+    #[test]
+    fn huge_repeat_counts_are_refused() {
+        // Found by fuzzing (fuzz/fuzz_targets/gdf.rs): the reader aborted on capacity overflow.
+        let dfn = "DEFN   S=;MAG_1_UC:888888888888888888F12.3:NU2.114.000   40000.874\n";
+        let err = from_text(dfn, "t.dfn", "", "t.dat")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("is not a Fortran format"), "{err}");
+        assert!(parse_format("70000F12.3").is_none());
+        assert!(parse_format("F99999999.3").is_none());
+        assert_eq!(parse_format("256F12.3"), Some((256, 'F', 12)));
     }
 
     #[test]

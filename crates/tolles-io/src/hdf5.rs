@@ -26,16 +26,39 @@ use crate::table::{Column, Table};
 use hdf5_pure::{AttrValue, DType, Dataset, File, FileBuilder};
 use std::path::Path;
 
+/// How many times larger than the file a dataset may declare itself: deflate's best ratio is
+/// about 1032:1, so no honest file holds more. A larger declared size is a damaged (or hostile)
+/// header, refused before `hdf5-pure` allocates for it.
+const MAX_EXPANSION: u64 = 1032;
+
 /// Reads an HDF5 file with one 1-D dataset per column at its root.
 pub fn read(path: &Path) -> Result<Table, IoError> {
-    let invalid = |message: String| IoError::Invalid {
-        path: path.to_path_buf(),
-        message,
-    };
     let bytes = std::fs::read(path).map_err(|source| IoError::Open {
         path: path.to_path_buf(),
         source,
     })?;
+    from_bytes(bytes, path)
+}
+
+/// Reads an HDF5 file from its bytes; `name` is used in error messages. A file that makes the
+/// HDF5 library panic is reported as not readable (see [`crate::guard`]).
+pub fn from_bytes(bytes: Vec<u8>, name: impl AsRef<Path>) -> Result<Table, IoError> {
+    let path = name.as_ref();
+    crate::guard::contain(
+        || read_bytes(bytes, path),
+        |why| IoError::Invalid {
+            path: path.to_path_buf(),
+            message: format!("not a readable HDF5 file ({why})"),
+        },
+    )
+}
+
+fn read_bytes(bytes: Vec<u8>, path: &Path) -> Result<Table, IoError> {
+    let invalid = |message: String| IoError::Invalid {
+        path: path.to_path_buf(),
+        message,
+    };
+    let limit = (bytes.len() as u64).saturating_mul(MAX_EXPANSION);
     let file = File::from_bytes(without_user_block(bytes))
         .map_err(|e| invalid(format!("not a readable HDF5 file: {e}")))?;
     let root = file.root();
@@ -51,7 +74,7 @@ pub fn read(path: &Path) -> Result<Table, IoError> {
             .map_err(|e| invalid(format!("dataset {name:?}: {e}")))?;
         match classify(&dataset).map_err(|e| invalid(format!("dataset {name:?}: {e}")))? {
             Kind::Scalar => {
-                let v = read_values(&dataset, &name, path)?;
+                let v = read_values(&dataset, &name, path, limit)?;
                 metadata.push((name, v[0]));
             }
             Kind::Vector(_) => vectors.push((name, dataset)),
@@ -71,7 +94,7 @@ pub fn read(path: &Path) -> Result<Table, IoError> {
     let mut headers = Vec::new();
     let mut columns = Vec::new();
     for (name, dataset) in vectors {
-        let values = read_values(&dataset, &name, path)?;
+        let values = read_values(&dataset, &name, path, limit)?;
         if values.len() == rows {
             headers.push(name);
             columns.push(Column::Numbers(values));
@@ -216,11 +239,28 @@ fn classify(dataset: &Dataset) -> Result<Kind, hdf5_pure::Error> {
     })
 }
 
-fn read_values(dataset: &Dataset, name: &str, path: &Path) -> Result<Vec<f64>, IoError> {
+/// The values of `dataset` as numbers, refused unclaimed when their declared size (8 bytes
+/// each, as read) exceeds `limit` bytes.
+fn read_values(
+    dataset: &Dataset,
+    name: &str,
+    path: &Path,
+    limit: u64,
+) -> Result<Vec<f64>, IoError> {
     let fail = |why: String| IoError::Invalid {
         path: path.to_path_buf(),
         message: format!("dataset {name:?}: cannot read its values as numbers: {why}"),
     };
+    let shape = dataset.shape().map_err(|e| fail(e.to_string()))?;
+    let bytes = shape
+        .iter()
+        .try_fold(8u64, |size, &d| size.checked_mul(d))
+        .filter(|&size| size <= limit);
+    if bytes.is_none() {
+        return Err(fail(format!(
+            "its declared shape {shape:?} is larger than the file could hold"
+        )));
+    }
     let values = dataset.read_f64().map_err(|e| fail(e.to_string()))?;
     if values.is_empty() {
         return Err(fail("it is empty".into()));
@@ -265,5 +305,37 @@ mod tests {
         let longest = "m".repeat(MAX_NAME_BYTES);
         write(&path, &[(longest.clone(), vec![1.0])]).unwrap();
         assert_eq!(read(&path).unwrap().headers(), [longest]);
+    }
+
+    /// A chunked, compressed 37-value dataset whose declared length is then set to `length`.
+    fn chunked_with_declared_length(length: u64) -> Vec<u8> {
+        let mut builder = FileBuilder::new();
+        let values: Vec<f64> = (0..37).map(|k| f64::from(k) * 0.5).collect();
+        builder
+            .create_dataset("tt")
+            .with_f64_data(&values)
+            .with_chunks(&[8])
+            .with_deflate(4);
+        let mut bytes = builder.finish().unwrap();
+        let dims = 37u64.to_le_bytes();
+        let at = bytes.windows(8).position(|w| w == dims).unwrap();
+        bytes[at..at + 8].copy_from_slice(&length.to_le_bytes());
+        bytes
+    }
+
+    #[test]
+    fn a_chunked_dataset_reads() {
+        let table = from_bytes(chunked_with_declared_length(37), "ok.h5").unwrap();
+        assert_eq!(table.numeric("tt").unwrap()[36], 18.0);
+    }
+
+    /// `hdf5-pure` would allocate 8.8 TB for this dataset and abort the process.
+    #[test]
+    fn a_huge_declared_shape_is_refused_before_allocating() {
+        let err = from_bytes(chunked_with_declared_length(1_100_000_000_000), "huge.h5")
+            .unwrap_err()
+            .to_string();
+        assert!(err.starts_with("huge.h5: dataset \"tt\":"), "{err}");
+        assert!(err.contains("larger than the file could hold"), "{err}");
     }
 }

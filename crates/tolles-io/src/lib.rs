@@ -17,6 +17,7 @@ pub mod chunks;
 pub mod error;
 pub mod format;
 pub mod gdf;
+mod guard;
 pub mod hdf5;
 pub mod model;
 pub mod parquet;

@@ -23,7 +23,7 @@ use ::parquet::column::reader::{ColumnReader, ColumnReaderImpl};
 use ::parquet::data_type::{DataType, DoubleType};
 use ::parquet::errors::ParquetError;
 use ::parquet::file::properties::WriterProperties;
-use ::parquet::file::reader::{FileReader, SerializedFileReader};
+use ::parquet::file::reader::{ChunkReader, FileReader, SerializedFileReader};
 use ::parquet::file::writer::{SerializedColumnWriter, SerializedFileWriter};
 use ::parquet::schema::types::Type;
 use std::path::Path;
@@ -32,17 +32,42 @@ use std::sync::Arc;
 /// Rows per row group in written files: large enough to compress well, small enough to stream.
 const ROW_GROUP: usize = 1 << 20;
 
+/// Rows decoded per call when reading: memory grows with the values actually decoded, never
+/// with a row count the file merely declares.
+const BATCH_ROWS: usize = 1 << 16;
+
 /// Reads the numeric columns of a Parquet file.
 pub fn read(path: &Path) -> Result<Table, IoError> {
-    let invalid = |e: ParquetError| IoError::Invalid {
-        path: path.to_path_buf(),
-        message: format!("not a readable Parquet file: {e}"),
-    };
     let file = std::fs::File::open(path).map_err(|source| IoError::Open {
         path: path.to_path_buf(),
         source,
     })?;
-    let reader = SerializedFileReader::new(file).map_err(invalid)?;
+    contained(path, || read_from(file, path))
+}
+
+/// Reads the numeric columns of a Parquet file from its bytes; `name` is used in error messages.
+pub fn from_bytes(bytes: Vec<u8>, name: impl AsRef<Path>) -> Result<Table, IoError> {
+    let path = name.as_ref();
+    contained(path, || read_from(bytes::Bytes::from(bytes), path))
+}
+
+/// Runs `read` with a panic inside the `parquet` crate reported as an unreadable file.
+pub(crate) fn contained<T>(
+    path: &Path,
+    read: impl FnOnce() -> Result<T, IoError>,
+) -> Result<T, IoError> {
+    crate::guard::contain(read, |why| IoError::Invalid {
+        path: path.to_path_buf(),
+        message: format!("not a readable Parquet file ({why})"),
+    })
+}
+
+fn read_from<R: ChunkReader + 'static>(source: R, path: &Path) -> Result<Table, IoError> {
+    let invalid = |e: ParquetError| IoError::Invalid {
+        path: path.to_path_buf(),
+        message: format!("not a readable Parquet file: {e}"),
+    };
+    let reader = SerializedFileReader::new(source).map_err(invalid)?;
     let (headers, wanted, notes) = numeric_columns(&reader);
     let mut values = vec![Vec::new(); wanted.len()];
     for g in 0..reader.num_row_groups() {
@@ -60,8 +85,8 @@ pub fn read(path: &Path) -> Result<Table, IoError> {
 /// The numeric columns of a file: their names, their (schema index, max definition level), and
 /// a note for every column left out.
 #[allow(clippy::type_complexity)]
-pub(crate) fn numeric_columns(
-    reader: &SerializedFileReader<std::fs::File>,
+pub(crate) fn numeric_columns<R: ChunkReader + 'static>(
+    reader: &SerializedFileReader<R>,
 ) -> (Vec<String>, Vec<(usize, i16)>, Vec<String>) {
     let schema = reader.metadata().file_metadata().schema_descr_ptr();
     let mut headers = Vec::new();
@@ -122,8 +147,9 @@ where
     while read < rows {
         defs.clear();
         present.clear();
-        let (records, _, _) =
-            reader.read_records(rows - read, Some(&mut defs), None, &mut present)?;
+        // A bounded batch: `rows` comes from the file's metadata and may be a damaged count.
+        let batch = (rows - read).min(BATCH_ROWS);
+        let (records, _, _) = reader.read_records(batch, Some(&mut defs), None, &mut present)?;
         if records == 0 {
             return Err(ParquetError::General(format!(
                 "column chunk ends after {read} of {rows} rows"

@@ -1,0 +1,13 @@
+//! Fuzzes the CSV reader: any bytes must give a table or an error, never a panic.
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+use tolles_io::table::Table;
+
+fuzz_target!(|data: &[u8]| {
+    if let Ok(table) = Table::from_reader(data, "fuzz.csv") {
+        for k in 0..table.headers().len() {
+            let _ = table.numeric_at(k);
+        }
+    }
+});
