@@ -160,7 +160,7 @@ impl<'t> Flight<'t> {
                 path,
                 vector: self.vectors[0].clone(),
             },
-            source => Error::Fit { path, source },
+            cause => Error::Fit { path, cause },
         }
     }
 }
