@@ -96,3 +96,38 @@ fn an_absurd_lambda_is_refused_at_once() {
     assert!(err.contains("ridge strength λ = 1e308"), "{err}");
     assert_eq!(err.trim().lines().count(), 1, "{err}");
 }
+
+#[test]
+fn an_empty_fluxgate_column_or_time_column_is_named_for_what_it_is() {
+    let dir = TempDir::new().unwrap();
+    damaged(dir.path(), "f.csv", "flux_a_x", 101, "");
+    let text = std::fs::read_to_string(dir.path().join("box.csv")).unwrap();
+    let blank = |column: usize| -> String {
+        let mut lines = text.lines();
+        let header = lines.next().unwrap().to_string();
+        let rows = lines.map(|l| {
+            let mut cells: Vec<&str> = l.split(',').collect();
+            cells[column] = "";
+            cells.join(",")
+        });
+        std::iter::once(header)
+            .chain(rows)
+            .collect::<Vec<_>>()
+            .join("\n")
+            + "\n"
+    };
+    std::fs::write(dir.path().join("nox.csv"), blank(10)).unwrap();
+    let (ok, _, err) = fit(dir.path(), "nox.csv", &[]);
+    assert!(!ok);
+    assert!(
+        err.contains("column \"flux_a_x\" has no usable value"),
+        "{err}"
+    );
+    std::fs::write(dir.path().join("nott.csv"), blank(0)).unwrap();
+    let (ok, _, err) = fit(dir.path(), "nott.csv", &[]);
+    assert!(!ok);
+    assert!(
+        err.contains("time column \"tt\" has no two successive usable times"),
+        "{err}"
+    );
+}

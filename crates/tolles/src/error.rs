@@ -44,6 +44,9 @@ pub enum Error {
         /// |B| (nT).
         magnitude: f64,
     },
+    /// No row has every column a fit needs.
+    #[error("{}: column {column:?} has no usable value (all missing, non-numeric or out of range): there is nothing to fit", path.display())]
+    NoUsableRow { path: PathBuf, column: String },
     /// The scalar does not vary.
     #[error("{}: column {scalar:?} is constant: there is nothing to fit", path.display())]
     ConstantScalar { path: PathBuf, scalar: String },
@@ -60,6 +63,9 @@ pub enum Error {
     /// Neither a time column, a `dt` scalar nor a given rate says how fast the data was sampled.
     #[error("{}: no time column {TIME_COLUMN:?} to take the sample rate from; give the sample rate", path.display())]
     NoSampleRate { path: PathBuf },
+    /// The time column exists but gives no step: every value missing, or none increasing.
+    #[error("{}: time column {TIME_COLUMN:?} has no two successive usable times (all missing, non-numeric or not increasing), so it gives no sample rate; give the sample rate", path.display())]
+    TimeUnusable { path: PathBuf },
     /// A given sample rate that is not a positive number of hertz.
     #[error("the sample rate must be a positive number of hertz, got {fs_hz}")]
     BadSampleRate { fs_hz: f64 },

@@ -199,6 +199,8 @@ pub enum FitError {
         samples: usize,
         first: usize,
     },
+    #[error("no sample has the scalar and every fluxgate component: {0} is missing, non-finite or out of range throughout")]
+    NothingUsable(String),
     #[error("the scalar magnetometer is constant: there is nothing to fit")]
     ConstantScalar,
     #[error("the fluxgate is constant: the aircraft did not maneuver, so no term can be fitted")]
@@ -589,6 +591,9 @@ fn check_not_constant(
         let first = values.next();
         first.is_some_and(|f| values.any(|v| v != f))
     };
+    if !usable.iter().any(|u| *u) {
+        return Err(FitError::NothingUsable(never_usable(scalar, flux)));
+    }
     if !varies(scalar) {
         return Err(FitError::ConstantScalar);
     }
@@ -596,6 +601,21 @@ fn check_not_constant(
         return Err(FitError::ConstantFlux);
     }
     Ok(())
+}
+
+/// Which input (scalar, or the first fluxgate's x/y/z component) has no usable value at all,
+/// so a file with one empty column is not reported as "constant".
+fn never_usable(scalar: &[f64], flux: &VectorSeries) -> String {
+    if !scalar.iter().any(|v| scalar_usable(*v)) {
+        return "the scalar".to_string();
+    }
+    let empty = |c: &[f64]| !c.iter().any(|v| v.is_finite());
+    for (axis, c) in [("x", &flux.x), ("y", &flux.y), ("z", &flux.z)] {
+        if empty(c) {
+            return format!("fluxgate component {axis}");
+        }
+    }
+    "one input or another".to_string()
 }
 
 /// Filtered, trimmed design rows and their scalar targets.
