@@ -59,6 +59,10 @@ pub fn error(e: Error) -> anyhow::Error {
             "{}: no time column \"tt\" to take the sample rate from; give it with --fs HZ",
             path.display()
         ),
+        Error::TimeUnusable { path } => anyhow::anyhow!(
+            "{}: time column \"tt\" has no two successive usable times (all missing, non-numeric or not increasing), so it gives no sample rate; give it with --fs HZ",
+            path.display()
+        ),
         Error::BadSampleRate { fs_hz } => {
             anyhow::anyhow!("--fs must be a positive number of hertz, got {fs_hz}")
         }

@@ -113,6 +113,11 @@ impl ModelFile {
         }
         match value.get("version").and_then(|v| v.as_u64()) {
             Some(v) if v >= 1 && v <= VERSION as u64 => {}
+            Some(0) => {
+                return Err(fail(
+                    "version 0 is not a version tolles wrote (versions start at 1)".to_string(),
+                ))
+            }
             Some(v) => {
                 return Err(fail(format!(
                     "version {v} is newer than this tolles understands ({VERSION}); upgrade tolles"
@@ -145,6 +150,7 @@ impl ModelFile {
                     fit.vectors.len(),
                 ));
             }
+            check_numbers(fit)?;
         }
         Ok(())
     }
@@ -161,6 +167,63 @@ impl ModelFile {
     /// Writes a model file.
     pub fn write(&self, path: &Path) -> Result<(), IoError> {
         crate::atomic::write_bytes(path, (self.to_json() + "\n").as_bytes())
+    }
+}
+
+/// Sample rates (Hz) a model can have been fitted at; outside them eddy terms rescale to garbage.
+const FS_RANGE_HZ: (f64, f64) = (1e-3, 1e6);
+/// Largest believable |coefficient| or |level| (nT per unit of its column): anything larger is
+/// a damaged file, and would otherwise surface later as an unrelated-looking failure.
+const COEFFICIENT_LIMIT: f64 = 1e9;
+
+/// Every number a model is applied with: finite, and in a range that can have come from a fit.
+fn check_numbers(fit: &ScalarModel) -> Result<(), String> {
+    let scalar = &fit.scalar;
+    let (lo, hi) = FS_RANGE_HZ;
+    let fs = fit.fit.fs_hz;
+    if !(lo..=hi).contains(&fs) {
+        return Err(format!(
+            "fit of {scalar}: fs_hz {} is outside {lo}–{hi} Hz",
+            show(fs)
+        ));
+    }
+    let bt = fit.fit.settings.design.bt_scale;
+    if !(bt.is_finite() && bt > 0.0) {
+        return Err(format!(
+            "fit of {scalar}: settings.design.bt_scale {} must be a positive number of nT",
+            show(bt)
+        ));
+    }
+    let level = fit.fit.level_nt;
+    if !believable(level) {
+        return Err(format!(
+            "fit of {scalar}: level_nt {} is not a believable level",
+            show(level)
+        ));
+    }
+    for (j, b) in fit.fit.coefficients.iter().enumerate() {
+        if !believable(*b) {
+            let name = fit.fit.columns.get(j).map_or("?", String::as_str);
+            return Err(format!(
+                "fit of {scalar}: coefficients[{j}] ({name}) = {} is not finite or beyond ±{COEFFICIENT_LIMIT:e}",
+                show(*b)
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Finite and within ±[`COEFFICIENT_LIMIT`] (NaN is not).
+fn believable(v: f64) -> bool {
+    v.abs() <= COEFFICIENT_LIMIT
+}
+
+/// A number for a message: plain when of ordinary size, else in scientific notation.
+fn show(v: f64) -> String {
+    if v == 0.0 || (1e-3..1e9).contains(&v.abs()) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
     }
 }
 
@@ -187,5 +250,49 @@ mod tests {
             .to_string();
         assert!(err.starts_with("m.json: not a tolles model file"), "{err}");
         assert!(ModelFile::from_json("{", "m.json").is_err());
+    }
+
+    /// A minimal valid model file, with `field` replaced by `value` (JSON text).
+    fn model_with(field: &str, value: &str) -> String {
+        use tolles_core::fit::FitSettings;
+        let fit = Fit {
+            settings: FitSettings::magnav(),
+            fs_hz: 10.0,
+            columns: vec![],
+            coefficients: vec![1.0; FitSettings::magnav().design.width()],
+            level_nt: 0.0,
+            diagnostics: serde_json::from_value(serde_json::json!({
+                "samples_total": 1, "samples_nonfinite": 0, "samples_in_short_runs": 0,
+                "samples_used": 1, "runs_used": 1, "filtered_std_before_nt": 1.0,
+                "residual_std_nt": 1.0, "improvement_ratio": 1.0, "condition_number": 1.0,
+                "effective_sample_fraction": 1.0, "penalty": [], "cross_validation": null,
+                "std_errors": []
+            }))
+            .unwrap(),
+        };
+        let file = ModelFile::new(vec![ScalarModel::new("mag_1_uc", &["flux_a".into()], fit)]);
+        let mut value_json: serde_json::Value = serde_json::from_str(&file.to_json()).unwrap();
+        let target = value_json.pointer_mut(field).unwrap();
+        *target = serde_json::from_str(value).unwrap();
+        value_json.to_string()
+    }
+
+    #[test]
+    fn every_number_is_validated_with_its_field_named() {
+        assert!(ModelFile::from_json(&model_with("/version", "1"), "m.json").is_ok());
+        for (field, value, says) in [
+            ("/fits/0/fs_hz", "-10", "fs_hz -10"),
+            ("/fits/0/fs_hz", "1e-300", "fs_hz 1e-300"),
+            ("/fits/0/settings/design/bt_scale", "-5", "bt_scale -5"),
+            ("/fits/0/coefficients/2", "1e308", "coefficients[2]"),
+            ("/fits/0/level_nt", "1e300", "level_nt"),
+            ("/version", "0", "version 0 is not a version tolles wrote"),
+        ] {
+            let err = ModelFile::from_json(&model_with(field, value), "m.json")
+                .unwrap_err()
+                .to_string();
+            assert!(err.contains(says), "{field}: {err}");
+            assert_eq!(err.lines().count(), 1, "{err}");
+        }
     }
 }

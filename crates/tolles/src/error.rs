@@ -36,7 +36,7 @@ pub enum Error {
         before: f64,
     },
     /// A fluxgate magnitude outside the physical range.
-    #[error("{}: {place}: fluxgate {vector} magnitude {magnitude:.1} nT is outside 1,000–100,000 nT; are columns {vector}_x/_y/_z in nT?", path.display())]
+    #[error("{}: {place}: fluxgate {vector} magnitude {} nT is outside 1,000–100,000 nT; are columns {vector}_x/_y/_z in nT?", path.display(), tolles_core::fit::show_nt(*magnitude))]
     FluxMagnitude {
         path: PathBuf,
         place: String,
@@ -44,21 +44,28 @@ pub enum Error {
         /// |B| (nT).
         magnitude: f64,
     },
+    /// No row has every column a fit needs.
+    #[error("{}: column {column:?} has no usable value (all missing, non-numeric or out of range): there is nothing to fit", path.display())]
+    NoUsableRow { path: PathBuf, column: String },
     /// The scalar does not vary.
     #[error("{}: column {scalar:?} is constant: there is nothing to fit", path.display())]
     ConstantScalar { path: PathBuf, scalar: String },
     /// The fluxgate does not vary.
     #[error("{}: columns {vector}_x/_y/_z are constant: the aircraft did not maneuver, so no term can be fitted", path.display())]
     ConstantFlux { path: PathBuf, vector: String },
-    /// Any other reason a fit failed.
-    #[error("{}: {source}", path.display())]
-    Fit { path: PathBuf, source: FitError },
+    /// Any other reason a fit failed. (`cause`, not `source`: the message already includes it,
+    /// and a `source` would print it twice in a cause chain.)
+    #[error("{}: {cause}", path.display())]
+    Fit { path: PathBuf, cause: FitError },
     /// The figure of merit could not be computed.
-    #[error("{}: {source}", path.display())]
-    Fom { path: PathBuf, source: FomError },
+    #[error("{}: {cause}", path.display())]
+    Fom { path: PathBuf, cause: FomError },
     /// Neither a time column, a `dt` scalar nor a given rate says how fast the data was sampled.
     #[error("{}: no time column {TIME_COLUMN:?} to take the sample rate from; give the sample rate", path.display())]
     NoSampleRate { path: PathBuf },
+    /// The time column exists but gives no step: every value missing, or none increasing.
+    #[error("{}: time column {TIME_COLUMN:?} has no two successive usable times (all missing, non-numeric or not increasing), so it gives no sample rate; give the sample rate", path.display())]
+    TimeUnusable { path: PathBuf },
     /// A given sample rate that is not a positive number of hertz.
     #[error("the sample rate must be a positive number of hertz, got {fs_hz}")]
     BadSampleRate { fs_hz: f64 },

@@ -95,9 +95,9 @@ pub fn fom(
         order: request.order,
     };
     let measure = |signal: &[f64]| {
-        fom_of(signal, Some(&tt), &maneuvers, fs_hz, &settings).map_err(|source| Error::Fom {
+        fom_of(signal, Some(&tt), &maneuvers, fs_hz, &settings).map_err(|cause| Error::Fom {
             path: path.to_path_buf(),
-            source,
+            cause,
         })
     };
     let before = measure(&scalar)?;

@@ -152,6 +152,19 @@ impl<'t> Flight<'t> {
                 vector: self.vectors[fluxgate].clone(),
                 magnitude,
             },
+            FitError::NothingUsable(what) => {
+                let column = match what.strip_prefix("fluxgate component ") {
+                    Some(axis) => format!("{}_{axis}", self.vectors[0]),
+                    None if what == "the scalar" => scalar.to_string(),
+                    None => {
+                        return Error::Fit {
+                            path,
+                            cause: FitError::NothingUsable(what),
+                        }
+                    }
+                };
+                Error::NoUsableRow { path, column }
+            }
             FitError::ConstantScalar => Error::ConstantScalar {
                 path,
                 scalar: scalar.to_string(),
@@ -160,7 +173,7 @@ impl<'t> Flight<'t> {
                 path,
                 vector: self.vectors[0].clone(),
             },
-            source => Error::Fit { path, source },
+            cause => Error::Fit { path, cause },
         }
     }
 }
@@ -192,6 +205,12 @@ pub fn sample_rate(
     fs_hz: Option<f64>,
 ) -> Result<(f64, Option<Warning>)> {
     let step = tt.and_then(median_step);
+    let dt = table.metadata(SAMPLE_INTERVAL);
+    if tt.is_some() && step.is_none() && dt.is_none() && fs_hz.is_none() {
+        return Err(Error::TimeUnusable {
+            path: table.path().to_path_buf(),
+        });
+    }
     sample_rate_from(table.path(), table.metadata(SAMPLE_INTERVAL), step, fs_hz)
 }
 

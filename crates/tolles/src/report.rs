@@ -158,11 +158,9 @@ fn trace(x: &[f64], outcome: &FomOutcome, request: &ReportRequest) -> Result<Tra
         order: request.order,
     };
     let bandpassed =
-        bandpassed(x, Some(&outcome.tt), outcome.fs_hz, &settings).map_err(|source| {
-            Error::Fom {
-                path: request.flight.clone(),
-                source,
-            }
+        bandpassed(x, Some(&outcome.tt), outcome.fs_hz, &settings).map_err(|cause| Error::Fom {
+            path: request.flight.clone(),
+            cause,
         })?;
     Ok(Trace {
         centred: centred(x),

@@ -28,6 +28,10 @@
 
 use crate::signal::filter::{Band, Butterworth, FilterError, SosState};
 
+/// A band-passed misfit beyond this many predicted standard deviations is an outlier (a
+/// spike, a corrupt cell) and does not update the coefficients.
+pub const OUTLIER_SIGMAS: f64 = 8.0;
+
 /// Tuning of the adaptation.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AdaptSettings {
@@ -127,7 +131,14 @@ impl Adapter {
     }
 
     /// Feeds one design row and its scalar (nT); returns true if the coefficients were updated.
+    ///
+    /// A non-finite input restarts the filters (it would poison their state for good), and a
+    /// misfit beyond [`OUTLIER_SIGMAS`] of its predicted spread is not learnt from.
     pub fn update(&mut self, row: &[f64], scalar: f64) -> bool {
+        if !(scalar.is_finite() && row.iter().all(|v| v.is_finite())) {
+            self.restart();
+            return false;
+        }
         if self.scalar.is_none() {
             self.columns = row
                 .iter()
@@ -144,12 +155,15 @@ impl Adapter {
         if self.since_start <= self.settle || excitation < self.settings.min_excitation {
             return false;
         }
-        self.kalman(y);
+        if !self.kalman(y) {
+            return false;
+        }
         self.updates += 1;
         true
     }
 
-    fn kalman(&mut self, y: f64) {
+    /// One Kalman step; false (nothing changed) when the misfit is an outlier.
+    fn kalman(&mut self, y: f64) -> bool {
         let n = self.beta.len();
         let q = self.settings.drift_std.powi(2);
         for k in 0..n {
@@ -171,12 +185,21 @@ impl Adapter {
             .zip(&self.beta)
             .map(|(a, b)| a * b)
             .sum::<f64>();
+        let inlier = e * e <= OUTLIER_SIGMAS.powi(2) * s; // false for NaN too
+        if !inlier {
+            // Undo the drift: an outlier teaches nothing, not even uncertainty.
+            for k in 0..n {
+                self.p[k * n + k] -= q;
+            }
+            return false;
+        }
         for i in 0..n {
             self.beta[i] += self.pa[i] / s * e;
             for j in 0..n {
                 self.p[i * n + j] -= self.pa[i] * self.pa[j] / s;
             }
         }
+        true
     }
 }
 
@@ -199,5 +222,29 @@ mod tests {
             "{b:?}"
         );
         assert!(adapter.updates() > 2_000);
+    }
+
+    #[test]
+    fn spikes_and_non_finite_values_do_not_poison_the_coefficients() {
+        let truth = [3.0, -2.0];
+        let mut adapter = Adapter::new(&[0.0, 0.0], 10.0, &AdaptSettings::default()).unwrap();
+        for k in 0..3_000 {
+            let t = k as f64 / 10.0;
+            let row = [(2.0 * t).sin(), (1.3 * t).cos()];
+            let mut y = 40_000.0 + truth[0] * row[0] + truth[1] * row[1];
+            if k == 1_500 {
+                y = 1e308;
+            }
+            if k == 2_000 {
+                y = f64::NAN;
+            }
+            adapter.update(&row, y);
+        }
+        let b = adapter.coefficients();
+        assert!(b.iter().all(|v| v.is_finite()), "{b:?}");
+        assert!(
+            (b[0] - 3.0).abs() < 0.05 && (b[1] + 2.0).abs() < 0.05,
+            "{b:?}"
+        );
     }
 }

@@ -19,6 +19,7 @@
 pub mod adapt;
 pub mod stream;
 
+use crate::fit::scalar_usable;
 use crate::model::design::Design;
 use crate::model::terms::Column;
 use crate::model::vector::Fluxgates;
@@ -78,7 +79,12 @@ pub fn compensate<'a>(
             (detrend(&correction), mean)
         }
     };
-    let compensated: Vec<f64> = scalar.iter().zip(&correction).map(|(s, c)| s - c).collect();
+    // A corrupt scalar cell is uncomputable, not a huge number passed through.
+    let compensated: Vec<f64> = scalar
+        .iter()
+        .zip(&correction)
+        .map(|(s, c)| if scalar_usable(*s) { s - c } else { f64::NAN })
+        .collect();
     let uncomputable = compensated.iter().filter(|v| !v.is_finite()).count();
     Compensation {
         compensated,
@@ -184,6 +190,23 @@ mod tests {
         assert_eq!(out.compensated.len(), 4);
         assert!(out.compensated[2].is_nan());
         assert_eq!(out.uncomputable, 1);
+    }
+
+    #[test]
+    fn a_corrupt_scalar_is_uncomputable() {
+        let design = Design::new("p".parse().unwrap());
+        let scalar = [50_000.0, 1e300, 50_000.0, 50_000.0];
+        let out = compensate(
+            &scalar,
+            &flux4(),
+            None,
+            &design,
+            &[1.0; 3],
+            1.0,
+            Level::Fixed(0.0),
+        );
+        assert!(out.compensated[1].is_nan());
+        assert_eq!(out.uncomputable, 2);
     }
 
     #[test]

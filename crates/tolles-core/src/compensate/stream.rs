@@ -45,8 +45,10 @@
 
 use crate::compensate::adapt::{AdaptSettings, Adapter};
 use crate::compensate::rescale_eddy;
+use crate::fit::{scalar_usable, show_nt, FLUX_MAGNITUDE_RANGE_NT};
 use crate::model::design::Design;
 use crate::model::terms::Column;
+use crate::model::vector::norm3;
 use crate::signal::filter::FilterError;
 pub use crate::signal::segment::GAP_FACTOR;
 use std::fmt;
@@ -68,6 +70,16 @@ pub enum Flag {
         /// Column name.
         column: String,
         /// The value.
+        value: f64,
+    },
+    /// A finite value outside the physical range: a fluxgate magnitude outside
+    /// [`FLUX_MAGNITUDE_RANGE_NT`] or a scalar beyond
+    /// [`SCALAR_LIMIT_NT`](crate::fit::SCALAR_LIMIT_NT). The sample is
+    /// uncomputable and kept out of the compensator's state.
+    OutOfRange {
+        /// Column name (a fluxgate's prefix for its magnitude).
+        column: String,
+        /// The value or magnitude (nT).
         value: f64,
     },
     /// An empty cell.
@@ -100,6 +112,9 @@ impl fmt::Display for Flag {
         match self {
             Flag::NotFinite { column, value } if value.is_nan() => write!(f, "nan in {column}"),
             Flag::NotFinite { column, .. } => write!(f, "inf in {column}"),
+            Flag::OutOfRange { column, value } => {
+                write!(f, "{column} out of range: {} nT", show_nt(*value))
+            }
             Flag::Missing { column } => write!(f, "missing {column}"),
             Flag::NotANumber { column, text } => write!(f, "not a number in {column}: {text:?}"),
             Flag::Malformed(why) => write!(f, "malformed: {why}"),
@@ -114,6 +129,7 @@ impl Flag {
     fn column(&self) -> Option<&str> {
         match self {
             Flag::NotFinite { column, .. }
+            | Flag::OutOfRange { column, .. }
             | Flag::Missing { column }
             | Flag::NotANumber { column, .. } => Some(column),
             _ => None,
@@ -303,7 +319,14 @@ impl<T> StreamCompensator<T> {
             }
             for (i, v) in s.scalars.iter().enumerate().take(scalars.len()) {
                 flag_non_finite(&self.scalars[i].name, *v, &mut flags);
-                scalars[i] = *v;
+                if v.is_finite() && !scalar_usable(*v) {
+                    flags.push(Flag::OutOfRange {
+                        column: self.scalars[i].name.clone(),
+                        value: *v,
+                    });
+                }
+                // A corrupt scalar must reach neither the output nor the adaptation.
+                scalars[i] = if scalar_usable(*v) { *v } else { f64::NAN };
             }
         }
         if breaks_run {
@@ -373,7 +396,19 @@ impl<T> StreamCompensator<T> {
                 flag_non_finite(&column, v, flags);
             }
         }
-        finite
+        if !finite {
+            return false;
+        }
+        let magnitude = norm3(b);
+        let (lo, hi) = FLUX_MAGNITUDE_RANGE_NT;
+        if !(lo..=hi).contains(&magnitude) {
+            flags.push(Flag::OutOfRange {
+                column: self.fluxgates[j].clone(),
+                value: magnitude,
+            });
+            return false;
+        }
+        true
     }
 
     /// Emits the held sample as the last of its run and forgets the run.
@@ -662,5 +697,22 @@ mod tests {
         for k in [2, 4] {
             assert!((batch.compensated[k] - out[k].1).abs() < 1e-9);
         }
+    }
+
+    #[test]
+    fn out_of_range_cells_are_flagged_and_uncomputable() {
+        let n = 8;
+        let tt: Vec<f64> = (0..n).map(|k| 0.1 * k as f64).collect();
+        let mut scalar = vec![50_000.0; n];
+        scalar[2] = 1e308;
+        let mut f = flux(n);
+        (f.x[5], f.y[5], f.z[5]) = (0.0, 0.0, 0.0);
+        f.x[6] = 1e308;
+        let out = run(Derivative::Central, &tt, &scalar, &f);
+        assert!(out[2].1.is_nan() && out[5].1.is_nan() && out[6].1.is_nan());
+        assert_eq!(out[2].2, "mag_1_uc out of range: 1.000e308 nT");
+        assert_eq!(out[5].2, "flux_a out of range: 0.0 nT");
+        assert!(out[6].2.starts_with("flux_a out of range"), "{}", out[6].2);
+        assert!(out[7].1.is_finite() && out[3].1.is_finite());
     }
 }

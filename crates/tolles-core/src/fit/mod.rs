@@ -56,6 +56,30 @@ use thiserror::Error;
 /// Fluxgate magnitudes outside this range (nT) mean the data is not in nT or not a fluxgate.
 pub const FLUX_MAGNITUDE_RANGE_NT: (f64, f64) = (1_000.0, 100_000.0);
 
+/// Largest believable |scalar| (nT), twenty times the strongest geomagnetic field: a larger
+/// reading is a corrupt cell, and its sample is treated as missing rather than let its square
+/// overflow every sum it enters.
+pub const SCALAR_LIMIT_NT: f64 = 2_000_000.0;
+
+/// A field value (nT) for a message: one decimal when it is of a believable size, else in
+/// scientific notation, so a corrupt 1e155 does not print as 156 digits.
+pub fn show_nt(v: f64) -> String {
+    if v.abs() < 1e9 {
+        format!("{v:.1}")
+    } else {
+        format!("{v:.3e}")
+    }
+}
+
+/// True when a scalar reading (nT) is finite and within [`SCALAR_LIMIT_NT`].
+pub fn scalar_usable(v: f64) -> bool {
+    v.abs() <= SCALAR_LIMIT_NT
+}
+
+/// A fixed λ larger than this times the largest `diag(AᵀA)` shrinks every coefficient at least
+/// this many-fold towards zero: the fit would be meaningless, so it is refused.
+pub const LAMBDA_MAX_RATIO: f64 = 1e8;
+
 // The pass band lives with the filters; re-exported because a fit's settings name it.
 pub use crate::signal::filter::Band;
 
@@ -151,11 +175,17 @@ pub enum FitError {
     SampleRate(f64),
     #[error("ridge strength λ must be finite and ≥ 0, got {0}")]
     Lambda(f64),
+    #[error("ridge strength λ = {lambda:e} is more than 1e8 times the largest design column's sum of squares ({largest:.3e}): every coefficient would be shrunk to nothing")]
+    LambdaTooLarge { lambda: f64, largest: f64 },
+    #[error(
+        "the fit is unusable: its {what} is not finite (an extreme value in the data overflowed)"
+    )]
+    NotFinite { what: &'static str },
     #[error("cross-validation needs at least 2 folds, got {0}")]
     Folds(usize),
     #[error("no ridge strength could be fitted on every cross-validation fold (too little data for {terms} terms); fix the ridge strength λ or use fewer terms")]
     CrossValidation { terms: usize },
-    #[error("fluxgate {} magnitude {magnitude:.1} nT at sample {index} is outside 1,000–100,000 nT: is the fluxgate in nT?", fluxgate + 1)]
+    #[error("fluxgate {} magnitude {} nT at sample {index} is outside 1,000–100,000 nT: is the fluxgate in nT?", fluxgate + 1, show_nt(*magnitude))]
     FluxMagnitude {
         fluxgate: usize,
         index: usize,
@@ -169,6 +199,8 @@ pub enum FitError {
         samples: usize,
         first: usize,
     },
+    #[error("no sample has the scalar and every fluxgate component: {0} is missing, non-finite or out of range throughout")]
+    NothingUsable(String),
     #[error("the scalar magnetometer is constant: there is nothing to fit")]
     ConstantScalar,
     #[error("the fluxgate is constant: the aircraft did not maneuver, so no term can be fitted")]
@@ -266,7 +298,7 @@ pub fn fit<'a>(
     let flux = flux.into();
     check_inputs(scalar, &flux, fs_hz, settings)?;
     let usable: Vec<bool> = (0..scalar.len())
-        .map(|k| scalar[k].is_finite() && flux.is_finite(k))
+        .map(|k| scalar_usable(scalar[k]) && flux.is_finite(k))
         .collect();
     check_not_constant(scalar, flux.series()[0], &usable)?;
     let filter = settings.band.butterworth(settings.order, fs_hz)?;
@@ -308,6 +340,7 @@ pub fn fit<'a>(
         chosen.cross_validation,
         chosen.scores,
     );
+    check_finite(&chosen.solution.coefficients, &diagnostics)?;
     Ok(Fit {
         settings: FitSettings {
             design: design.clone(),
@@ -319,6 +352,21 @@ pub fn fit<'a>(
         level_nt,
         diagnostics,
     })
+}
+
+/// Refuses a fit that overflowed: a model with NaN coefficients would be refused only later,
+/// by whoever applies it, far from the cause.
+fn check_finite(coefficients: &[f64], diagnostics: &Diagnostics) -> Result<(), FitError> {
+    if !coefficients.iter().all(|b| b.is_finite()) {
+        return Err(FitError::NotFinite {
+            what: "coefficients",
+        });
+    }
+    if !(diagnostics.residual_std_nt.is_finite() && diagnostics.filtered_std_before_nt.is_finite())
+    {
+        return Err(FitError::NotFinite { what: "residual" });
+    }
+    Ok(())
 }
 
 /// Every term of `designs`, each once, in order of first appearance.
@@ -458,7 +506,13 @@ fn solve(
     let mut all = folds[0].clone();
     folds[1..].iter().for_each(|f| all.merge(f));
     match lambda {
-        Lambda::Fixed(lambda) => Ok((all.solve(lambda, columns)?, None)),
+        Lambda::Fixed(lambda) => {
+            let largest = all.column_sums_of_squares().into_iter().fold(0.0, f64::max);
+            if lambda > LAMBDA_MAX_RATIO * largest {
+                return Err(FitError::LambdaTooLarge { lambda, largest });
+            }
+            Ok((all.solve(lambda, columns)?, None))
+        }
         Lambda::CrossValidated { .. } => {
             let cv =
                 cross_validate(folds, &LAMBDA_GRID, columns).ok_or(FitError::CrossValidation {
@@ -506,14 +560,16 @@ fn check_inputs(
     check_flux_magnitude(flux.clone())
 }
 
-/// Rejects fluxgates whose finite samples have a magnitude outside
-/// [`FLUX_MAGNITUDE_RANGE_NT`]; reports the first such sample.
+/// Rejects fluxgates whose samples have a magnitude outside [`FLUX_MAGNITUDE_RANGE_NT`];
+/// reports the first such sample. NaN (a missing component) is not checked here: such samples
+/// are skipped as uncomputable. An infinite component is rejected like any other absurd value,
+/// so a corrupt cell can never reach the arithmetic.
 pub fn check_flux_magnitude<'a>(flux: impl Into<Fluxgates<'a>>) -> Result<(), FitError> {
     let (lo, hi) = FLUX_MAGNITUDE_RANGE_NT;
     for (fluxgate, series) in flux.into().series().iter().enumerate() {
         for k in 0..series.len() {
             let magnitude = series.magnitude(k);
-            if magnitude.is_finite() && !(lo..=hi).contains(&magnitude) {
+            if !magnitude.is_nan() && !(lo..=hi).contains(&magnitude) {
                 return Err(FitError::FluxMagnitude {
                     fluxgate,
                     index: k,
@@ -535,6 +591,9 @@ fn check_not_constant(
         let first = values.next();
         first.is_some_and(|f| values.any(|v| v != f))
     };
+    if !usable.iter().any(|u| *u) {
+        return Err(FitError::NothingUsable(never_usable(scalar, flux)));
+    }
     if !varies(scalar) {
         return Err(FitError::ConstantScalar);
     }
@@ -542,6 +601,21 @@ fn check_not_constant(
         return Err(FitError::ConstantFlux);
     }
     Ok(())
+}
+
+/// Which input (scalar, or the first fluxgate's x/y/z component) has no usable value at all,
+/// so a file with one empty column is not reported as "constant".
+fn never_usable(scalar: &[f64], flux: &VectorSeries) -> String {
+    if !scalar.iter().any(|v| scalar_usable(*v)) {
+        return "the scalar".to_string();
+    }
+    let empty = |c: &[f64]| !c.iter().any(|v| v.is_finite());
+    for (axis, c) in [("x", &flux.x), ("y", &flux.y), ("z", &flux.z)] {
+        if empty(c) {
+            return format!("fluxgate component {axis}");
+        }
+    }
+    "one input or another".to_string()
 }
 
 /// Filtered, trimmed design rows and their scalar targets.
@@ -718,5 +792,80 @@ mod tests {
             fit(&[1.0; 3], &flux, 0.0, None, &s).unwrap_err(),
             FitError::SampleRate(0.0)
         );
+    }
+
+    /// The module example's flight: a permanent term of 40 nT along x.
+    fn turning_flight() -> (Vec<f64>, VectorSeries, FitSettings) {
+        let (fs, n) = (10.0, 2000);
+        let angle = |k: usize| 0.35 * (2.0 * std::f64::consts::PI * 0.2 * k as f64 / fs).sin();
+        let flux = VectorSeries::new(
+            (0..n).map(|k| 20_000.0 * angle(k).cos()).collect(),
+            (0..n).map(|k| 20_000.0 * angle(k).sin()).collect(),
+            vec![45_000.0; n],
+        );
+        let scalar = (0..n)
+            .map(|k| 50_000.0 + 40.0 * flux.x[k] / flux.magnitude(k))
+            .collect();
+        let settings = FitSettings {
+            design: Design::new("p".parse().unwrap()),
+            lambda: Lambda::Fixed(0.0),
+            ..FitSettings::magnav()
+        };
+        (scalar, flux, settings)
+    }
+
+    #[test]
+    fn a_scalar_spike_is_skipped_not_fitted() {
+        let (mut scalar, flux, settings) = turning_flight();
+        scalar[700] = 1e300;
+        let model = fit(&scalar, &flux, 10.0, None, &settings).unwrap();
+        assert!((model.coefficients[0] - 40.0).abs() < 1e-6);
+        assert!(model.diagnostics.residual_std_nt.is_finite());
+        assert_eq!(model.diagnostics.samples_nonfinite, 1);
+    }
+
+    #[test]
+    fn an_overflowing_or_infinite_fluxgate_is_out_of_range() {
+        for bad in [1e155, 1e200, f64::INFINITY] {
+            let (scalar, mut flux, settings) = turning_flight();
+            flux.y[101] = bad;
+            match fit(&scalar, &flux, 10.0, None, &settings).unwrap_err() {
+                FitError::FluxMagnitude { index, .. } => assert_eq!(index, 101),
+                e => panic!("{e}"),
+            }
+        }
+    }
+
+    #[test]
+    fn an_absurd_fixed_lambda_is_refused_quickly() {
+        let (scalar, flux, mut settings) = turning_flight();
+        settings.lambda = Lambda::Fixed(1e308);
+        assert!(matches!(
+            fit(&scalar, &flux, 10.0, None, &settings).unwrap_err(),
+            FitError::LambdaTooLarge { .. }
+        ));
+    }
+
+    #[test]
+    fn a_fit_that_overflows_is_an_error() {
+        let diagnostics = |residual| Diagnostics {
+            residual_std_nt: residual,
+            ..turning_fit().diagnostics
+        };
+        assert_eq!(
+            check_finite(&[f64::NAN], &diagnostics(1.0)),
+            Err(FitError::NotFinite {
+                what: "coefficients"
+            })
+        );
+        assert_eq!(
+            check_finite(&[1.0], &diagnostics(f64::NAN)),
+            Err(FitError::NotFinite { what: "residual" })
+        );
+    }
+
+    fn turning_fit() -> Fit {
+        let (scalar, flux, settings) = turning_flight();
+        fit(&scalar, &flux, 10.0, None, &settings).unwrap()
     }
 }

@@ -45,10 +45,10 @@ impl VectorSeries {
         [self.x[k], self.y[k], self.z[k]]
     }
 
-    /// Euclidean magnitude of sample `k` (nT).
+    /// Euclidean magnitude of sample `k` (nT); finite whenever the components are, even when
+    /// their squares would overflow (a corrupt 1e155 nT cell must read as huge, not infinite).
     pub fn magnitude(&self, k: usize) -> f64 {
-        let [x, y, z] = self.at(k);
-        (x * x + y * y + z * z).sqrt()
+        norm3(self.at(k))
     }
 
     /// True when all three components of sample `k` are finite.
@@ -64,6 +64,24 @@ impl VectorSeries {
             z: self.z[range].to_vec(),
         }
     }
+}
+
+/// `‖v‖` without overflow or underflow: the plain sum of squares when it is safely in range
+/// (the common case, bit-identical to the naive formula), else scaled by the largest component.
+pub fn norm3(v: [f64; 3]) -> f64 {
+    let squares = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+    if squares.is_finite() && squares > f64::MIN_POSITIVE {
+        return squares.sqrt();
+    }
+    if v.iter().any(|c| c.is_nan()) {
+        return f64::NAN;
+    }
+    let scale = v.iter().fold(0.0f64, |m, c| m.max(c.abs()));
+    if scale == 0.0 || scale.is_infinite() {
+        return scale;
+    }
+    let [x, y, z] = v.map(|c| c / scale);
+    scale * (x * x + y * y + z * z).sqrt()
 }
 
 /// One or more fluxgates sampled together: the input of a design over several fluxgates.
@@ -140,5 +158,24 @@ impl<'a> From<&'a [VectorSeries]> for Fluxgates<'a> {
 impl<'a> From<&'a Vec<VectorSeries>> for Fluxgates<'a> {
     fn from(series: &'a Vec<VectorSeries>) -> Self {
         Fluxgates(series.iter().collect())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn magnitude_does_not_overflow_or_hide_nan() {
+        let b = VectorSeries::new(
+            vec![1e155, 3e-200, f64::NAN, 0.0, f64::INFINITY],
+            vec![0.0, 4e-200, 1.0, 0.0, 1.0],
+            vec![1e155, 0.0, 1.0, 0.0, 1.0],
+        );
+        assert!((b.magnitude(0) / (1e155 * 2f64.sqrt()) - 1.0).abs() < 1e-15);
+        assert!((b.magnitude(1) / 5e-200 - 1.0).abs() < 1e-15);
+        assert!(b.magnitude(2).is_nan());
+        assert_eq!(b.magnitude(3), 0.0);
+        assert_eq!(b.magnitude(4), f64::INFINITY);
     }
 }

@@ -8,6 +8,7 @@ use crate::error::{Error, Result};
 use crate::progress::Progress;
 use std::path::{Path, PathBuf};
 use tolles_core::compensate::stream::{Derivative, Output, Sample, ScalarSpec, StreamCompensator};
+use tolles_core::fit::scalar_usable;
 use tolles_core::signal::segment::GAP_FACTOR;
 use tolles_io::chunks::{ChunkReader, SpillReader};
 use tolles_io::IoError;
@@ -159,7 +160,7 @@ pub(super) fn level(
             if feed.load(&values, k) {
                 stream.split(&mut emit);
             }
-            let scalar_finite = feed.scalars.iter().map(|s| s.is_finite()).collect();
+            let scalar_finite = feed.scalars.iter().map(|s| scalar_usable(*s)).collect();
             feed.scalars.iter_mut().for_each(|s| *s = 0.0);
             stream.push(scalar_finite, Some(feed.sample()), Vec::new(), &mut emit);
         }

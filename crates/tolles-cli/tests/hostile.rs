@@ -1,0 +1,133 @@
+//! Hostile input (issue 11): absurd cells and parameters give a clear error or an
+//! uncomputable row, never a silently corrupt output, a hang or an unusable model.
+
+mod common;
+
+use common::tolles;
+
+use std::path::Path;
+use tempfile::TempDir;
+
+fn run(dir: &Path, args: &[&str]) -> (bool, String, String) {
+    let out = tolles().current_dir(dir).args(args).output().unwrap();
+    (
+        out.status.success(),
+        String::from_utf8(out.stdout).unwrap(),
+        String::from_utf8(out.stderr).unwrap(),
+    )
+}
+
+/// A simulated box flight `box.csv`, its model `m.json`, and `name` = the flight with `column`
+/// of data row `row` (1-based after the header) set to `value`.
+fn damaged(dir: &Path, name: &str, column: &str, row: usize, value: &str) {
+    if !dir.join("m.json").exists() {
+        let sim = [
+            "simulate", "--plan", "box", "--seed", "1", "--out", "box.csv",
+        ];
+        assert!(run(dir, &sim).0);
+        let fit = [
+            "fit", "box.csv", "--scalar", "mag_1_uc", "--vector", "flux_a", "--out", "m.json",
+        ];
+        assert!(run(dir, &fit).0);
+    }
+    let text = std::fs::read_to_string(dir.join("box.csv")).unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    let k = lines[0].split(',').position(|h| h == column).unwrap();
+    let mut cells: Vec<&str> = lines[row].split(',').collect();
+    cells[k] = value;
+    lines[row] = cells.join(",");
+    std::fs::write(dir.join(name), lines.join("\n") + "\n").unwrap();
+}
+
+fn fit(dir: &Path, file: &str, extra: &[&str]) -> (bool, String, String) {
+    let args = [
+        &[
+            "fit", file, "--scalar", "mag_1_uc", "--vector", "flux_a", "--out", "out.json",
+        ][..],
+        extra,
+    ]
+    .concat();
+    run(dir, &args)
+}
+
+#[test]
+fn an_overflowing_fluxgate_cell_is_an_error_in_compensate_and_fit() {
+    let dir = TempDir::new().unwrap();
+    damaged(dir.path(), "f.csv", "flux_a_x", 101, "1e155");
+    let args = ["compensate", "f.csv", "--model", "m.json", "--out", "o.csv"];
+    let (ok, _, err) = run(dir.path(), &args);
+    assert!(!ok);
+    assert!(err.contains("magnitude 1.000e155 nT is outside"), "{err}");
+    assert!(err.contains("line 102"), "{err}");
+    let (ok, _, err) = fit(dir.path(), "f.csv", &[]);
+    assert!(!ok);
+    assert!(err.contains("is outside 1,000–100,000 nT"), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+}
+
+#[test]
+fn a_scalar_spike_is_skipped_by_fit_and_uncomputable_in_compensate() {
+    let dir = TempDir::new().unwrap();
+    damaged(dir.path(), "s.csv", "mag_1_uc", 101, "1e300");
+    let (ok, _, err) = fit(dir.path(), "s.csv", &["--lambda", "0.001"]);
+    assert!(ok, "{err}");
+    let model = std::fs::read_to_string(dir.path().join("out.json")).unwrap();
+    let model: serde_json::Value = serde_json::from_str(&model).unwrap();
+    let coefficients = model["fits"][0]["coefficients"].as_array().unwrap();
+    assert!(coefficients.iter().all(|b| b.is_f64()), "{coefficients:?}");
+    let args = ["compensate", "s.csv", "--model", "m.json", "--out", "o.csv"];
+    let (ok, _, err) = run(dir.path(), &args);
+    assert!(ok, "{err}");
+    let out = std::fs::read_to_string(dir.path().join("o.csv")).unwrap();
+    let compensated = common::column(&out, "mag_1_c");
+    assert_eq!(compensated[100], None);
+    assert!(compensated.iter().flatten().all(|v| v.abs() < 1e6));
+    assert!(err.contains("1 of 4661 rows have no mag_1_c"), "{err}");
+}
+
+#[test]
+fn an_absurd_lambda_is_refused_at_once() {
+    let dir = TempDir::new().unwrap();
+    damaged(dir.path(), "f.csv", "flux_a_x", 101, "1e200");
+    let (ok, _, err) = fit(dir.path(), "f.csv", &["--lambda", "0.001"]);
+    assert!(!ok && err.contains("is outside"), "{err}");
+    let (ok, _, err) = fit(dir.path(), "box.csv", &["--lambda", "1e308"]);
+    assert!(!ok);
+    assert!(err.contains("ridge strength λ = 1e308"), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+}
+
+#[test]
+fn an_empty_fluxgate_column_or_time_column_is_named_for_what_it_is() {
+    let dir = TempDir::new().unwrap();
+    damaged(dir.path(), "f.csv", "flux_a_x", 101, "");
+    let text = std::fs::read_to_string(dir.path().join("box.csv")).unwrap();
+    let blank = |column: usize| -> String {
+        let mut lines = text.lines();
+        let header = lines.next().unwrap().to_string();
+        let rows = lines.map(|l| {
+            let mut cells: Vec<&str> = l.split(',').collect();
+            cells[column] = "";
+            cells.join(",")
+        });
+        std::iter::once(header)
+            .chain(rows)
+            .collect::<Vec<_>>()
+            .join("\n")
+            + "\n"
+    };
+    std::fs::write(dir.path().join("nox.csv"), blank(10)).unwrap();
+    let (ok, _, err) = fit(dir.path(), "nox.csv", &[]);
+    assert!(!ok);
+    assert!(
+        err.contains("column \"flux_a_x\" has no usable value"),
+        "{err}"
+    );
+    std::fs::write(dir.path().join("nott.csv"), blank(0)).unwrap();
+    let (ok, _, err) = fit(dir.path(), "nott.csv", &[]);
+    assert!(!ok);
+    assert!(
+        err.contains("time column \"tt\" has no two successive usable times"),
+        "{err}"
+    );
+}
