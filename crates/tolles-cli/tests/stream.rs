@@ -142,27 +142,7 @@ fn stream_over_tcp_equals_batch_up_to_a_constant_for_each_client() {
         dir.path(),
         &["compensate", "survey.csv", "--model", "m.json"],
     );
-    let mut server = std::process::Command::new(assert_cmd::cargo::cargo_bin("tolles"))
-        .current_dir(dir.path())
-        .args([
-            "stream",
-            "--model",
-            "m.json",
-            "--listen",
-            "127.0.0.1:0",
-            "--quiet",
-        ])
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut stderr = BufReader::new(server.stderr.take().unwrap());
-    let mut first = String::new();
-    stderr.read_line(&mut first).unwrap();
-    let address = first
-        .trim()
-        .strip_prefix("listening on ")
-        .unwrap_or_else(|| panic!("{first}"))
-        .to_string();
+    let (mut server, address) = listen(dir.path(), &["stream", "--model", "m.json", "--quiet"]);
     let clients: Vec<_> = (0..2)
         .map(|_| {
             let (address, survey) = (address.clone(), survey.clone());
@@ -224,21 +204,7 @@ fn a_hostile_tcp_client_ends_only_its_own_stream() {
         "--idle-timeout",
         "1",
     ];
-    let mut server = std::process::Command::new(assert_cmd::cargo::cargo_bin("tolles"))
-        .current_dir(dir.path())
-        .args(args)
-        .args(["--listen", "127.0.0.1:0"])
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut stderr = BufReader::new(server.stderr.take().unwrap());
-    let mut first = String::new();
-    stderr.read_line(&mut first).unwrap();
-    let address = first
-        .trim()
-        .strip_prefix("listening on ")
-        .unwrap()
-        .to_string();
+    let (mut server, address) = listen(dir.path(), &args);
     let mut long = format!("{header}\n").into_bytes();
     long.extend(std::iter::repeat_n(b'7', 3 << 20));
     let long = client(&address, long);
@@ -322,4 +288,25 @@ fn a_model_column_missing_from_the_header_is_a_one_line_error() {
         stderr.trim(),
         "error: stream on standard input: header has no column \"flux_a_y\""
     );
+}
+
+/// Starts `tolles ARGS --listen 127.0.0.1:0` in `dir`; returns the server and the address it
+/// says it listens on (the first line of its stderr).
+fn listen(dir: &std::path::Path, args: &[&str]) -> (std::process::Child, String) {
+    let mut server = std::process::Command::new(assert_cmd::cargo::cargo_bin("tolles"))
+        .current_dir(dir)
+        .args(args)
+        .args(["--listen", "127.0.0.1:0"])
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stderr = BufReader::new(server.stderr.take().unwrap());
+    let mut first = String::new();
+    stderr.read_line(&mut first).unwrap();
+    let address = first
+        .trim()
+        .strip_prefix("listening on ")
+        .unwrap_or_else(|| panic!("{first}"))
+        .to_string();
+    (server, address)
 }
