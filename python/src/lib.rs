@@ -383,16 +383,14 @@ fn plan(
             "without: expected roll, pitch or yaw, got {other:?}"
         ))),
     };
+    let builtin = |plan| -> PyResult<Maneuvers> {
+        let without = without.iter().map(axis).collect::<PyResult<_>>()?;
+        Ok(Maneuvers::Builtin { plan, without })
+    };
     let maneuvers = match (flight, maneuvers.trim().to_ascii_lowercase().as_str()) {
         (Some(path), _) => Maneuvers::Flown { path, vector },
-        (None, "box") | (None, "patent") => Maneuvers::Builtin {
-            plan: if maneuvers.trim().eq_ignore_ascii_case("box") {
-                BuiltinPlan::Box
-            } else {
-                BuiltinPlan::Patent
-            },
-            without: without.iter().map(axis).collect::<PyResult<_>>()?,
-        },
+        (None, "box") => builtin(BuiltinPlan::Box)?,
+        (None, "patent") => builtin(BuiltinPlan::Patent)?,
         (None, _) => Maneuvers::List(maneuvers),
     };
     let request = PlanRequest {
