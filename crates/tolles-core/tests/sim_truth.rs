@@ -24,6 +24,8 @@ fn settings(terms: &str, lambda: Lambda) -> FitSettings {
         order: 4,
         trim: 20,
         alternative_terms: Vec::new(),
+        magnitude: tolles_core::fit::MagnitudeChoice::Linear,
+        levels: false,
     }
 }
 

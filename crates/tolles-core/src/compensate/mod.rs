@@ -21,6 +21,7 @@ pub mod stream;
 
 use crate::fit::scalar_usable;
 use crate::model::design::Design;
+use crate::model::magnitude::{correction, Magnitude};
 use crate::model::terms::Column;
 use crate::model::vector::Fluxgates;
 use crate::signal::segment::contiguous_runs;
@@ -67,7 +68,41 @@ pub fn compensate<'a>(
     fs_ratio: f64,
     level: Level,
 ) -> Compensation {
-    let correction = aircraft_field(flux, tt, design, coefficients, fs_ratio);
+    compensate_model(
+        scalar,
+        flux,
+        tt,
+        Model {
+            design,
+            coefficients,
+            magnitude: Magnitude::Linear,
+        },
+        fs_ratio,
+        level,
+    )
+}
+
+/// A fitted model to apply: its design, coefficients and magnitude model.
+#[derive(Debug, Clone, Copy)]
+pub struct Model<'m> {
+    /// Terms and `Bt_scale`.
+    pub design: &'m Design,
+    /// One coefficient per column.
+    pub coefficients: &'m [f64],
+    /// Linear or exact (see [`crate::model::magnitude`]).
+    pub magnitude: Magnitude,
+}
+
+/// [`compensate`] with any magnitude model.
+pub fn compensate_model<'a>(
+    scalar: &[f64],
+    flux: impl Into<Fluxgates<'a>>,
+    tt: Option<&[f64]>,
+    model: Model<'_>,
+    fs_ratio: f64,
+    level: Level,
+) -> Compensation {
+    let correction = model_field(flux, tt, model, fs_ratio);
     let (correction, level_nt) = match level {
         Level::Fixed(v) => (correction.iter().map(|c| c - v).collect(), v),
         Level::FileMean => {
@@ -102,12 +137,32 @@ pub fn aircraft_field<'a>(
     coefficients: &[f64],
     fs_ratio: f64,
 ) -> Vec<f64> {
+    let model = Model {
+        design,
+        coefficients,
+        magnitude: Magnitude::Linear,
+    };
+    model_field(flux, tt, model, fs_ratio)
+}
+
+/// The model's correction (nT) for every sample, NaN where a fluxgate is not finite.
+pub fn model_field<'a>(
+    flux: impl Into<Fluxgates<'a>>,
+    tt: Option<&[f64]>,
+    model: Model<'_>,
+    fs_ratio: f64,
+) -> Vec<f64> {
     let flux = flux.into();
-    let beta = rescale_eddy(design, coefficients, fs_ratio);
+    let beta = rescale_eddy(model.design, model.coefficients, fs_ratio);
     let usable: Vec<bool> = (0..flux.len()).map(|k| flux.is_finite(k)).collect();
     let mut field = vec![f64::NAN; flux.len()];
     for run in contiguous_runs(&usable, tt) {
-        let part = design.apply(&flux.slice(run.clone()), &beta);
+        let part = match model.magnitude {
+            Magnitude::Exact if flux.count() == 1 => {
+                correction(Magnitude::Exact, model.design, &flux.series()[0].slice(run.clone()), &beta)
+            }
+            _ => model.design.apply(&flux.slice(run.clone()), &beta),
+        };
         field[run].copy_from_slice(&part);
     }
     field
@@ -120,7 +175,7 @@ pub fn rescale_eddy(design: &Design, coefficients: &[f64], fs_ratio: f64) -> Vec
         .iter()
         .zip(coefficients)
         .map(|(c, b)| match c {
-            Column::Eddy(..) => b * fs_ratio,
+            Column::Eddy(..) | Column::EddyTraceless(_) => b * fs_ratio,
             _ => *b,
         })
         .collect()

@@ -45,6 +45,7 @@
 
 use crate::compensate::adapt::{AdaptSettings, Adapter};
 use crate::compensate::rescale_eddy;
+use crate::model::magnitude::{exact_at, field_per_unit, Magnitude};
 use crate::fit::{scalar_usable, show_nt, FLUX_MAGNITUDE_RANGE_NT};
 use crate::model::design::Design;
 use crate::model::terms::Column;
@@ -148,6 +149,7 @@ pub struct ScalarSpec {
     columns: Vec<Column>,
     coefficients: Vec<f64>,
     level_nt: f64,
+    magnitude: Magnitude,
 }
 
 impl ScalarSpec {
@@ -173,7 +175,13 @@ impl ScalarSpec {
             coefficients: rescale_eddy(&design, coefficients, fs_ratio),
             design,
             level_nt,
+            magnitude: Magnitude::Linear,
         }
+    }
+
+    /// The same model applied with `magnitude` (linear unless set).
+    pub fn with_magnitude(self, magnitude: Magnitude) -> Self {
+        Self { magnitude, ..self }
     }
 
     /// The coefficients in use (eddy terms rescaled to the stream's rate).
@@ -181,10 +189,39 @@ impl ScalarSpec {
         &self.coefficients
     }
 
-    /// `A·β` (nT) for field `b` (nT) changing by `db` (nT/sample), using `row` as scratch.
+    /// The correction (nT) for field `b` (nT) changing by `db` (nT/sample): `A·β`, or the exact
+    /// `|B + H| − |B|`. Leaves in `row` the design row, or for the exact model the Jacobian row
+    /// (see [`crate::model::magnitude`]), which adaptation regresses on.
     fn field(&self, b: [f64; 3], db: [f64; 3], row: &mut [f64]) -> f64 {
-        self.design.row(&self.columns, b, db, row);
-        row.iter().zip(&self.coefficients).map(|(a, c)| a * c).sum()
+        match self.magnitude {
+            Magnitude::Linear => {
+                self.design.row(&self.columns, b, db, row);
+                row.iter().zip(&self.coefficients).map(|(a, c)| a * c).sum()
+            }
+            Magnitude::Exact => {
+                let (value, direction) =
+                    exact_at(&self.design, &self.columns, &self.coefficients, b, db);
+                for (r, column) in row.iter_mut().zip(&self.columns) {
+                    *r = field_per_unit(*column, b, db, self.design.bt_scale).map_or(1.0, |v| {
+                        direction[0] * v[0] + direction[1] * v[1] + direction[2] * v[2]
+                    });
+                }
+                value
+            }
+        }
+    }
+
+    /// The scalar (nT) an adapter should regress on `row` after [`ScalarSpec::field`]: the
+    /// scalar itself for a linear model; for the exact one, the Gauss-Newton target
+    /// `y − Δ(β) + J·β`.
+    fn adaptation_target(&self, scalar: f64, field: f64, row: &[f64]) -> f64 {
+        match self.magnitude {
+            Magnitude::Linear => scalar,
+            Magnitude::Exact => {
+                let linearised: f64 = row.iter().zip(&self.coefficients).map(|(a, c)| a * c).sum();
+                scalar - field + linearised
+            }
+        }
     }
 }
 
@@ -481,10 +518,12 @@ impl<T> StreamCompensator<T> {
             };
             let row = &mut self.row[..spec.columns.len()];
             let scalar = held.scalars[i];
-            self.values[i] = scalar - (spec.field(b, d, row) - spec.level_nt);
+            let field = spec.field(b, d, row);
+            self.values[i] = scalar - (field - spec.level_nt);
             if let Some(adapter) = self.adapters.get_mut(i) {
+                let target = spec.adaptation_target(scalar, field, row);
                 // Adapt after use, so a sample's output never depends on itself.
-                if scalar.is_finite() && adapter.update(row, scalar) {
+                if scalar.is_finite() && adapter.update(row, target) {
                     spec.coefficients.copy_from_slice(adapter.coefficients());
                 }
             }

@@ -39,11 +39,14 @@
 //! filtered and trimmed on its own, so no derivative or filter reaches across a hole.
 
 pub mod crossval;
+pub mod levels;
 pub mod ridge;
 
 use crate::fit::crossval::{cross_validate, penalty, CrossValidation, DEFAULT_FOLDS, LAMBDA_GRID};
+use crate::fit::levels::{LevelDiagnostics, LevelRows, LowFrequency, Reference};
 use crate::fit::ridge::{Ridge, RidgeError, RidgeSolution};
 use crate::model::design::{Design, Term};
+use crate::model::magnitude::{correction, exact_jacobian, Magnitude};
 use crate::model::terms::TermSet;
 use crate::model::vector::{Fluxgates, VectorSeries};
 use crate::signal::filter::{Butterworth, FilterError};
@@ -122,20 +125,50 @@ pub struct FitSettings {
     /// field's own variations through the fluxgate's magnitude.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub alternative_terms: Vec<TermSet>,
+    /// Which magnitude models to fit (see [`crate::model::magnitude`]).
+    #[serde(default)]
+    pub magnitude: MagnitudeChoice,
+    /// Also fit the heading levels: low-frequency rows against the calibrated fluxgate's
+    /// magnitude (see [`crate::fit::levels`]); one fluxgate only.
+    #[serde(default)]
+    pub levels: bool,
 }
+
+/// Which magnitude model a fit makes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MagnitudeChoice {
+    /// Tolles-Lawson's linear `B̂·H` (MagNav).
+    #[default]
+    Linear,
+    /// The exact `|B + H| − |B|`, by Gauss-Newton from the linear fit (one fluxgate).
+    Exact,
+    /// Both; the one that predicts held-out data better (with a fixed λ, the one with the
+    /// smaller residual: both have the same number of coefficients).
+    Auto,
+}
+
+/// Gauss-Newton iterations of the exact fit at most.
+const EXACT_ITERATIONS: usize = 8;
+
+/// Relative change of the coefficients below which the exact fit has converged.
+const EXACT_TOLERANCE: f64 = 1e-7;
 
 /// Relative improvement of held-out RMS an alternative term set needs over `design.terms`.
 pub const TERM_CHOICE_MARGIN: f64 = 0.02;
 
 impl FitSettings {
-    /// What `tolles fit` does by default: the 16 identifiable terms, or MagNav's 18 if
-    /// cross-validation finds them clearly better, λ by cross-validation, otherwise MagNav's
-    /// filter and trim.
+    /// What `tolles fit` does by default: the patent's 16 traceless terms, or MagNav's 18 if
+    /// cross-validation finds them clearly better; λ by cross-validation; the exact magnitude
+    /// when it predicts held-out data better; heading levels from the calibrated fluxgate;
+    /// otherwise MagNav's filter and trim.
     pub fn recommended() -> Self {
         Self {
-            design: Design::new(TermSet::identifiable()),
+            design: Design::new(TermSet::patent()),
             lambda: Lambda::auto(),
             alternative_terms: vec![TermSet::magnav_default()],
+            magnitude: MagnitudeChoice::Auto,
+            levels: true,
             ..Self::magnav()
         }
     }
@@ -162,6 +195,8 @@ impl FitSettings {
             order: 4,
             trim: 20,
             alternative_terms: Vec::new(),
+            magnitude: MagnitudeChoice::Linear,
+            levels: false,
         }
     }
 }
@@ -248,6 +283,12 @@ pub struct Diagnostics {
     /// Standard error of each coefficient (coefficient units), from the ridge sandwich
     /// covariance `σ²·G⁻¹AᵀAG⁻¹`, `G = AᵀA + λI`.
     pub std_errors: Vec<f64>,
+    /// How the heading levels were fitted, when they were.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub levels: Option<LevelDiagnostics>,
+    /// Gauss-Newton iterations of the exact fit (0 for a linear model).
+    #[serde(default)]
+    pub exact_iterations: usize,
 }
 
 /// How well one candidate term set predicted held-out data.
@@ -255,6 +296,9 @@ pub struct Diagnostics {
 pub struct TermScore {
     /// The term set.
     pub terms: TermSet,
+    /// The magnitude model.
+    #[serde(default)]
+    pub magnitude: Magnitude,
     /// Its cross-validated relative ridge strength, `None` if it could not be fitted.
     pub lambda_rel: Option<f64>,
     /// Its held-out RMS (nT), `None` if it could not be fitted.
@@ -270,6 +314,9 @@ pub struct Fit {
     pub settings: FitSettings,
     /// Sample rate (Hz) of the calibration data; eddy coefficients are per sample at this rate.
     pub fs_hz: f64,
+    /// How the model's field enters the scalar (absent in files before version 2: linear).
+    #[serde(default)]
+    pub magnitude: Magnitude,
     /// Names of the columns, in order (see [`Design::column_names`]).
     pub columns: Vec<String>,
     /// One coefficient per column (nT per unit of the column).
@@ -301,45 +348,53 @@ pub fn fit<'a>(
         .map(|k| scalar_usable(scalar[k]) && flux.is_finite(k))
         .collect();
     check_not_constant(scalar, flux.series()[0], &usable)?;
-    let filter = settings.band.butterworth(settings.order, fs_hz)?;
+    let problem = Problem {
+        scalar,
+        flux: &flux,
+        runs: contiguous_runs(&usable, tt),
+        filter: settings.band.butterworth(settings.order, fs_hz)?,
+        settings,
+    };
     let designs = settings.candidate_designs();
     let union = union_of_terms(&designs);
-    let mut prepared = Vec::new();
-    let mut short = 0;
-    for run in contiguous_runs(&usable, tt) {
-        match prepare_run(
-            scalar,
-            &flux,
-            run.clone(),
-            filter.as_ref(),
-            settings,
-            &union,
-        )? {
-            Some(rows) => prepared.push(rows),
-            None => short += run.len(),
-        }
+    let linear = |run: Range<usize>, reference: Option<&[f64]>| {
+        let a = settings.design.matrix_of(&flux.slice(run.clone()), &union);
+        let y = scalar[run].to_vec();
+        let level = reference.map_or_else(Vec::new, |r| difference(&y, r));
+        (a, y, level)
+    };
+    let band_only = problem.rows(&linear, None)?;
+    let mut chosen = choose_design(&band_only.rows, &designs, &union, settings.lambda)?;
+    let mut levels = problem.level_setup(&usable, fs_hz, tt)?;
+    if let Some(setup) = levels.as_mut() {
+        chosen = problem.choose_with_levels(setup, &chosen, |setup| {
+            let prepared = problem.rows(&linear, Some(setup))?;
+            Ok((choose_design(&prepared.rows, &designs, &union, settings.lambda)?, prepared.levels))
+        })?;
     }
-    let chosen = choose_design(&prepared, &designs, &union, settings.lambda)?;
-    let design = &designs[chosen.index];
-    let mut before = RunningStd::default();
-    prepared
-        .iter()
-        .flat_map(|(_, y)| y)
-        .for_each(|v| before.push(*v));
-    let level_nt = mean_correction(&flux, &usable, tt, design, &chosen.solution.coefficients);
-    let diagnostics = diagnostics(
+    let design = designs[chosen.index].clone();
+    let exact = problem.exact(&design, &chosen, levels.as_mut())?;
+    let (magnitude, chosen, iterations) = match exact {
+        Some((exact, iterations)) => pick_magnitude(chosen, exact, iterations, settings.magnitude),
+        None => (Magnitude::Linear, chosen, 0),
+    };
+    let before = band_std(&band_only.rows);
+    let level_nt = mean_correction(&flux, &usable, tt, &design, magnitude, &chosen.solution.coefficients);
+    let mut diagnostics = diagnostics(
         &chosen.solution,
         DiagnosticCounts {
             total: scalar.len(),
             nonfinite: usable.iter().filter(|u| !**u).count(),
-            short,
-            runs_used: prepared.len(),
-            before_std: before.std(),
+            short: band_only.short,
+            runs_used: band_only.rows.len(),
+            before_std: before,
             fraction: passband_fraction(settings.band, fs_hz),
         },
         chosen.cross_validation,
         chosen.scores,
     );
+    diagnostics.levels = levels.map(|l| l.diagnostics(&chosen.solution.coefficients));
+    diagnostics.exact_iterations = iterations;
     check_finite(&chosen.solution.coefficients, &diagnostics)?;
     Ok(Fit {
         settings: FitSettings {
@@ -347,11 +402,276 @@ pub fn fit<'a>(
             ..settings.clone()
         },
         fs_hz,
+        magnitude,
         columns: design.column_names(&[]),
         coefficients: chosen.solution.coefficients,
         level_nt,
         diagnostics,
     })
+}
+
+/// `a − b`, element by element.
+fn difference(a: &[f64], b: &[f64]) -> Vec<f64> {
+    a.iter().zip(b).map(|(x, y)| x - y).collect()
+}
+
+/// Standard deviation of all band-passed targets (nT).
+fn band_std(rows: &[Rows]) -> f64 {
+    let mut before = RunningStd::default();
+    rows.iter().flat_map(|(_, y)| y).for_each(|v| before.push(*v));
+    before.std()
+}
+
+/// The linear or the exact fit, as `choice` says; with `Auto`, the exact one when it predicts
+/// held-out data at least as well. The exact fit's score joins the term scores.
+fn pick_magnitude(
+    linear: Chosen,
+    exact: Chosen,
+    iterations: usize,
+    choice: MagnitudeChoice,
+) -> (Magnitude, Chosen, usize) {
+    let use_exact = match choice {
+        MagnitudeChoice::Linear => false,
+        MagnitudeChoice::Exact => true,
+        MagnitudeChoice::Auto => score(&exact) <= score(&linear),
+    };
+    let mut scores = linear.scores.clone();
+    if scores.is_empty() {
+        scores.push(term_score(&linear, false));
+    }
+    scores.iter_mut().for_each(|s| s.chosen &= !use_exact);
+    scores.push(TermScore {
+        magnitude: Magnitude::Exact,
+        ..term_score(&exact, use_exact)
+    });
+    let (magnitude, mut chosen, iterations) = if use_exact {
+        (Magnitude::Exact, exact, iterations)
+    } else {
+        (Magnitude::Linear, linear, 0)
+    };
+    chosen.scores = scores;
+    (magnitude, chosen, iterations)
+}
+
+/// Held-out RMS when λ was cross-validated, else the in-sample RMS (nT).
+fn score(chosen: &Chosen) -> f64 {
+    match &chosen.cross_validation {
+        Some(cv) => cv.expected_heldout_rms_nt,
+        None => (chosen.solution.rss / chosen.solution.rows.max(1) as f64).sqrt(),
+    }
+}
+
+fn term_score(chosen: &Chosen, is_chosen: bool) -> TermScore {
+    TermScore {
+        terms: chosen.terms,
+        magnitude: Magnitude::Linear,
+        lambda_rel: chosen.cross_validation.as_ref().map(|c| c.chosen_lambda_rel),
+        heldout_rms_nt: chosen.cross_validation.as_ref().map(|c| c.expected_heldout_rms_nt),
+        chosen: is_chosen,
+    }
+}
+
+/// Unfiltered design columns, band target and level target of one run.
+type RunInputs = (DMatrix<f64>, Vec<f64>, Vec<f64>);
+
+/// One calibration flight, cut into runs, and how to fit it.
+struct Problem<'p, 'a> {
+    scalar: &'p [f64],
+    flux: &'p Fluxgates<'a>,
+    runs: Vec<Range<usize>>,
+    filter: Option<Butterworth>,
+    settings: &'p FitSettings,
+}
+
+/// Rows of every run ready for the folds, and the level rows they hold.
+struct Prepared {
+    rows: Vec<Rows>,
+    levels: Vec<LevelRows>,
+    short: usize,
+}
+
+/// What the heading levels need: the reference, the low-pass, and the weight of their rows.
+struct LevelSetup {
+    reference: Reference,
+    low: LowFrequency,
+    /// Expected scatter of a level row (nT).
+    sigma_nt: f64,
+    /// Scatter of a band row (nT).
+    band_sigma_nt: f64,
+    /// Level rows of the last preparation (centred, unweighted), to measure the misfit.
+    rows: Vec<LevelRows>,
+}
+
+impl LevelSetup {
+    fn weight(&self) -> f64 {
+        self.band_sigma_nt / self.sigma_nt
+    }
+
+    fn diagnostics(&self, beta: &[f64]) -> LevelDiagnostics {
+        let count: usize = self.rows.iter().map(|r| r.y.len()).sum();
+        let misfit = levels::rms_misfit(&self.rows, beta);
+        LevelDiagnostics {
+            fluxgate: self.reference.calibration.clone(),
+            rows: count,
+            cutoff_hz: self.low.cutoff_hz,
+            residual_rms_nt: misfit,
+            level_std_error_nt: misfit / (count as f64 / 4.0).max(1.0).sqrt(),
+            weight: self.weight(),
+        }
+    }
+}
+
+impl Problem<'_, '_> {
+    /// Band rows (and, with `levels`, interleaved level rows) of every run long enough.
+    fn rows(
+        &self,
+        make: &dyn Fn(Range<usize>, Option<&[f64]>) -> RunInputs,
+        levels: Option<&LevelSetup>,
+    ) -> Result<Prepared, FitError> {
+        let trim = if self.filter.is_some() { self.settings.trim } else { 0 };
+        let needed = self.filter.as_ref().map_or(0, |f| f.padlen() + 1).max(2 * trim + 1);
+        let mut band = Vec::new();
+        let mut level_rows = Vec::new();
+        let mut short = 0;
+        for run in &self.runs {
+            if run.len() < needed {
+                short += run.len();
+                continue;
+            }
+            let reference = levels.map(|l| levels::reference_over(&l.reference, run.clone()));
+            let (mut a, mut y, level_target) = make(run.clone(), reference);
+            if let Some(setup) = levels {
+                let found = setup.low.rows(a.clone(), level_target)?;
+                level_rows.push(found.map_or_else(
+                    || LevelRows {
+                        a: DMatrix::zeros(0, a.ncols()),
+                        y: Vec::new(),
+                        at: Vec::new(),
+                    },
+                    |(a, y, at)| LevelRows { a, y, at },
+                ));
+            }
+            let n = y.len();
+            if let Some(f) = &self.filter {
+                let mut signals: Vec<&mut [f64]> = a.as_mut_slice().chunks_mut(n).collect();
+                signals.push(&mut y);
+                crate::signal::filter::filtfilt_many_unless_constant(f, &mut signals)?;
+            }
+            band.push((a.rows(trim, n - 2 * trim).into_owned(), y[trim..n - trim].to_vec()));
+        }
+        let Some(setup) = levels else {
+            return Ok(Prepared { rows: band, levels: Vec::new(), short });
+        };
+        levels::centre(&mut level_rows);
+        let weight = setup.weight();
+        let rows = band
+            .into_iter()
+            .zip(&level_rows)
+            .map(|(b, l)| levels::interleave(b, trim, Some(l), weight))
+            .collect();
+        Ok(Prepared { rows, levels: level_rows, short })
+    }
+
+    /// The reference and low-pass for heading levels, when the settings ask for them and the
+    /// fluxgate can be calibrated.
+    fn level_setup(
+        &self,
+        usable: &[bool],
+        fs_hz: f64,
+        tt: Option<&[f64]>,
+    ) -> Result<Option<LevelSetup>, FitError> {
+        let s = self.settings;
+        if !s.levels || self.flux.count() != 1 {
+            return Ok(None);
+        }
+        let Some(low) = LowFrequency::new(s.band, s.order, s.trim, fs_hz)? else {
+            return Ok(None);
+        };
+        let Some(reference) = levels::reference(self.flux.series()[0], usable, fs_hz, tt, s) else {
+            return Ok(None);
+        };
+        // White noise of the reference, seen through the low-pass instead of the band.
+        let width = (s.band.pass2_hz.min(fs_hz / 2.0) - s.band.pass1_hz).max(low.cutoff_hz);
+        let sigma_nt = (reference.calibration.residual_std_nt * (low.cutoff_hz / width).sqrt()).max(1e-3);
+        Ok(Some(LevelSetup {
+            reference,
+            low,
+            sigma_nt,
+            band_sigma_nt: f64::NAN,
+            rows: Vec::new(),
+        }))
+    }
+
+    /// Refits with the level rows: first weighted by the reference's expected noise, then, if
+    /// the rows scatter more than that about the fit, once more with their measured scatter.
+    fn choose_with_levels(
+        &self,
+        setup: &mut LevelSetup,
+        band_only: &Chosen,
+        solve: impl Fn(&LevelSetup) -> Result<(Chosen, Vec<LevelRows>), FitError>,
+    ) -> Result<Chosen, FitError> {
+        let s = &band_only.solution;
+        setup.band_sigma_nt = (s.rss / s.rows.max(1) as f64).sqrt().max(1e-6);
+        let (mut chosen, rows) = solve(setup)?;
+        setup.rows = rows;
+        let misfit = levels::rms_misfit(&setup.rows, &chosen.solution.coefficients);
+        if misfit > 1.5 * setup.sigma_nt {
+            setup.sigma_nt = misfit;
+            let (again, rows) = solve(setup)?;
+            chosen = again;
+            setup.rows = rows;
+        }
+        Ok(chosen)
+    }
+
+    /// The exact-magnitude fit of `design` by Gauss-Newton from the linear solution, when the
+    /// settings ask for it and the design has one fluxgate.
+    fn exact(
+        &self,
+        design: &Design,
+        linear: &Chosen,
+        mut levels: Option<&mut LevelSetup>,
+    ) -> Result<Option<(Chosen, usize)>, FitError> {
+        if self.settings.magnitude == MagnitudeChoice::Linear || design.fluxgates != 1 {
+            return Ok(None);
+        }
+        let terms = design.design_terms();
+        let designs = [design.clone()];
+        let series = self.flux.series()[0];
+        let mut beta = linear.solution.coefficients.clone();
+        let mut best: Option<Chosen> = None;
+        for iteration in 1..=EXACT_ITERATIONS {
+            let current = beta.clone();
+            let make = |run: Range<usize>, reference: Option<&[f64]>| {
+                let (delta, j) = exact_jacobian(design, &series.slice(run.clone()), &current, &terms);
+                let linearised = &j * nalgebra::DVector::from_column_slice(&current);
+                let y: Vec<f64> = (0..run.len())
+                    .map(|k| self.scalar[run.start + k] - delta[k] + linearised[k])
+                    .collect();
+                let level = reference.map_or_else(Vec::new, |r| difference(&y, r));
+                (j, y, level)
+            };
+            let prepared = self.rows(&make, levels.as_deref())?;
+            let chosen = choose_design(&prepared.rows, &designs, &terms, self.settings.lambda)?;
+            if let Some(setup) = levels.as_deref_mut() {
+                setup.rows = prepared.levels;
+            }
+            let step = relative_change(&beta, &chosen.solution.coefficients);
+            beta = chosen.solution.coefficients.clone();
+            best = Some(chosen);
+            if step < EXACT_TOLERANCE {
+                return Ok(best.map(|b| (b, iteration)));
+            }
+        }
+        Ok(best.map(|b| (b, EXACT_ITERATIONS)))
+    }
+}
+
+/// `‖a − b‖ / ‖b‖`.
+fn relative_change(a: &[f64], b: &[f64]) -> f64 {
+    let diff: f64 = a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum();
+    let size: f64 = b.iter().map(|y| y * y).sum();
+    (diff / size.max(f64::MIN_POSITIVE)).sqrt()
 }
 
 /// Refuses a fit that overflowed: a model with NaN coefficients would be refused only later,
@@ -381,8 +701,10 @@ fn union_of_terms(designs: &[Design]) -> Vec<Term> {
 }
 
 /// The candidate design that won, its solution and the scores of all candidates.
+#[derive(Clone)]
 struct Chosen {
     index: usize,
+    terms: TermSet,
     solution: RidgeSolution,
     cross_validation: Option<CrossValidation>,
     scores: Vec<TermScore>,
@@ -448,6 +770,7 @@ fn choose_design(
                 let cv = found.and_then(|k| solved[k].1 .1.as_ref());
                 TermScore {
                     terms: design.terms,
+                    magnitude: Magnitude::Linear,
                     lambda_rel: cv.map(|c| c.chosen_lambda_rel),
                     heldout_rms_nt: cv.map(|c| c.expected_heldout_rms_nt),
                     chosen: found == Some(best),
@@ -460,6 +783,7 @@ fn choose_design(
     let (index, (solution, cross_validation)) = solved.swap_remove(best);
     Ok(Chosen {
         index,
+        terms: designs[index].terms,
         solution,
         cross_validation,
         scores,
@@ -621,45 +945,24 @@ fn never_usable(scalar: &[f64], flux: &VectorSeries) -> String {
 /// Filtered, trimmed design rows and their scalar targets.
 type Rows = (DMatrix<f64>, Vec<f64>);
 
-/// Design, filter and trim one run; `None` if it is too short.
-fn prepare_run(
-    scalar: &[f64],
-    flux: &Fluxgates,
-    run: Range<usize>,
-    filter: Option<&Butterworth>,
-    settings: &FitSettings,
-    terms: &[Term],
-) -> Result<Option<Rows>, FitError> {
-    let trim = if filter.is_some() { settings.trim } else { 0 };
-    let needed = filter.map_or(0, |f| f.padlen() + 1).max(2 * trim + 1);
-    if run.len() < needed {
-        return Ok(None);
-    }
-    let mut a = settings.design.matrix_of(&flux.slice(run.clone()), terms);
-    let mut y = scalar[run].to_vec();
-    let n = y.len();
-    if let Some(f) = filter {
-        let mut signals: Vec<&mut [f64]> = a.as_mut_slice().chunks_mut(n).collect();
-        signals.push(&mut y);
-        crate::signal::filter::filtfilt_many_unless_constant(f, &mut signals)?;
-    }
-    let a = a.rows(trim, n - 2 * trim).into_owned();
-    let y = y[trim..n - trim].to_vec();
-    Ok(Some((a, y)))
-}
-
-/// Mean of the unfiltered correction `A·β` over the usable samples (nT).
+/// Mean of the unfiltered correction over the usable samples (nT).
 fn mean_correction(
     flux: &Fluxgates,
     usable: &[bool],
     tt: Option<&[f64]>,
     design: &Design,
+    magnitude: Magnitude,
     coefficients: &[f64],
 ) -> f64 {
     let mut sum = 0.0;
     let mut count = 0usize;
     for run in contiguous_runs(usable, tt) {
-        let correction = design.apply(&flux.slice(run), coefficients);
+        let correction = match magnitude {
+            Magnitude::Linear => design.apply(&flux.slice(run), coefficients),
+            Magnitude::Exact => {
+                correction(magnitude, design, &flux.series()[0].slice(run), coefficients)
+            }
+        };
         sum += correction.iter().sum::<f64>();
         count += correction.len();
     }
@@ -745,6 +1048,8 @@ fn diagnostics(
         cross_validation,
         term_choice,
         std_errors: solution.std_errors(sigma2),
+        levels: None,
+        exact_iterations: 0,
     }
 }
 

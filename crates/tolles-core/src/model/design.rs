@@ -131,10 +131,13 @@ impl Design {
     }
 
     fn value(&self, column: Column, unit: [f64; 3], b: [f64; 3], db: [f64; 3]) -> f64 {
+        let s = self.bt_scale;
         match column {
             Column::Permanent(i) => unit[i.index()],
-            Column::Induced(i, j) => unit[i.index()] * b[j.index()] / self.bt_scale,
-            Column::Eddy(i, j) => unit[i.index()] * db[j.index()] / self.bt_scale,
+            Column::Induced(i, j) => unit[i.index()] * b[j.index()] / s,
+            Column::Eddy(i, j) => unit[i.index()] * db[j.index()] / s,
+            Column::InducedTraceless(a) => traceless(unit, b, a.index()) / s,
+            Column::EddyTraceless(a) => traceless(unit, db, a.index()) / s,
             Column::Bias => 1.0,
         }
     }
@@ -163,6 +166,8 @@ impl Design {
                 Column::Permanent(i) => out.copy_from_slice(&c.unit[i.index()]),
                 Column::Induced(i, j) => scaled(out, &c.unit[i.index()], c.b[j.index()]),
                 Column::Eddy(i, j) => scaled(out, &c.unit[i.index()], &c.db[j.index()]),
+                Column::InducedTraceless(a) => c.traceless(out, false, a.index(), self.bt_scale),
+                Column::EddyTraceless(a) => c.traceless(out, true, a.index(), self.bt_scale),
                 Column::Bias => out.fill(1.0),
             }
         }
@@ -208,6 +213,12 @@ impl Design {
                 }
                 Column::Induced(i, j) => add(&mut out, &c.unit[i.index()], c.b[j.index()], beta),
                 Column::Eddy(i, j) => add(&mut out, &c.unit[i.index()], &c.db[j.index()], beta),
+                Column::InducedTraceless(a) | Column::EddyTraceless(a) => {
+                    let mut column = vec![0.0; out.len()];
+                    let eddy = matches!(term.column, Column::EddyTraceless(_));
+                    c.traceless(&mut column, eddy, a.index(), self.bt_scale);
+                    out.iter_mut().zip(&column).for_each(|(o, v)| *o += v * beta);
+                }
                 Column::Bias => out.iter_mut().for_each(|o| *o += beta),
             }
         }
@@ -223,6 +234,15 @@ struct Components<'a> {
 }
 
 impl<'a> Components<'a> {
+    /// Writes the traceless column `(B̂·v/3 − B̂a·va) / s` with v = B, or Ḃ when `eddy`.
+    fn traceless(&self, out: &mut [f64], eddy: bool, a: usize, s: f64) {
+        for (k, o) in out.iter_mut().enumerate() {
+            let v = |i: usize| if eddy { self.db[i][k] } else { self.b[i][k] };
+            let unit = [0, 1, 2].map(|i| self.unit[i][k]);
+            *o = traceless(unit, [v(0), v(1), v(2)], a) / s;
+        }
+    }
+
     fn of(flux: &'a VectorSeries) -> Self {
         let b = [flux.x.as_slice(), flux.y.as_slice(), flux.z.as_slice()];
         let norm: Vec<f64> = (0..flux.len()).map(|k| flux.magnitude(k)).collect();
@@ -232,6 +252,11 @@ impl<'a> Components<'a> {
             unit: b.map(|c| c.iter().zip(&norm).map(|(v, m)| v / m).collect()),
         }
     }
+}
+
+/// `û·v/3 − ûa·va`: the projection on û of the traceless field `(1/3 − e_a e_aᵀ)·v`.
+fn traceless(unit: [f64; 3], v: [f64; 3], a: usize) -> f64 {
+    (unit[0] * v[0] + unit[1] * v[1] + unit[2] * v[2]) / 3.0 - unit[a] * v[a]
 }
 
 fn unit_vector(b: [f64; 3]) -> [f64; 3] {

@@ -53,6 +53,8 @@ impl AircraftField {
     pub fn from_coefficients(design: &Design, coefficients: &[f64], fs_hz: f64) -> Self {
         let s = design.bt_scale;
         let mut field = Self::default();
+        // `zz − xx` and `zz − yy` of the induced and eddy matrices, when the design has them.
+        let mut traceless = [[f64::NAN; 2]; 2];
         for (term, beta) in design.design_terms().iter().zip(coefficients) {
             if term.fluxgate != 0 {
                 continue;
@@ -65,9 +67,13 @@ impl AircraftField {
                     field.induced[j.index()][i.index()] = beta / (2.0 * s);
                 }
                 Column::Eddy(i, j) => field.eddy_s[i.index()][j.index()] = beta / (s * fs_hz),
+                Column::InducedTraceless(a) => traceless[0][a.index()] = beta / s,
+                Column::EddyTraceless(a) => traceless[1][a.index()] = beta / (s * fs_hz),
                 Column::Bias => field.bias_nt = *beta,
             }
         }
+        set_traceless_diagonal(&mut field.induced, traceless[0]);
+        set_traceless_diagonal(&mut field.eddy_s, traceless[1]);
         field
     }
 
@@ -87,6 +93,8 @@ impl AircraftField {
                     s * (self.induced[i.index()][j.index()] + self.induced[j.index()][i.index()])
                 }
                 Column::Eddy(i, j) => s * fs_hz * self.eddy_s[i.index()][j.index()],
+                Column::InducedTraceless(a) => s * zz_minus(&self.induced, a.index()),
+                Column::EddyTraceless(a) => s * fs_hz * zz_minus(&self.eddy_s, a.index()),
                 Column::Bias => self.bias_nt,
             })
             .collect()
@@ -97,6 +105,22 @@ impl AircraftField {
     pub fn patent_terms(&self) -> PatentTerms {
         PatentTerms::from_values(Term::OBSERVABLE.map(|t| t.value(self)))
     }
+}
+
+/// `m[z][z] − m[a][a]`.
+fn zz_minus(m: &[[f64; 3]; 3], a: usize) -> f64 {
+    m[2][2] - m[a][a]
+}
+
+/// Sets a traceless diagonal from `zz − xx` and `zz − yy` (left alone when not fitted).
+fn set_traceless_diagonal(m: &mut [[f64; 3]; 3], [zx, zy]: [f64; 2]) {
+    if zx.is_nan() || zy.is_nan() {
+        return;
+    }
+    let zz = (zx + zy) / 3.0;
+    m[2][2] = zz;
+    m[0][0] = zz - zx;
+    m[1][1] = zz - zy;
 }
 
 /// The patent's perm terms (nT): T along y (right), L along x (forward), V along z (down).
@@ -210,6 +234,22 @@ mod tests {
         for (u, v) in beta.iter().zip(&back) {
             assert!((u - v).abs() < 1e-9);
         }
+    }
+
+    #[test]
+    fn traceless_coefficients_round_trip_and_read_as_patent_terms() {
+        let design = Design::new("patent".parse().unwrap());
+        let beta: Vec<f64> = (0..16).map(|k| k as f64 * 7.0 - 40.0).collect();
+        let field = AircraftField::from_coefficients(&design, &beta, 10.0);
+        let trace: f64 = (0..3).map(|k| field.induced[k][k]).sum();
+        assert!(trace.abs() < 1e-15);
+        let back = field.to_coefficients(&design, 10.0);
+        for (u, v) in beta.iter().zip(&back) {
+            assert!((u - v).abs() < 1e-9, "{u} {v}");
+        }
+        // VV−LL is the `zz − xx` column's coefficient over Bt_scale.
+        let vv_ll = field.patent_terms().induced.vv_ll;
+        assert!((vv_ll - beta[3] / 50_000.0).abs() < 1e-15);
     }
 
     #[test]

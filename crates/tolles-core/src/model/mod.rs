@@ -4,5 +4,6 @@
 pub mod conventions;
 pub mod design;
 pub mod interpret;
+pub mod magnitude;
 pub mod terms;
 pub mod vector;

@@ -47,6 +47,11 @@ pub enum InducedTerms {
     Five,
     /// `i3`: the diagonal xx, yy, zz.
     Three,
+    /// `it`: the patent's five traceless combinations, the only ones a scalar magnetometer can
+    /// see: VV−LL and VV−TT (`zz−xx`, `zz−yy`) and TL+LT, LV+VL, TV+VT (`xy`, `xz`, `yz`).
+    /// A ridge shrinks them towards an isotropic induced field, not towards `I_zz = 0` as `i5`
+    /// implicitly does.
+    Traceless,
 }
 
 /// Which eddy-current columns `B̂i·Ḃj / Bt_scale` to use (Ḃ per sample).
@@ -58,6 +63,9 @@ pub enum EddyTerms {
     Eight,
     /// `e3`: the diagonal xx, yy, zz.
     Three,
+    /// `et`: the patent's eight traceless combinations: VV−LL and VV−TT (`zz−xx`, `zz−yy`) and
+    /// the six off-diagonal terms.
+    Traceless,
 }
 
 /// One column of the design matrix.
@@ -69,6 +77,12 @@ pub enum Column {
     Induced(Axis, Axis),
     /// `B̂i·Ḃj / Bt_scale` with Ḃ in nT per sample: eddy-current field.
     Eddy(Axis, Axis),
+    /// `(|B|/3 − B̂a·Ba) / Bt_scale`: the traceless induced combination `zz − aa` (patent VV−LL
+    /// for a = x, VV−TT for a = y); coefficient `Bt_scale·(I_zz − I_aa)`.
+    InducedTraceless(Axis),
+    /// `(B̂·Ḃ/3 − B̂a·Ḃa) / Bt_scale`, Ḃ per sample: the traceless eddy combination `zz − aa`;
+    /// coefficient `Bt_scale·fs·(E_zz − E_aa)`.
+    EddyTraceless(Axis),
     /// A column of ones (coefficient in nT).
     Bias,
 }
@@ -79,6 +93,8 @@ impl fmt::Display for Column {
             Column::Permanent(i) => write!(f, "perm_{}", i.letter()),
             Column::Induced(i, j) => write!(f, "induced_{}{}", i.letter(), j.letter()),
             Column::Eddy(i, j) => write!(f, "eddy_{}{}", i.letter(), j.letter()),
+            Column::InducedTraceless(a) => write!(f, "induced_zz-{0}{0}", a.letter()),
+            Column::EddyTraceless(a) => write!(f, "eddy_zz-{0}{0}", a.letter()),
             Column::Bias => write!(f, "bias"),
         }
     }
@@ -101,7 +117,7 @@ pub struct TermSet {
 /// A term list that cannot be understood.
 #[derive(Debug, Clone, Error, PartialEq, Eq)]
 pub enum TermsError {
-    #[error("unknown term {0:?}; use permanent|p, induced|i, i5, i3, eddy|e, e8, e3, bias|b")]
+    #[error("unknown term {0:?}; use patent, permanent|p, induced|i, it, i5, i3, eddy|e, et, e8, e3, bias|b")]
     Unknown(String),
     #[error("term {0:?} given twice or together with another {1} set; choose one")]
     Repeated(String, &'static str),
@@ -131,6 +147,17 @@ impl TermSet {
         }
     }
 
+    /// The patent's 16 terms in their own traceless form (`patent`, i.e. `permanent,it,et`):
+    /// what `tolles fit` uses by default for one fluxgate.
+    pub fn patent() -> Self {
+        Self {
+            permanent: true,
+            induced: Some(InducedTerms::Traceless),
+            eddy: Some(EddyTerms::Traceless),
+            bias: false,
+        }
+    }
+
     /// The design-matrix columns in order.
     pub fn columns(&self) -> Vec<Column> {
         use Axis::{X, Y, Z};
@@ -142,6 +169,10 @@ impl TermSet {
             Some(InducedTerms::Six) => &[(X, X), (X, Y), (X, Z), (Y, Y), (Y, Z), (Z, Z)],
             Some(InducedTerms::Five) => &[(X, X), (X, Y), (X, Z), (Y, Y), (Y, Z)],
             Some(InducedTerms::Three) => &[(X, X), (Y, Y), (Z, Z)],
+            Some(InducedTerms::Traceless) => {
+                cols.extend([Column::InducedTraceless(X), Column::InducedTraceless(Y)]);
+                &[(X, Y), (X, Z), (Y, Z)]
+            }
             None => &[],
         };
         cols.extend(induced.iter().map(|&(i, j)| Column::Induced(i, j)));
@@ -152,6 +183,10 @@ impl TermSet {
             Some(EddyTerms::Nine) => all_pairs.collect(),
             Some(EddyTerms::Eight) => all_pairs.take(8).collect(),
             Some(EddyTerms::Three) => vec![(X, X), (Y, Y), (Z, Z)],
+            Some(EddyTerms::Traceless) => {
+                cols.extend([Column::EddyTraceless(X), Column::EddyTraceless(Y)]);
+                all_pairs.filter(|(i, j)| i != j).collect()
+            }
             None => vec![],
         };
         cols.extend(eddy.into_iter().map(|(i, j)| Column::Eddy(i, j)));
@@ -187,8 +222,19 @@ impl FromStr for TermSet {
                         return Err(repeated("bias"));
                     }
                 }
-                "induced" | "i" | "i6" | "i5" | "i3" => {
+                "patent" => {
+                    let patent = TermSet::patent();
+                    if set.permanent || set.induced.is_some() || set.eddy.is_some() {
+                        return Err(repeated("patent"));
+                    }
+                    set = TermSet {
+                        bias: set.bias,
+                        ..patent
+                    };
+                }
+                "induced" | "i" | "i6" | "i5" | "i3" | "it" => {
                     let kind = match token.as_str() {
+                        "it" => InducedTerms::Traceless,
                         "i5" => InducedTerms::Five,
                         "i3" => InducedTerms::Three,
                         _ => InducedTerms::Six,
@@ -197,8 +243,9 @@ impl FromStr for TermSet {
                         return Err(repeated("induced"));
                     }
                 }
-                "eddy" | "e" | "e9" | "e8" | "e3" => {
+                "eddy" | "e" | "e9" | "e8" | "e3" | "et" => {
                     let kind = match token.as_str() {
+                        "et" => EddyTerms::Traceless,
                         "e8" => EddyTerms::Eight,
                         "e3" => EddyTerms::Three,
                         _ => EddyTerms::Nine,
@@ -228,11 +275,13 @@ impl fmt::Display for TermSet {
             InducedTerms::Six => "induced",
             InducedTerms::Five => "i5",
             InducedTerms::Three => "i3",
+            InducedTerms::Traceless => "it",
         }));
         parts.extend(self.eddy.map(|k| match k {
             EddyTerms::Nine => "eddy",
             EddyTerms::Eight => "e8",
             EddyTerms::Three => "e3",
+            EddyTerms::Traceless => "et",
         }));
         if self.bias {
             parts.push("bias");
@@ -285,6 +334,10 @@ mod tests {
         assert_eq!(n("e3"), 3);
         assert_eq!(n("b"), 1);
         assert_eq!(n("eddy, permanent ,BIAS"), 13);
+        assert_eq!(n("it"), 5);
+        assert_eq!(n("et"), 8);
+        assert_eq!(n("patent"), 16);
+        assert_eq!(n("patent,b"), 17);
     }
 
     #[test]
@@ -301,6 +354,10 @@ mod tests {
             Err(TermsError::Repeated(_, "induced"))
         ));
         assert_eq!("".parse::<TermSet>(), Err(TermsError::Empty));
+        assert!(matches!(
+            "p,patent".parse::<TermSet>(),
+            Err(TermsError::Repeated(_, "patent"))
+        ));
     }
 
     #[test]
@@ -309,6 +366,7 @@ mod tests {
             "permanent,induced,eddy",
             "permanent,i5,e8,bias",
             "i3,e3",
+            "permanent,it,et",
             "bias",
         ] {
             assert_eq!(s.parse::<TermSet>().unwrap().to_string(), s);

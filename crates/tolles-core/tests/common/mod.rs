@@ -44,12 +44,16 @@ pub fn compensate_with<'a>(
     flux: impl Into<tolles_core::model::vector::Fluxgates<'a>>,
     tt: &[f64],
 ) -> Vec<f64> {
-    tolles_core::compensate::compensate(
+    let applied = tolles_core::compensate::Model {
+        design: &model.settings.design,
+        coefficients: &model.coefficients,
+        magnitude: model.magnitude,
+    };
+    tolles_core::compensate::compensate_model(
         scalar,
         flux,
         Some(tt),
-        &model.settings.design,
-        &model.coefficients,
+        applied,
         1.0,
         tolles_core::compensate::Level::FileMean,
     )

@@ -1,0 +1,300 @@
+//! Heading levels: the low frequencies a band-passed fit throws away.
+//!
+//! Band-passing the scalar removes the earth field's slow changes, and with them every
+//! difference of level between headings. Some combinations of terms (the patent's T with TV+VT,
+//! L with LV+VL, V with VV−TT and VV−LL) look alike inside the band on every heading but leave
+//! different levels at DC, hundreds of nT for a strong installation. A calibration box flown on
+//! four headings carries those levels.
+//!
+//! To read them we need the earth field's magnitude at low frequencies without the aircraft.
+//! The fluxgate gives it once it is calibrated: its magnitude `|F| ≈ |B| + B̂·o + B̂ᵀK·B` moves
+//! with attitude only through its own offset `o` and distortion `K`, which are fitted like a
+//! permanent and (traceless) induced field against the band-passed `|F|` itself. The calibrated
+//! magnitude `R` is then an earth-field reference: `y − R` is the aircraft's field at every
+//! frequency, geology, diurnal variation and IGRF cancelling.
+//!
+//! The fit adds, to the band-passed rows, low-passed (below the band's lower edge) rows of
+//! `y − R` against the low-passed design, one every `fs/(2·f_low)` samples so they are nearly
+//! independent, centred (the constant between `y` and `R` is unknown) and weighted by the ratio
+//! of the band-passed residual's scatter to theirs.
+
+use crate::fit::{Band, FitSettings, Lambda};
+use crate::model::design::Design;
+use crate::model::terms::TermSet;
+use crate::model::vector::VectorSeries;
+use crate::signal::filter::{filtfilt_many_unless_constant, Butterworth, FilterError};
+use crate::signal::segment::contiguous_runs;
+use nalgebra::DMatrix;
+use serde::{Deserialize, Serialize};
+use std::ops::Range;
+
+/// The calibrated fluxgate magnitude used as an earth-field reference.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Reference {
+    /// `|F|` with the fluxgate's fitted offset and distortion removed (nT); NaN where unusable.
+    pub values: Vec<f64>,
+    /// What the calibration found.
+    pub calibration: FluxgateCalibration,
+}
+
+/// The fluxgate's own errors as seen in its magnitude.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FluxgateCalibration {
+    /// Offset of each axis, x, y, z (nT).
+    pub offset_nt: [f64; 3],
+    /// Traceless distortion `K` (dimensionless) as `[zz−xx, zz−yy, xy+yx, xz+zx, yz+zy]`.
+    pub distortion: [f64; 5],
+    /// Standard deviation of the band-passed magnitude after calibration (nT): fluxgate noise
+    /// and geology inside the band.
+    pub residual_std_nt: f64,
+}
+
+/// How the low-frequency rows were used, for the fit's diagnostics.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LevelDiagnostics {
+    /// The fluxgate calibration behind the reference.
+    pub fluxgate: FluxgateCalibration,
+    /// Low-frequency rows that entered the fit.
+    pub rows: usize,
+    /// Their cut-off (Hz).
+    pub cutoff_hz: f64,
+    /// RMS misfit of the low-passed `y − R` after the fit (nT): how well one constant and the
+    /// model explain the levels the calibration flight flew.
+    pub residual_rms_nt: f64,
+    /// Standard error of a heading level (nT): the misfit over the square root of the rows per
+    /// heading of a four-heading box.
+    pub level_std_error_nt: f64,
+    /// Weight of each low-frequency row relative to a band-passed one.
+    pub weight: f64,
+}
+
+/// Calibrates the fluxgate against its own band-passed magnitude and returns the reference, or
+/// `None` when the calibration cannot be fitted (too little data, constant attitude).
+pub fn reference(
+    flux: &VectorSeries,
+    usable: &[bool],
+    fs_hz: f64,
+    tt: Option<&[f64]>,
+    settings: &FitSettings,
+) -> Option<Reference> {
+    let magnitude: Vec<f64> = (0..flux.len())
+        .map(|k| if usable[k] { flux.magnitude(k) } else { f64::NAN })
+        .collect();
+    let design = Design::new(TermSet {
+        permanent: true,
+        induced: Some(crate::model::terms::InducedTerms::Traceless),
+        eddy: None,
+        bias: false,
+    });
+    let calibration_settings = FitSettings {
+        design: design.clone(),
+        lambda: Lambda::Fixed(0.0),
+        alternative_terms: Vec::new(),
+        levels: false,
+        magnitude: Default::default(),
+        ..settings.clone()
+    };
+    let cal = crate::fit::fit(&magnitude, flux, fs_hz, tt, &calibration_settings).ok()?;
+    let mut values = vec![f64::NAN; flux.len()];
+    for run in contiguous_runs(usable, tt) {
+        let part = design.apply(&flux.slice(run.clone()), &cal.coefficients);
+        for (k, v) in run.zip(part) {
+            values[k] = magnitude[k] - v;
+        }
+    }
+    let c = &cal.coefficients;
+    Some(Reference {
+        values,
+        calibration: FluxgateCalibration {
+            offset_nt: [c[0], c[1], c[2]],
+            distortion: std::array::from_fn(|k| c[3 + k] / design.bt_scale),
+            residual_std_nt: cal.diagnostics.residual_std_nt,
+        },
+    })
+}
+
+/// The low-pass filter and decimation of the level rows.
+#[derive(Debug, Clone)]
+pub struct LowFrequency {
+    filter: Butterworth,
+    /// Cut-off (Hz).
+    pub cutoff_hz: f64,
+    /// One row every this many samples.
+    pub step: usize,
+    /// Samples dropped at each end of a run.
+    pub trim: usize,
+}
+
+impl LowFrequency {
+    /// Low-pass below the fit band's lower edge; `None` when the band has none (the fit then
+    /// already sees the low frequencies).
+    pub fn new(band: Band, order: usize, trim: usize, fs_hz: f64) -> Result<Option<Self>, FilterError> {
+        let cutoff_hz = band.pass1_hz;
+        if !(cutoff_hz > 0.0 && cutoff_hz < fs_hz / 2.0) {
+            return Ok(None);
+        }
+        let low = Band {
+            pass1_hz: 0.0,
+            pass2_hz: cutoff_hz,
+        };
+        let Some(filter) = low.butterworth(order, fs_hz)? else {
+            return Ok(None);
+        };
+        let step = ((fs_hz / (2.0 * cutoff_hz)).round() as usize).max(1);
+        Ok(Some(Self {
+            filter,
+            cutoff_hz,
+            step,
+            trim: trim.max(step),
+        }))
+    }
+
+    /// Low-passes the columns of `a` and the target `y` of one run (unfiltered, `a` has one row
+    /// per sample) and keeps every `step`-th row after trimming; `None` if the run is too short.
+    /// Also returns the kept rows' sample indices within the run.
+    pub fn rows(
+        &self,
+        mut a: DMatrix<f64>,
+        mut y: Vec<f64>,
+    ) -> Result<Option<(DMatrix<f64>, Vec<f64>, Vec<usize>)>, FilterError> {
+        let n = y.len();
+        if n <= self.filter.padlen() + 1 || n <= 2 * self.trim + self.step {
+            return Ok(None);
+        }
+        let mut signals: Vec<&mut [f64]> = a.as_mut_slice().chunks_mut(n).collect();
+        signals.push(&mut y);
+        filtfilt_many_unless_constant(&self.filter, &mut signals)?;
+        let keep: Vec<usize> = (self.trim..n - self.trim).step_by(self.step).collect();
+        let rows = DMatrix::from_fn(keep.len(), a.ncols(), |r, c| a[(keep[r], c)]);
+        let target = keep.iter().map(|&k| y[k]).collect();
+        Ok(Some((rows, target, keep)))
+    }
+}
+
+/// Low-frequency rows of one run, before centring and weighting.
+#[derive(Debug, Clone)]
+pub struct LevelRows {
+    /// Rows (one per kept sample), columns as the band rows.
+    pub a: DMatrix<f64>,
+    /// Targets (nT).
+    pub y: Vec<f64>,
+    /// Sample index of each row within its run, to interleave them with the band rows in time.
+    pub at: Vec<usize>,
+}
+
+/// Subtracts, from every level row's columns and target, their mean over all runs: the unknown
+/// constant between the scalar and the reference is eliminated rather than fitted.
+pub fn centre(rows: &mut [LevelRows]) {
+    let count: usize = rows.iter().map(|r| r.y.len()).sum();
+    if count == 0 {
+        return;
+    }
+    let p = rows[0].a.ncols();
+    let mut means = vec![0.0; p + 1];
+    for r in rows.iter() {
+        for c in 0..p {
+            means[c] += r.a.column(c).sum();
+        }
+        means[p] += r.y.iter().sum::<f64>();
+    }
+    means.iter_mut().for_each(|m| *m /= count as f64);
+    for r in rows.iter_mut() {
+        for c in 0..p {
+            r.a.column_mut(c).add_scalar_mut(-means[c]);
+        }
+        r.y.iter_mut().for_each(|v| *v -= means[p]);
+    }
+}
+
+/// RMS of `y − A·β` over all level rows (nT), NaN without rows.
+pub fn rms_misfit(rows: &[LevelRows], beta: &[f64]) -> f64 {
+    let mut sum = 0.0;
+    let mut count = 0usize;
+    for r in rows {
+        for (k, y) in r.y.iter().enumerate() {
+            let fitted: f64 = (0..beta.len()).map(|c| r.a[(k, c)] * beta[c]).sum();
+            sum += (y - fitted).powi(2);
+            count += 1;
+        }
+    }
+    (sum / count as f64).sqrt()
+}
+
+/// Interleaves the band rows (`band`, trimmed by `trim` at the start) and the weighted level
+/// rows of one run in time order, so contiguous cross-validation folds hold both.
+pub fn interleave(
+    band: (DMatrix<f64>, Vec<f64>),
+    trim: usize,
+    level: Option<&LevelRows>,
+    weight: f64,
+) -> (DMatrix<f64>, Vec<f64>) {
+    let Some(level) = level else {
+        return band;
+    };
+    let (a, y) = band;
+    let p = a.ncols();
+    let total = y.len() + level.y.len();
+    let mut order: Vec<(usize, bool, usize)> = (0..y.len()).map(|r| (r + trim, false, r)).collect();
+    order.extend(level.at.iter().enumerate().map(|(r, &at)| (at, true, r)));
+    order.sort_by_key(|&(at, is_level, _)| (at, is_level));
+    let mut out = DMatrix::zeros(total, p);
+    let mut target = Vec::with_capacity(total);
+    for (row, &(_, is_level, r)) in order.iter().enumerate() {
+        if is_level {
+            for c in 0..p {
+                out[(row, c)] = weight * level.a[(r, c)];
+            }
+            target.push(weight * level.y[r]);
+        } else {
+            for c in 0..p {
+                out[(row, c)] = a[(r, c)];
+            }
+            target.push(y[r]);
+        }
+    }
+    (out, target)
+}
+
+/// The reference's values over `run`.
+pub fn reference_over(reference: &Reference, run: Range<usize>) -> &[f64] {
+    &reference.values[run]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn centring_removes_the_common_mean_over_runs() {
+        let mut rows = vec![
+            LevelRows {
+                a: DMatrix::from_row_slice(2, 1, &[1.0, 3.0]),
+                y: vec![10.0, 12.0],
+                at: vec![0, 5],
+            },
+            LevelRows {
+                a: DMatrix::from_row_slice(1, 1, &[5.0]),
+                y: vec![14.0],
+                at: vec![0],
+            },
+        ];
+        centre(&mut rows);
+        assert_eq!(rows[0].a.as_slice(), [-2.0, 0.0]);
+        assert_eq!(rows[1].y, [2.0]);
+        assert!((rms_misfit(&rows, &[1.0]) - 0.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn level_rows_are_interleaved_in_time_with_their_weight() {
+        let band = (DMatrix::from_row_slice(3, 1, &[1.0, 2.0, 3.0]), vec![1.0, 2.0, 3.0]);
+        let level = LevelRows {
+            a: DMatrix::from_row_slice(1, 1, &[7.0]),
+            y: vec![70.0],
+            at: vec![3],
+        };
+        // Band rows are samples 2, 3, 4 (trim 2); the level row at sample 3 follows band row 3.
+        let (a, y) = interleave(band, 2, Some(&level), 0.5);
+        assert_eq!(a.as_slice(), [1.0, 2.0, 3.5, 3.0]);
+        assert_eq!(y, [1.0, 2.0, 35.0, 3.0]);
+    }
+}

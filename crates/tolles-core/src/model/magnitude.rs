@@ -1,0 +1,245 @@
+//! How the aircraft's field reaches a scalar magnetometer: to first order, or exactly.
+//!
+//! A scalar magnetometer reads `|B + H|`. Tolles-Lawson keeps the first-order part `B̂·H`, which
+//! is linear in the coefficients. With `H` of a few hundred nT the neglected part,
+//! `|H⊥|²/(2|B|)` and beyond, changes by 1–60 nT across attitudes, and a linear fit aliases it
+//! into wrong coefficients. The exact model subtracts `|B + H| − |B|` instead, with `H` built
+//! from the same coefficients:
+//!
+//! ```
+//! use tolles_core::model::design::Design;
+//! use tolles_core::model::magnitude::{correction, Magnitude};
+//! use tolles_core::model::vector::VectorSeries;
+//!
+//! // A 300 nT permanent field across a 50 000 nT earth field along x.
+//! let flux = VectorSeries::new(vec![50_000.0; 2], vec![0.0; 2], vec![0.0; 2]);
+//! let design = Design::new("p".parse().unwrap());
+//! let beta = [0.0, 300.0, 0.0];
+//! let linear = correction(Magnitude::Linear, &design, &flux, &beta);
+//! let exact = correction(Magnitude::Exact, &design, &flux, &beta);
+//! assert_eq!(linear[0], 0.0); // B̂·H = 0
+//! assert!((exact[0] - 0.9).abs() < 1e-3); // |H|²/(2|B|) = 0.9 nT
+//! ```
+//!
+//! Each column of a [`Design`] is the projection on B̂ of a field vector (nT per unit of its
+//! coefficient), [`field_per_unit`]: `H = Σ βk·vk`. Off-diagonal induced columns stand for the
+//! symmetric pair `(I_ij + I_ji)/2` each, the traceless ones for `(1/3 − e_a e_aᵀ)·B`. The
+//! derivative of `|B + H|` with respect to βk is `unit(B + H)·vk`: the design row with B̂ replaced
+//! by the direction of the total field, which is what a Gauss-Newton fit needs.
+//!
+//! Only one fluxgate's block is modelled exactly; designs over several fluxgates stay linear.
+
+use crate::model::design::{central_difference, Design, Term};
+use crate::model::terms::Column;
+use crate::model::vector::VectorSeries;
+use nalgebra::DMatrix;
+use serde::{Deserialize, Serialize};
+
+/// How a model's field enters the scalar reading.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Magnitude {
+    /// `B̂·H`: Tolles-Lawson's first-order projection, linear in the coefficients.
+    #[default]
+    Linear,
+    /// `|B + H| − |B|`: the exact change of the magnitude.
+    Exact,
+}
+
+impl std::fmt::Display for Magnitude {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Magnitude::Linear => "linear",
+            Magnitude::Exact => "exact",
+        })
+    }
+}
+
+/// The field vector (nT) that one unit of `column`'s coefficient adds, for the fluxgate reading
+/// `b` (nT) and its change per sample `db` (nT/sample); `None` for the bias, which is no field.
+pub fn field_per_unit(column: Column, b: [f64; 3], db: [f64; 3], bt_scale: f64) -> Option<[f64; 3]> {
+    let axis = |i: usize, value: f64| {
+        let mut v = [0.0; 3];
+        v[i] = value;
+        v
+    };
+    let traceless = |v: [f64; 3], a: usize| {
+        let mut out = v.map(|c| c / 3.0 / bt_scale);
+        out[a] -= v[a] / bt_scale;
+        out
+    };
+    Some(match column {
+        Column::Permanent(i) => axis(i.index(), 1.0),
+        Column::Induced(i, j) if i == j => axis(i.index(), b[i.index()] / bt_scale),
+        Column::Induced(i, j) => {
+            let (i, j) = (i.index(), j.index());
+            let mut v = [0.0; 3];
+            v[i] = b[j] / (2.0 * bt_scale);
+            v[j] = b[i] / (2.0 * bt_scale);
+            v
+        }
+        Column::Eddy(i, j) => axis(i.index(), db[j.index()] / bt_scale),
+        Column::InducedTraceless(a) => traceless(b, a.index()),
+        Column::EddyTraceless(a) => traceless(db, a.index()),
+        Column::Bias => return None,
+    })
+}
+
+/// One sample's exact correction `|B + H| − |B| + bias` (nT), and the direction of `B + H`.
+///
+/// The difference is computed as `(2B·H + H·H)/(|B + H| + |B|)`, which keeps its digits when
+/// `H ≪ B`.
+pub fn exact_at(
+    design: &Design,
+    columns: &[Column],
+    coefficients: &[f64],
+    b: [f64; 3],
+    db: [f64; 3],
+) -> (f64, [f64; 3]) {
+    let mut h = [0.0; 3];
+    let mut bias = 0.0;
+    for (column, beta) in columns.iter().zip(coefficients) {
+        match field_per_unit(*column, b, db, design.bt_scale) {
+            Some(v) => (0..3).for_each(|i| h[i] += beta * v[i]),
+            None => bias += beta,
+        }
+    }
+    let total = [b[0] + h[0], b[1] + h[1], b[2] + h[2]];
+    let (nb, nt) = (norm(b), norm(total));
+    let dot = 2.0 * (b[0] * h[0] + b[1] * h[1] + b[2] * h[2]) + h[0] * h[0] + h[1] * h[1] + h[2] * h[2];
+    (dot / (nt + nb) + bias, total.map(|c| c / nt))
+}
+
+/// The correction (nT) of a model for every sample of one contiguous series from one fluxgate:
+/// `A·β` for [`Magnitude::Linear`], `|B + H| − |B|` (plus any bias) for [`Magnitude::Exact`].
+pub fn correction(
+    magnitude: Magnitude,
+    design: &Design,
+    flux: &VectorSeries,
+    coefficients: &[f64],
+) -> Vec<f64> {
+    match magnitude {
+        Magnitude::Linear => design.apply(flux, coefficients),
+        Magnitude::Exact => {
+            let columns = design.columns();
+            let db = derivatives(flux);
+            (0..flux.len())
+                .map(|k| exact_at(design, &columns, coefficients, sample(flux, k), at(&db, k)).0)
+                .collect()
+        }
+    }
+}
+
+/// The exact correction of one contiguous series (nT) and its Jacobian with respect to the
+/// coefficients of `terms` (one row per sample): the design matrix with B̂ replaced by the
+/// direction of `B + H`.
+pub fn exact_jacobian(
+    design: &Design,
+    flux: &VectorSeries,
+    coefficients: &[f64],
+    terms: &[Term],
+) -> (Vec<f64>, DMatrix<f64>) {
+    let columns = design.columns();
+    let db = derivatives(flux);
+    let mut jacobian = DMatrix::zeros(flux.len(), terms.len());
+    let mut delta = Vec::with_capacity(flux.len());
+    for k in 0..flux.len() {
+        let (b, d) = (sample(flux, k), at(&db, k));
+        let (value, direction) = exact_at(design, &columns, coefficients, b, d);
+        delta.push(value);
+        for (c, term) in terms.iter().enumerate() {
+            jacobian[(k, c)] = match field_per_unit(term.column, b, d, design.bt_scale) {
+                Some(v) => direction[0] * v[0] + direction[1] * v[1] + direction[2] * v[2],
+                None => 1.0,
+            };
+        }
+    }
+    (delta, jacobian)
+}
+
+fn derivatives(flux: &VectorSeries) -> [Vec<f64>; 3] {
+    [&flux.x, &flux.y, &flux.z].map(|c| central_difference(c))
+}
+
+fn sample(flux: &VectorSeries, k: usize) -> [f64; 3] {
+    [flux.x[k], flux.y[k], flux.z[k]]
+}
+
+fn at(series: &[Vec<f64>; 3], k: usize) -> [f64; 3] {
+    [series[0][k], series[1][k], series[2][k]]
+}
+
+fn norm(v: [f64; 3]) -> f64 {
+    crate::model::vector::norm3(v)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn swinging_flux(n: usize) -> VectorSeries {
+        let angle = |k: usize| 0.4 * (k as f64 * 0.13).sin();
+        let pitch = |k: usize| 0.2 * (k as f64 * 0.07).cos();
+        VectorSeries::new(
+            (0..n).map(|k| 20_000.0 * angle(k).cos() + 3_000.0 * pitch(k)).collect(),
+            (0..n).map(|k| 20_000.0 * angle(k).sin()).collect(),
+            (0..n).map(|k| 45_000.0 - 4_000.0 * pitch(k)).collect(),
+        )
+    }
+
+    #[test]
+    fn linear_projection_of_the_field_vectors_is_the_design_row() {
+        let flux = swinging_flux(50);
+        for terms in ["patent", "p,i,e,b", "p,i5,e8", "i3,e3"] {
+            let design = Design::new(terms.parse().unwrap());
+            let a = design.matrix(&flux);
+            let db = derivatives(&flux);
+            for k in [0, 7, 49] {
+                let (b, d) = (sample(&flux, k), at(&db, k));
+                let unit = b.map(|c| c / norm(b));
+                for (c, column) in design.columns().iter().enumerate() {
+                    let value = field_per_unit(*column, b, d, design.bt_scale)
+                        .map_or(1.0, |v| unit[0] * v[0] + unit[1] * v[1] + unit[2] * v[2]);
+                    assert!((value - a[(k, c)]).abs() < 1e-12, "{terms} {column}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn exact_correction_is_the_change_of_magnitude_and_tends_to_the_linear_one() {
+        let flux = swinging_flux(40);
+        let design = Design::new("patent".parse().unwrap());
+        let beta: Vec<f64> = (0..16).map(|k| (k as f64 - 7.0) * 30.0).collect();
+        let exact = correction(Magnitude::Exact, &design, &flux, &beta);
+        let linear = correction(Magnitude::Linear, &design, &flux, &beta);
+        let small: Vec<f64> = beta.iter().map(|b| b * 1e-4).collect();
+        let exact_small = correction(Magnitude::Exact, &design, &flux, &small);
+        let linear_small = correction(Magnitude::Linear, &design, &flux, &small);
+        let mut largest_gap: f64 = 0.0;
+        for k in 0..40 {
+            largest_gap = largest_gap.max((exact[k] - linear[k]).abs());
+            let gap = (exact_small[k] - linear_small[k]).abs();
+            assert!(gap < 1e-7, "{gap} {} {}", exact_small[k], linear_small[k]);
+        }
+        assert!(largest_gap > 0.01, "second order should show: {largest_gap}");
+    }
+
+    #[test]
+    fn jacobian_matches_finite_differences() {
+        let flux = swinging_flux(30);
+        let design = Design::new("patent,b".parse().unwrap());
+        let beta: Vec<f64> = (0..17).map(|k| (k as f64 - 8.0) * 40.0).collect();
+        let (delta, j) = exact_jacobian(&design, &flux, &beta, &design.design_terms());
+        assert_eq!(delta, correction(Magnitude::Exact, &design, &flux, &beta));
+        for c in 0..17 {
+            let mut up = beta.clone();
+            up[c] += 1e-3;
+            let moved = correction(Magnitude::Exact, &design, &flux, &up);
+            for k in [0, 11, 29] {
+                let numeric = (moved[k] - delta[k]) / 1e-3;
+                assert!((numeric - j[(k, c)]).abs() < 1e-6, "column {c} sample {k}");
+            }
+        }
+    }
+}
