@@ -15,7 +15,7 @@ use tolles::compensate::{CompensateRequest, LevelChoice};
 use tolles::fit::{FitRequest, Terms};
 use tolles::fom::FomRequest;
 use tolles::{Silent, Warning};
-use tolles_core::fit::{Band, Lambda};
+use tolles_core::fit::{Band, Lambda, MagnitudeChoice};
 use tolles_io::model::ModelFile;
 use tolles_io::schema::{vector_columns, PITCH, ROLL, SAMPLE_INTERVAL, TIME_COLUMN, YAW};
 use tolles_io::select::RowSelection;
@@ -179,7 +179,7 @@ fn read<'py>(
 
 /// Fits a model; returns (model JSON, warnings).
 #[pyfunction]
-#[pyo3(signature = (source, names, get, dt, scalars, vectors, terms, lambda_, band, order, trim, fs))]
+#[pyo3(signature = (source, names, get, dt, scalars, vectors, terms, lambda_, band, order, trim, fs, magnitude=None, levels=None))]
 #[allow(clippy::too_many_arguments)]
 fn fit(
     py: Python<'_>,
@@ -195,8 +195,21 @@ fn fit(
     order: usize,
     trim: usize,
     fs: Option<f64>,
+    magnitude: Option<&str>,
+    levels: Option<bool>,
 ) -> PyResult<(String, Vec<String>)> {
     let terms: Terms = terms.parse().map_err(failed)?;
+    let magnitude = match magnitude.map(str::to_ascii_lowercase).as_deref() {
+        None => None,
+        Some("linear") => Some(MagnitudeChoice::Linear),
+        Some("exact") => Some(MagnitudeChoice::Exact),
+        Some("auto") => Some(MagnitudeChoice::Auto),
+        Some(other) => {
+            return Err(failed(format!(
+                "magnitude must be \"linear\", \"exact\" or \"auto\", got {other:?}"
+            )))
+        }
+    };
     let lambda = match lambda_ {
         None => Lambda::auto(),
         Some(x) if x.is_finite() && x >= 0.0 => Lambda::Fixed(x),
@@ -216,6 +229,8 @@ fn fit(
         order,
         trim,
         fs_hz: fs,
+        magnitude,
+        levels,
         ..FitRequest::new(scalars, vectors)
     };
     let mut wanted = request.scalars.clone();

@@ -184,6 +184,8 @@ class Model:
         the cross-validation and the term-set choice.
     level_nt : float
         The calibration flight's mean correction (nT), subtracted by ``level="model"``.
+    magnitude : str
+        ``"linear"`` (Tolles-Lawson's ``B̂·H``) or ``"exact"`` (``|B + H| − |B|``).
     fs_hz : float
         The calibration's sample rate (Hz).
     """
@@ -239,6 +241,10 @@ class Model:
         return float(self._only()["level_nt"])
 
     @property
+    def magnitude(self) -> str:
+        return str(self._only().get("magnitude", "linear"))
+
+    @property
     def fs_hz(self) -> float:
         return float(self._only()["fs_hz"])
 
@@ -278,6 +284,8 @@ def fit(
     order: int = 4,
     trim: int = 20,
     fs: Optional[float] = None,
+    magnitude: Optional[str] = None,
+    levels: Optional[bool] = None,
 ) -> Model:
     """Learn the aircraft's field from a calibration flight, as ``tolles fit`` does.
 
@@ -292,9 +300,9 @@ def fit(
         Fluxgate prefix(es): ``"flux_a"`` reads ``flux_a_x/_y/_z`` (nT, body frame FRD);
         several build one design in which each fluxgate adds its own block of terms.
     terms : str or list of str
-        ``"auto"`` (the 16 identifiable terms, or MagNav's 18 when cross-validation finds them
-        at least 2 % better), or a list such as ``"permanent,induced,eddy"`` (also ``p``, ``i``,
-        ``i5``, ``i3``, ``e``, ``e8``, ``e3``, ``bias``).
+        ``"auto"`` (the patent's 16 traceless terms, or MagNav's 18 when cross-validation finds
+        them at least 2 % better), or a list such as ``"permanent,induced,eddy"`` (also
+        ``patent``, ``p``, ``i``, ``it``, ``i5``, ``i3``, ``e``, ``et``, ``e8``, ``e3``, ``bias``).
     lambda_ : "auto" or float
         Ridge strength: ``"auto"`` chooses λ·diag(AᵀA) by 5-fold blocked cross-validation; a
         number adds that λ to AᵀA with unscaled columns, exactly as MagNav's ``linreg``.
@@ -306,6 +314,13 @@ def fit(
         Samples dropped at each end of each run after filtering.
     fs : float, optional
         Sample rate (Hz) when the frame has no ``tt`` column and no ``dt``.
+    magnitude : {"linear", "exact", "auto"}, optional
+        How the field enters the scalar: Tolles-Lawson's ``B̂·H``, the exact ``|B + H| − |B|``,
+        or the one cross-validation prefers. Default: ``"auto"`` with ``lambda_="auto"``, else
+        ``"linear"`` (MagNav's procedure).
+    levels : bool, optional
+        Also fit the heading levels against the calibrated fluxgate's magnitude. Default: with
+        ``lambda_="auto"`` and one fluxgate.
     """
     columns = _Columns(df)
     lam = None if isinstance(lambda_, str) and lambda_.strip().lower() == "auto" else float(lambda_)
@@ -319,6 +334,8 @@ def fit(
         int(order),
         int(trim),
         None if fs is None else float(fs),
+        magnitude,
+        None if levels is None else bool(levels),
     )
     _warn(notes)
     return Model(text)

@@ -28,6 +28,8 @@ def fit(
     order: int,
     trim: int,
     fs: Optional[float],
+    magnitude: Optional[str] = ...,
+    levels: Optional[bool] = ...,
 ) -> Tuple[str, List[str]]: ...
 def compensate(
     source: str,

@@ -81,9 +81,12 @@ fn fit_and_compensate_reproduce_magnav() {
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&model).unwrap()).unwrap();
     assert_eq!(json["format"], "tolles-model");
-    assert_eq!(json["version"], 1);
+    assert_eq!(json["version"], 2);
     let fit = &json["fits"][0];
     assert_eq!(fit["settings"]["design"]["terms"], "permanent,induced,eddy");
+    // A fixed λ keeps MagNav's linear procedure, with no heading-level rows.
+    assert_eq!(fit["magnitude"], "linear");
+    assert!(fit["diagnostics"]["levels"].is_null());
     assert_eq!(fit["settings"]["design"]["bt_scale"], 50000.0);
     assert_eq!(fit["coefficients"].as_array().unwrap().len(), 18);
     assert!(fit["patent"]["eddy_s"]["vv-tt"].is_number());
@@ -112,8 +115,20 @@ fn default_fit_cross_validates_and_records_it() {
     );
     let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let fit = &json["fits"][0];
-    assert_eq!(fit["settings"]["design"]["terms"], "permanent,i5,e8");
+    assert_eq!(fit["settings"]["design"]["terms"], "permanent,it,et");
     assert_eq!(fit["diagnostics"]["cross_validation"]["folds"], 5);
+    // The magnitude model was chosen between the two, and both were scored.
+    let scored: Vec<&str> = fit["diagnostics"]["term_choice"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["magnitude"].as_str().unwrap())
+        .collect();
+    assert!(
+        scored.contains(&"linear") && scored.contains(&"exact"),
+        "{scored:?}"
+    );
+    assert!(["linear", "exact"].contains(&fit["magnitude"].as_str().unwrap()));
     assert!(
         fit["diagnostics"]["cross_validation"]["expected_heldout_rms_nt"]
             .as_f64()

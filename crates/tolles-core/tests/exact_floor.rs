@@ -38,9 +38,13 @@ const PRESETS: [(&str, Kind); 5] = [
 
 /// A random aircraft field whose terms are uniform within ± `p_nt`, ± `i`, ± `e_s`.
 fn random_aircraft(seed: u64, p_nt: f64, i: f64, e_s: f64) -> AircraftField {
-    let mut state = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+    let mut state = seed
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
     let mut uniform = move |scale: f64| {
-        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         scale * (2.0 * ((state >> 11) as f64 / (1u64 << 53) as f64) - 1.0)
     };
     AircraftField {
@@ -108,7 +112,11 @@ fn norm(v: [f64; 3]) -> f64 {
 
 /// Overall, band-passed and along-line error (nT) of `compensated` against the truth.
 fn errors(compensated: &[f64], flight: &SimulatedFlight) -> [f64; 3] {
-    let error: Vec<f64> = compensated.iter().zip(&flight.earth_nt).map(|(c, e)| c - e).collect();
+    let error: Vec<f64> = compensated
+        .iter()
+        .zip(&flight.earth_nt)
+        .map(|(c, e)| c - e)
+        .collect();
     let filter = Band::MAGNAV.butterworth(4, 10.0).unwrap().unwrap();
     let band = filter.filtfilt(&error).unwrap();
     let mut lines: Vec<f64> = flight.line.clone();
@@ -117,11 +125,20 @@ fn errors(compensated: &[f64], flight: &SimulatedFlight) -> [f64; 3] {
         .iter()
         .filter(|l| **l > 1000.0)
         .map(|l| {
-            let on: Vec<f64> = error.iter().zip(&flight.line).filter(|(_, x)| *x == l).map(|(e, _)| *e).collect();
+            let on: Vec<f64> = error
+                .iter()
+                .zip(&flight.line)
+                .filter(|(_, x)| *x == l)
+                .map(|(e, _)| *e)
+                .collect();
             std_dev(&on)
         })
         .collect();
-    [std_dev(&error), std_dev(&band[200..band.len() - 200]), along.iter().sum::<f64>() / along.len() as f64]
+    [
+        std_dev(&error),
+        std_dev(&band[200..band.len() - 200]),
+        along.iter().sum::<f64>() / along.len() as f64,
+    ]
 }
 
 struct Row {
@@ -186,7 +203,10 @@ fn report(label: &str, rows: &[Row]) -> [f64; 3] {
 #[test]
 fn defaults_come_within_a_few_times_the_true_model_floor() {
     let rows = measure(&FitSettings::recommended(), 1..3);
-    let [overall, band, _] = report("defaults (patent terms, exact magnitude by CV, heading levels)", &rows);
+    let [overall, band, _] = report(
+        "defaults (patent terms, exact magnitude by CV, heading levels)",
+        &rows,
+    );
     assert!(overall <= 3.0, "overall {overall:.2}× the floor");
     assert!(band <= 2.0, "band-passed {band:.2}× the floor");
 }
@@ -195,7 +215,9 @@ fn defaults_come_within_a_few_times_the_true_model_floor() {
 #[ignore = "prints the settings side by side; run with --ignored --nocapture"]
 fn compare_with_earlier_defaults() {
     let old = FitSettings {
-        design: tolles_core::model::design::Design::new(tolles_core::model::terms::TermSet::identifiable()),
+        design: tolles_core::model::design::Design::new(
+            tolles_core::model::terms::TermSet::identifiable(),
+        ),
         magnitude: tolles_core::fit::MagnitudeChoice::Linear,
         levels: false,
         ..FitSettings::recommended()
@@ -203,14 +225,31 @@ fn compare_with_earlier_defaults() {
     let variants = [
         ("MagNav settings", FitSettings::magnav()),
         ("earlier defaults (i5,e8 linear)", old.clone()),
-        ("patent terms, linear", FitSettings { magnitude: tolles_core::fit::MagnitudeChoice::Linear, levels: false, ..FitSettings::recommended() }),
-        ("patent terms, exact, no levels", FitSettings { levels: false, ..FitSettings::recommended() }),
-        ("patent terms, linear, levels", FitSettings { magnitude: tolles_core::fit::MagnitudeChoice::Linear, ..FitSettings::recommended() }),
+        (
+            "patent terms, linear",
+            FitSettings {
+                magnitude: tolles_core::fit::MagnitudeChoice::Linear,
+                levels: false,
+                ..FitSettings::recommended()
+            },
+        ),
+        (
+            "patent terms, exact, no levels",
+            FitSettings {
+                levels: false,
+                ..FitSettings::recommended()
+            },
+        ),
+        (
+            "patent terms, linear, levels",
+            FitSettings {
+                magnitude: tolles_core::fit::MagnitudeChoice::Linear,
+                ..FitSettings::recommended()
+            },
+        ),
         ("defaults", FitSettings::recommended()),
     ];
     for (label, settings) in variants {
         report(label, &measure(&settings, 1..4));
     }
 }
-
-

@@ -8,14 +8,19 @@
 //! assert_eq!(ModelFile::from_json(&text, "m.json").unwrap().version, VERSION);
 //! ```
 //!
-//! Layout (version 1):
+//! Layout (version 2):
 //! ```json
-//! { "format": "tolles-model", "version": 1, "created_by": "tolles 0.1.0",
+//! { "format": "tolles-model", "version": 2, "created_by": "tolles 0.1.0",
 //!   "fits": [ { "scalar": "mag_1_uc", "vectors": ["flux_a"], "output_column": "mag_1_c",
-//!               "settings": {...}, "fs_hz": 10.0, "columns": [...], "coefficients": [...],
+//!               "settings": {...}, "fs_hz": 10.0, "magnitude": "exact",
+//!               "columns": [...], "coefficients": [...],
 //!               "level_nt": ..., "diagnostics": {...},
 //!               "physical": {...}, "patent": {"perm_nT": {...}, "induced": {...}, "eddy_s": {...}} } ] }
 //! ```
+//! Version 2 adds `"magnitude": "linear" | "exact"` to each fit (how its field enters the scalar,
+//! see `tolles_core::model::magnitude`), the patent's traceless term sets (`it`, `et`) and the
+//! heading-level diagnostics; a version 1 file is read as linear.
+//!
 //! A later release reads every earlier version; a file from a newer release is refused with a
 //! message saying so.
 
@@ -28,7 +33,7 @@ use tolles_core::model::interpret::{AircraftField, PatentTerms};
 /// The `format` tag of a model file.
 pub const FORMAT: &str = "tolles-model";
 /// The newest model file version this release writes and reads.
-pub const VERSION: u32 = 1;
+pub const VERSION: u32 = 2;
 
 /// A model file: one fit per scalar magnetometer.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -252,12 +257,26 @@ mod tests {
         assert!(ModelFile::from_json("{", "m.json").is_err());
     }
 
+    #[test]
+    fn a_version_1_file_reads_as_a_linear_model_and_exact_round_trips() {
+        use tolles_core::model::magnitude::Magnitude;
+        let v1 = ModelFile::from_json(&model_with("/version", "1"), "m.json").unwrap();
+        assert_eq!(v1.fits[0].fit.magnitude, Magnitude::Linear);
+        let mut file = v1.clone();
+        file.fits[0].fit.magnitude = Magnitude::Exact;
+        let text = file.to_json();
+        assert!(text.contains(r#""magnitude": "exact""#), "{text}");
+        let back = ModelFile::from_json(&text, "m.json").unwrap();
+        assert_eq!(back.fits[0].fit.magnitude, Magnitude::Exact);
+    }
+
     /// A minimal valid model file, with `field` replaced by `value` (JSON text).
     fn model_with(field: &str, value: &str) -> String {
         use tolles_core::fit::FitSettings;
         let fit = Fit {
             settings: FitSettings::magnav(),
             fs_hz: 10.0,
+            magnitude: Default::default(),
             columns: vec![],
             coefficients: vec![1.0; FitSettings::magnav().design.width()],
             level_nt: 0.0,

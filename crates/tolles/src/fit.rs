@@ -6,7 +6,7 @@ use crate::read::{checked_names, Flight};
 use crate::warning::Warning;
 use rayon::prelude::*;
 use std::str::FromStr;
-use tolles_core::fit::{fit as fit_scalar, Band, FitSettings, Lambda};
+use tolles_core::fit::{fit as fit_scalar, Band, FitSettings, Lambda, MagnitudeChoice};
 use tolles_core::model::design::Design;
 use tolles_core::model::terms::TermSet;
 use tolles_io::model::{ModelFile, ScalarModel};
@@ -15,8 +15,8 @@ use tolles_io::table::Table;
 /// Which terms to fit: a fixed set, or a choice by cross-validation.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Terms {
-    /// The 16 identifiable terms, or the 18 of MagNav when they predict held-out data at least
-    /// 2 % better (only when λ is cross-validated; with a fixed λ, the 16).
+    /// The patent's 16 traceless terms, or the 18 of MagNav when they predict held-out data at
+    /// least 2 % better (only when λ is cross-validated; with a fixed λ, the 16).
     Auto,
     /// Exactly these terms.
     Fixed(TermSet),
@@ -54,6 +54,12 @@ pub struct FitRequest {
     pub trim: usize,
     /// Sample rate (Hz) when the flight has no time column (or to override it).
     pub fs_hz: Option<f64>,
+    /// Linear, exact or chosen magnitude model; `None`: chosen by cross-validation when λ is,
+    /// else linear (MagNav's procedure stays exactly MagNav's).
+    pub magnitude: Option<MagnitudeChoice>,
+    /// Fit the heading levels against the calibrated fluxgate; `None`: when λ is
+    /// cross-validated and there is one fluxgate.
+    pub levels: Option<bool>,
 }
 
 impl FitRequest {
@@ -70,6 +76,8 @@ impl FitRequest {
             order: recommended.order,
             trim: recommended.trim,
             fs_hz: None,
+            magnitude: None,
+            levels: None,
         }
     }
 
@@ -97,7 +105,24 @@ impl FitRequest {
             order: self.order,
             trim: self.trim,
             alternative_terms,
+            magnitude: self.magnitude_choice(),
+            levels: self
+                .levels
+                .unwrap_or(self.cross_validated() && self.vectors.len() == 1),
         }
+    }
+
+    /// The magnitude model the request asks for, its default resolved.
+    pub fn magnitude_choice(&self) -> MagnitudeChoice {
+        self.magnitude.unwrap_or(if self.cross_validated() {
+            MagnitudeChoice::Auto
+        } else {
+            MagnitudeChoice::Linear
+        })
+    }
+
+    fn cross_validated(&self) -> bool {
+        matches!(self.lambda, Lambda::CrossValidated { .. })
     }
 }
 

@@ -125,14 +125,10 @@ impl Setup {
             let fit = &m.fit;
             let design = fit.settings.design.clone();
             let ratio = fs_hz / fit.fs_hz;
-            specs.push(ScalarSpec::new(
-                &m.scalar,
-                j,
-                design,
-                &fit.coefficients,
-                fit.level_nt,
-                ratio,
-            ));
+            specs.push(
+                ScalarSpec::new(&m.scalar, j, design, &fit.coefficients, fit.level_nt, ratio)
+                    .with_magnitude(fit.magnitude),
+            );
         }
         Ok(Setup {
             outputs: model.fits.iter().map(|m| m.output_column.clone()).collect(),

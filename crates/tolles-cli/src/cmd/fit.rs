@@ -7,7 +7,7 @@ use anyhow::{Context, Result};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use tolles::fit::{FitRequest, Terms};
-use tolles_core::fit::{Band, Lambda};
+use tolles_core::fit::{Band, Lambda, MagnitudeChoice};
 use tolles_io::table::Table;
 
 /// Default terms: the 16 a scalar magnetometer can identify, or MagNav's 18 when
@@ -48,8 +48,8 @@ pub struct Args {
     /// Where to write the model (JSON); standard output if omitted
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Terms: `auto`, or a list of permanent|p, induced|i, i5, i3, eddy|e, e8, e3, bias|b.
-    /// `auto` fits the 16 terms a scalar magnetometer can identify (permanent,i5,e8) and
+    /// Terms: `auto`, or a list of patent, permanent|p, induced|i, it, i5, i3, eddy|e, et, e8,
+    /// e3, bias|b. `auto` fits the patent's 16 traceless terms (`patent` = permanent,it,et) and
     /// MagNav.jl's 18 (permanent,induced,eddy) and keeps the 18 only if cross-validation finds
     /// them at least 2 % better on held-out data
     #[arg(long, default_value = DEFAULT_TERMS, value_parser = parse_terms)]
@@ -71,6 +71,16 @@ pub struct Args {
     /// Sample rate in Hz (required when the file has no `tt` column)
     #[arg(long)]
     pub fs: Option<f64>,
+    /// Magnitude model: `linear` (Tolles-Lawson's B̂·H), `exact` (|B + H| − |B|, fitted by
+    /// Gauss-Newton) or `auto` (the one cross-validation prefers). Default: `auto` when λ is
+    /// cross-validated, `linear` with a fixed λ (MagNav's procedure)
+    #[arg(long, value_parser = parse_magnitude)]
+    pub magnitude: Option<MagnitudeChoice>,
+    /// Heading levels: `on` also fits the low frequencies against the calibrated fluxgate's
+    /// magnitude, `off` fits the band only. Default: on when λ is cross-validated and there is
+    /// one fluxgate
+    #[arg(long, value_parser = parse_on_off)]
+    pub levels: Option<bool>,
     #[command(flatten)]
     pub select: crate::select::Selection,
 }
@@ -82,6 +92,23 @@ fn parse_lambda(text: &str) -> Result<Lambda, String> {
     match text.parse::<f64>() {
         Ok(x) if x.is_finite() && x >= 0.0 => Ok(Lambda::Fixed(x)),
         _ => Err(format!("expected `auto` or a number ≥ 0, got {text:?}")),
+    }
+}
+
+fn parse_magnitude(text: &str) -> Result<MagnitudeChoice, String> {
+    match text.to_ascii_lowercase().as_str() {
+        "linear" => Ok(MagnitudeChoice::Linear),
+        "exact" => Ok(MagnitudeChoice::Exact),
+        "auto" => Ok(MagnitudeChoice::Auto),
+        _ => Err(format!("expected linear, exact or auto, got {text:?}")),
+    }
+}
+
+fn parse_on_off(text: &str) -> Result<bool, String> {
+    match text.to_ascii_lowercase().as_str() {
+        "on" => Ok(true),
+        "off" => Ok(false),
+        _ => Err(format!("expected on or off, got {text:?}")),
     }
 }
 
@@ -116,6 +143,8 @@ fn request(args: &Args) -> Result<FitRequest> {
         order: args.order,
         trim: args.trim,
         fs_hz: args.fs,
+        magnitude: args.magnitude,
+        levels: args.levels,
         ..FitRequest::new(
             name_list(&args.scalar, "--scalar")?,
             name_list(&args.vector, "--vector")?,

@@ -158,9 +158,12 @@ pub fn model_field<'a>(
     let mut field = vec![f64::NAN; flux.len()];
     for run in contiguous_runs(&usable, tt) {
         let part = match model.magnitude {
-            Magnitude::Exact if flux.count() == 1 => {
-                correction(Magnitude::Exact, model.design, &flux.series()[0].slice(run.clone()), &beta)
-            }
+            Magnitude::Exact if flux.count() == 1 => correction(
+                Magnitude::Exact,
+                model.design,
+                &flux.series()[0].slice(run.clone()),
+                &beta,
+            ),
             _ => model.design.apply(&flux.slice(run.clone()), &beta),
         };
         field[run].copy_from_slice(&part);

@@ -45,9 +45,9 @@
 
 use crate::compensate::adapt::{AdaptSettings, Adapter};
 use crate::compensate::rescale_eddy;
-use crate::model::magnitude::{exact_at, field_per_unit, Magnitude};
 use crate::fit::{scalar_usable, show_nt, FLUX_MAGNITUDE_RANGE_NT};
 use crate::model::design::Design;
+use crate::model::magnitude::{exact_at, field_per_unit, Magnitude};
 use crate::model::terms::Column;
 use crate::model::vector::norm3;
 use crate::signal::filter::FilterError;
@@ -637,6 +637,63 @@ mod tests {
             };
             assert_eq!(status, expected);
         }
+    }
+
+    #[test]
+    fn central_stream_of_an_exact_model_equals_batch() {
+        let n = 60;
+        let tt: Vec<f64> = (0..n).map(|k| 0.1 * k as f64).collect();
+        let scalar: Vec<f64> = (0..n).map(|k| 50_000.0 + (k as f64 * 0.4).sin()).collect();
+        let f = flux(n);
+        let design = Design::new("patent".parse().unwrap());
+        let beta: Vec<f64> = (0..16).map(|k| 400.0 - 45.0 * k as f64).collect();
+        let spec = ScalarSpec::new("mag_1_uc", 0, design.clone(), &beta, 2.5, 1.0)
+            .with_magnitude(Magnitude::Exact);
+        let model = crate::compensate::Model {
+            design: &design,
+            coefficients: &beta,
+            magnitude: Magnitude::Exact,
+        };
+        let batch = crate::compensate::compensate_model(
+            &scalar,
+            &f,
+            Some(&tt),
+            model,
+            1.0,
+            Level::Fixed(2.5),
+        );
+        let linear = compensate(
+            &scalar,
+            &f,
+            Some(&tt),
+            &design,
+            &beta,
+            1.0,
+            Level::Fixed(2.5),
+        );
+        let mut stream =
+            StreamCompensator::new(vec![spec], vec!["flux_a".into()], 10.0, Derivative::Central);
+        let mut out = Vec::new();
+        for k in 0..n {
+            let sample = Sample {
+                time_s: Some(tt[k]),
+                scalars: &scalar[k..k + 1],
+                fluxgates: &[f.at(k)],
+            };
+            stream.push(k, Some(sample), Vec::new(), &mut |o: Output<'_, usize>| {
+                out.push(o.compensated[0])
+            });
+        }
+        stream.finish(&mut |o: Output<'_, usize>| out.push(o.compensated[0]));
+        let mut second_order: f64 = 0.0;
+        for k in 0..n {
+            assert!((out[k] - batch.compensated[k]).abs() < 1e-9, "{k}");
+            second_order = second_order.max((batch.compensated[k] - linear.compensated[k]).abs());
+        }
+        assert!(
+            second_order > 0.1,
+            "the exact model differs from the linear one"
+        );
     }
 
     #[test]

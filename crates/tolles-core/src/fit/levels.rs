@@ -78,7 +78,13 @@ pub fn reference(
     settings: &FitSettings,
 ) -> Option<Reference> {
     let magnitude: Vec<f64> = (0..flux.len())
-        .map(|k| if usable[k] { flux.magnitude(k) } else { f64::NAN })
+        .map(|k| {
+            if usable[k] {
+                flux.magnitude(k)
+            } else {
+                f64::NAN
+            }
+        })
         .collect();
     let design = Design::new(TermSet {
         permanent: true,
@@ -128,7 +134,12 @@ pub struct LowFrequency {
 impl LowFrequency {
     /// Low-pass below the fit band's lower edge; `None` when the band has none (the fit then
     /// already sees the low frequencies).
-    pub fn new(band: Band, order: usize, trim: usize, fs_hz: f64) -> Result<Option<Self>, FilterError> {
+    pub fn new(
+        band: Band,
+        order: usize,
+        trim: usize,
+        fs_hz: f64,
+    ) -> Result<Option<Self>, FilterError> {
         let cutoff_hz = band.pass1_hz;
         if !(cutoff_hz > 0.0 && cutoff_hz < fs_hz / 2.0) {
             return Ok(None);
@@ -150,16 +161,15 @@ impl LowFrequency {
     }
 
     /// Low-passes the columns of `a` and the target `y` of one run (unfiltered, `a` has one row
-    /// per sample) and keeps every `step`-th row after trimming; `None` if the run is too short.
-    /// Also returns the kept rows' sample indices within the run.
-    pub fn rows(
-        &self,
-        mut a: DMatrix<f64>,
-        mut y: Vec<f64>,
-    ) -> Result<Option<(DMatrix<f64>, Vec<f64>, Vec<usize>)>, FilterError> {
+    /// per sample) and keeps every `step`-th row after trimming; no rows if the run is too short.
+    pub fn rows(&self, mut a: DMatrix<f64>, mut y: Vec<f64>) -> Result<LevelRows, FilterError> {
         let n = y.len();
         if n <= self.filter.padlen() + 1 || n <= 2 * self.trim + self.step {
-            return Ok(None);
+            return Ok(LevelRows {
+                a: DMatrix::zeros(0, a.ncols()),
+                y: Vec::new(),
+                at: Vec::new(),
+            });
         }
         let mut signals: Vec<&mut [f64]> = a.as_mut_slice().chunks_mut(n).collect();
         signals.push(&mut y);
@@ -167,7 +177,11 @@ impl LowFrequency {
         let keep: Vec<usize> = (self.trim..n - self.trim).step_by(self.step).collect();
         let rows = DMatrix::from_fn(keep.len(), a.ncols(), |r, c| a[(keep[r], c)]);
         let target = keep.iter().map(|&k| y[k]).collect();
-        Ok(Some((rows, target, keep)))
+        Ok(LevelRows {
+            a: rows,
+            y: target,
+            at: keep,
+        })
     }
 }
 
@@ -192,15 +206,15 @@ pub fn centre(rows: &mut [LevelRows]) {
     let p = rows[0].a.ncols();
     let mut means = vec![0.0; p + 1];
     for r in rows.iter() {
-        for c in 0..p {
-            means[c] += r.a.column(c).sum();
+        for (c, mean) in means[..p].iter_mut().enumerate() {
+            *mean += r.a.column(c).sum();
         }
         means[p] += r.y.iter().sum::<f64>();
     }
     means.iter_mut().for_each(|m| *m /= count as f64);
     for r in rows.iter_mut() {
-        for c in 0..p {
-            r.a.column_mut(c).add_scalar_mut(-means[c]);
+        for (c, mean) in means[..p].iter().enumerate() {
+            r.a.column_mut(c).add_scalar_mut(-mean);
         }
         r.y.iter_mut().for_each(|v| *v -= means[p]);
     }
@@ -286,7 +300,10 @@ mod tests {
 
     #[test]
     fn level_rows_are_interleaved_in_time_with_their_weight() {
-        let band = (DMatrix::from_row_slice(3, 1, &[1.0, 2.0, 3.0]), vec![1.0, 2.0, 3.0]);
+        let band = (
+            DMatrix::from_row_slice(3, 1, &[1.0, 2.0, 3.0]),
+            vec![1.0, 2.0, 3.0],
+        );
         let level = LevelRows {
             a: DMatrix::from_row_slice(1, 1, &[7.0]),
             y: vec![70.0],

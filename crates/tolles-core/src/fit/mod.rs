@@ -369,7 +369,10 @@ pub fn fit<'a>(
     if let Some(setup) = levels.as_mut() {
         chosen = problem.choose_with_levels(setup, &chosen, |setup| {
             let prepared = problem.rows(&linear, Some(setup))?;
-            Ok((choose_design(&prepared.rows, &designs, &union, settings.lambda)?, prepared.levels))
+            Ok((
+                choose_design(&prepared.rows, &designs, &union, settings.lambda)?,
+                prepared.levels,
+            ))
         })?;
     }
     let design = designs[chosen.index].clone();
@@ -379,7 +382,14 @@ pub fn fit<'a>(
         None => (Magnitude::Linear, chosen, 0),
     };
     let before = band_std(&band_only.rows);
-    let level_nt = mean_correction(&flux, &usable, tt, &design, magnitude, &chosen.solution.coefficients);
+    let level_nt = mean_correction(
+        &flux,
+        &usable,
+        tt,
+        &design,
+        magnitude,
+        &chosen.solution.coefficients,
+    );
     let mut diagnostics = diagnostics(
         &chosen.solution,
         DiagnosticCounts {
@@ -418,7 +428,9 @@ fn difference(a: &[f64], b: &[f64]) -> Vec<f64> {
 /// Standard deviation of all band-passed targets (nT).
 fn band_std(rows: &[Rows]) -> f64 {
     let mut before = RunningStd::default();
-    rows.iter().flat_map(|(_, y)| y).for_each(|v| before.push(*v));
+    rows.iter()
+        .flat_map(|(_, y)| y)
+        .for_each(|v| before.push(*v));
     before.std()
 }
 
@@ -465,14 +477,23 @@ fn term_score(chosen: &Chosen, is_chosen: bool) -> TermScore {
     TermScore {
         terms: chosen.terms,
         magnitude: Magnitude::Linear,
-        lambda_rel: chosen.cross_validation.as_ref().map(|c| c.chosen_lambda_rel),
-        heldout_rms_nt: chosen.cross_validation.as_ref().map(|c| c.expected_heldout_rms_nt),
+        lambda_rel: chosen
+            .cross_validation
+            .as_ref()
+            .map(|c| c.chosen_lambda_rel),
+        heldout_rms_nt: chosen
+            .cross_validation
+            .as_ref()
+            .map(|c| c.expected_heldout_rms_nt),
         chosen: is_chosen,
     }
 }
 
 /// Unfiltered design columns, band target and level target of one run.
 type RunInputs = (DMatrix<f64>, Vec<f64>, Vec<f64>);
+
+/// Makes a run's [`RunInputs`] from its sample range and its stretch of the reference.
+type MakeRun<'m> = dyn Fn(Range<usize>, Option<&[f64]>) -> RunInputs + 'm;
 
 /// One calibration flight, cut into runs, and how to fit it.
 struct Problem<'p, 'a> {
@@ -523,13 +544,17 @@ impl LevelSetup {
 
 impl Problem<'_, '_> {
     /// Band rows (and, with `levels`, interleaved level rows) of every run long enough.
-    fn rows(
-        &self,
-        make: &dyn Fn(Range<usize>, Option<&[f64]>) -> RunInputs,
-        levels: Option<&LevelSetup>,
-    ) -> Result<Prepared, FitError> {
-        let trim = if self.filter.is_some() { self.settings.trim } else { 0 };
-        let needed = self.filter.as_ref().map_or(0, |f| f.padlen() + 1).max(2 * trim + 1);
+    fn rows(&self, make: &MakeRun<'_>, levels: Option<&LevelSetup>) -> Result<Prepared, FitError> {
+        let trim = if self.filter.is_some() {
+            self.settings.trim
+        } else {
+            0
+        };
+        let needed = self
+            .filter
+            .as_ref()
+            .map_or(0, |f| f.padlen() + 1)
+            .max(2 * trim + 1);
         let mut band = Vec::new();
         let mut level_rows = Vec::new();
         let mut short = 0;
@@ -541,15 +566,7 @@ impl Problem<'_, '_> {
             let reference = levels.map(|l| levels::reference_over(&l.reference, run.clone()));
             let (mut a, mut y, level_target) = make(run.clone(), reference);
             if let Some(setup) = levels {
-                let found = setup.low.rows(a.clone(), level_target)?;
-                level_rows.push(found.map_or_else(
-                    || LevelRows {
-                        a: DMatrix::zeros(0, a.ncols()),
-                        y: Vec::new(),
-                        at: Vec::new(),
-                    },
-                    |(a, y, at)| LevelRows { a, y, at },
-                ));
+                level_rows.push(setup.low.rows(a.clone(), level_target)?);
             }
             let n = y.len();
             if let Some(f) = &self.filter {
@@ -557,10 +574,17 @@ impl Problem<'_, '_> {
                 signals.push(&mut y);
                 crate::signal::filter::filtfilt_many_unless_constant(f, &mut signals)?;
             }
-            band.push((a.rows(trim, n - 2 * trim).into_owned(), y[trim..n - trim].to_vec()));
+            band.push((
+                a.rows(trim, n - 2 * trim).into_owned(),
+                y[trim..n - trim].to_vec(),
+            ));
         }
         let Some(setup) = levels else {
-            return Ok(Prepared { rows: band, levels: Vec::new(), short });
+            return Ok(Prepared {
+                rows: band,
+                levels: Vec::new(),
+                short,
+            });
         };
         levels::centre(&mut level_rows);
         let weight = setup.weight();
@@ -569,7 +593,11 @@ impl Problem<'_, '_> {
             .zip(&level_rows)
             .map(|(b, l)| levels::interleave(b, trim, Some(l), weight))
             .collect();
-        Ok(Prepared { rows, levels: level_rows, short })
+        Ok(Prepared {
+            rows,
+            levels: level_rows,
+            short,
+        })
     }
 
     /// The reference and low-pass for heading levels, when the settings ask for them and the
@@ -592,7 +620,8 @@ impl Problem<'_, '_> {
         };
         // White noise of the reference, seen through the low-pass instead of the band.
         let width = (s.band.pass2_hz.min(fs_hz / 2.0) - s.band.pass1_hz).max(low.cutoff_hz);
-        let sigma_nt = (reference.calibration.residual_std_nt * (low.cutoff_hz / width).sqrt()).max(1e-3);
+        let sigma_nt =
+            (reference.calibration.residual_std_nt * (low.cutoff_hz / width).sqrt()).max(1e-3);
         Ok(Some(LevelSetup {
             reference,
             low,
@@ -643,7 +672,8 @@ impl Problem<'_, '_> {
         for iteration in 1..=EXACT_ITERATIONS {
             let current = beta.clone();
             let make = |run: Range<usize>, reference: Option<&[f64]>| {
-                let (delta, j) = exact_jacobian(design, &series.slice(run.clone()), &current, &terms);
+                let (delta, j) =
+                    exact_jacobian(design, &series.slice(run.clone()), &current, &terms);
                 let linearised = &j * nalgebra::DVector::from_column_slice(&current);
                 let y: Vec<f64> = (0..run.len())
                     .map(|k| self.scalar[run.start + k] - delta[k] + linearised[k])
@@ -959,9 +989,12 @@ fn mean_correction(
     for run in contiguous_runs(usable, tt) {
         let correction = match magnitude {
             Magnitude::Linear => design.apply(&flux.slice(run), coefficients),
-            Magnitude::Exact => {
-                correction(magnitude, design, &flux.series()[0].slice(run), coefficients)
-            }
+            Magnitude::Exact => correction(
+                magnitude,
+                design,
+                &flux.series()[0].slice(run),
+                coefficients,
+            ),
         };
         sum += correction.iter().sum::<f64>();
         count += correction.len();

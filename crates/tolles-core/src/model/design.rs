@@ -217,7 +217,9 @@ impl Design {
                     let mut column = vec![0.0; out.len()];
                     let eddy = matches!(term.column, Column::EddyTraceless(_));
                     c.traceless(&mut column, eddy, a.index(), self.bt_scale);
-                    out.iter_mut().zip(&column).for_each(|(o, v)| *o += v * beta);
+                    out.iter_mut()
+                        .zip(&column)
+                        .for_each(|(o, v)| *o += v * beta);
                 }
                 Column::Bias => out.iter_mut().for_each(|o| *o += beta),
             }

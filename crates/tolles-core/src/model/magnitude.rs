@@ -57,7 +57,12 @@ impl std::fmt::Display for Magnitude {
 
 /// The field vector (nT) that one unit of `column`'s coefficient adds, for the fluxgate reading
 /// `b` (nT) and its change per sample `db` (nT/sample); `None` for the bias, which is no field.
-pub fn field_per_unit(column: Column, b: [f64; 3], db: [f64; 3], bt_scale: f64) -> Option<[f64; 3]> {
+pub fn field_per_unit(
+    column: Column,
+    b: [f64; 3],
+    db: [f64; 3],
+    bt_scale: f64,
+) -> Option<[f64; 3]> {
     let axis = |i: usize, value: f64| {
         let mut v = [0.0; 3];
         v[i] = value;
@@ -106,7 +111,8 @@ pub fn exact_at(
     }
     let total = [b[0] + h[0], b[1] + h[1], b[2] + h[2]];
     let (nb, nt) = (norm(b), norm(total));
-    let dot = 2.0 * (b[0] * h[0] + b[1] * h[1] + b[2] * h[2]) + h[0] * h[0] + h[1] * h[1] + h[2] * h[2];
+    let dot =
+        2.0 * (b[0] * h[0] + b[1] * h[1] + b[2] * h[2]) + h[0] * h[0] + h[1] * h[1] + h[2] * h[2];
     (dot / (nt + nb) + bias, total.map(|c| c / nt))
 }
 
@@ -181,7 +187,9 @@ mod tests {
         let angle = |k: usize| 0.4 * (k as f64 * 0.13).sin();
         let pitch = |k: usize| 0.2 * (k as f64 * 0.07).cos();
         VectorSeries::new(
-            (0..n).map(|k| 20_000.0 * angle(k).cos() + 3_000.0 * pitch(k)).collect(),
+            (0..n)
+                .map(|k| 20_000.0 * angle(k).cos() + 3_000.0 * pitch(k))
+                .collect(),
             (0..n).map(|k| 20_000.0 * angle(k).sin()).collect(),
             (0..n).map(|k| 45_000.0 - 4_000.0 * pitch(k)).collect(),
         )
@@ -222,7 +230,10 @@ mod tests {
             let gap = (exact_small[k] - linear_small[k]).abs();
             assert!(gap < 1e-7, "{gap} {} {}", exact_small[k], linear_small[k]);
         }
-        assert!(largest_gap > 0.01, "second order should show: {largest_gap}");
+        assert!(
+            largest_gap > 0.01,
+            "second order should show: {largest_gap}"
+        );
     }
 
     #[test]

@@ -1352,17 +1352,16 @@ pub fn least_squares_terms(
     fs_hz: f64,
     tt: Option<&[f64]>,
 ) -> Result<TermValues, crate::fit::FitError> {
+    // The defaults of `tolles fit` (exact magnitude when it predicts better, heading levels),
+    // kept to the patent's 16 terms.
     let settings = crate::fit::FitSettings {
-        design: crate::model::design::Design::new(
-            "permanent,i5,e8".parse().expect("a valid term list"),
-        ),
-        lambda: crate::fit::Lambda::auto(),
-        ..crate::fit::FitSettings::magnav()
+        alternative_terms: Vec::new(),
+        ..crate::fit::FitSettings::recommended()
     };
     let flux = geometry.as_fluxgate();
     let fitted = crate::fit::fit(scalar, &flux, fs_hz, tt, &settings)?;
     let field = crate::model::interpret::AircraftField::from_coefficients(
-        &settings.design,
+        &fitted.settings.design,
         &fitted.coefficients,
         fs_hz,
     );

@@ -12,7 +12,7 @@ use rayon::prelude::*;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
-use tolles_core::compensate::{compensate as compensate_scalar, Compensation, Level};
+use tolles_core::compensate::{compensate_model, Compensation, Level, Model};
 use tolles_core::fit::check_flux_magnitude;
 use tolles_io::format::{write_table, Format};
 use tolles_io::model::{ModelFile, ScalarModel};
@@ -138,12 +138,16 @@ pub fn compensate_flight(
             fs_hz
         }
     };
-    Ok(compensate_scalar(
+    let model = Model {
+        design: &fit.fit.settings.design,
+        coefficients: &fit.fit.coefficients,
+        magnitude: fit.fit.magnitude,
+    };
+    Ok(compensate_model(
         &flight.scalar,
         &flight.flux,
         flight.tt.as_deref(),
-        &fit.fit.settings.design,
-        &fit.fit.coefficients,
+        model,
         fs_hz / fit.fit.fs_hz,
         level(fit, request.level),
     ))

@@ -8,6 +8,7 @@ use crate::warning::Warning;
 use std::path::Path;
 use tolles_core::compensate::stream::ScalarSpec;
 use tolles_core::model::design::Design;
+use tolles_core::model::magnitude::Magnitude;
 use tolles_io::model::{ModelFile, ScalarModel};
 use tolles_io::IoError;
 
@@ -21,6 +22,8 @@ pub(super) struct ReadyFit {
     pub fluxgate: usize,
     design: Design,
     coefficients: Vec<f64>,
+    /// Linear or exact (see `tolles_core::model::magnitude`).
+    model_magnitude: Magnitude,
     /// The survey's sample rate / the calibration flight's.
     fs_ratio: f64,
     /// The calibration flight's mean `A·β` stored in the model (nT).
@@ -40,6 +43,7 @@ impl ReadyFit {
             level_nt,
             self.fs_ratio,
         )
+        .with_magnitude(self.model_magnitude)
     }
 }
 
@@ -111,6 +115,7 @@ fn check_fit(
         fluxgate: columns.fluxgate,
         design: fit.fit.settings.design.clone(),
         coefficients: fit.fit.coefficients.clone(),
+        model_magnitude: fit.fit.magnitude,
         fs_ratio: fs_hz / fit.fit.fs_hz,
         model_level_nt: fit.fit.level_nt,
         rate_warning,
