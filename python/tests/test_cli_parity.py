@@ -177,3 +177,20 @@ def test_simulate_equals_the_cli_flight(flights):
     sidecar = json.loads((flights / "cal.json").read_text())
     assert df.attrs["truth"] == sidecar
     assert df.attrs["truth"]["plan_name"] == "box"
+
+
+def test_an_exact_magnitude_model_passes_both_ways_and_compensates_alike(flights, cli, tmp_path):
+    cal = tolles.read(flights / "cal.csv")
+    model = tolles.fit(cal, magnitude="exact", levels=False)
+    assert model.magnitude == "exact"
+    assert model.diagnostics["exact_iterations"] >= 1
+    cli("fit", flights / "cal.csv", "--scalar", "mag_1_uc", "--vector", "flux_a",
+        "--magnitude", "exact", "--levels", "off", "--out", tmp_path / "cli.json")
+    model.save(tmp_path / "py.json")
+    assert (tmp_path / "py.json").read_bytes() == (tmp_path / "cli.json").read_bytes()
+    cli("compensate", flights / "survey.csv", "--model", tmp_path / "py.json", "--out", tmp_path / "c.csv")
+    theirs = read_csv_columns(tmp_path / "c.csv")["mag_1_c"]
+    ours = tolles.compensate(tolles.read(flights / "survey.csv"), model)["mag_1_c"]
+    assert max_diff(ours, theirs) <= TOL
+    with pytest.raises(tolles.TollesError, match="magnitude"):
+        tolles.fit(cal, magnitude="quadratic")

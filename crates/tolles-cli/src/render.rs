@@ -117,10 +117,11 @@ pub fn fit_summary(model: &ScalarModel, cal: &Path) -> std::io::Result<()> {
     let mut err = std::io::stderr().lock();
     writeln!(
         err,
-        "fit {} ~ {} ({}) on {}: {} of {} samples used",
+        "fit {} ~ {} ({}, {} magnitude) on {}: {} of {} samples used",
         model.scalar,
         model.vectors.join(","),
         model.fit.settings.design.terms,
+        model.fit.magnitude,
         cal.display(),
         d.samples_used,
         d.samples_total
@@ -148,13 +149,28 @@ pub fn fit_summary(model: &ScalarModel, cal: &Path) -> std::io::Result<()> {
         writeln!(
             err,
             "  terms {:<28} held-out residual {}{}",
-            score.terms.to_string(),
+            format!("{} {}", score.terms, score.magnitude),
             score
                 .heldout_rms_nt
                 .map_or("(could not be fitted)".to_string(), |r| format!(
                     "{r:.4} nT"
                 )),
             if score.chosen { "  <- chosen" } else { "" }
+        )?;
+    }
+    if d.exact_iterations > 0 {
+        writeln!(
+            err,
+            "  exact magnitude |B + H| − |B|: {} Gauss-Newton iterations",
+            d.exact_iterations
+        )?;
+    }
+    if let Some(levels) = &d.levels {
+        let o = levels.fluxgate.offset_nt;
+        writeln!(
+            err,
+            "  heading levels: {} rows below {} Hz against the calibrated fluxgate (offset {:.1}, {:.1}, {:.1} nT); misfit {:.4} nT, a heading's level to ±{:.4} nT",
+            levels.rows, levels.cutoff_hz, o[0], o[1], o[2], levels.residual_rms_nt, levels.level_std_error_nt
         )?;
     }
     if let Some(cv) = &d.cross_validation {

@@ -393,6 +393,10 @@ pub fn fit<'a>(
     let mut diagnostics = diagnostics(
         &chosen.solution,
         DiagnosticCounts {
+            level_rows: levels.as_ref().map_or(0, |l| l.row_count()),
+            level_rss: levels
+                .as_ref()
+                .map_or(0.0, |l| l.weighted_rss(&chosen.solution.coefficients)),
             total: scalar.len(),
             nonfinite: usable.iter().filter(|u| !**u).count(),
             short: band_only.short,
@@ -528,8 +532,22 @@ impl LevelSetup {
         self.band_sigma_nt / self.sigma_nt
     }
 
+    fn row_count(&self) -> usize {
+        self.rows.iter().map(|r| r.y.len()).sum()
+    }
+
+    /// The level rows' residual sum of squares as the solve saw it, weighted (nT²).
+    fn weighted_rss(&self, beta: &[f64]) -> f64 {
+        let misfit = levels::rms_misfit(&self.rows, beta);
+        let count = self.row_count();
+        if count == 0 {
+            return 0.0;
+        }
+        (self.weight() * misfit).powi(2) * count as f64
+    }
+
     fn diagnostics(&self, beta: &[f64]) -> LevelDiagnostics {
-        let count: usize = self.rows.iter().map(|r| r.y.len()).sum();
+        let count = self.row_count();
         let misfit = levels::rms_misfit(&self.rows, beta);
         LevelDiagnostics {
             fluxgate: self.reference.calibration.clone(),
@@ -1048,6 +1066,9 @@ impl RunningStd {
 }
 
 struct DiagnosticCounts {
+    /// Level rows in the solution, and their weighted residual sum of squares (nT²).
+    level_rows: usize,
+    level_rss: f64,
     total: usize,
     nonfinite: usize,
     short: usize,
@@ -1064,13 +1085,15 @@ fn diagnostics(
 ) -> Diagnostics {
     let p = solution.coefficients.len();
     let dof = solution.rows.saturating_sub(p).max(1) as f64;
-    let residual_std = (solution.rss / solution.rows as f64).sqrt();
+    // The samples and residual of the band-passed rows alone, without the level rows.
+    let band_rows = solution.rows - c.level_rows;
+    let residual_std = ((solution.rss - c.level_rss).max(0.0) / band_rows.max(1) as f64).sqrt();
     let sigma2 = solution.rss / dof / c.fraction;
     Diagnostics {
         samples_total: c.total,
         samples_nonfinite: c.nonfinite,
         samples_in_short_runs: c.short,
-        samples_used: solution.rows,
+        samples_used: band_rows,
         runs_used: c.runs_used,
         filtered_std_before_nt: c.before_std,
         residual_std_nt: residual_std,
