@@ -686,8 +686,9 @@ mod tests {
         }
         stream.finish(&mut |o: Output<'_, usize>| out.push(o.compensated[0]));
         let mut second_order: f64 = 0.0;
-        for k in 0..n {
-            assert!((out[k] - batch.compensated[k]).abs() < 1e-9, "{k}");
+        assert_eq!(out.len(), n);
+        for (k, streamed) in out.iter().enumerate() {
+            assert!((streamed - batch.compensated[k]).abs() < 1e-9, "{k}");
             second_order = second_order.max((batch.compensated[k] - linear.compensated[k]).abs());
         }
         assert!(
