@@ -112,6 +112,8 @@ fn flight_and_model(dir: &Path) -> Vec<String> {
             "mag_1_uc,truth_earth",
             "--vector",
             "flux_a",
+            "--magnitude",
+            "exact",
             "--out",
             "a.json",
         ],
@@ -126,6 +128,8 @@ fn flight_and_model(dir: &Path) -> Vec<String> {
         serde_json::from_str(&std::fs::read_to_string(dir.join(name)).unwrap()).unwrap()
     };
     let (mut a, b) = (read("a.json"), read("b.json"));
+    // The chunked path must apply exact-magnitude models as the whole-file path does.
+    assert_eq!(a["fits"][0]["magnitude"], "exact");
     let more = b["fits"].as_array().unwrap().clone();
     a["fits"].as_array_mut().unwrap().extend(more);
     std::fs::write(dir.join("m.json"), a.to_string()).unwrap();

@@ -31,19 +31,22 @@ const DAMAGE: [(usize, &str); 3] = [
 /// A model fitted to a simulated box, and a survey made from the same flight with a missing
 /// fluxgate value, a time gap (rows removed) and a NaN scalar.
 fn model_and_survey(dir: &Path) -> String {
+    model_and_survey_with(dir, &["--lambda", "0.001"], "cabin")
+}
+
+/// [`model_and_survey`] with more `fit` flags and another installation preset.
+fn model_and_survey_with(dir: &Path, fit_flags: &[&str], preset: &str) -> String {
     run(
         dir,
         &[
-            "simulate", "--plan", "box", "--seed", "3", "--out", "cal.csv",
+            "simulate", "--plan", "box", "--seed", "3", "--preset", preset, "--out", "cal.csv",
         ],
     );
-    run(
-        dir,
-        &[
-            "fit", "cal.csv", "--scalar", "mag_1_uc", "--vector", "flux_a", "--lambda", "0.001",
-            "--out", "m.json",
-        ],
-    );
+    let mut fit = vec![
+        "fit", "cal.csv", "--scalar", "mag_1_uc", "--vector", "flux_a", "--out", "m.json",
+    ];
+    fit.extend(fit_flags);
+    run(dir, &fit);
     let text = std::fs::read_to_string(dir.join("cal.csv")).unwrap();
     let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
     let header: Vec<&str> = lines[0].split(',').collect();
@@ -131,6 +134,26 @@ fn stream_on_stdin_equals_batch_up_to_a_constant() {
         stderr.contains(&format!("stream: {n} in, {n} out, 3 flagged")),
         "{stderr}"
     );
+    check_equivalent(&survey, &batch, &String::from_utf8(out.stdout).unwrap());
+}
+
+#[test]
+fn an_exact_magnitude_model_streams_as_batch_compensates() {
+    let dir = TempDir::new().unwrap();
+    let survey = model_and_survey_with(dir.path(), &["--magnitude", "exact"], "cabin");
+    let model = std::fs::read_to_string(dir.path().join("m.json")).unwrap();
+    assert!(model.contains(r#""magnitude": "exact""#));
+    let batch = run(
+        dir.path(),
+        &["compensate", "survey.csv", "--model", "m.json"],
+    );
+    let out = tolles()
+        .current_dir(dir.path())
+        .args(["stream", "--model", "m.json"])
+        .write_stdin(survey.clone())
+        .output()
+        .unwrap();
+    assert!(out.status.success());
     check_equivalent(&survey, &batch, &String::from_utf8(out.stdout).unwrap());
 }
 
