@@ -102,8 +102,20 @@ pub fn cross_validate(
 }
 
 fn heldout_sum_of_squares(folds: &[Ridge], lambda_rel: f64, columns: &[String]) -> Option<f64> {
+    heldout_sum_of_squares_on(folds, folds, lambda_rel, columns)
+}
+
+/// Sum over k of the squared residuals on `tests[k]` of a fit on every fold but `folds[k]`
+/// with the relative penalty `lambda_rel`; `tests` holds one problem per fold (for example a
+/// subset of each fold's rows). `None` when a training set cannot be solved.
+pub fn heldout_sum_of_squares_on(
+    folds: &[Ridge],
+    tests: &[Ridge],
+    lambda_rel: f64,
+    columns: &[String],
+) -> Option<f64> {
     let mut total = 0.0;
-    for (k, test) in folds.iter().enumerate() {
+    for (k, test) in tests.iter().enumerate() {
         let mut train: Option<Ridge> = None;
         for (_, fold) in folds.iter().enumerate().filter(|(j, _)| *j != k) {
             match train.as_mut() {

@@ -89,6 +89,7 @@ pub fn reference(
     let design = Design::new(TermSet {
         permanent: true,
         induced: Some(crate::model::terms::InducedTerms::Traceless),
+        trace: false,
         eddy: None,
         bias: false,
     });
@@ -235,16 +236,14 @@ pub fn rms_misfit(rows: &[LevelRows], beta: &[f64]) -> f64 {
 }
 
 /// Interleaves the band rows (`band`, trimmed by `trim` at the start) and the weighted level
-/// rows of one run in time order, so contiguous cross-validation folds hold both.
+/// rows of one run in time order, so contiguous cross-validation folds hold both. Also returns
+/// which rows are level rows.
 pub fn interleave(
     band: (DMatrix<f64>, Vec<f64>),
     trim: usize,
-    level: Option<&LevelRows>,
+    level: &LevelRows,
     weight: f64,
-) -> (DMatrix<f64>, Vec<f64>) {
-    let Some(level) = level else {
-        return band;
-    };
+) -> (DMatrix<f64>, Vec<f64>, Vec<bool>) {
     let (a, y) = band;
     let p = a.ncols();
     let total = y.len() + level.y.len();
@@ -253,6 +252,7 @@ pub fn interleave(
     order.sort_by_key(|&(at, is_level, _)| (at, is_level));
     let mut out = DMatrix::zeros(total, p);
     let mut target = Vec::with_capacity(total);
+    let mask = order.iter().map(|&(_, is_level, _)| is_level).collect();
     for (row, &(_, is_level, r)) in order.iter().enumerate() {
         if is_level {
             for c in 0..p {
@@ -266,7 +266,7 @@ pub fn interleave(
             target.push(y[r]);
         }
     }
-    (out, target)
+    (out, target, mask)
 }
 
 /// The reference's values over `run`.
@@ -310,8 +310,9 @@ mod tests {
             at: vec![3],
         };
         // Band rows are samples 2, 3, 4 (trim 2); the level row at sample 3 follows band row 3.
-        let (a, y) = interleave(band, 2, Some(&level), 0.5);
+        let (a, y, mask) = interleave(band, 2, &level, 0.5);
         assert_eq!(a.as_slice(), [1.0, 2.0, 3.5, 3.0]);
         assert_eq!(y, [1.0, 2.0, 35.0, 3.0]);
+        assert_eq!(mask, [false, false, true, false]);
     }
 }

@@ -138,6 +138,7 @@ impl Design {
             Column::Eddy(i, j) => unit[i.index()] * db[j.index()] / s,
             Column::InducedTraceless(a) => traceless(unit, b, a.index()) / s,
             Column::EddyTraceless(a) => traceless(unit, db, a.index()) / s,
+            Column::InducedTrace => trace(unit, b) / s,
             Column::Bias => 1.0,
         }
     }
@@ -168,6 +169,7 @@ impl Design {
                 Column::Eddy(i, j) => scaled(out, &c.unit[i.index()], &c.db[j.index()]),
                 Column::InducedTraceless(a) => c.traceless(out, false, a.index(), self.bt_scale),
                 Column::EddyTraceless(a) => c.traceless(out, true, a.index(), self.bt_scale),
+                Column::InducedTrace => c.trace(out, self.bt_scale),
                 Column::Bias => out.fill(1.0),
             }
         }
@@ -213,6 +215,13 @@ impl Design {
                 }
                 Column::Induced(i, j) => add(&mut out, &c.unit[i.index()], c.b[j.index()], beta),
                 Column::Eddy(i, j) => add(&mut out, &c.unit[i.index()], &c.db[j.index()], beta),
+                Column::InducedTrace => {
+                    let mut column = vec![0.0; out.len()];
+                    c.trace(&mut column, self.bt_scale);
+                    out.iter_mut()
+                        .zip(&column)
+                        .for_each(|(o, v)| *o += v * beta);
+                }
                 Column::InducedTraceless(a) | Column::EddyTraceless(a) => {
                     let mut column = vec![0.0; out.len()];
                     let eddy = matches!(term.column, Column::EddyTraceless(_));
@@ -245,6 +254,14 @@ impl<'a> Components<'a> {
         }
     }
 
+    /// Writes the trace column `B̂·B / (3s)`.
+    fn trace(&self, out: &mut [f64], s: f64) {
+        for (k, o) in out.iter_mut().enumerate() {
+            let unit = [0, 1, 2].map(|i| self.unit[i][k]);
+            *o = trace(unit, [0, 1, 2].map(|i| self.b[i][k])) / s;
+        }
+    }
+
     fn of(flux: &'a VectorSeries) -> Self {
         let b = [flux.x.as_slice(), flux.y.as_slice(), flux.z.as_slice()];
         let norm: Vec<f64> = (0..flux.len()).map(|k| flux.magnitude(k)).collect();
@@ -259,6 +276,11 @@ impl<'a> Components<'a> {
 /// `û·v/3 − ûa·va`: the projection on û of the traceless field `(1/3 − e_a e_aᵀ)·v`.
 fn traceless(unit: [f64; 3], v: [f64; 3], a: usize) -> f64 {
     (unit[0] * v[0] + unit[1] * v[1] + unit[2] * v[2]) / 3.0 - unit[a] * v[a]
+}
+
+/// `û·v/3`: the projection on û of the isotropic field `v/3`.
+fn trace(unit: [f64; 3], v: [f64; 3]) -> f64 {
+    (unit[0] * v[0] + unit[1] * v[1] + unit[2] * v[2]) / 3.0
 }
 
 fn unit_vector(b: [f64; 3]) -> [f64; 3] {

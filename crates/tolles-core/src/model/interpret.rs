@@ -55,6 +55,7 @@ impl AircraftField {
         let mut field = Self::default();
         // `zz − xx` and `zz − yy` of the induced and eddy matrices, when the design has them.
         let mut traceless = [[f64::NAN; 2]; 2];
+        let mut trace = 0.0;
         for (term, beta) in design.design_terms().iter().zip(coefficients) {
             if term.fluxgate != 0 {
                 continue;
@@ -69,11 +70,13 @@ impl AircraftField {
                 Column::Eddy(i, j) => field.eddy_s[i.index()][j.index()] = beta / (s * fs_hz),
                 Column::InducedTraceless(a) => traceless[0][a.index()] = beta / s,
                 Column::EddyTraceless(a) => traceless[1][a.index()] = beta / (s * fs_hz),
+                Column::InducedTrace => trace = beta / s,
                 Column::Bias => field.bias_nt = *beta,
             }
         }
         set_traceless_diagonal(&mut field.induced, traceless[0]);
         set_traceless_diagonal(&mut field.eddy_s, traceless[1]);
+        (0..3).for_each(|k| field.induced[k][k] += trace / 3.0);
         field
     }
 
@@ -95,6 +98,7 @@ impl AircraftField {
                 Column::Eddy(i, j) => s * fs_hz * self.eddy_s[i.index()][j.index()],
                 Column::InducedTraceless(a) => s * zz_minus(&self.induced, a.index()),
                 Column::EddyTraceless(a) => s * fs_hz * zz_minus(&self.eddy_s, a.index()),
+                Column::InducedTrace => s * (0..3).map(|k| self.induced[k][k]).sum::<f64>(),
                 Column::Bias => self.bias_nt,
             })
             .collect()
@@ -243,6 +247,12 @@ mod tests {
         let field = AircraftField::from_coefficients(&design, &beta, 10.0);
         let trace: f64 = (0..3).map(|k| field.induced[k][k]).sum();
         assert!(trace.abs() < 1e-15);
+        let with_trace = Design::new("p,it,trace,et".parse().unwrap());
+        let mut more = beta.clone();
+        more.insert(8, 150.0);
+        let back = AircraftField::from_coefficients(&with_trace, &more, 10.0)
+            .to_coefficients(&with_trace, 10.0);
+        assert!((back[8] - 150.0).abs() < 1e-9 && (back[3] - beta[3]).abs() < 1e-9);
         let back = field.to_coefficients(&design, 10.0);
         for (u, v) in beta.iter().zip(&back) {
             assert!((u - v).abs() < 1e-9, "{u} {v}");

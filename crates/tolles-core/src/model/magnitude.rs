@@ -86,6 +86,7 @@ pub fn field_per_unit(
         Column::Eddy(i, j) => axis(i.index(), db[j.index()] / bt_scale),
         Column::InducedTraceless(a) => traceless(b, a.index()),
         Column::EddyTraceless(a) => traceless(db, a.index()),
+        Column::InducedTrace => b.map(|c| c / 3.0 / bt_scale),
         Column::Bias => return None,
     })
 }
@@ -198,7 +199,7 @@ mod tests {
     #[test]
     fn linear_projection_of_the_field_vectors_is_the_design_row() {
         let flux = swinging_flux(50);
-        for terms in ["patent", "p,i,e,b", "p,i5,e8", "i3,e3"] {
+        for terms in ["patent", "p,i,e,b", "p,i5,e8", "i3,e3", "p,it,trace,et"] {
             let design = Design::new(terms.parse().unwrap());
             let a = design.matrix(&flux);
             let db = derivatives(&flux);

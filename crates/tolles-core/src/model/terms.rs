@@ -83,6 +83,10 @@ pub enum Column {
     /// `(B̂·Ḃ/3 − B̂a·Ḃa) / Bt_scale`, Ḃ per sample: the traceless eddy combination `zz − aa`;
     /// coefficient `Bt_scale·fs·(E_zz − E_aa)`.
     EddyTraceless(Axis),
+    /// `|B| / (3·Bt_scale)`: the isotropic (trace) part of the induced field, parallel to B;
+    /// coefficient `Bt_scale·(I_xx + I_yy + I_zz)`. Band-passed it is only the earth field's
+    /// own variation, so only low frequencies against a reference (heading levels) pin it.
+    InducedTrace,
     /// A column of ones (coefficient in nT).
     Bias,
 }
@@ -95,6 +99,7 @@ impl fmt::Display for Column {
             Column::Eddy(i, j) => write!(f, "eddy_{}{}", i.letter(), j.letter()),
             Column::InducedTraceless(a) => write!(f, "induced_zz-{0}{0}", a.letter()),
             Column::EddyTraceless(a) => write!(f, "eddy_zz-{0}{0}", a.letter()),
+            Column::InducedTrace => write!(f, "induced_trace"),
             Column::Bias => write!(f, "bias"),
         }
     }
@@ -108,6 +113,8 @@ pub struct TermSet {
     pub permanent: bool,
     /// Induced columns, if any.
     pub induced: Option<InducedTerms>,
+    /// The isotropic induced column `trace`.
+    pub trace: bool,
     /// Eddy-current columns, if any.
     pub eddy: Option<EddyTerms>,
     /// A column of ones.
@@ -117,7 +124,7 @@ pub struct TermSet {
 /// A term list that cannot be understood.
 #[derive(Debug, Clone, Error, PartialEq, Eq)]
 pub enum TermsError {
-    #[error("unknown term {0:?}; use patent, permanent|p, induced|i, it, i5, i3, eddy|e, et, e8, e3, bias|b")]
+    #[error("unknown term {0:?}; use patent, permanent|p, induced|i, it, i5, i3, trace, eddy|e, et, e8, e3, bias|b")]
     Unknown(String),
     #[error("term {0:?} given twice or together with another {1} set; choose one")]
     Repeated(String, &'static str),
@@ -132,6 +139,7 @@ impl TermSet {
             permanent: true,
             induced: Some(InducedTerms::Six),
             eddy: Some(EddyTerms::Nine),
+            trace: false,
             bias: false,
         }
     }
@@ -143,6 +151,7 @@ impl TermSet {
             permanent: true,
             induced: Some(InducedTerms::Five),
             eddy: Some(EddyTerms::Eight),
+            trace: false,
             bias: false,
         }
     }
@@ -154,6 +163,7 @@ impl TermSet {
             permanent: true,
             induced: Some(InducedTerms::Traceless),
             eddy: Some(EddyTerms::Traceless),
+            trace: false,
             bias: false,
         }
     }
@@ -176,6 +186,9 @@ impl TermSet {
             None => &[],
         };
         cols.extend(induced.iter().map(|&(i, j)| Column::Induced(i, j)));
+        if self.trace {
+            cols.push(Column::InducedTrace);
+        }
         let all_pairs = Axis::ALL
             .into_iter()
             .flat_map(|i| Axis::ALL.map(|j| (i, j)));
@@ -206,6 +219,7 @@ impl FromStr for TermSet {
             permanent: false,
             induced: None,
             eddy: None,
+            trace: false,
             bias: false,
         };
         for raw in s.split(',').map(str::trim).filter(|t| !t.is_empty()) {
@@ -222,6 +236,11 @@ impl FromStr for TermSet {
                         return Err(repeated("bias"));
                     }
                 }
+                "trace" => {
+                    if std::mem::replace(&mut set.trace, true) {
+                        return Err(repeated("trace"));
+                    }
+                }
                 "patent" => {
                     let patent = TermSet::patent();
                     if set.permanent || set.induced.is_some() || set.eddy.is_some() {
@@ -229,6 +248,7 @@ impl FromStr for TermSet {
                     }
                     set = TermSet {
                         bias: set.bias,
+                        trace: set.trace,
                         ..patent
                     };
                 }
@@ -277,6 +297,9 @@ impl fmt::Display for TermSet {
             InducedTerms::Three => "i3",
             InducedTerms::Traceless => "it",
         }));
+        if self.trace {
+            parts.push("trace");
+        }
         parts.extend(self.eddy.map(|k| match k {
             EddyTerms::Nine => "eddy",
             EddyTerms::Eight => "e8",
@@ -338,6 +361,7 @@ mod tests {
         assert_eq!(n("et"), 8);
         assert_eq!(n("patent"), 16);
         assert_eq!(n("patent,b"), 17);
+        assert_eq!(n("patent,trace"), 17);
     }
 
     #[test]
@@ -367,6 +391,7 @@ mod tests {
             "permanent,i5,e8,bias",
             "i3,e3",
             "permanent,it,et",
+            "permanent,it,trace,et",
             "bias",
         ] {
             assert_eq!(s.parse::<TermSet>().unwrap().to_string(), s);
