@@ -114,8 +114,14 @@ pub fn fom(
         .transpose()?;
     let after = compensated.as_deref().map(measure).transpose()?;
     let attitude = [&roll[..], &pitch, &yaw];
-    let (heading_before, heading_after) =
-        headings(path, &tt, attitude, &maneuvers, &scalar, compensated.as_deref())?;
+    let (heading_before, heading_after) = headings(
+        path,
+        &tt,
+        attitude,
+        &maneuvers,
+        &scalar,
+        compensated.as_deref(),
+    )?;
     let outcome = FomOutcome {
         tt,
         fs_hz,
