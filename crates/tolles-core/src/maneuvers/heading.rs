@@ -40,9 +40,9 @@
 //! A level's standard error is the samples' standard deviation over √n_eff, where
 //! n_eff = n / τ and τ (samples, at least 1) is the integrated autocorrelation time of the
 //! scalar about the level: 1 + 2 Σ ρ(lag), summed over lags until ρ first falls to zero or
-//! below, with ρ computed over pairs of samples within the same straight run. White noise gives
-//! τ ≈ 1; a slow drift along the leg, or runs of the same heading at different levels, raise τ
-//! and so the error. A box usually has one leg per heading, so a spread of per-leg means would
+//! below (or at [`MAX_LAG_SAMPLES`]), with ρ computed over pairs of samples within the same
+//! straight run. White noise gives τ ≈ 1; a slow drift along the leg, or runs of the same
+//! heading at different levels, raise τ and so the error. A box usually has one leg per heading, so a spread of per-leg means would
 //! not be available.
 //!
 //! What the heading error contains besides the aircraft: the legs are flown at different places
@@ -463,9 +463,13 @@ fn circular_mean_deg(headings: impl Iterator<Item = f64>) -> f64 {
     f64::atan2(s, c).to_degrees().rem_euclid(360.0)
 }
 
+/// Lags summed into the autocorrelation time at most (samples): bounds the work on hours of
+/// straight flight at a cost of underestimating correlations longer than this (410 s at 10 Hz).
+pub const MAX_LAG_SAMPLES: usize = 4096;
+
 /// Integrated autocorrelation time (samples, at least 1) of `values` about `mean`, pairs taken
 /// only within each of `runs` (ranges into `values`): 1 + 2 Σ ρ(lag) up to the first lag whose
-/// ρ is not positive.
+/// ρ is not positive, or [`MAX_LAG_SAMPLES`].
 fn autocorrelation_time(values: &[f64], mean: f64, runs: &[Range<usize>]) -> f64 {
     let r: Vec<f64> = values.iter().map(|v| v - mean).collect();
     let c0 = r.iter().map(|v| v * v).sum::<f64>() / r.len() as f64;
@@ -474,7 +478,7 @@ fn autocorrelation_time(values: &[f64], mean: f64, runs: &[Range<usize>]) -> f64
     }
     let longest = runs.iter().map(|run| run.len()).max().unwrap_or(0);
     let mut tau = 1.0;
-    for lag in 1..longest {
+    for lag in 1..longest.min(MAX_LAG_SAMPLES + 1) {
         let (sum, pairs) =
             runs.iter()
                 .filter(|run| run.len() > lag)
@@ -674,6 +678,30 @@ mod tests {
         );
         assert!(d.effective_samples < 60.0, "{d:?}");
         assert!(d.std_error_nt > d.std_nt / 8.0, "{d:?}");
+    }
+
+    #[test]
+    fn a_drift_longer_than_the_lag_limit_stops_there() {
+        let n = 3 * MAX_LAG_SAMPLES;
+        let tt: Vec<f64> = (0..n).map(|k| k as f64 / 10.0).collect();
+        let zero = vec![0.0; n];
+        let ramp: Vec<f64> = (0..n).map(|k| k as f64 * 1e-3).collect();
+        let r = heading_levels(
+            &tt,
+            &zero,
+            &zero,
+            &zero,
+            &ramp,
+            &[],
+            &HeadingSettings::default(),
+        )
+        .unwrap();
+        let level = &r.levels[0];
+        assert!(
+            level.effective_samples >= 1.0 && level.std_error_nt.is_finite(),
+            "{level:?}"
+        );
+        assert!(level.effective_samples < 10.0, "{level:?}");
     }
 
     #[test]
