@@ -403,8 +403,11 @@ def fom(
 
     The box's 12 maneuvers (roll, pitch, yaw on headings 0, 90, 180, 270°) are found in
     ``ins_roll``, ``ins_pitch``, ``ins_yaw`` (deg) and ``tt`` (s); the FOM (nT) is the sum of
-    the peak-to-peaks of the band-passed scalar over them. With ``model``, also after
-    compensation (under ``"compensated"``) and the improvement ratio.
+    the peak-to-peaks of the band-passed scalar over them. ``"heading_error"`` holds the
+    surveyors' heading error (nT): the scalar's mean level on the straight legs of each heading
+    (``levels``), largest minus smallest, with its uncertainty. With ``model``, also after
+    compensation (under ``"compensated"``, heading error on the same samples) and the
+    improvement ratio.
     """
     columns = _Columns(df)
     text, notes = _tolles.fom(

@@ -143,6 +143,82 @@ fn fom_of_the_demo_box_before_and_after_its_model() {
         "{table}"
     );
     assert!(!table.contains("missing"), "{table}");
+    assert!(table.contains("heading error: "), "{table}");
+    assert!(table.contains(" nT after"), "{table}");
+    assert!(table.contains("compensated (nT)"), "{table}");
+
+    // The demo flies over geology, which stays in the heading error: it drops, not to zero.
+    let heading = |block: &Value| block["heading_error"]["heading_error_nT"].as_f64().unwrap();
+    let (error_before, error_after) = (heading(&both), heading(&both["compensated"]));
+    assert_eq!(error_before, heading(&before));
+    assert!(
+        error_before > error_after,
+        "{error_before} -> {error_after}"
+    );
+}
+
+/// `tolles simulate` with a uniform earth field, no geology and no diurnal variation, then
+/// `tolles fit`: the heading error is the aircraft's alone, and compensation removes it.
+#[test]
+fn the_heading_error_of_a_uniform_field_box_vanishes_with_its_model() {
+    let dir = TempDir::new().unwrap();
+    let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let (csv, model) = (path("box.csv"), path("model.json"));
+    run(&[
+        "simulate",
+        "--out",
+        &csv,
+        "--inclination",
+        "68",
+        "--declination",
+        "-3",
+        "--intensity",
+        "52000",
+        "--geology",
+        "0",
+        "--diurnal",
+        "0",
+    ]);
+    run(&[
+        "fit", &csv, "--scalar", "mag_1_uc", "--vector", "flux_a", "--out", &model,
+    ]);
+    let report = json(&[
+        "fom", &csv, "--scalar", "mag_1_uc", "--model", &model, "--json",
+    ]);
+    let (before, after) = (
+        &report["heading_error"],
+        &report["compensated"]["heading_error"],
+    );
+    let number = |block: &Value, key: &str| block[key].as_f64().unwrap();
+    assert!(number(before, "heading_error_nT") > 30.0, "{before}");
+    assert!(number(before, "uncertainty_nT") < 1.0, "{before}");
+    assert!(number(after, "heading_error_nT") < 0.5, "{after}");
+    let levels = before["levels"].as_array().unwrap();
+    let headings: Vec<u64> = levels
+        .iter()
+        .map(|l| l["heading_deg"].as_u64().unwrap())
+        .collect();
+    assert_eq!(headings, [0, 90, 180, 270]);
+    for (b, a) in levels.iter().zip(after["levels"].as_array().unwrap()) {
+        assert_eq!(b["samples"], a["samples"]);
+        assert!(b["samples"].as_u64().unwrap() > 30, "{b}");
+        assert!(b["std_error_nT"].as_f64().unwrap() >= 0.0, "{b}");
+        assert!(b["level_nT"].as_f64().unwrap() > 50_000.0, "{b}");
+    }
+    assert_eq!(before["skipped"], serde_json::json!([]));
+
+    let table = run(&["fom", &csv, "--scalar", "mag_1_uc", "--model", &model]);
+    let line = table
+        .lines()
+        .find(|l| l.starts_with("heading error: "))
+        .unwrap_or_else(|| panic!("{table}"));
+    assert!(
+        line.contains(" nT before, ") && line.ends_with(" nT after"),
+        "{line}"
+    );
+    let without = run(&["fom", &csv, "--scalar", "mag_1_uc"]);
+    assert!(!without.contains(" after"), "{without}");
+    assert!(without.contains("heading error: "), "{without}");
 }
 
 #[test]

@@ -1,12 +1,13 @@
 //! The compensation report of a flight: [`tolles::report::ReportData`] laid out as a page —
-//! summary cards, signals, spectra, the figure of merit maneuver by maneuver and, with a model,
-//! its coefficients, patent terms and fit diagnostics.
+//! summary cards, signals, spectra, the figure of merit maneuver by maneuver, the heading error
+//! heading by heading and, with a model, its coefficients, patent terms and fit diagnostics.
 
 use crate::plot::{BarChart, BarSeries, Colour, LinePlot, Series};
 use crate::{Report, ReportError};
 use std::path::{Path, PathBuf};
-use tolles::report::{ManeuverRow, ReportData};
+use tolles::report::{HeadingRow, ManeuverRow, ReportData};
 use tolles::tolles_core::maneuvers::detect::Maneuver;
+use tolles::tolles_core::maneuvers::heading::HeadingLevels;
 use tolles::tolles_core::signal::spectrum::Spectrum;
 use tolles::tolles_io::model::ScalarModel;
 
@@ -31,6 +32,7 @@ pub fn page(data: &ReportData) -> Report {
     report = signals(report, data);
     report = spectra(report, data);
     report = figure_of_merit(report, data);
+    report = heading_error(report, data);
     if let Some(fit) = &data.fit {
         report = model(report, fit);
         report = diagnostics(report, fit);
@@ -51,6 +53,17 @@ fn summary(report: Report, data: &ReportData) -> Report {
             "improvement",
             format!("×{:.1}", before.fom_nt / after.fom_nt),
         ));
+    }
+    if let Some(error) = data.fom.heading_before.heading_error_nt {
+        items.push(("heading error before", format!("{error:.2} nT")));
+    }
+    if let Some(error) = data
+        .fom
+        .heading_after
+        .as_ref()
+        .and_then(|h| h.heading_error_nt)
+    {
+        items.push(("heading error after", format!("{error:.3} nT")));
     }
     items.push((
         "maneuvers found",
@@ -250,6 +263,67 @@ fn maneuver_cells(row: &ManeuverRow) -> Vec<String> {
     ]
 }
 
+/// The heading levels before and after, and what the heading error is.
+fn heading_error(mut report: Report, data: &ReportData) -> Report {
+    report = report.section("Heading error");
+    let (before, after) = (&data.fom.heading_before, data.fom.heading_after.as_ref());
+    let mut text = format!(
+        "Mean scalar over the straight and level samples of each heading (outside maneuvers, \
+         roll and pitch within 3°, yaw within 10° of the heading and steady); the heading error \
+         is the largest level minus the smallest: {} before compensation",
+        heading_error_text(before)
+    );
+    if let Some(after) = after {
+        text += &format!(", {} after", heading_error_text(after));
+    }
+    text += ". Geology and diurnal variation between the legs stay in both.";
+    report = report.paragraph(text);
+    if data.headings.is_empty() {
+        return report;
+    }
+    let cells: Vec<Vec<String>> = data.headings.iter().map(heading_cells).collect();
+    report = report.table(
+        &[
+            "heading (°)",
+            "samples",
+            "time (s)",
+            "before (nT)",
+            "after (nT)",
+        ],
+        &cells,
+    );
+    if !before.skipped.is_empty() {
+        let skipped: Vec<String> = before
+            .skipped
+            .iter()
+            .map(|s| format!("{:.0}° ({:.1} s)", s.heading_deg, s.duration_s))
+            .collect();
+        report = report.paragraph(format!(
+            "Too little straight flight (under 3 s) on: {}.",
+            skipped.join(", ")
+        ));
+    }
+    report
+}
+
+fn heading_error_text(levels: &HeadingLevels) -> String {
+    match (levels.heading_error_nt, levels.uncertainty_nt) {
+        (Some(e), Some(u)) => format!("{e:.3} ± {u:.3} nT"),
+        _ => "none (fewer than two headings)".into(),
+    }
+}
+
+fn heading_cells(row: &HeadingRow) -> Vec<String> {
+    let level = |(l, se): (f64, f64)| format!("{l:.3} ± {se:.3}");
+    vec![
+        format!("{:.0}", row.heading_deg),
+        row.samples.to_string(),
+        format!("{:.1}–{:.1}", row.span_tt.0, row.span_tt.1),
+        level(row.before_nt),
+        row.after_nt.map_or("—".into(), level),
+    ]
+}
+
 /// Coefficients with standard errors and the patent's terms.
 fn model(report: Report, model: &ScalarModel) -> Report {
     let fit = &model.fit;
@@ -427,6 +501,8 @@ mod tests {
             "Fit diagnostics",
             "Term sets compared",
             "roll 090°",
+            "Heading error",
+            "heading error after",
         ] {
             assert!(html.contains(text), "{text} missing");
         }

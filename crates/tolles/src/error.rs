@@ -8,6 +8,7 @@ use tolles_core::fit::FitError;
 use tolles_core::flight::igrf::IgrfError;
 use tolles_core::flight::maneuver_list::ManeuverListError;
 use tolles_core::maneuvers::fom::FomError;
+use tolles_core::maneuvers::heading::HeadingError;
 use tolles_core::maneuvers::identifiability::PlanningError;
 use tolles_core::patent::procedure::ProcedureError;
 use tolles_core::signal::filter::FilterError;
@@ -60,6 +61,9 @@ pub enum Error {
     /// The figure of merit could not be computed.
     #[error("{}: {cause}", path.display())]
     Fom { path: PathBuf, cause: FomError },
+    /// The heading levels of the straight legs could not be computed.
+    #[error("{}: {cause}", path.display())]
+    Heading { path: PathBuf, cause: HeadingError },
     /// Neither a time column, a `dt` scalar nor a given rate says how fast the data was sampled.
     #[error("{}: no time column {TIME_COLUMN:?} to take the sample rate from; give the sample rate", path.display())]
     NoSampleRate { path: PathBuf },

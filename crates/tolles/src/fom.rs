@@ -1,5 +1,7 @@
 //! The figure of merit of a compensation box: its maneuvers found in the attitude, the FOM of
-//! the scalar before and, given a model, after compensation.
+//! the scalar before and, given a model, after compensation; and the surveyors' heading error
+//! (the spread of the scalar's level over the straight legs of the cardinal headings, see
+//! [`tolles_core::maneuvers::heading`]) on the same samples before and after.
 
 use crate::compensate::{compensate_flight, CompensateRequest};
 use crate::error::{Error, Result};
@@ -12,6 +14,7 @@ use tolles_core::maneuvers::detect::{detect_maneuvers, Maneuver, ManeuverSetting
 use tolles_core::maneuvers::fom::{
     fom as fom_of, improvement_ratio, FomReport, FomSettings, ManeuverFom, Slot,
 };
+use tolles_core::maneuvers::heading::{select_straight, HeadingLevels, HeadingSettings};
 use tolles_io::model::{ModelFile, ScalarModel};
 use tolles_io::schema::{PITCH, ROLL, YAW};
 use tolles_io::table::Table;
@@ -61,6 +64,11 @@ pub struct FomOutcome {
     pub before: FomReport,
     /// FOM of the compensated scalar, with a model.
     pub after: Option<FomReport>,
+    /// Heading levels (nT) and heading error of the uncompensated scalar, over the straight
+    /// legs' samples where the scalar (and, with a model, the compensated scalar) is finite.
+    pub heading_before: HeadingLevels,
+    /// The same of the compensated scalar, on the same samples, with a model.
+    pub heading_after: Option<HeadingLevels>,
 }
 
 /// Finds the box maneuvers of the flight `table` in its attitude columns and the FOM of the
@@ -105,6 +113,15 @@ pub fn fom(
         .map(|fit| compensated(table, fit, request.fs_hz, warnings))
         .transpose()?;
     let after = compensated.as_deref().map(measure).transpose()?;
+    let attitude = [&roll[..], &pitch, &yaw];
+    let (heading_before, heading_after) = headings(
+        path,
+        &tt,
+        attitude,
+        &maneuvers,
+        &scalar,
+        compensated.as_deref(),
+    )?;
     let outcome = FomOutcome {
         tt,
         fs_hz,
@@ -113,9 +130,40 @@ pub fn fom(
         maneuvers,
         before,
         after,
+        heading_before,
+        heading_after,
     };
     warnings.extend(gaps(path, &outcome));
     Ok(outcome)
+}
+
+/// Heading levels of `scalar` and of `compensated` (nT) over the same straight-and-level
+/// samples: those where both are finite.
+fn headings(
+    path: &Path,
+    tt: &[f64],
+    [roll, pitch, yaw]: [&[f64]; 3],
+    maneuvers: &[Maneuver],
+    scalar: &[f64],
+    compensated: Option<&[f64]>,
+) -> Result<(HeadingLevels, Option<HeadingLevels>)> {
+    let error = |cause| Error::Heading {
+        path: path.to_path_buf(),
+        cause,
+    };
+    let settings = HeadingSettings::default();
+    let mut selection =
+        select_straight(tt, roll, pitch, yaw, maneuvers, &settings).map_err(error)?;
+    selection.require_finite(scalar).map_err(error)?;
+    if let Some(c) = compensated {
+        selection.require_finite(c).map_err(error)?;
+    }
+    let before = selection.levels(scalar).map_err(error)?;
+    let after = compensated
+        .map(|c| selection.levels(c))
+        .transpose()
+        .map_err(error)?;
+    Ok((before, after))
 }
 
 fn compensated(
@@ -180,22 +228,64 @@ impl FomOutcome {
     }
 
     /// The outcome as `tolles fom --json` prints it: FOM (nT), band (Hz), fourth-difference
-    /// noise (nT), counted, extra and missing maneuvers, the improvement ratio, and the same
-    /// block for the compensated data under `compensated`.
+    /// noise (nT), counted, extra and missing maneuvers, the heading error (`heading_error`,
+    /// see [`heading_json`]), the improvement ratio, and the same block for the compensated data
+    /// under `compensated`.
     pub fn to_json(&self) -> Value {
         let mut value = block_json(&self.before);
+        value["heading_error"] = heading_json(&self.heading_before);
         value["improvement_ratio"] = json!(self.improvement_ratio());
         if let Some(after) = &self.after {
             value["compensated"] = block_json(after);
+        }
+        if let Some(after) = &self.heading_after {
+            value["compensated"]["heading_error"] = heading_json(after);
         }
         value
     }
 }
 
+/// The heading levels as JSON: `heading_error_nT` and `uncertainty_nT` (null with fewer than two
+/// headings), `levels` (one per heading found: `heading_deg`, `level_nT`, `std_error_nT`,
+/// `std_nT`, `samples`, `effective_samples`, `start_tt`, `end_tt` in s) and `skipped` (headings
+/// with too little straight flight: `heading_deg`, `samples`, `duration_s`).
+pub fn heading_json(levels: &HeadingLevels) -> Value {
+    let heading = |h: f64| {
+        // Whole headings (the cardinal ones) print as integers, like a maneuver's.
+        if h.fract() == 0.0 && (0.0..360.0).contains(&h) {
+            json!(h as u16)
+        } else {
+            json!(h)
+        }
+    };
+    let level = |l: &tolles_core::maneuvers::heading::HeadingLevel| {
+        json!({
+            "heading_deg": heading(l.heading_deg),
+            "level_nT": finite(l.level_nt),
+            "std_error_nT": finite(l.std_error_nt),
+            "std_nT": finite(l.std_nt),
+            "samples": l.samples,
+            "effective_samples": finite(l.effective_samples),
+            "start_tt": finite(l.start_tt),
+            "end_tt": finite(l.end_tt),
+        })
+    };
+    json!({
+        "heading_error_nT": levels.heading_error_nt.and_then(|v| v.is_finite().then_some(v)),
+        "uncertainty_nT": levels.uncertainty_nt.and_then(|v| v.is_finite().then_some(v)),
+        "levels": levels.levels.iter().map(level).collect::<Vec<_>>(),
+        "skipped": levels.skipped.iter().map(|s| json!({
+            "heading_deg": heading(s.heading_deg),
+            "samples": s.samples,
+            "duration_s": finite(s.duration_s),
+        })).collect::<Vec<_>>(),
+    })
+}
+
 fn block_json(report: &FomReport) -> Value {
     let maneuver = |m: &ManeuverFom| {
         json!({
-            "heading_deg": heading_json(&m.maneuver),
+            "heading_deg": maneuver_heading_json(&m.maneuver),
             "kind": m.maneuver.kind,
             "start_tt": m.maneuver.start_tt,
             "end_tt": m.maneuver.end_tt,
@@ -213,7 +303,7 @@ fn block_json(report: &FomReport) -> Value {
 }
 
 /// A cardinal heading as an integer, any other as measured.
-fn heading_json(m: &Maneuver) -> Value {
+fn maneuver_heading_json(m: &Maneuver) -> Value {
     match m.cardinal_heading_deg() {
         Some(h) => json!(h as u16),
         None => json!(m.heading_deg),
@@ -264,6 +354,45 @@ mod tests {
         assert!(json["improvement_ratio"].as_f64().unwrap() > 50.0, "{json}");
         assert_eq!(json["maneuvers"].as_array().unwrap().len(), 12);
         assert!(json["compensated"]["fom_nT"].as_f64().unwrap() < json["fom_nT"].as_f64().unwrap());
+        let before = &json["heading_error"];
+        let after = &json["compensated"]["heading_error"];
+        assert_eq!(before["levels"].as_array().unwrap().len(), 4, "{before}");
+        assert_eq!(before["levels"][1]["heading_deg"], 90);
+        assert!(before["skipped"].as_array().unwrap().is_empty());
+        let error = |block: &Value| block["heading_error_nT"].as_f64().unwrap();
+        assert!(error(before) > 1.5 * error(after), "{before} -> {after}");
+        // The same samples before and after.
+        let samples = |block: &Value, k: usize| block["levels"][k]["samples"].clone();
+        assert!((0..4).all(|k| samples(before, k) == samples(after, k)));
+        the_heading_error_left_is_the_earth_s(&table, &outcome);
+    }
+
+    /// Geology under the legs stays in the compensated heading error; the simulator's true
+    /// earth field on the same samples accounts for it.
+    fn the_heading_error_left_is_the_earth_s(table: &Table, outcome: &FomOutcome) {
+        let column = |name| table.numeric(name).unwrap();
+        let (roll, pitch, yaw) = (column(ROLL), column(PITCH), column(YAW));
+        let attitude = [&roll[..], &pitch, &yaw];
+        let compensated = outcome.compensated.as_deref().unwrap();
+        let residual: Vec<f64> = compensated
+            .iter()
+            .zip(column(crate::report::TRUTH_COLUMN))
+            .map(|(c, truth)| c - truth)
+            .collect();
+        let (_, residual) = headings(
+            Path::new("t"),
+            &outcome.tt,
+            attitude,
+            &outcome.maneuvers,
+            &outcome.scalar,
+            Some(&residual),
+        )
+        .unwrap();
+        let residual = residual.unwrap();
+        assert_eq!(residual.levels.len(), 4);
+        let after = outcome.heading_after.as_ref().unwrap();
+        let e = residual.heading_error_nt.unwrap();
+        assert!(e < 0.5, "{e} nT of {:?} nT", after.heading_error_nt);
     }
 
     #[test]
@@ -272,6 +401,8 @@ mod tests {
         let mut warnings = Vec::new();
         let outcome = fom(&table, &FomRequest::new("mag_1_uc"), None, &mut warnings).unwrap();
         assert!(outcome.to_json()["improvement_ratio"].is_null());
+        assert!(outcome.heading_after.is_none());
+        assert!(outcome.to_json()["compensated"].is_null());
         assert!(
             warnings
                 .iter()

@@ -1,6 +1,7 @@
 //! What a compensation report of a flight shows, computed: the scalar before and after
 //! compensation (mean removed and band-passed), its error against a simulator's truth, spectra,
-//! and the figure of merit maneuver by maneuver. The `tolles-report` crate lays it out as HTML.
+//! the figure of merit maneuver by maneuver, and the heading error heading by heading. The
+//! `tolles-report` crate lays it out as HTML.
 
 use crate::error::{Error, Result};
 use crate::fom::{fit_for, fom, FomOutcome, FomRequest};
@@ -73,6 +74,25 @@ pub struct ReportData {
     pub spectrum_after: Option<Spectrum>,
     /// The counted box maneuvers, in the order found.
     pub maneuvers: Vec<ManeuverRow>,
+    /// The headings whose straight legs give a level before compensation, in the settings'
+    /// order (N, E, S, W); the heading errors themselves are in [`FomOutcome::heading_before`]
+    /// and [`FomOutcome::heading_after`].
+    pub headings: Vec<HeadingRow>,
+}
+
+/// The scalar's level on one heading's straight legs, before and after compensation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HeadingRow {
+    /// Nominal heading (deg).
+    pub heading_deg: f64,
+    /// Straight-and-level samples used (the same before and after).
+    pub samples: usize,
+    /// Time of the first and last sample used (s).
+    pub span_tt: (f64, f64),
+    /// Mean uncompensated scalar and its standard error (nT).
+    pub before_nt: (f64, f64),
+    /// The same compensated (nT), with a model.
+    pub after_nt: Option<(f64, f64)>,
 }
 
 /// One signal, as plotted.
@@ -146,6 +166,7 @@ pub fn build(
             .map(|c| spectrum(c, outcome.fs_hz, "compensated"))
             .transpose()?,
         maneuvers: maneuver_rows(&outcome),
+        headings: heading_rows(&outcome),
         request: request.clone(),
         fit,
         fom: outcome,
@@ -209,6 +230,27 @@ fn maneuver_rows(outcome: &FomOutcome) -> Vec<ManeuverRow> {
         .collect()
 }
 
+/// A row per heading with a level before compensation, its compensated level matched by heading.
+fn heading_rows(outcome: &FomOutcome) -> Vec<HeadingRow> {
+    let after_of = |heading_deg: f64| {
+        let after = outcome.heading_after.as_ref()?;
+        let same = after.levels.iter().find(|l| l.heading_deg == heading_deg)?;
+        Some((same.level_nt, same.std_error_nt))
+    };
+    outcome
+        .heading_before
+        .levels
+        .iter()
+        .map(|l| HeadingRow {
+            heading_deg: l.heading_deg,
+            samples: l.samples,
+            span_tt: (l.start_tt, l.end_tt),
+            before_nt: (l.level_nt, l.std_error_nt),
+            after_nt: after_of(l.heading_deg),
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -234,6 +276,8 @@ mod tests {
         assert!(before.compensated.is_none() && before.error.is_none());
         assert_eq!(before.maneuvers.len(), 12);
         assert!(before.maneuvers.iter().all(|m| m.after_nt.is_none()));
+        assert_eq!(before.headings.len(), 4);
+        assert!(before.headings.iter().all(|h| h.after_nt.is_none()));
         assert_eq!(before.truth.as_ref().unwrap().len(), before.fom.tt.len());
 
         let data = crate::read::read(&flight, &Default::default(), &Silent, &mut warnings).unwrap();
@@ -260,6 +304,9 @@ mod tests {
         for m in &after.maneuvers {
             assert!(m.after_nt.unwrap() < m.before_nt / 10.0, "{m:?}");
         }
+        let headings: Vec<f64> = after.headings.iter().map(|h| h.heading_deg).collect();
+        assert_eq!(headings, [0.0, 90.0, 180.0, 270.0]);
+        assert!(after.headings.iter().all(|h| h.after_nt.is_some()));
     }
 
     #[test]

@@ -8,6 +8,7 @@ use std::path::PathBuf;
 use tolles::fom::{heading_text, FomOutcome, FomRequest};
 use tolles_core::fit::Band;
 use tolles_core::maneuvers::fom::improvement_ratio;
+use tolles_core::maneuvers::heading::{HeadingLevel, HeadingLevels};
 
 const EXAMPLES: &str = "\
 Examples:
@@ -28,6 +29,13 @@ Examples:
 /// but not counted; box maneuvers not found are listed as missing and the FOM sums the others.
 /// With --model the FOM is also computed on the data compensated exactly as `tolles compensate`
 /// does, and the improvement ratio is uncompensated FOM / compensated FOM (null without a model).
+///
+/// The heading error is the surveyors' measure: the scalar's mean level over the straight and
+/// level samples of each cardinal heading (outside maneuvers and 2 s around them, roll and pitch
+/// within 3°, yaw within 10° of the heading and turning less than 1°/s; headings with less than
+/// 3 s of such flight are skipped), largest level minus smallest, ± the two levels' standard
+/// errors combined (each allows for autocorrelation). Before and after compensation it uses the
+/// same samples. Geology and diurnal variation between the legs stay in both numbers.
 #[derive(clap::Args)]
 #[command(after_help = EXAMPLES)]
 pub struct Args {
@@ -164,6 +172,7 @@ fn write_table(out: &mut impl Write, args: &Args, o: &FomOutcome) -> Result<()> 
             o.before.fourth_difference_nt
         )?,
     }
+    write_headings(out, &o.heading_before, o.heading_after.as_ref())?;
     for slot in &o.before.missing {
         writeln!(
             out,
@@ -201,4 +210,75 @@ fn write_table(out: &mut impl Write, args: &Args, o: &FomOutcome) -> Result<()> 
         writeln!(out)?;
     }
     Ok(())
+}
+
+/// The heading error line, then a row per heading: its levels before and after (nT).
+fn write_headings(
+    out: &mut impl Write,
+    before: &HeadingLevels,
+    after: Option<&HeadingLevels>,
+) -> Result<()> {
+    let error = |h: &HeadingLevels| match (h.heading_error_nt, h.uncertainty_nt) {
+        (Some(e), Some(u)) => {
+            let d = decimals(u);
+            format!("{e:.d$} ± {u:.d$} nT")
+        }
+        _ => "none (fewer than two headings)".to_string(),
+    };
+    write!(out, "heading error: {} before", error(before))?;
+    if let Some(after) = after {
+        write!(out, ", {} after", error(after))?;
+    }
+    writeln!(
+        out,
+        "\n  (largest minus smallest mean level of the straight legs; geology and diurnal variation between legs stay in it)"
+    )?;
+    if before.levels.is_empty() {
+        return Ok(());
+    }
+    write!(
+        out,
+        "{:>12}  {:>7}  {:>13}  {:>20}",
+        "heading (°)", "samples", "time (s)", "level (nT)"
+    )?;
+    if after.is_some() {
+        write!(out, "  {:>20}", "compensated (nT)")?;
+    }
+    writeln!(out)?;
+    let cell = |l: &HeadingLevel| {
+        let d = decimals(l.std_error_nt);
+        format!("{:.d$} ± {:.d$}", l.level_nt, l.std_error_nt)
+    };
+    for level in &before.levels {
+        write!(
+            out,
+            "{:>12}  {:>7}  {:>13}  {:>20}",
+            format!("{:.0}", level.heading_deg),
+            level.samples,
+            format!("{:.1}–{:.1}", level.start_tt, level.end_tt),
+            cell(level)
+        )?;
+        let same = after.and_then(|a| a.levels.iter().find(|l| l.heading_deg == level.heading_deg));
+        if let Some(same) = same {
+            write!(out, "  {:>20}", cell(same))?;
+        }
+        writeln!(out)?;
+    }
+    for skipped in &before.skipped {
+        writeln!(
+            out,
+            "heading {:.0}°: skipped, {:.1} s of straight and level flight",
+            skipped.heading_deg, skipped.duration_s
+        )?;
+    }
+    Ok(())
+}
+
+/// Decimals that show an uncertainty (nT) to two significant digits, between 2 and 4.
+fn decimals(uncertainty: f64) -> usize {
+    if uncertainty > 0.0 && uncertainty.is_finite() {
+        (1.0 - uncertainty.log10().floor()).clamp(2.0, 4.0) as usize
+    } else {
+        2
+    }
 }

@@ -8,6 +8,8 @@
 //!   It is what [`detect`] finds, what a [`fom::Slot`] is made of, and what a flight plan flies:
 //!   [`flight::plan::Axis`](crate::flight::plan::Axis) is the same type under the plan's name.
 //!   JSON: `"roll"`, `"pitch"`, `"yaw"`.
+//! - [`heading`] is not a maneuver type: it measures the scalar's level on the straight legs
+//!   between maneuvers, the surveyors' heading error.
 //! - [`detect::Maneuver`]: one maneuver found in a flight (kind, heading, samples, amplitude,
 //!   period).
 //! - [`patent::Maneuver`](crate::patent::Maneuver): the two maneuvers the patent's tables cover,
@@ -23,6 +25,7 @@
 
 pub mod detect;
 pub mod fom;
+pub mod heading;
 pub mod identifiability;
 
 use serde::{Deserialize, Serialize};
