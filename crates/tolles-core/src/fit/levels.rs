@@ -68,8 +68,16 @@ pub struct LevelDiagnostics {
     pub weight: f64,
 }
 
+/// Largest believable fluxgate offset (nT): beyond it the calibration has fitted something else
+/// (too little attitude change to tell the terms apart) and is not used.
+pub const MAX_OFFSET_NT: f64 = 2_000.0;
+
+/// Largest believable distortion (dimensionless), likewise.
+pub const MAX_DISTORTION: f64 = 0.05;
+
 /// Calibrates the fluxgate against its own band-passed magnitude and returns the reference, or
-/// `None` when the calibration cannot be fitted (too little data, constant attitude).
+/// `None` when the calibration cannot be fitted (too little data, constant attitude) or found
+/// an offset or distortion no fluxgate has (see [`MAX_OFFSET_NT`], [`MAX_DISTORTION`]).
 pub fn reference(
     flux: &VectorSeries,
     usable: &[bool],
@@ -95,7 +103,7 @@ pub fn reference(
     });
     let calibration_settings = FitSettings {
         design: design.clone(),
-        lambda: Lambda::Fixed(0.0),
+        lambda: Lambda::auto(),
         alternative_terms: Vec::new(),
         levels: false,
         magnitude: Default::default(),
@@ -110,6 +118,13 @@ pub fn reference(
         }
     }
     let c = &cal.coefficients;
+    let believable = c[..3].iter().all(|o| o.abs() <= MAX_OFFSET_NT)
+        && c[3..]
+            .iter()
+            .all(|k| (k / design.bt_scale).abs() <= MAX_DISTORTION);
+    if !believable {
+        return None;
+    }
     Some(Reference {
         values,
         calibration: FluxgateCalibration {
