@@ -123,7 +123,11 @@ fn default_fit_cross_validates_and_records_it() {
         .iter()
         .map(|s| s["terms"].as_str().unwrap())
         .collect();
-    for set in ["permanent,it,et", "permanent,i5,e8", "permanent,induced,eddy"] {
+    for set in [
+        "permanent,it,et",
+        "permanent,i5,e8",
+        "permanent,induced,eddy",
+    ] {
         assert!(terms.contains(&set), "{terms:?}");
     }
     assert_eq!(fit["settings"]["design"]["terms"], "permanent,i5,e8");

@@ -350,10 +350,14 @@ fn model(report: Report, model: &ScalarModel) -> Report {
     let report = report
         .section("Model")
         .paragraph(format!(
-            "Fit of {} against {fluxgates} {} with terms {}; sample rate {:.3} Hz.",
+            "Fit of {} against {fluxgates} {} with terms {} and the {} magnitude; sample rate {:.3} Hz.",
             model.scalar,
             model.vectors.join(", "),
             fit.settings.design.terms,
+            match fit.magnitude {
+                tolles::tolles_core::model::magnitude::Magnitude::Linear => "linear (B̂·H)",
+                tolles::tolles_core::model::magnitude::Magnitude::Exact => "exact (|B + H| − |B|)",
+            },
             fit.fs_hz
         ))
         .table(&["column", "coefficient", "standard error", "unit"], &rows);
@@ -417,6 +421,30 @@ fn diagnostics(mut report: Report, model: &ScalarModel) -> Report {
             format!("{:.4} nT", cv.expected_heldout_rms_nt),
         ));
     }
+    if d.exact_iterations > 0 {
+        items.push((
+            "Gauss-Newton iterations (exact magnitude)",
+            d.exact_iterations.to_string(),
+        ));
+    }
+    if let Some(levels) = &d.levels {
+        let o = levels.fluxgate.offset_nt;
+        items.push((
+            "fluxgate offset found (x, y, z)",
+            format!("{:.1}, {:.1}, {:.1} nT", o[0], o[1], o[2]),
+        ));
+        items.push((
+            "heading-level rows, misfit",
+            format!(
+                "{} below {} Hz, {:.4} nT",
+                levels.rows, levels.cutoff_hz, levels.residual_rms_nt
+            ),
+        ));
+        items.push((
+            "a heading's level determined to",
+            format!("± {:.4} nT", levels.level_std_error_nt),
+        ));
+    }
     report = report
         .section("Fit diagnostics")
         .key_values(&borrowed(&items));
@@ -450,19 +478,29 @@ fn term_choice(report: Report, model: &ScalarModel) -> Report {
         .map(|t| {
             vec![
                 t.terms.to_string(),
+                t.magnitude.to_string(),
                 t.lambda_rel.map_or("-".into(), |l| format!("{l:e}")),
                 t.heldout_rms_nt
                     .map_or("could not be fitted".into(), |r| format!("{r:.5}")),
+                t.heldout_low_rms_nt
+                    .map_or("-".into(), |r| format!("{r:.5}")),
                 if t.chosen { "chosen" } else { "" }.into(),
             ]
         })
         .collect();
     report
         .paragraph(
-            "Term sets compared on the same folds (an alternative to the first must be 2 % better):",
+            "Models compared on the same folds (a larger term set must be 2 % better; the score is the band's and the heading levels' held-out RMS added in quadrature):",
         )
         .table(
-            &["terms", "λ (× diag AᵀA)", "held-out RMS (nT)", ""],
+            &[
+                "terms",
+                "magnitude",
+                "λ (× diag AᵀA)",
+                "held-out RMS (nT)",
+                "held-out levels (nT)",
+                "",
+            ],
             &rows,
         )
 }
@@ -499,7 +537,7 @@ mod tests {
             "12 of 12",
             "Compensated minus truth",
             "Fit diagnostics",
-            "Term sets compared",
+            "Models compared",
             "roll 090°",
             "Heading error",
             "heading error after",
