@@ -26,6 +26,7 @@
 //! - [`model::design`]: the design matrix (permanent, induced and eddy-current columns);
 //! - [`model::vector`]: time series of 3-component vectors (fluxgates);
 //! - [`model::interpret`]: coefficients as physical fields and in the patent's nomenclature.
+//! - [`model::magnitude`]: the field applied to first order (`B̂·H`) or exactly (`|B + H| − |B|`).
 //!
 //! [`signal`]: signal processing that knows nothing of aircraft
 //! - [`signal::filter`]: Butterworth second-order sections, zero-phase filtering and the pass

@@ -37,6 +37,17 @@
 //! Samples where the scalar or fluxgate is not finite are skipped; the remaining samples are cut
 //! into contiguous runs (also at time gaps, see [`crate::signal::segment`]) and each run is designed,
 //! filtered and trimmed on its own, so no derivative or filter reaches across a hole.
+//!
+//! [`FitSettings::recommended`] goes further, in three steps that share the folds:
+//! 1. the candidate term sets (the patent's traceless 16, `i5,e8`, MagNav's 18) are fitted and
+//!    scored on held-out folds;
+//! 2. with `levels`, low-frequency rows against the calibrated fluxgate's magnitude join the
+//!    band rows, and the score adds their held-out error ([`levels`]);
+//! 3. with `magnitude`, the chosen terms are refitted for the exact magnitude `|B + H| − |B|`
+//!    by Gauss-Newton from the linear solution: each iteration rebuilds the rows from the
+//!    Jacobian (see [`crate::model::magnitude`]) and the target `y − Δ(β) + J·β`, filters them
+//!    like the linear rows and solves the same ridge problem; the exact fit is kept if its score
+//!    is no worse.
 
 pub mod crossval;
 pub mod levels;
