@@ -1,0 +1,315 @@
+//! Choosing between candidate models on the same cross-validation folds: term sets, the
+//! magnitude model, and the ridge strength.
+
+use super::crossval::{
+    cross_validate, heldout_sum_of_squares_on, penalty, CrossValidation, LAMBDA_GRID,
+};
+use super::problem::Prepared;
+use super::ridge::{Ridge, RidgeSolution};
+use super::{FitError, Lambda, MagnitudeChoice, TermScore, LAMBDA_MAX_RATIO, TERM_CHOICE_MARGIN};
+use crate::model::design::{Design, Term};
+use crate::model::magnitude::Magnitude;
+use crate::model::terms::TermSet;
+
+/// The linear or the exact fit, as `choice` says; with `Auto`, the exact one when it predicts
+/// held-out data at least as well. The exact fit's score joins the term scores.
+pub(super) fn pick_magnitude(
+    linear: Chosen,
+    exact: Chosen,
+    iterations: usize,
+    choice: MagnitudeChoice,
+) -> (Magnitude, Chosen, usize) {
+    let use_exact = match choice {
+        MagnitudeChoice::Linear => false,
+        MagnitudeChoice::Exact => true,
+        MagnitudeChoice::Auto => exact.score() <= linear.score(),
+    };
+    let mut scores = linear.scores.clone();
+    if scores.is_empty() {
+        scores.push(term_score(&linear, false));
+    }
+    scores.iter_mut().for_each(|s| s.chosen &= !use_exact);
+    scores.push(TermScore {
+        magnitude: Magnitude::Exact,
+        ..term_score(&exact, use_exact)
+    });
+    let (magnitude, mut chosen, iterations) = if use_exact {
+        (Magnitude::Exact, exact, iterations)
+    } else {
+        (Magnitude::Linear, linear, 0)
+    };
+    chosen.scores = scores;
+    (magnitude, chosen, iterations)
+}
+
+pub(super) fn term_score(chosen: &Chosen, is_chosen: bool) -> TermScore {
+    TermScore {
+        terms: chosen.terms,
+        magnitude: Magnitude::Linear,
+        lambda_rel: chosen
+            .cross_validation
+            .as_ref()
+            .map(|c| c.chosen_lambda_rel),
+        heldout_rms_nt: chosen
+            .cross_validation
+            .as_ref()
+            .map(|c| c.expected_heldout_rms_nt),
+        heldout_low_rms_nt: chosen.heldout_low_nt,
+        chosen: is_chosen,
+    }
+}
+
+/// Every term of `designs`, each once, in order of first appearance.
+pub(super) fn union_of_terms(designs: &[Design]) -> Vec<Term> {
+    let mut union: Vec<Term> = Vec::new();
+    for term in designs.iter().flat_map(Design::design_terms) {
+        if !union.contains(&term) {
+            union.push(term);
+        }
+    }
+    union
+}
+
+/// The candidate design that won, its solution and the scores of all candidates.
+#[derive(Clone)]
+pub(super) struct Chosen {
+    pub(super) index: usize,
+    pub(super) terms: TermSet,
+    pub(super) solution: RidgeSolution,
+    pub(super) cross_validation: Option<CrossValidation>,
+    /// Held-out RMS of the low-frequency rows alone, unweighted (nT), with levels.
+    pub(super) heldout_low_nt: Option<f64>,
+    pub(super) scores: Vec<TermScore>,
+}
+
+impl Chosen {
+    /// What the choice between candidates compares (nT): the held-out error of the band and,
+    /// with levels, of the low frequencies, added in quadrature as parts of one error; without
+    /// cross-validation, the in-sample RMS (candidates then have as many coefficients).
+    pub(super) fn score(&self) -> f64 {
+        let band = match &self.cross_validation {
+            Some(cv) => cv.expected_heldout_rms_nt,
+            None => return (self.solution.rss / self.solution.rows.max(1) as f64).sqrt(),
+        };
+        band.hypot(self.heldout_low_nt.unwrap_or(0.0))
+    }
+}
+
+/// Solves every candidate design on the same folds and keeps the first one unless another
+/// predicts held-out data [`TERM_CHOICE_MARGIN`] better. The first design's failure is the
+/// fit's failure; an alternative that fails is only scored as such.
+pub(super) fn choose_design(
+    prepared: &Prepared,
+    designs: &[Design],
+    union: &[Term],
+    lambda: Lambda,
+) -> Result<Chosen, FitError> {
+    let mut solved: Vec<Chosen> = Vec::new();
+    for (index, design) in designs.iter().enumerate() {
+        let picks: Vec<usize> = design
+            .design_terms()
+            .iter()
+            .map(|t| {
+                union
+                    .iter()
+                    .position(|u| u == t)
+                    .expect("union holds every term")
+            })
+            .collect();
+        let (folds, level_folds) = fold_problems(prepared, &picks, lambda);
+        let rows: usize = folds.iter().map(Ridge::rows).sum();
+        let columns = design.column_names(&[]);
+        let outcome = if rows < picks.len() {
+            Err(FitError::TooFewSamples {
+                usable: rows,
+                terms: picks.len(),
+            })
+        } else {
+            solve(&folds, lambda, &columns)
+        };
+        match outcome {
+            Ok((solution, cross_validation)) => {
+                let heldout_low_nt = cross_validation.as_ref().and_then(|cv| {
+                    heldout_low(
+                        &folds,
+                        &level_folds,
+                        cv.chosen_lambda_rel,
+                        &columns,
+                        prepared.weight,
+                    )
+                });
+                solved.push(Chosen {
+                    index,
+                    terms: design.terms,
+                    solution,
+                    cross_validation,
+                    heldout_low_nt,
+                    scores: Vec::new(),
+                });
+            }
+            Err(e) if index == 0 => return Err(e),
+            Err(_) => {}
+        }
+    }
+    let scored: Vec<Option<f64>> = solved
+        .iter()
+        .map(|c| c.cross_validation.as_ref().map(|_| c.score()))
+        .collect();
+    let mut best = 0;
+    if let Some(first) = scored[0] {
+        let width = |k: usize| designs[solved[k].index].width();
+        for (k, score) in scored.iter().enumerate().skip(1) {
+            // A larger set must clear the margin; one no larger (another parameterisation of
+            // as many terms) only has to be better.
+            let margin = if width(k) > width(0) {
+                TERM_CHOICE_MARGIN
+            } else {
+                0.0
+            };
+            let to_clear = first * (1.0 - margin);
+            // The current best always has a score: the first one, or one that cleared the bar.
+            if score.is_some_and(|s| s < to_clear && scored[best].is_some_and(|b| s < b)) {
+                best = k;
+            }
+        }
+    }
+    let scores = if designs.len() > 1 {
+        designs
+            .iter()
+            .enumerate()
+            .map(
+                |(index, design)| match solved.iter().position(|c| c.index == index) {
+                    Some(k) => term_score(&solved[k], k == best),
+                    None => TermScore {
+                        terms: design.terms,
+                        magnitude: Magnitude::Linear,
+                        lambda_rel: None,
+                        heldout_rms_nt: None,
+                        heldout_low_rms_nt: None,
+                        chosen: false,
+                    },
+                },
+            )
+            .collect()
+    } else {
+        Vec::new()
+    };
+    let mut chosen = solved.swap_remove(best);
+    chosen.scores = scores;
+    Ok(chosen)
+}
+
+/// Held-out RMS (nT) of the level rows: each fold's level rows predicted by a fit on the other
+/// folds, unweighted; `None` without level rows.
+pub(super) fn heldout_low(
+    folds: &[Ridge],
+    level_folds: &[Ridge],
+    lambda_rel: f64,
+    columns: &[String],
+    weight: f64,
+) -> Option<f64> {
+    let rows: usize = level_folds.iter().map(Ridge::rows).sum();
+    if rows == 0 || weight <= 0.0 {
+        return None;
+    }
+    let rss = heldout_sum_of_squares_on(folds, level_folds, lambda_rel, columns)?;
+    Some((rss / rows as f64).sqrt() / weight)
+}
+
+/// Splits the prepared rows, in time order, into contiguous folds (one fold for a fixed λ),
+/// keeping the columns `picks` of the prepared matrices. Also returns each fold's level rows
+/// on their own (empty problems without levels).
+pub(super) fn fold_problems(
+    prepared: &Prepared,
+    picks: &[usize],
+    lambda: Lambda,
+) -> (Vec<Ridge>, Vec<Ridge>) {
+    let count = match lambda {
+        Lambda::Fixed(_) => 1,
+        Lambda::CrossValidated { folds } => folds,
+    };
+    let total: usize = prepared.rows.iter().map(|(_, y)| y.len()).sum();
+    let mut folds = vec![Ridge::new(picks.len()); count];
+    let mut level_folds = vec![Ridge::new(picks.len()); count];
+    // Row r (counted over all runs) goes to fold ⌊r·count/total⌋; fold f ends before row
+    // ⌈(f+1)·total/count⌉. Each run is pushed in the pieces that fall in one fold.
+    let mut r = 0;
+    for (run, (a, y)) in prepared.rows.iter().enumerate() {
+        let n = y.len();
+        let mut start = 0;
+        while start < n {
+            let fold = (r + start) * count / total;
+            let fold_end = ((fold + 1) * total).div_ceil(count);
+            let end = (fold_end - r).min(n);
+            let columns: Vec<&[f64]> = picks
+                .iter()
+                .map(|&c| &a.as_slice()[c * n + start..c * n + end])
+                .collect();
+            folds[fold].push_columns(&columns, &y[start..end]);
+            if let Some(mask) = prepared.masks.get(run) {
+                for row in (start..end).filter(|&k| mask[k]) {
+                    level_folds[fold].push_row(picks.iter().map(|&c| a[(row, c)]), y[row]);
+                }
+            }
+            start = end;
+        }
+        r += n;
+    }
+    (folds, level_folds)
+}
+
+/// The final solve on all rows, with λ fixed or cross-validated.
+pub(super) fn solve(
+    folds: &[Ridge],
+    lambda: Lambda,
+    columns: &[String],
+) -> Result<(RidgeSolution, Option<CrossValidation>), FitError> {
+    let mut all = folds[0].clone();
+    folds[1..].iter().for_each(|f| all.merge(f));
+    match lambda {
+        Lambda::Fixed(lambda) => {
+            let largest = all.column_sums_of_squares().into_iter().fold(0.0, f64::max);
+            if lambda > LAMBDA_MAX_RATIO * largest {
+                return Err(FitError::LambdaTooLarge { lambda, largest });
+            }
+            Ok((all.solve(lambda, columns)?, None))
+        }
+        Lambda::CrossValidated { .. } => {
+            let cv =
+                cross_validate(folds, &LAMBDA_GRID, columns).ok_or(FitError::CrossValidation {
+                    terms: columns.len(),
+                })?;
+            let weights = penalty(cv.chosen_lambda_rel, &all.column_sums_of_squares());
+            Ok((all.solve_penalised(&weights, columns)?, Some(cv)))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::DMatrix;
+
+    #[test]
+    fn folds_are_contiguous_and_cover_every_row() {
+        let a = DMatrix::from_fn(10, 1, |i, _| i as f64);
+        let y: Vec<f64> = (0..10).map(|i| i as f64).collect();
+        let prepared = Prepared {
+            rows: vec![(a.clone(), y.clone()), (a, y)],
+            masks: vec![vec![false; 10], (0..10).map(|k| k % 3 == 0).collect()],
+            weight: 1.0,
+            levels: Vec::new(),
+            short: 0,
+        };
+        let (folds, level_folds) = fold_problems(&prepared, &[0], Lambda::auto());
+        assert_eq!(
+            folds.iter().map(Ridge::rows).collect::<Vec<_>>(),
+            [4, 4, 4, 4, 4]
+        );
+        // The second run's rows 0, 3, 6, 9 are rows 10, 13, 16, 19 overall: folds 2, 3, 4, 4.
+        assert_eq!(
+            level_folds.iter().map(Ridge::rows).collect::<Vec<_>>(),
+            [0, 0, 1, 1, 2]
+        );
+    }
+}
