@@ -148,8 +148,17 @@ pub fn fit_summary(model: &ScalarModel, cal: &Path) -> std::io::Result<()> {
     for score in &d.term_choice {
         writeln!(
             err,
-            "  terms {:<28} held-out residual {}{}",
-            format!("{} {}", score.terms, score.magnitude),
+            "  terms {:<34} held-out residual {}{}",
+            if score.extras.is_empty() {
+                format!("{} {}", score.terms, score.magnitude)
+            } else {
+                format!(
+                    "{}+{} {}",
+                    score.terms,
+                    score.extras.join("+"),
+                    score.magnitude
+                )
+            },
             score
                 .heldout_rms_nt
                 .map_or("(could not be fitted)".to_string(), |r| format!(

@@ -176,6 +176,13 @@ pub enum Error {
         scalar: String,
         vectors: Vec<String>,
     },
+    /// A fit a live stream cannot apply yet: it uses extra channels.
+    #[error("{}: the fit of {scalar} uses extra channels ({}); `stream` does not take them yet: use `compensate`", path.display(), extras.join(","))]
+    StreamExtras {
+        path: PathBuf,
+        scalar: String,
+        extras: Vec<String>,
+    },
     /// A live stream's header that lacks a column the model needs, or cannot be read.
     #[error("{0}")]
     StreamHeader(String),

@@ -60,6 +60,9 @@ pub struct FitRequest {
     /// Fit the heading levels against the calibrated fluxgate; `None`: when λ is
     /// cross-validated and there is one fluxgate.
     pub levels: Option<bool>,
+    /// Extra channels (e.g. currents, A) that each add `B̂x·c, B̂y·c, B̂z·c`; with a
+    /// cross-validated λ they are kept only if they predict held-out data 2 % better.
+    pub extras: Vec<String>,
 }
 
 impl FitRequest {
@@ -78,6 +81,7 @@ impl FitRequest {
             fs_hz: None,
             magnitude: None,
             levels: None,
+            extras: Vec::new(),
         }
     }
 
@@ -99,7 +103,9 @@ impl FitRequest {
             Terms::Fixed(terms) => (terms, Vec::new()),
         };
         FitSettings {
-            design: Design::new(terms).with_fluxgates(self.vectors.len()),
+            design: Design::new(terms)
+                .with_fluxgates(self.vectors.len())
+                .with_extras(self.extras.clone()),
             lambda: self.lambda,
             band: self.band,
             order: self.order,
@@ -126,6 +132,25 @@ impl FitRequest {
     }
 }
 
+/// Improvement ratio below which a fit is reported as poor.
+const POOR_IMPROVEMENT: f64 = 1.5;
+
+/// A warning when `fit` explains little of the scalar or needed the strongest ridge tried.
+fn poor_fit(scalar: &str, fit: &tolles_core::fit::Fit) -> Option<Warning> {
+    let d = &fit.diagnostics;
+    let top = tolles_core::fit::crossval::LAMBDA_GRID.last().copied();
+    let top_lambda = d
+        .cross_validation
+        .as_ref()
+        .map(|cv| cv.chosen_lambda_rel)
+        .filter(|l| Some(*l) == top && *l > 0.0);
+    (d.improvement_ratio < POOR_IMPROVEMENT || top_lambda.is_some()).then(|| Warning::PoorFit {
+        scalar: scalar.to_string(),
+        improvement: d.improvement_ratio,
+        top_lambda,
+    })
+}
+
 /// Fits every scalar of `request` on the calibration flight `table`, on all cores: one model
 /// holding a fit per scalar, in the order asked for. What was noticed (a given sample rate
 /// that differs from the time column's) is added to `warnings`.
@@ -137,7 +162,8 @@ pub fn fit(
 ) -> Result<ModelFile> {
     checked_names(&request.scalars, "scalar")?;
     checked_names(&request.vectors, "fluxgate")?;
-    let flight = Flight::from_table(table, &request.scalars[0], &request.vectors)?;
+    let flight = Flight::from_table(table, &request.scalars[0], &request.vectors)?
+        .with_extras(&request.extras)?;
     let (fs_hz, warning) = flight.sample_rate(request.fs_hz)?;
     warnings.extend(warning);
     let settings = request.settings();
@@ -149,7 +175,15 @@ pub fn fit(
     progress.begin(Stage::Fitting, None);
     let fitted: Vec<_> = columns
         .par_iter()
-        .map(|scalar| fit_scalar(scalar, &flight.flux, fs_hz, flight.tt.as_deref(), &settings))
+        .map(|scalar| {
+            fit_scalar(
+                scalar,
+                flight.inputs(),
+                fs_hz,
+                flight.tt.as_deref(),
+                &settings,
+            )
+        })
         .collect();
     progress.finish();
     let models = request
@@ -158,6 +192,7 @@ pub fn fit(
         .zip(fitted)
         .map(|(name, fitted)| {
             let fitted = fitted.map_err(|e| flight.explain(e, name))?;
+            warnings.extend(poor_fit(name, &fitted));
             Ok(ScalarModel::new(name, &request.vectors, fitted))
         })
         .collect::<Result<Vec<_>>>()?;

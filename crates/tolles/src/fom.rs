@@ -172,7 +172,8 @@ fn compensated(
     fs_hz: Option<f64>,
     warnings: &mut Vec<Warning>,
 ) -> Result<Vec<f64>> {
-    let flight = Flight::from_table(table, &fit.scalar, &fit.vectors)?;
+    let flight = Flight::from_table(table, &fit.scalar, &fit.vectors)?
+        .with_extras(&fit.fit.settings.design.extras)?;
     let request = CompensateRequest {
         fs_hz,
         ..CompensateRequest::default()

@@ -113,6 +113,10 @@ pub struct Flight<'t> {
     pub vectors: Vec<String>,
     /// Time (s), when the table has a time column.
     pub tt: Option<Vec<f64>>,
+    /// Extra channels (e.g. currents), one per name in `extra_names`.
+    pub extras: Vec<Vec<f64>>,
+    /// The extra channels' column names.
+    pub extra_names: Vec<String>,
 }
 
 impl<'t> Flight<'t> {
@@ -130,7 +134,25 @@ impl<'t> Flight<'t> {
             flux,
             vectors: vectors.to_vec(),
             tt,
+            extras: Vec::new(),
+            extra_names: Vec::new(),
         })
+    }
+
+    /// The same flight with the extra channels `names` read from its table.
+    pub fn with_extras(mut self, names: &[String]) -> Result<Self> {
+        self.extras = names
+            .iter()
+            .map(|n| self.table.numeric(n))
+            .collect::<std::result::Result<Vec<_>, _>>()?;
+        self.extra_names = names.to_vec();
+        Ok(self)
+    }
+
+    /// The fluxgates with the extra channels, as the core's fit and compensation take them.
+    pub fn inputs(&self) -> tolles_core::model::vector::Fluxgates<'_> {
+        tolles_core::model::vector::Fluxgates::from(&self.flux)
+            .with_extras(self.extras.iter().map(Vec::as_slice).collect())
     }
 
     /// The sample rate (Hz): `fs_hz` if given, else from the time column or the file's `dt`.

@@ -115,6 +115,14 @@ impl Setup {
                     vectors: m.vectors.clone(),
                 });
             };
+            let extras = &m.fit.settings.design.extras;
+            if !extras.is_empty() {
+                return Err(Error::StreamExtras {
+                    path: path.to_path_buf(),
+                    scalar: m.scalar.clone(),
+                    extras: extras.clone(),
+                });
+            }
             let j = match fluxgates.iter().position(|f| f == vector) {
                 Some(j) => j,
                 None => {

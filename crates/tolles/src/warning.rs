@@ -56,6 +56,15 @@ pub enum Warning {
         path: PathBuf,
         selection: crate::read::Selection,
     },
+    /// A fit that barely improved on the data, or needed the strongest ridge tried: the model
+    /// explains little, often because an interference source is not among the regressors.
+    PoorFit {
+        scalar: String,
+        /// Filtered scalar std / residual std.
+        improvement: f64,
+        /// The chosen relative ridge strength, when it is the largest tried.
+        top_lambda: Option<f64>,
+    },
     /// Anything else, as a sentence that names the file.
     Other(String),
 }
@@ -64,6 +73,17 @@ impl fmt::Display for Warning {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Warning::ReaderNote { path, note } => write!(f, "{}: {note}", path.display()),
+            Warning::PoorFit {
+                scalar,
+                improvement,
+                top_lambda,
+            } => {
+                write!(f, "the fit of {scalar} improves the filtered scalar only ×{improvement:.2}")?;
+                if let Some(l) = top_lambda {
+                    write!(f, " and needed the strongest ridge tried (λ = {l}·diag(AᵀA))")?;
+                }
+                write!(f, ": an interference source may be missing from the regressors (a current? try --extra)")
+            }
             Warning::SampleRateDiffers {
                 given_hz,
                 from_time_hz,

@@ -81,6 +81,12 @@ pub struct Args {
     /// one fluxgate
     #[arg(long, value_parser = parse_on_off)]
     pub levels: Option<bool>,
+    /// Extra channels as regressors, e.g. currents: `--extra cur_strb,cur_1`. Each adds the
+    /// columns B̂x·c, B̂y·c, B̂z·c (a field of fixed direction in the aircraft, proportional to
+    /// the channel); with λ `auto` the fit keeps them only if they predict held-out data 2 %
+    /// better. The model names them, and `compensate`, `fom` and `report` read them
+    #[arg(long)]
+    pub extra: Option<String>,
     #[command(flatten)]
     pub select: crate::select::Selection,
 }
@@ -145,6 +151,10 @@ fn request(args: &Args) -> Result<FitRequest> {
         fs_hz: args.fs,
         magnitude: args.magnitude,
         levels: args.levels,
+        extras: match &args.extra {
+            Some(list) => name_list(list, "--extra")?,
+            None => Vec::new(),
+        },
         ..FitRequest::new(
             name_list(&args.scalar, "--scalar")?,
             name_list(&args.vector, "--vector")?,

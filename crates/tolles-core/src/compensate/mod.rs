@@ -158,7 +158,7 @@ pub fn model_field<'a>(
     let mut field = vec![f64::NAN; flux.len()];
     for run in contiguous_runs(&usable, tt) {
         let part = match model.magnitude {
-            Magnitude::Exact if flux.count() == 1 => correction(
+            Magnitude::Exact if flux.count() == 1 && model.design.extras.is_empty() => correction(
                 Magnitude::Exact,
                 model.design,
                 &flux.series()[0].slice(run.clone()),

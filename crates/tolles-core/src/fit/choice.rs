@@ -45,6 +45,7 @@ pub(super) fn pick_magnitude(
 pub(super) fn term_score(chosen: &Chosen, is_chosen: bool) -> TermScore {
     TermScore {
         terms: chosen.terms,
+        extras: chosen.extras.clone(),
         magnitude: Magnitude::Linear,
         lambda_rel: chosen
             .cross_validation
@@ -75,6 +76,7 @@ pub(super) fn union_of_terms(designs: &[Design]) -> Vec<Term> {
 pub(super) struct Chosen {
     pub(super) index: usize,
     pub(super) terms: TermSet,
+    pub(super) extras: Vec<String>,
     pub(super) solution: RidgeSolution,
     pub(super) cross_validation: Option<CrossValidation>,
     /// Held-out RMS of the low-frequency rows alone, unweighted (nT), with levels.
@@ -141,6 +143,7 @@ pub(super) fn choose_design(
                 solved.push(Chosen {
                     index,
                     terms: design.terms,
+                    extras: design.extras.clone(),
                     solution,
                     cross_validation,
                     heldout_low_nt,
@@ -182,6 +185,7 @@ pub(super) fn choose_design(
                     Some(k) => term_score(&solved[k], k == best),
                     None => TermScore {
                         terms: design.terms,
+                        extras: design.extras.clone(),
                         magnitude: Magnitude::Linear,
                         lambda_rel: None,
                         heldout_rms_nt: None,

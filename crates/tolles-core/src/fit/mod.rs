@@ -194,15 +194,28 @@ impl FitSettings {
     }
 
     /// The designs to try: `design` first, then its alternatives when λ is cross-validated.
+    /// With extra channels and a cross-validated λ, every term set is tried without them
+    /// first and then with them, so the channels must earn their place by the margin a larger
+    /// set needs.
     fn candidate_designs(&self) -> Vec<Design> {
-        let mut designs = vec![self.design.clone()];
-        if matches!(self.lambda, Lambda::CrossValidated { .. }) {
-            designs.extend(self.alternative_terms.iter().map(|&terms| Design {
+        if !matches!(self.lambda, Lambda::CrossValidated { .. }) {
+            return vec![self.design.clone()];
+        }
+        let term_sets =
+            std::iter::once(self.design.terms).chain(self.alternative_terms.iter().copied());
+        let with_extras: Vec<Design> = term_sets
+            .map(|terms| Design {
                 terms,
                 ..self.design.clone()
-            }));
+            })
+            .collect();
+        if self.design.extras.is_empty() {
+            return with_extras;
         }
-        designs
+        let without = with_extras
+            .iter()
+            .map(|d| d.clone().with_extras(Vec::new()));
+        without.chain(with_extras.iter().cloned()).collect()
     }
 
     /// MagNav.jl's procedure as its tests run it: 18 terms, λ = 0.001, 0.1–0.9 Hz, order 4,
@@ -248,6 +261,14 @@ pub enum FitError {
     },
     #[error("the design is for {design} fluxgates but {given} were given")]
     FluxgateCount { design: usize, given: usize },
+    #[error("the design names {design} extra channels but {given} were given")]
+    ExtraCount { design: usize, given: usize },
+    #[error("extra channel {} has {samples} samples but the fluxgate has {first}", channel + 1)]
+    ExtraLength {
+        channel: usize,
+        samples: usize,
+        first: usize,
+    },
     #[error("fluxgate {} has {samples} samples but the first has {first}", fluxgate + 1)]
     FluxgateLength {
         fluxgate: usize,
@@ -316,6 +337,9 @@ pub struct Diagnostics {
 pub struct TermScore {
     /// The term set.
     pub terms: TermSet,
+    /// The extra channels it used.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub extras: Vec<String>,
     /// The magnitude model.
     #[serde(default)]
     pub magnitude: Magnitude,
@@ -482,6 +506,20 @@ fn check_inputs(
         return Err(FitError::FluxgateCount {
             design: settings.design.fluxgates,
             given: flux.count(),
+        });
+    }
+    if flux.extras().len() != settings.design.extras.len() {
+        return Err(FitError::ExtraCount {
+            design: settings.design.extras.len(),
+            given: flux.extras().len(),
+        });
+    }
+    if let Some(channel) = (0..flux.extras().len()).find(|&c| flux.extras()[c].len() != flux.len())
+    {
+        return Err(FitError::ExtraLength {
+            channel,
+            samples: flux.extras()[channel].len(),
+            first: flux.len(),
         });
     }
     if let Some(fluxgate) = (0..flux.count()).find(|&f| flux.series()[f].len() != flux.len()) {

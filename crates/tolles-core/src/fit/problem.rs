@@ -220,7 +220,11 @@ impl Problem<'_, '_> {
         linear: &Chosen,
         mut levels: Option<&mut LevelSetup>,
     ) -> Result<Option<(Chosen, usize)>, FitError> {
-        if self.settings.magnitude == MagnitudeChoice::Linear || design.fluxgates != 1 {
+        // Extra channels and several fluxgates stay linear.
+        if self.settings.magnitude == MagnitudeChoice::Linear
+            || design.fluxgates != 1
+            || !design.extras.is_empty()
+        {
             return Ok(None);
         }
         let terms = design.design_terms();

@@ -21,8 +21,8 @@
 //!
 //! The column order is MagNav.jl's `create_TL_A` (see [`crate::model::terms`]).
 
-use crate::model::terms::Column;
 pub use crate::model::terms::TermSet;
+use crate::model::terms::{Axis, Column};
 use crate::model::vector::{Fluxgates, VectorSeries};
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
@@ -45,6 +45,11 @@ pub struct Design {
     /// Number of fluxgates whose blocks the design holds.
     #[serde(default = "one", skip_serializing_if = "is_one")]
     pub fluxgates: usize,
+    /// Extra channels (e.g. currents) that each add the columns `B̂x·c, B̂y·c, B̂z·c` with the
+    /// first fluxgate's B̂, in this order; the data passes them with
+    /// [`Fluxgates::with_extras`](crate::model::vector::Fluxgates::with_extras).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub extras: Vec<String>,
 }
 
 fn one() -> usize {
@@ -71,7 +76,13 @@ impl Design {
             terms,
             bt_scale: MAGNAV_BT_SCALE,
             fluxgates: 1,
+            extras: Vec::new(),
         }
+    }
+
+    /// The same design with the extra channels `extras` (names, in the data's order).
+    pub fn with_extras(self, extras: Vec<String>) -> Self {
+        Self { extras, ..self }
     }
 
     /// The same terms over `fluxgates` fluxgates.
@@ -84,17 +95,25 @@ impl Design {
         self.design_terms().into_iter().map(|t| t.column).collect()
     }
 
-    /// The columns with the fluxgate each belongs to, in order.
+    /// The columns with the fluxgate each belongs to, in order: the fluxgates' blocks, then
+    /// three columns per extra channel.
     pub fn design_terms(&self) -> Vec<Term> {
         let block = self.terms.columns();
-        (0..self.fluxgates)
+        let mut terms: Vec<Term> = (0..self.fluxgates)
             .flat_map(|fluxgate| {
                 block
                     .iter()
                     .filter(move |c| fluxgate == 0 || **c != Column::Bias)
                     .map(move |&column| Term { fluxgate, column })
             })
-            .collect()
+            .collect();
+        for channel in 0..self.extras.len() {
+            terms.extend(Axis::ALL.map(|axis| Term {
+                fluxgate: 0,
+                column: Column::Extra { channel, axis },
+            }));
+        }
+        terms
     }
 
     /// Column names: `perm_x`, … for one fluxgate; `NAME.perm_x`, … with several, NAME from
@@ -103,7 +122,9 @@ impl Design {
         self.design_terms()
             .iter()
             .map(|t| {
-                if self.fluxgates == 1 {
+                if let Column::Extra { channel, axis } = t.column {
+                    format!("{}_{}", self.extras[channel], ["x", "y", "z"][axis.index()])
+                } else if self.fluxgates == 1 {
                     t.column.to_string()
                 } else if fluxgate_names.len() == self.fluxgates {
                     format!("{}.{}", fluxgate_names[t.fluxgate], t.column)
@@ -139,6 +160,8 @@ impl Design {
             Column::InducedTraceless(a) => traceless(unit, b, a.index()) / s,
             Column::EddyTraceless(a) => traceless(unit, db, a.index()) / s,
             Column::InducedTrace => trace(unit, b) / s,
+            // A row carries no extra channel: streaming does not take them.
+            Column::Extra { .. } => f64::NAN,
             Column::Bias => 1.0,
         }
     }
@@ -170,6 +193,12 @@ impl Design {
                 Column::InducedTraceless(a) => c.traceless(out, false, a.index(), self.bt_scale),
                 Column::EddyTraceless(a) => c.traceless(out, true, a.index(), self.bt_scale),
                 Column::InducedTrace => c.trace(out, self.bt_scale),
+                Column::Extra { channel, axis } => {
+                    let values = flux.extras()[channel];
+                    for ((o, u), v) in out.iter_mut().zip(&c.unit[axis.index()]).zip(values) {
+                        *o = u * v;
+                    }
+                }
                 Column::Bias => out.fill(1.0),
             }
         }
@@ -229,6 +258,12 @@ impl Design {
                     out.iter_mut()
                         .zip(&column)
                         .for_each(|(o, v)| *o += v * beta);
+                }
+                Column::Extra { channel, axis } => {
+                    let values = flux.extras()[channel];
+                    for ((o, u), v) in out.iter_mut().zip(&c.unit[axis.index()]).zip(values) {
+                        *o += u * v * beta;
+                    }
                 }
                 Column::Bias => out.iter_mut().for_each(|o| *o += beta),
             }

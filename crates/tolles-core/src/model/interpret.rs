@@ -71,6 +71,7 @@ impl AircraftField {
                 Column::InducedTraceless(a) => traceless[0][a.index()] = beta / s,
                 Column::EddyTraceless(a) => traceless[1][a.index()] = beta / (s * fs_hz),
                 Column::InducedTrace => trace = beta / s,
+                Column::Extra { .. } => {}
                 Column::Bias => field.bias_nt = *beta,
             }
         }
@@ -99,6 +100,7 @@ impl AircraftField {
                 Column::InducedTraceless(a) => s * zz_minus(&self.induced, a.index()),
                 Column::EddyTraceless(a) => s * fs_hz * zz_minus(&self.eddy_s, a.index()),
                 Column::InducedTrace => s * (0..3).map(|k| self.induced[k][k]).sum::<f64>(),
+                Column::Extra { .. } => 0.0,
                 Column::Bias => self.bias_nt,
             })
             .collect()

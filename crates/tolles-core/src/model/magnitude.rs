@@ -87,7 +87,8 @@ pub fn field_per_unit(
         Column::InducedTraceless(a) => traceless(b, a.index()),
         Column::EddyTraceless(a) => traceless(db, a.index()),
         Column::InducedTrace => b.map(|c| c / 3.0 / bt_scale),
-        Column::Bias => return None,
+        // Designs with extra channels are applied linearly (see `Design::extras`).
+        Column::Extra { .. } | Column::Bias => return None,
     })
 }
 

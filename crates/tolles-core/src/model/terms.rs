@@ -87,6 +87,10 @@ pub enum Column {
     /// coefficient `Bt_scale·(I_xx + I_yy + I_zz)`. Band-passed it is only the earth field's
     /// own variation, so only low frequencies against a reference (heading levels) pin it.
     InducedTrace,
+    /// `B̂a·c` for the extra channel `channel` (e.g. a current, A): the projection of a field
+    /// of fixed direction in the body frame proportional to the channel; coefficient in nT per
+    /// unit of the channel along axis a.
+    Extra { channel: usize, axis: Axis },
     /// A column of ones (coefficient in nT).
     Bias,
 }
@@ -100,6 +104,7 @@ impl fmt::Display for Column {
             Column::InducedTraceless(a) => write!(f, "induced_zz-{0}{0}", a.letter()),
             Column::EddyTraceless(a) => write!(f, "eddy_zz-{0}{0}", a.letter()),
             Column::InducedTrace => write!(f, "induced_trace"),
+            Column::Extra { channel, axis } => write!(f, "extra{}_{}", channel + 1, axis.letter()),
             Column::Bias => write!(f, "bias"),
         }
     }

@@ -98,9 +98,38 @@ pub fn norm3(v: [f64; 3]) -> f64 {
 /// assert!(both.is_finite(0) && !both.is_finite(1));
 /// ```
 #[derive(Debug, Clone, PartialEq)]
-pub struct Fluxgates<'a>(Vec<&'a VectorSeries>);
+pub struct Fluxgates<'a>(Vec<&'a VectorSeries>, Vec<&'a [f64]>);
+
+/// Fluxgates and extra channels cut to one range of samples (see [`Fluxgates::slice`]).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct SlicedInputs {
+    /// The fluxgates (nT).
+    pub series: Vec<VectorSeries>,
+    /// The extra channels (their own units, e.g. A).
+    pub extras: Vec<Vec<f64>>,
+}
+
+impl<'a> From<&'a SlicedInputs> for Fluxgates<'a> {
+    fn from(s: &'a SlicedInputs) -> Self {
+        Fluxgates(
+            s.series.iter().collect(),
+            s.extras.iter().map(Vec::as_slice).collect(),
+        )
+    }
+}
 
 impl<'a> Fluxgates<'a> {
+    /// The same fluxgates with extra channels sampled with them (e.g. currents, A), in the
+    /// order a design's `extras` names them.
+    pub fn with_extras(self, extras: Vec<&'a [f64]>) -> Self {
+        Fluxgates(self.0, extras)
+    }
+
+    /// The extra channels.
+    pub fn extras(&self) -> &[&'a [f64]] {
+        &self.1
+    }
+
     /// The series, in design order.
     pub fn series(&self) -> &[&'a VectorSeries] {
         &self.0
@@ -121,43 +150,47 @@ impl<'a> Fluxgates<'a> {
         self.len() == 0
     }
 
-    /// True when every fluxgate has as many samples as the first.
+    /// True when every fluxgate and extra channel has as many samples as the first fluxgate.
     pub fn equal_lengths(&self) -> bool {
-        self.0.iter().all(|s| s.len() == self.len())
+        self.0.iter().all(|s| s.len() == self.len()) && self.1.iter().all(|e| e.len() == self.len())
     }
 
-    /// True when every component of every fluxgate is finite at sample `k`.
+    /// True when every component of every fluxgate, and every extra channel, is finite at
+    /// sample `k`.
     pub fn is_finite(&self, k: usize) -> bool {
-        self.0.iter().all(|s| s.is_finite(k))
+        self.0.iter().all(|s| s.is_finite(k)) && self.1.iter().all(|e| e[k].is_finite())
     }
 
-    /// Every fluxgate's samples in `range`, as new series.
-    pub fn slice(&self, range: std::ops::Range<usize>) -> Vec<VectorSeries> {
-        self.0.iter().map(|s| s.slice(range.clone())).collect()
+    /// Every fluxgate's and extra channel's samples in `range`, as new series.
+    pub fn slice(&self, range: std::ops::Range<usize>) -> SlicedInputs {
+        SlicedInputs {
+            series: self.0.iter().map(|s| s.slice(range.clone())).collect(),
+            extras: self.1.iter().map(|e| e[range.clone()].to_vec()).collect(),
+        }
     }
 }
 
 impl<'a> From<&'a VectorSeries> for Fluxgates<'a> {
     fn from(series: &'a VectorSeries) -> Self {
-        Fluxgates(vec![series])
+        Fluxgates(vec![series], Vec::new())
     }
 }
 
 impl<'a> From<Vec<&'a VectorSeries>> for Fluxgates<'a> {
     fn from(series: Vec<&'a VectorSeries>) -> Self {
-        Fluxgates(series)
+        Fluxgates(series, Vec::new())
     }
 }
 
 impl<'a> From<&'a [VectorSeries]> for Fluxgates<'a> {
     fn from(series: &'a [VectorSeries]) -> Self {
-        Fluxgates(series.iter().collect())
+        Fluxgates(series.iter().collect(), Vec::new())
     }
 }
 
 impl<'a> From<&'a Vec<VectorSeries>> for Fluxgates<'a> {
     fn from(series: &'a Vec<VectorSeries>) -> Self {
-        Fluxgates(series.iter().collect())
+        Fluxgates(series.iter().collect(), Vec::new())
     }
 }
 

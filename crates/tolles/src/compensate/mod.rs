@@ -80,7 +80,8 @@ pub fn compensate(
         .fits
         .par_iter()
         .map(|fit| {
-            let flight = Flight::from_table(table, &fit.scalar, &fit.vectors)?;
+            let flight = Flight::from_table(table, &fit.scalar, &fit.vectors)?
+                .with_extras(&fit.fit.settings.design.extras)?;
             let mut noticed = Vec::new();
             let result = compensate_flight(&flight, fit, request, &mut noticed)?;
             Ok((result, noticed))
@@ -145,7 +146,7 @@ pub fn compensate_flight(
     };
     Ok(compensate_model(
         &flight.scalar,
-        &flight.flux,
+        flight.inputs(),
         flight.tt.as_deref(),
         model,
         fs_hz / fit.fit.fs_hz,

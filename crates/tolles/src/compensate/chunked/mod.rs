@@ -61,7 +61,11 @@ pub fn reads_in_chunks(model: &ModelFile, request: &FileRequest) -> bool {
         && ChunkReader::reads(format)
         && size.is_some()
         && output_streams
-        && model.fits.iter().all(|f| f.vectors.len() == 1)
+        // Several fluxgates and extra channels are read whole.
+        && model
+            .fits
+            .iter()
+            .all(|f| f.vectors.len() == 1 && f.fit.settings.design.extras.is_empty())
         && request.selection.is_empty()
 }
 
