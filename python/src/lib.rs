@@ -107,6 +107,7 @@ fn model_columns(model: &ModelFile) -> Vec<String> {
     for fit in &model.fits {
         wanted.push(fit.scalar.clone());
         wanted.extend(fit.vectors.iter().flat_map(|v| vector_columns(v)));
+        wanted.extend(fit.fit.settings.design.extras.iter().cloned());
     }
     wanted
 }
@@ -179,7 +180,7 @@ fn read<'py>(
 
 /// Fits a model; returns (model JSON, warnings).
 #[pyfunction]
-#[pyo3(signature = (source, names, get, dt, scalars, vectors, terms, lambda_, band, order, trim, fs, magnitude=None, levels=None))]
+#[pyo3(signature = (source, names, get, dt, scalars, vectors, terms, lambda_, band, order, trim, fs, magnitude=None, levels=None, extras=Vec::new()))]
 #[allow(clippy::too_many_arguments)]
 fn fit(
     py: Python<'_>,
@@ -197,6 +198,7 @@ fn fit(
     fs: Option<f64>,
     magnitude: Option<&str>,
     levels: Option<bool>,
+    extras: Vec<String>,
 ) -> PyResult<(String, Vec<String>)> {
     let terms: Terms = terms.parse().map_err(failed)?;
     let magnitude = match magnitude.map(str::to_ascii_lowercase).as_deref() {
@@ -231,10 +233,12 @@ fn fit(
         fs_hz: fs,
         magnitude,
         levels,
+        extras,
         ..FitRequest::new(scalars, vectors)
     };
     let mut wanted = request.scalars.clone();
     wanted.extend(request.vectors.iter().flat_map(|v| vector_columns(v)));
+    wanted.extend(request.extras.iter().cloned());
     let table = Frame::new(source, names, get, dt).table(&wanted)?;
     let mut warnings = Vec::new();
     let model = py

@@ -194,3 +194,17 @@ def test_an_exact_magnitude_model_passes_both_ways_and_compensates_alike(flights
     assert max_diff(ours, theirs) <= TOL
     with pytest.raises(tolles.TollesError, match="magnitude"):
         tolles.fit(cal, magnitude="quadratic")
+
+
+def test_an_extra_channel_fits_and_compensates_as_the_cli_does(cli, tmp_path):
+    cli("simulate", "--preset", "uav", "--out", tmp_path / "box.csv")
+    cli("fit", tmp_path / "box.csv", "--scalar", "mag_1_uc", "--vector", "flux_a", "--extra", "cur_1",
+        "--out", tmp_path / "cli.json")
+    box = tolles.read(tmp_path / "box.csv")
+    model = tolles.fit(box, extra="cur_1")
+    model.save(tmp_path / "py.json")
+    assert (tmp_path / "py.json").read_bytes() == (tmp_path / "cli.json").read_bytes()
+    assert model.columns[-3:] == ["cur_1_x", "cur_1_y", "cur_1_z"]
+    out = tolles.compensate(box, model)
+    error = out["mag_1_c"] - box["truth_earth"]
+    assert float(np.std(error)) < 0.05

@@ -286,6 +286,7 @@ def fit(
     fs: Optional[float] = None,
     magnitude: Optional[str] = None,
     levels: Optional[bool] = None,
+    extra: Names = (),
 ) -> Model:
     """Learn the aircraft's field from a calibration flight, as ``tolles fit`` does.
 
@@ -321,6 +322,10 @@ def fit(
     levels : bool, optional
         Also fit the heading levels against the calibrated fluxgate's magnitude. Default: with
         ``lambda_="auto"`` and one fluxgate.
+    extra : str or list of str
+        Extra channels as regressors, e.g. currents (``"cur_strb"``): each adds ``B̂x·c, B̂y·c,
+        B̂z·c``; with ``lambda_="auto"`` they are kept only if they predict held-out data 2 %
+        better. ``compensate`` reads them from the survey by name.
     """
     columns = _Columns(df)
     lam = None if isinstance(lambda_, str) and lambda_.strip().lower() == "auto" else float(lambda_)
@@ -336,6 +341,7 @@ def fit(
         None if fs is None else float(fs),
         magnitude,
         None if levels is None else bool(levels),
+        [] if not extra else _names(extra, "extra"),
     )
     _warn(notes)
     return Model(text)

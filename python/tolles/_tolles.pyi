@@ -30,6 +30,7 @@ def fit(
     fs: Optional[float],
     magnitude: Optional[str] = ...,
     levels: Optional[bool] = ...,
+    extras: Sequence[str] = ...,
 ) -> Tuple[str, List[str]]: ...
 def compensate(
     source: str,
