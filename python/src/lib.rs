@@ -314,6 +314,7 @@ fn fom(
     let mut wanted = attitude_and(&scalar);
     if let Some(fit) = fit {
         wanted.extend(fit.vectors.iter().flat_map(|v| vector_columns(v)));
+        wanted.extend(fit.fit.settings.design.extras.iter().cloned());
     }
     let table = Frame::new(source, names, get, dt).table(&wanted)?;
     let request = FomRequest {
