@@ -167,6 +167,14 @@ pub fn fit_summary(model: &ScalarModel, cal: &Path) -> std::io::Result<()> {
             if score.chosen { "  <- chosen" } else { "" }
         )?;
     }
+    if model.fit.lag_s != 0.0 {
+        writeln!(
+            err,
+            "  fluxgate lag behind the scalar: {:.4} s ({:.3} samples); compensation applies it",
+            model.fit.lag_s,
+            model.fit.lag_s * model.fit.fs_hz
+        )?;
+    }
     if d.exact_iterations > 0 {
         writeln!(
             err,

@@ -85,3 +85,50 @@ fn a_motor_current_as_an_extra_channel_is_compensated() {
         "{stderr}"
     );
 }
+
+#[test]
+fn a_fluxgate_lag_is_estimated_stored_and_applied() {
+    let dir = TempDir::new().unwrap();
+    tolles()
+        .current_dir(dir.path())
+        .args(["simulate", "--flux-lag", "0.05", "--out", "box.csv"])
+        .assert()
+        .success();
+    let fit = |lag: &str, out: &str| {
+        let o = tolles()
+            .current_dir(dir.path())
+            .args([
+                "fit", "box.csv", "--scalar", "mag_1_uc", "--vector", "flux_a", "--lag", lag,
+                "--out", out,
+            ])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let model: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.path().join(out)).unwrap()).unwrap();
+        model["fits"][0]["lag_s"].as_f64().unwrap_or(0.0)
+    };
+    let found = fit("auto", "auto.json");
+    eprintln!("simulated lag 0.05 s, found {found:.4} s");
+    assert!((found - 0.05).abs() * 10.0 < 0.1, "{found}");
+    assert_eq!(fit("-0.02", "given.json"), -0.02);
+    // Compensation reads the fluxgate that much later: better than ignoring the lag.
+    let error = |model: &str| {
+        tolles()
+            .current_dir(dir.path())
+            .args(["compensate", "box.csv", "--model", model, "--out", "c.csv"])
+            .assert()
+            .success();
+        let csv = std::fs::read_to_string(dir.path().join("c.csv")).unwrap();
+        let e: Vec<f64> = column(&csv, "mag_1_c")
+            .iter()
+            .zip(column(&csv, "truth_earth"))
+            .filter_map(|(c, t)| Some(c.as_ref()? - t?))
+            .collect();
+        std(&e)
+    };
+    fit("none", "none.json");
+    let (with, without) = (error("auto.json"), error("none.json"));
+    eprintln!("box against the truth: {without:.4} nT ignoring the lag, {with:.4} nT with it");
+    assert!(with < without, "{with} vs {without}");
+}

@@ -277,6 +277,7 @@ mod tests {
             settings: FitSettings::magnav(),
             fs_hz: 10.0,
             magnitude: Default::default(),
+            lag_s: 0.0,
             columns: vec![],
             coefficients: vec![1.0; FitSettings::magnav().design.width()],
             level_nt: 0.0,

@@ -6,7 +6,7 @@ use crate::read::{checked_names, Flight};
 use crate::warning::Warning;
 use rayon::prelude::*;
 use std::str::FromStr;
-use tolles_core::fit::{fit as fit_scalar, Band, FitSettings, Lambda, MagnitudeChoice};
+use tolles_core::fit::{fit as fit_scalar, lag, Band, FitSettings, Lambda, MagnitudeChoice};
 use tolles_core::model::design::Design;
 use tolles_core::model::terms::TermSet;
 use tolles_io::model::{ModelFile, ScalarModel};
@@ -63,7 +63,42 @@ pub struct FitRequest {
     /// Extra channels (e.g. currents, A) that each add `B̂x·c, B̂y·c, B̂z·c`; with a
     /// cross-validated λ they are kept only if they predict held-out data 2 % better.
     pub extras: Vec<String>,
+    /// The fluxgate's lag behind the scalar: none, given (s), or estimated.
+    pub lag: Lag,
 }
+
+/// How to line the fluxgate(s) up with the scalar.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum Lag {
+    /// Take the samples as they come.
+    #[default]
+    None,
+    /// The fluxgate samples this many seconds late (negative: early).
+    Seconds(f64),
+    /// Estimate it per scalar within ±1 s (see `tolles_core::fit::lag`).
+    Auto,
+}
+
+impl FromStr for Lag {
+    type Err = String;
+
+    /// `auto`, `none` or seconds such as `0.05` or `-0.1`.
+    fn from_str(text: &str) -> Result<Self, String> {
+        match text.trim().to_ascii_lowercase().as_str() {
+            "auto" => Ok(Lag::Auto),
+            "none" | "0" => Ok(Lag::None),
+            other => match other.parse::<f64>() {
+                Ok(s) if s.is_finite() && s.abs() <= 60.0 => Ok(Lag::Seconds(s)),
+                _ => Err(format!(
+                    "expected auto, none or seconds (|lag| ≤ 60 s), got {text:?}"
+                )),
+            },
+        }
+    }
+}
+
+/// Largest lag (s) the automatic search tries either way.
+const LAG_SEARCH_S: f64 = 1.0;
 
 impl FitRequest {
     /// tolles' defaults for these columns: terms `auto`, λ by cross-validation, MagNav's band
@@ -82,6 +117,7 @@ impl FitRequest {
             magnitude: None,
             levels: None,
             extras: Vec::new(),
+            lag: Lag::None,
         }
     }
 
@@ -132,6 +168,35 @@ impl FitRequest {
     }
 }
 
+/// Fits one scalar with the fluxgates lined up as `lag` says; the model records the lag.
+fn fit_lagged(
+    scalar: &[f64],
+    flight: &Flight,
+    fs_hz: f64,
+    settings: &FitSettings,
+    lag: Lag,
+) -> std::result::Result<tolles_core::fit::Fit, tolles_core::fit::FitError> {
+    let tt = flight.tt.as_deref();
+    let lag_s = match lag {
+        Lag::None => 0.0,
+        Lag::Seconds(s) => s,
+        Lag::Auto => lag::estimate(scalar, &flight.flux[0], fs_hz, tt, settings, LAG_SEARCH_S)?,
+    };
+    if lag_s == 0.0 {
+        return fit_scalar(scalar, flight.inputs(), fs_hz, tt, settings);
+    }
+    let moved: Vec<_> = flight
+        .flux
+        .iter()
+        .map(|f| lag::shifted(f, lag_s, fs_hz))
+        .collect();
+    let inputs = tolles_core::model::vector::Fluxgates::from(&moved)
+        .with_extras(flight.extras.iter().map(Vec::as_slice).collect());
+    let mut fitted = fit_scalar(scalar, inputs, fs_hz, tt, settings)?;
+    fitted.lag_s = lag_s;
+    Ok(fitted)
+}
+
 /// Improvement ratio below which a fit is reported as poor.
 const POOR_IMPROVEMENT: f64 = 1.5;
 
@@ -175,15 +240,7 @@ pub fn fit(
     progress.begin(Stage::Fitting, None);
     let fitted: Vec<_> = columns
         .par_iter()
-        .map(|scalar| {
-            fit_scalar(
-                scalar,
-                flight.inputs(),
-                fs_hz,
-                flight.tt.as_deref(),
-                &settings,
-            )
-        })
+        .map(|scalar| fit_lagged(scalar, &flight, fs_hz, &settings, request.lag))
         .collect();
     progress.finish();
     let models = request

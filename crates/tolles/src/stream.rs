@@ -123,6 +123,13 @@ impl Setup {
                     extras: extras.clone(),
                 });
             }
+            if m.fit.lag_s != 0.0 {
+                return Err(Error::StreamLag {
+                    path: path.to_path_buf(),
+                    scalar: m.scalar.clone(),
+                    lag_s: m.fit.lag_s,
+                });
+            }
             let j = match fluxgates.iter().position(|f| f == vector) {
                 Some(j) => j,
                 None => {

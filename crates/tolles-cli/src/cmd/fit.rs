@@ -87,6 +87,12 @@ pub struct Args {
     /// better. The model names them, and `compensate`, `fom` and `report` read them
     #[arg(long)]
     pub extra: Option<String>,
+    /// The fluxgate's lag behind the scalar: `auto` estimates it (sub-sample, within ±1 s, on
+    /// held-out folds), a number gives it in seconds (negative: the fluxgate samples early),
+    /// `none` (default) takes the samples as they come. The model stores it and `compensate`,
+    /// `fom` and `report` apply it
+    #[arg(long, default_value = "none", allow_hyphen_values = true)]
+    pub lag: tolles::fit::Lag,
     #[command(flatten)]
     pub select: crate::select::Selection,
 }
@@ -151,6 +157,7 @@ fn request(args: &Args) -> Result<FitRequest> {
         fs_hz: args.fs,
         magnitude: args.magnitude,
         levels: args.levels,
+        lag: args.lag,
         extras: match &args.extra {
             Some(list) => name_list(list, "--extra")?,
             None => Vec::new(),

@@ -51,6 +51,7 @@
 
 mod choice;
 pub mod crossval;
+pub mod lag;
 pub mod levels;
 mod problem;
 pub mod ridge;
@@ -365,6 +366,10 @@ pub struct Fit {
     /// How the model's field enters the scalar (absent in files before version 2: linear).
     #[serde(default)]
     pub magnitude: Magnitude,
+    /// How late the fluxgate samples behind the scalar (s); compensation reads the fluxgate
+    /// this much later (see [`lag::shifted`]). Zero unless a lag was given or estimated.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub lag_s: f64,
     /// Names of the columns, in order (see [`Design::column_names`]).
     pub columns: Vec<String>,
     /// One coefficient per column (nT per unit of the column).
@@ -465,6 +470,7 @@ pub fn fit<'a>(
         },
         fs_hz,
         magnitude,
+        lag_s: 0.0,
         columns: design.column_names(&[]),
         coefficients: chosen.solution.coefficients,
         level_nt,
@@ -479,6 +485,10 @@ fn band_std(rows: &[Rows]) -> f64 {
         .flat_map(|(_, y)| y)
         .for_each(|v| before.push(*v));
     before.std()
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 /// Refuses a fit that overflowed: a model with NaN coefficients would be refused only later,

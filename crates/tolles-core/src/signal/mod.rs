@@ -6,4 +6,5 @@ pub mod filter;
 pub mod median;
 pub mod metrics;
 pub mod segment;
+pub mod shift;
 pub mod spectrum;

@@ -144,9 +144,17 @@ pub fn compensate_flight(
         coefficients: &fit.fit.coefficients,
         magnitude: fit.fit.magnitude,
     };
+    // A fluxgate that samples late is read that much later, as the fit did.
+    let moved: Vec<_> = flight
+        .flux
+        .iter()
+        .map(|f| tolles_core::fit::lag::shifted(f, fit.fit.lag_s, fs_hz))
+        .collect();
+    let inputs = tolles_core::model::vector::Fluxgates::from(&moved)
+        .with_extras(flight.extras.iter().map(Vec::as_slice).collect());
     Ok(compensate_model(
         &flight.scalar,
-        flight.inputs(),
+        inputs,
         flight.tt.as_deref(),
         model,
         fs_hz / fit.fit.fs_hz,

@@ -61,11 +61,13 @@ pub fn reads_in_chunks(model: &ModelFile, request: &FileRequest) -> bool {
         && ChunkReader::reads(format)
         && size.is_some()
         && output_streams
-        // Several fluxgates and extra channels are read whole.
+        // Several fluxgates, extra channels and a lag are read whole.
         && model
             .fits
             .iter()
-            .all(|f| f.vectors.len() == 1 && f.fit.settings.design.extras.is_empty())
+            .all(|f| f.vectors.len() == 1
+                && f.fit.settings.design.extras.is_empty()
+                && f.fit.lag_s == 0.0)
         && request.selection.is_empty()
 }
 
