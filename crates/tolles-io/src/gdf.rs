@@ -16,8 +16,17 @@
 //! ```
 //!
 //! A record is cut at the widths of its fields' formats; a record that does not fit them is
-//! read as whitespace-separated fields, which GDF also allows. A field with a repeat count
-//! (`3F10.3`) becomes columns `NAME_1`, `NAME_2`, `NAME_3`.
+//! read as whitespace-separated (or tab-separated) fields, which GDF also allows. A field with
+//! a repeat count (`3F10.3`) becomes columns `NAME_1`, `NAME_2`, `NAME_3`.
+//!
+//! What real surveys write is read too: a `.dfn` whose first DEFN is another record type
+//! (`RT=PROJ`; only the data record's fields make columns, other types' lines in the `.dat`
+//! are skipped); `RT=DATA` declared while the records carry no `DATA` (and records carrying it
+//! though the `.dfn` does not say so); `RT:A4` declared but absent from the records;
+//! attributes separated by colons, commas or semicolons, or after a comma straight after the
+//! format (`A8,NAME=TYPE`); a trailing `*` on every record; and a truncated last record, whose
+//! row is kept with its missing cells missing. Any other record that does not fit the
+//! definition is an error naming its line.
 
 use crate::error::IoError;
 use crate::table::{Column, Missing, Table, TextColumn};
@@ -457,11 +466,7 @@ fn split_record<'a>(
 fn without_end_mark<'a>(line: &'a str, fields: &[Field]) -> &'a str {
     let trimmed = line.trim_end();
     match trimmed.strip_suffix('*') {
-        Some(rest)
-            if rest.ends_with([' ', '\t']) && fields.last().is_some_and(|f| !f.text) =>
-        {
-            rest
-        }
+        Some(rest) if rest.ends_with([' ', '\t']) && fields.last().is_some_and(|f| !f.text) => rest,
         _ => line,
     }
 }
@@ -609,6 +614,105 @@ mod tests {
         assert!(parse_format("70000F12.3").is_none());
         assert!(parse_format("F99999999.3").is_none());
         assert_eq!(parse_format("256F12.3"), Some((256, 'F', 12)));
+    }
+
+    #[test]
+    fn data_record_after_another_record_type_and_blank_rt_continuing_it() {
+        let dfn = "DEFN   ST=RECD,RT=PROJ; RT: A4\n\
+                   DEFN 1 ST=RECD,RT=DATA;RT:A4;LINE:F10.1:NAME=Line number\n\
+                   DEFN 2 ST=RECD,RT=;MAG:F10.2:NULL=-99999.99:UNIT=nT:NAME=mag\n\
+                   DEFN 3 ST=RECD,RT=;END DEFN\n";
+        let def = parse_dfn(dfn, Path::new("t.dfn"), 100).unwrap();
+        assert_eq!(def.record_type, "DATA");
+        assert_eq!(def.rt_width, Some(4));
+        assert_eq!(def.fields.len(), 2);
+        assert_eq!(def.fields[1].null, Some(-99999.99));
+        assert_eq!(def.fields[1].units.as_deref(), Some("nT"));
+        assert!(def.others.iter().any(|o| o == "PROJ"));
+        // RT absent from tab-separated records; PROJ and COMM lines skipped.
+        let dat = "PROJ my project\nCOMM a comment\n690\t57743.27\n690\t-99999.99\n";
+        let t = from_text(dfn, "t.dfn", dat, "t.dat").unwrap();
+        assert_eq!(t.headers(), ["LINE", "MAG"]);
+        assert_eq!(t.numeric("LINE").unwrap(), [690.0, 690.0]);
+        assert!(t.numeric("MAG").unwrap()[1].is_nan());
+        assert_eq!(t.line_of(0), 3);
+        // The same records with the DATA prefix, fixed width.
+        let dat = "DATA     690.0  57743.27\nDATA     691.0 -99999.99\n";
+        let t = from_text(dfn, "t.dfn", dat, "t.dat").unwrap();
+        assert_eq!(t.numeric("LINE").unwrap(), [690.0, 691.0]);
+        assert_eq!(t.numeric("MAG").unwrap()[0], 57743.27);
+    }
+
+    #[test]
+    fn data_prefix_on_records_of_a_blank_record_type_is_skipped() {
+        let dat = "DATA  1001  30000.00     10.50  40000.00\nDATA 1002 1 2 3\n";
+        let t = read(dat).unwrap();
+        assert_eq!(t.numeric("LINE").unwrap(), [1001.0, 1002.0]);
+        assert_eq!(t.numeric("FLUX_3").unwrap(), [40000.0, 3.0]);
+    }
+
+    #[test]
+    fn attributes_after_colons_commas_and_a_comma_after_the_format() {
+        let fields = parse_field("TYPE:A8,NAME=TYPE", 10).unwrap();
+        assert_eq!((fields[0].width, fields[0].text), (8, true));
+        let f = &parse_field("SERIAL:I7:NULL=-99999:NAME=SERIAL", 10).unwrap()[0];
+        assert_eq!(f.null, Some(-99999.0));
+        let f = &parse_field(
+            "E:F11.2:NULL=9999999.99:UNIT:metres:NAME=Easting (MGA56)",
+            10,
+        )
+        .unwrap()[0];
+        assert_eq!((f.null, f.units.as_deref()), (Some(9_999_999.99), None));
+        let f = &parse_field("FID:f10.1:FIDUCIAL ,NULL=-999999.0,NAME=fiducial", 10).unwrap()[0];
+        assert_eq!((f.width, f.null), (10, Some(-999_999.0)));
+        let f = &parse_field("FID:F9.0:NULL=99999999:UNIT::NAME=Fiducial", 10).unwrap()[0];
+        assert_eq!(f.units, None);
+        let err = parse_field("X:F9.0:NULL=abc", 10).unwrap_err();
+        assert_eq!(err, "field \"X\": NULL=abc is not a number");
+    }
+
+    #[test]
+    fn a_trailing_star_ends_records() {
+        let t = read("  1001  30000.00     10.50  40000.00 *\n1002 1 2 3 *\n").unwrap();
+        assert_eq!(t.numeric("FLUX_3").unwrap(), [40000.0, 3.0]);
+    }
+
+    #[test]
+    fn a_truncated_last_record_keeps_its_row() {
+        // Fixed width: the field the record ends inside is missing too (its digits are cut).
+        let t = read("  1001  30000.00     10.50  40000.00\n  1002  30001.00     1\n").unwrap();
+        assert_eq!(t.len(), 2);
+        assert_eq!(t.numeric("FLUX_1").unwrap(), [30000.0, 30001.0]);
+        assert!(t.numeric("FLUX_2").unwrap()[1].is_nan());
+        assert!(t.numeric("FLUX_3").unwrap()[1].is_nan());
+        // Whitespace-separated, without a final newline.
+        let t = read("1001 30000 10.5 40000\n1002 7").unwrap();
+        assert_eq!(t.numeric("FLUX_1").unwrap(), [30000.0, 7.0]);
+        assert!(t.numeric("FLUX_2").unwrap()[1].is_nan());
+        // Only the prefix of a record.
+        let dfn = "DEFN 1 ST=RECD,RT=DATA;RT:A4;TT:F10.1\nDEFN 2 ST=RECD,RT=DATA;MAG:F10.1\n";
+        let t = from_text(dfn, "t.dfn", "DATA       0.0      50.0\nDATA", "t.dat").unwrap();
+        assert_eq!(t.len(), 2);
+        assert!(t.numeric("TT").unwrap()[1].is_nan());
+    }
+
+    #[test]
+    fn a_dat_without_data_records_says_so() {
+        let err = read("COMM only a comment\n\n").unwrap_err().to_string();
+        assert!(err.starts_with("t.dat: no data records"), "{err}");
+        assert!(!err.contains("header"), "{err}");
+        let dfn = "DEFN 1 ST=RECD,RT=;TT:F10.1\n";
+        let err = from_text(dfn, "t.dfn", "", "t.dat")
+            .unwrap_err()
+            .to_string();
+        assert!(err.starts_with("t.dat: no data records"), "{err}");
+    }
+
+    #[test]
+    fn a_bad_number_names_its_line_and_column() {
+        let t = read("1001 30000 10.5 40000\n1002 30000 x1.5 40000\n").unwrap();
+        let err = t.numeric("FLUX_2").unwrap_err().to_string();
+        assert!(err.contains("line 2") && err.contains("FLUX_2"), "{err}");
     }
 
     #[test]

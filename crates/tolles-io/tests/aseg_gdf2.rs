@@ -169,7 +169,10 @@ fn all_ten_example_surveys_read_and_match_an_independent_reading() {
     let muppet = read("Example_AeroMag_MuppetTown_2009");
     let mag = muppet.numeric("MAGCOMP").unwrap();
     assert_eq!(mag[0], 58268.254);
-    assert!(mag[1050].is_nan(), "the truncated record's cells are missing");
+    assert!(
+        mag[1050].is_nan(),
+        "the truncated record's cells are missing"
+    );
     assert_eq!(muppet.numeric("BGS_JOB").unwrap()[1050], 954.0);
     let gondwana = read("Example_Mag_Gondwana_200Ma");
     assert_eq!(gondwana.numeric("Fluxz").unwrap()[0], -2319.616);
