@@ -405,15 +405,17 @@ fn read_records(text: &str, path: &Path, def: &Definition) -> Result<Table, IoEr
     let mut lines = Vec::with_capacity(records.len());
     let mut fixed = None;
     let last = records.len() - 1;
+    // The file ends inside its last record (no newline after it).
+    let open_end = !text.ends_with('\n') && records[last].0 == text.lines().count() as u64;
     for (at, &(line, body)) in records.iter().enumerate() {
         let (cells, was_fixed) =
-            split_record(body, fields, at == last, fixed).map_err(|message| {
-                IoError::Malformed {
+            split_record(body, fields, at == last, at == last && open_end, fixed).map_err(
+                |message| IoError::Malformed {
                     path: path.to_path_buf(),
                     line,
                     message,
-                }
-            })?;
+                },
+            )?;
         fixed.get_or_insert(was_fixed);
         for (column, cell) in columns.iter_mut().zip(cells) {
             column.push(cell);
@@ -428,14 +430,22 @@ fn read_records(text: &str, path: &Path, def: &Definition) -> Result<Table, IoEr
 /// The cells of one record, and whether they were cut at the fields' widths (else split at
 /// whitespace). The last record of a file may be truncated: its missing cells are blank (a
 /// missing value), cut at the widths when the file's records are (`fixed` says how the earlier
-/// records were read) and the record fits them, else split at whitespace.
+/// records were read) and the record fits them, else split at whitespace; `open_end` says the
+/// file ends inside it, so its last token may have lost digits.
 fn split_record<'a>(
     line: &'a str,
     fields: &[Field],
     last: bool,
+    open_end: bool,
     fixed: Option<bool>,
 ) -> Result<(Vec<&'a str>, bool), String> {
     let line = without_end_mark(line, fields);
+    // The file ends inside a fixed-width record: its cut field is missing, not a wrong value.
+    if open_end && fixed == Some(true) {
+        if let Some(cells) = fixed_width(line, fields, true) {
+            return Ok((cells, true));
+        }
+    }
     if let Some(cells) = fixed_width(line, fields, false) {
         return Ok((cells, true));
     }
@@ -447,6 +457,14 @@ fn split_record<'a>(
         if fixed != Some(false) {
             if let Some(cells) = fixed_width(line, fields, true) {
                 return Ok((cells, true));
+            }
+        }
+        // The last token of a record the file ends inside may have lost digits, and one that
+        // is not a number was cut; either is missing rather than a wrong value.
+        if let Some(at) = cells.len().checked_sub(1) {
+            let cut = open_end && !line.ends_with(char::is_whitespace);
+            if !fields[at].text && (cut || crate::table::parse_cell(cells[at]).is_none()) {
+                cells[at] = "";
             }
         }
         cells.resize(fields.len(), "");
@@ -685,9 +703,19 @@ mod tests {
         assert_eq!(t.numeric("FLUX_1").unwrap(), [30000.0, 30001.0]);
         assert!(t.numeric("FLUX_2").unwrap()[1].is_nan());
         assert!(t.numeric("FLUX_3").unwrap()[1].is_nan());
-        // Whitespace-separated, without a final newline.
-        let t = read("1001 30000 10.5 40000\n1002 7").unwrap();
+        // The file ends inside the last field of a full-looking fixed-width record.
+        let t =
+            read("  1001  30000.00     10.50  40000.00\n  1002  30001.00     10.50  400").unwrap();
+        assert_eq!(t.numeric("FLUX_2").unwrap(), [10.5, 10.5]);
+        assert!(t.numeric("FLUX_3").unwrap()[1].is_nan());
+        // Whitespace-separated: the last token of a file that ends inside it may be cut.
+        let t = read("1001 30000 10.5 40000\n1002 7 1").unwrap();
         assert_eq!(t.numeric("FLUX_1").unwrap(), [30000.0, 7.0]);
+        assert!(t.numeric("FLUX_2").unwrap()[1].is_nan());
+        let t = read("1001 30000 10.5 40000\n1002 7 1\n").unwrap();
+        assert_eq!(t.numeric("FLUX_2").unwrap(), [10.5, 1.0]);
+        assert!(t.numeric("FLUX_3").unwrap()[1].is_nan());
+        let t = read("1001 30000 10.5 40000\n1002 7 -\n").unwrap();
         assert!(t.numeric("FLUX_2").unwrap()[1].is_nan());
         // Only the prefix of a record.
         let dfn = "DEFN 1 ST=RECD,RT=DATA;RT:A4;TT:F10.1\nDEFN 2 ST=RECD,RT=DATA;MAG:F10.1\n";

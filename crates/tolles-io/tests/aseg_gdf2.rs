@@ -189,3 +189,39 @@ fn all_ten_example_surveys_read_and_match_an_independent_reading() {
     let hill = read("Example_GroundMag_HillValley_1985");
     assert_eq!(hill.numeric("Mag_mlev").unwrap()[0], 57718.8);
 }
+
+/// A survey cut anywhere in its last records still reads: every record is a row, the cut one
+/// included, and every numeric column stays readable.
+#[test]
+fn surveys_cut_anywhere_in_their_last_records_still_read() {
+    for stem in [
+        "Example_AeroMag_MuppetTown_2009",
+        "Example_Gravity_LooneyTunesValley_1930",
+        "Example_Gravity_NeverNeverLand_1904",
+        "Example_Gravity_Springfield_1989",
+        "Example_GroundMag_Bedrock_6000BC",
+        "Example_GroundMag_HillValley_1985",
+        "Example_Mag_Gondwana_200Ma",
+        "Example_Mag_HillValley_1985",
+        "Example_Rad256_SeasameSt_2008",
+        "Example_Rad_BowsersCastle_2012",
+    ] {
+        let dfn = std::fs::read_to_string(fixture(&format!("{stem}.dfn"))).unwrap();
+        let dat = std::fs::read_to_string(fixture(&format!("{stem}.dat"))).unwrap();
+        let columns = expected_columns(&dfn);
+        // Every 7th position in the last 600 bytes.
+        let from = dat.len().saturating_sub(600);
+        for end in (from..dat.len()).step_by(7) {
+            let cut = &dat[..end];
+            let rows = cut.lines().filter(|l| !l.trim().is_empty()).count();
+            let table = gdf::from_text(&dfn, "t.dfn", cut, "t.dat")
+                .unwrap_or_else(|e| panic!("{stem} cut at {end}: {e}"));
+            assert_eq!(table.len(), rows, "{stem} cut at {end}");
+            for column in columns.iter().filter(|c| !c.text) {
+                table
+                    .numeric(&column.name)
+                    .unwrap_or_else(|e| panic!("{stem} cut at {end}: {e}"));
+            }
+        }
+    }
+}
