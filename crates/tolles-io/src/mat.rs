@@ -523,3 +523,129 @@ impl Parser<'_> {
             .with_notes(notes))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A little-endian data element: tag, data, padding to 8 bytes.
+    fn element(kind: u32, data: &[u8]) -> Vec<u8> {
+        let mut out = kind.to_le_bytes().to_vec();
+        out.extend((data.len() as u32).to_le_bytes());
+        out.extend(data);
+        out.resize(out.len().div_ceil(8) * 8, 0);
+        out
+    }
+
+    fn header() -> Vec<u8> {
+        let mut out = b"MATLAB 5.0 MAT-file, made by a test".to_vec();
+        out.resize(116, b' ');
+        out.resize(124, 0);
+        out.extend([0x00, 0x01, b'I', b'M']);
+        out
+    }
+
+    /// The contents of an `miMATRIX` of `class` named `name`, of shape `dims`, then `rest`.
+    fn matrix(class: u8, dims: &[i32], name: &str, rest: &[u8]) -> Vec<u8> {
+        let mut out = element(MI_UINT32, &[class, 0, 0, 0, 0, 0, 0, 0]);
+        let dims: Vec<u8> = dims.iter().flat_map(|d| d.to_le_bytes()).collect();
+        out.extend(element(MI_INT32, &dims));
+        out.extend(element(MI_INT8, name.as_bytes()));
+        out.extend(rest);
+        out
+    }
+
+    fn doubles(values: &[f64]) -> Vec<u8> {
+        let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+        element(MI_DOUBLE, &bytes)
+    }
+
+    fn file(variables: &[Vec<u8>]) -> Vec<u8> {
+        let mut out = header();
+        for v in variables {
+            out.extend(element(MI_MATRIX, v));
+        }
+        out
+    }
+
+    #[test]
+    fn v5_is_told_from_v73_and_other_files() {
+        assert!(is_v5(&header()));
+        let mut v73 = header();
+        v73[..19].copy_from_slice(b"MATLAB 7.3 MAT-file");
+        v73[124..126].copy_from_slice(&[0x00, 0x02]);
+        assert!(!is_v5(&v73));
+        assert!(!is_v5(b"MATLAB 5.0 MAT-file"));
+        assert!(!is_v5(b"\x89HDF\r\n\x1a\n"));
+    }
+
+    #[test]
+    fn a_hand_made_file_reads() {
+        let bytes = file(&[
+            matrix(6, &[3, 1], "x", &doubles(&[1.0, 2.0, 3.0])),
+            matrix(6, &[1, 1], "fs", &doubles(&[4.0])),
+        ]);
+        let t = from_bytes(&bytes, "x.mat").unwrap();
+        assert_eq!(t.numeric("x").unwrap(), [1.0, 2.0, 3.0]);
+        assert_eq!(t.metadata("fs"), Some(4.0));
+        assert_eq!(t.metadata("dt"), Some(0.25));
+    }
+
+    #[test]
+    fn dimensions_that_disagree_with_the_data_are_refused() {
+        let bytes = file(&[matrix(6, &[1_000_000, 1], "x", &doubles(&[1.0]))]);
+        let err = from_bytes(&bytes, "x.mat").unwrap_err().to_string();
+        assert!(
+            err.starts_with("x.mat: variable \"x\": its dimensions say 1000000 values"),
+            "{err}"
+        );
+        let bytes = file(&[matrix(6, &[-1, 1], "x", &doubles(&[1.0]))]);
+        let err = from_bytes(&bytes, "x.mat").unwrap_err().to_string();
+        assert!(err.contains("dimension -1"), "{err}");
+    }
+
+    #[test]
+    fn structs_nested_too_deep_are_refused() {
+        // A 1×1 struct whose one field `s` is again such a struct, 40 deep.
+        let mut inner = matrix(6, &[1, 1], "", &doubles(&[1.0]));
+        for _ in 0..40 {
+            let mut rest = element(MI_INT32, &4i32.to_le_bytes());
+            rest.extend(element(MI_INT8, b"s\0\0\0"));
+            rest.extend(element(MI_MATRIX, &inner));
+            inner = matrix(MX_STRUCT, &[1, 1], "", &rest);
+        }
+        let named = {
+            let mut rest = element(MI_INT32, &4i32.to_le_bytes());
+            rest.extend(element(MI_INT8, b"s\0\0\0"));
+            rest.extend(element(MI_MATRIX, &inner));
+            matrix(MX_STRUCT, &[1, 1], "top", &rest)
+        };
+        let err = from_bytes(&file(&[named]), "deep.mat")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("structs nest more than 32 deep"), "{err}");
+        assert!(err.starts_with("deep.mat: variable \"top.s.s."), "{err}");
+    }
+
+    #[test]
+    fn decompression_stops_at_the_budget() {
+        use std::io::Write;
+        let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::best());
+        z.write_all(&vec![0; 1_000_000]).unwrap();
+        let compressed = z.finish().unwrap();
+        let mut parser = Parser {
+            path: Path::new("bomb.mat"),
+            big_endian: false,
+            budget: 100_000,
+            entries: Vec::new(),
+        };
+        let err = parser.inflate(&compressed).unwrap_err();
+        assert!(
+            err.contains("decompresses to more than 100000 bytes"),
+            "{err}"
+        );
+        parser.budget = 1_000_000;
+        assert_eq!(parser.inflate(&compressed).unwrap().len(), 1_000_000);
+        assert_eq!(parser.budget, 0);
+    }
+}
