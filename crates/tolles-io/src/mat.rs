@@ -20,8 +20,9 @@
 //! file has no scalar `dt` but a scalar `fs` (Hz, as in MagNav's `TL_data`), `dt = 1 / fs` is
 //! added to the metadata so the sample rate is known.
 //!
-//! The parser is our own (about 400 lines): no maintained pure-Rust crate reads v5 structs and
-//! compressed variables. Every size in the file is checked against the bytes that hold it
+//! The parser is our own (about 400 lines): `matfile` reads no structs, and `matrw` (0.1) says
+//! its API is not stable yet; bounding every allocation by the file's size is easier to hold to
+//! here than to audit there. Every size in the file is checked against the bytes that hold it
 //! before anything is allocated, decompression stops at 1032 times the compressed size
 //! (deflate's best ratio), and structs nest at most [`MAX_DEPTH`] deep.
 
