@@ -114,6 +114,46 @@ fn every_format_fits_and_compensates_like_csv() {
     }
 }
 
+/// MagNav's own `test_data_TL.mat` (MATLAB v5, struct `TL_data`, no time column: the sample
+/// rate comes from `TL_data.fs`) fits as the same flight does as CSV, and compensates to
+/// MagNav's `mag_1_c`.
+#[test]
+fn magnav_v5_mat_file_fits_like_csv() {
+    let dir = TempDir::new().unwrap();
+    let mat = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../tolles-io/tests/fixtures/magnav_test_data_TL.mat");
+    let reference = fit(&write_csv(dir.path()), &dir.path().join("csv.json"));
+    let model = dir.path().join("mat.json");
+    let ours = fit(&mat, &model);
+    assert_eq!(ours.len(), reference.len());
+    for (k, (a, b)) in ours.iter().zip(&reference).enumerate() {
+        assert!(
+            (a - b).abs() <= 1e-9 * b.abs().max(1e-3),
+            "coefficient {k}: {a} from the .mat, {b} from the CSV"
+        );
+    }
+    let table = compensated(&mat, &model, &dir.path().join("out.csv"));
+    let diff: Vec<f64> = table
+        .numeric("mag_1_c")
+        .unwrap()
+        .iter()
+        .zip(magnav("mag_1_c"))
+        .map(|(a, b)| a - b)
+        .collect();
+    let mean = diff.iter().sum::<f64>() / diff.len() as f64;
+    let std = (diff.iter().map(|d| (d - mean).powi(2)).sum::<f64>() / diff.len() as f64).sqrt();
+    assert!(std < 0.1, "std(ours − mag_1_c) = {std}");
+    // The brief form, with the default band, order and trim, reads the file too.
+    tolles()
+        .arg("fit")
+        .arg(&mat)
+        .args(&FIT_ARGS[..8])
+        .arg("--out")
+        .arg(dir.path().join("defaults.json"))
+        .assert()
+        .success();
+}
+
 /// Runs `tolles compensate FLIGHT --model MODEL --out OUT` and reads OUT back.
 fn compensated(flight: &Path, model: &Path, out: &Path) -> Table {
     tolles()

@@ -23,7 +23,8 @@ pub enum Format {
     Xyz,
     /// ASEG-GDF2: a `.dfn` definition file and a `.dat` data file.
     Gdf,
-    /// HDF5 with one 1-D dataset per column at the root (`.h5`, `.hdf5`, MATLAB v7.3 `.mat`).
+    /// HDF5 with one 1-D dataset per column at the root (`.h5`, `.hdf5`, MATLAB v7.3 `.mat`);
+    /// a MATLAB v5 `.mat` file, told apart by its content, is read by [`crate::mat`].
     Hdf5,
     /// Apache Parquet (`.parquet`, `.pq`).
     Parquet,
@@ -85,9 +86,23 @@ impl Table {
             Format::Csv => Table::read_csv(path),
             Format::Xyz => crate::xyz::read(path),
             Format::Gdf => crate::gdf::read(path),
-            Format::Hdf5 => crate::hdf5::read(path),
+            Format::Hdf5 => read_hdf5_or_mat(path),
             Format::Parquet => crate::parquet::read(path),
         }
+    }
+}
+
+/// An HDF5 file, or a MATLAB v5 MAT-file (which `.mat` files written before v7.3 are), told
+/// apart by the file's first bytes rather than its extension.
+fn read_hdf5_or_mat(path: &Path) -> Result<Table, IoError> {
+    let bytes = std::fs::read(path).map_err(|source| IoError::Open {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    if crate::mat::is_v5(&bytes) {
+        crate::mat::from_bytes(&bytes, path)
+    } else {
+        crate::hdf5::from_bytes(bytes, path)
     }
 }
 

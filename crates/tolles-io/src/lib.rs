@@ -3,7 +3,8 @@
 //! - [`atomic`]: every file written whole or not at all (a temporary file renamed over it);
 //! - [`table`]: flight data as a table of named columns, read from CSV with a header row;
 //! - [`format`](mod@format): which format a flight file is in, [`table::Table::read`] for any of them;
-//! - [`xyz`], [`gdf`], [`hdf5`], [`parquet`]: Geosoft XYZ, ASEG-GDF2, HDF5 and Parquet tables;
+//! - [`xyz`], [`gdf`], [`hdf5`], [`mat`], [`parquet`]: Geosoft XYZ, ASEG-GDF2, HDF5, MATLAB v5
+//!   MAT-file and Parquet tables;
 //! - [`chunks`]: flight tables read and written a chunk of rows at a time (bounded memory);
 //! - [`model`]: the model file (JSON) that `tolles fit` writes and `tolles compensate` reads;
 //! - [`schema`]: every column name tolles gives a meaning to, and how added columns are named;
@@ -19,6 +20,7 @@ pub mod format;
 pub mod gdf;
 mod guard;
 pub mod hdf5;
+pub mod mat;
 pub mod model;
 pub mod parquet;
 pub mod schema;
