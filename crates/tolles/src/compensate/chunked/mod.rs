@@ -63,6 +63,7 @@ pub fn reads_in_chunks(model: &ModelFile, request: &FileRequest) -> bool {
         && output_streams
         && model.fits.iter().all(|f| f.vectors.len() == 1)
         && request.selection.is_empty()
+        && request.renames.is_empty()
 }
 
 /// Whether reading a survey of `bytes` in `format` whole could take more than half of the
