@@ -215,7 +215,12 @@ impl Table {
                 path: self.path.clone(),
             });
         }
-        if self.headers.iter().enumerate().any(|(k, h)| k != index && h == new) {
+        if self
+            .headers
+            .iter()
+            .enumerate()
+            .any(|(k, h)| k != index && h == new)
+        {
             return Err(IoError::DuplicateColumn {
                 path: self.path.clone(),
                 column: new.to_string(),
@@ -491,7 +496,8 @@ fn suggest_vector(headers: &[String], prefix: &str) -> Option<String> {
             let stem = l.strip_suffix("_x")?;
             let others = ["_y", "_z"].map(|a| format!("{stem}{a}"));
             let complete = others.iter().all(|o| lower.contains(o));
-            let close = stem.starts_with(&wanted) || wanted.starts_with(stem) || stem.contains(&wanted);
+            let close =
+                stem.starts_with(&wanted) || wanted.starts_with(stem) || stem.contains(&wanted);
             (complete && close).then(|| &h[..stem.len()])
         })
         .take(6)
@@ -779,7 +785,10 @@ mod tests {
         assert_eq!(t.vector("fluxa").unwrap().z[0], 4.0);
         assert_eq!(t.vector("FLUXA_Z:FLUXA_Y:FLUXA_X").unwrap().x[0], 4.0);
         let err = t.numeric("fluxa").unwrap_err().to_string();
-        assert!(err.contains("did you mean FLUXA_X, FLUXA_Y, FLUXA_Z?"), "{err}");
+        assert!(
+            err.contains("did you mean FLUXA_X, FLUXA_Y, FLUXA_Z?"),
+            "{err}"
+        );
     }
 
     #[test]
@@ -791,7 +800,11 @@ mod tests {
         assert_eq!(t.numeric("azimuth").unwrap(), [1.0]);
         t.rename("b", "c").unwrap();
         assert_eq!(t.headers(), ["AZIMUTH", "c"]);
-        assert!(t.rename("nope", "d").unwrap_err().to_string().contains("\"nope\""));
+        assert!(t
+            .rename("nope", "d")
+            .unwrap_err()
+            .to_string()
+            .contains("\"nope\""));
         assert!(matches!(
             t.rename("c", "AZIMUTH"),
             Err(IoError::DuplicateColumn { .. })

@@ -245,7 +245,10 @@ mod tests {
         let mag = &about.columns[2];
         assert_eq!((mag.missing, mag.non_numeric), (1, 0));
         assert_eq!(mag.aliases, ["mag_1_uc"]);
-        assert_eq!((about.columns[3].missing, about.columns[3].non_numeric), (1, 2));
+        assert_eq!(
+            (about.columns[3].missing, about.columns[3].non_numeric),
+            (1, 2)
+        );
         assert!(matches!(warnings[0], Warning::ColumnsAliased { .. }));
     }
 }

@@ -72,8 +72,17 @@ fn text(about: &FlightInfo) -> String {
     for (name, value) in &about.metadata {
         s += &format!("{name} = {value}\n");
     }
-    let width = about.columns.iter().map(|c| c.name.len()).max().unwrap_or(6).max(6);
-    s += &format!("{:<width$}  {:<8}  {:>8}  {:>11}  also\n", "column", "unit", "missing", "non-numeric");
+    let width = about
+        .columns
+        .iter()
+        .map(|c| c.name.len())
+        .max()
+        .unwrap_or(6)
+        .max(6);
+    s += &format!(
+        "{:<width$}  {:<8}  {:>8}  {:>11}  also\n",
+        "column", "unit", "missing", "non-numeric"
+    );
     for c in &about.columns {
         s += &format!(
             "{:<width$}  {:<8}  {:>8}  {:>11}  {}\n",
