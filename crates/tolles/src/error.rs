@@ -28,7 +28,7 @@ pub enum Error {
     Rename {
         old: String,
         new: String,
-        source: IoError,
+        source: Box<IoError>,
     },
     /// A fluxgate named neither by a prefix nor by three columns `X:Y:Z`.
     #[error("fluxgate {spec:?}: {reason}")]

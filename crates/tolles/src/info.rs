@@ -152,7 +152,7 @@ pub fn info(
     let time_span_s = tt.as_deref().and_then(|tt| {
         let mut finite = tt.iter().copied().filter(|t| t.is_finite());
         let first = finite.next()?;
-        Some((first, finite.last().unwrap_or(first)))
+        Some((first, finite.next_back().unwrap_or(first)))
     });
     Ok(FlightInfo {
         path: path.to_path_buf(),

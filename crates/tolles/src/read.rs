@@ -95,7 +95,7 @@ pub fn rename(table: &mut Table, renames: &[(String, String)]) -> Result<()> {
         table.rename(old, new).map_err(|source| Error::Rename {
             old: old.clone(),
             new: new.clone(),
-            source,
+            source: Box::new(source),
         })?;
     }
     Ok(())
