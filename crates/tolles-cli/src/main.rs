@@ -26,6 +26,9 @@ Examples:
   tolles fit cal.csv --scalar mag_1_uc --vector flux_a \\
       --terms permanent,induced,eddy --lambda 0.001 --band 0.1,0.9 --order 4 --trim 20
 
+  # What a flight file holds (columns, units, rows, sample rate, lines, missing values):
+  tolles info cal.csv
+
   # Simulate a flight whose truth is known:
   tolles simulate --plan box --seed 1 --out box.csv
 
@@ -53,6 +56,7 @@ enum Command {
     Fit(cmd::fit::Args),
     Compensate(cmd::compensate::Args),
     Fom(cmd::fom::Args),
+    Info(cmd::info::Args),
     Demo(cmd::demo::Args),
     Simulate(cmd::simulate::Args),
     Plan(cmd::plan::Args),
@@ -68,6 +72,7 @@ fn main() -> ExitCode {
         Command::Fit(args) => cmd::fit::run(args),
         Command::Compensate(args) => cmd::compensate::run(args),
         Command::Fom(args) => cmd::fom::run(args),
+        Command::Info(args) => cmd::info::run(args),
         Command::Demo(args) => cmd::demo::run(args),
         Command::Simulate(args) => cmd::simulate::run(args),
         Command::Plan(args) => cmd::plan::run(args),

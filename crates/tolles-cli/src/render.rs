@@ -48,6 +48,7 @@ pub fn warning_text(warning: &Warning, purpose: Use) -> String {
             };
             format!("{}: {}; {consequence}", path.display(), selection.summary)
         }
+        Warning::ColumnsAliased { .. } => warning.to_string(),
         other => format!("warning: {other}"),
     }
 }
@@ -80,6 +81,10 @@ pub fn error(e: Error) -> anyhow::Error {
             "{}: --line {line}: no row is on that line; the file's lines are {present}",
             path.display()
         ),
+        Error::Rename { old, new, source } => {
+            anyhow::anyhow!("--rename {old}={new}: {source}")
+        }
+        Error::VectorSpec { spec, reason } => anyhow::anyhow!("--vector {spec:?}: {reason}"),
         Error::NoSuchManeuver { name, found, .. } => anyhow::anyhow!(
             "--ignore {name:?}: no such maneuver in the flight; found: {}",
             found.join(", ")

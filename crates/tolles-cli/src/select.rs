@@ -1,4 +1,5 @@
-//! `--line` and `--time`: which rows of a flight a command works on.
+//! `--line` and `--time`: which rows of a flight a command works on; `--rename`: what its
+//! columns are called.
 //!
 //! The same flags and help for every command that reads a flight (a flattened [`Selection`]);
 //! the rows are chosen by the library. What was selected is said on stderr, with what becomes
@@ -26,6 +27,22 @@ pub struct Selection {
     /// time are never filtered or differentiated across: runs are cut at time gaps
     #[arg(long, value_name = "START..END", allow_hyphen_values = true)]
     pub time: Option<TimeRange>,
+    /// Rename columns right after reading, e.g. --rename MAGUC=mag_1_uc,HDG=ins_yaw (the flag
+    /// may repeat); every other flag then uses the new names. An unknown OLD is an error.
+    /// Not needed for SGL's raw channel names (TIME, ROLL, PITCH, AZIMUTH, UNCOMPMAGn,
+    /// FLUXA_X, …): they answer to tolles' names when the file has no columns of those
+    #[arg(long = "rename", value_name = "OLD=NEW", value_delimiter = ',', value_parser = parse_rename)]
+    pub renames: Vec<(String, String)>,
+}
+
+/// `OLD=NEW` → the two names.
+pub fn parse_rename(text: &str) -> Result<(String, String), String> {
+    match text.split_once('=') {
+        Some((old, new)) if !old.trim().is_empty() && !new.trim().is_empty() => {
+            Ok((old.trim().to_string(), new.trim().to_string()))
+        }
+        _ => Err(format!("expected OLD=NEW, got {text:?}")),
+    }
 }
 
 impl Selection {
@@ -41,7 +58,13 @@ impl Selection {
     /// reader left out and which rows were selected.
     pub fn read(&self, path: &Path, purpose: Use) -> Result<Table> {
         let mut warnings = Vec::new();
-        let read = tolles::read::read(path, &self.rows(), &Terminal::default(), &mut warnings);
+        let read = tolles::read::read_renamed(
+            path,
+            &self.rows(),
+            &self.renames,
+            &Terminal::default(),
+            &mut warnings,
+        );
         render::warnings(&mut warnings, purpose);
         Ok(read.or_render()?.table)
     }
@@ -98,6 +121,19 @@ mod tests {
         assert!(e.contains("expected START..END"), "{e}");
         let e = parse(&["--line", "1002,,1003"]).unwrap_err().to_string();
         assert!(e.contains("empty line id"), "{e}");
+    }
+
+    #[test]
+    fn renames_are_old_new_pairs() {
+        let s = parse(&["--rename", "A=a, B = b", "--rename", "C=c"]).unwrap();
+        let pairs: Vec<(&str, &str)> = s
+            .renames
+            .iter()
+            .map(|(o, n)| (o.as_str(), n.as_str()))
+            .collect();
+        assert_eq!(pairs, [("A", "a"), ("B", "b"), ("C", "c")]);
+        let e = parse(&["--rename", "A"]).unwrap_err().to_string();
+        assert!(e.contains("expected OLD=NEW"), "{e}");
     }
 
     #[test]

@@ -19,6 +19,14 @@ pub const ROLL: &str = "ins_roll";
 pub const PITCH: &str = "ins_pitch";
 /// Yaw, the heading (deg), clockwise from north.
 pub const YAW: &str = "ins_yaw";
+/// Latitude (deg).
+pub const LATITUDE: &str = "lat";
+/// Longitude (deg).
+pub const LONGITUDE: &str = "lon";
+/// Diurnal variation (nT), as a base station measured it.
+pub const DIURNAL: &str = "diurnal";
+/// The core field of the IGRF model at the aircraft (nT).
+pub const IGRF: &str = "igrf";
 /// The scalar a file may carry besides its columns (HDF5) holding the sample interval (s).
 pub const SAMPLE_INTERVAL: &str = "dt";
 /// Suffixes of a fluxgate's three body-frame components (FRD): `flux_a` → `flux_a_x` …
@@ -26,9 +34,142 @@ pub const AXES: [&str; 3] = ["_x", "_y", "_z"];
 /// What [`output_name`] appends when the compensated column's name is taken.
 pub const RENAMED_SUFFIX: &str = "_tolles";
 
-/// The three columns of fluxgate `prefix`.
-pub fn vector_columns(prefix: &str) -> [String; 3] {
-    AXES.map(|axis| format!("{prefix}{axis}"))
+/// What separates the three columns of a fluxgate named explicitly: `FLUXA_X:FLUXA_Y:FLUXA_Z`.
+pub const TRIPLE_SEPARATOR: char = ':';
+
+/// The three columns of fluxgate `spec`: a prefix (`flux_a` → `flux_a_x`, `flux_a_y`,
+/// `flux_a_z`; a table finds them whatever the suffixes' case, so `FLUXA` reads `FLUXA_X` …)
+/// or three names separated by [`TRIPLE_SEPARATOR`] (`BX:BY:BZ` → `BX`, `BY`, `BZ`). Models
+/// store `spec` as given, so a triple round-trips. A spec with separators but not three
+/// non-empty names is refused by [`vector_spec_error`]; here it is read as a prefix.
+///
+/// ```
+/// use tolles_io::schema::vector_columns;
+/// assert_eq!(vector_columns("flux_a"), ["flux_a_x", "flux_a_y", "flux_a_z"]);
+/// assert_eq!(vector_columns("BX:BY:BZ"), ["BX", "BY", "BZ"]);
+/// ```
+pub fn vector_columns(spec: &str) -> [String; 3] {
+    let parts: Vec<&str> = spec.split(TRIPLE_SEPARATOR).map(str::trim).collect();
+    match parts[..] {
+        [x, y, z] if vector_spec_error(spec).is_none() => [x, y, z].map(String::from),
+        _ => AXES.map(|axis| format!("{spec}{axis}")),
+    }
+}
+
+/// Why `spec` names no fluxgate, if it does not: it is empty, or it holds a
+/// [`TRIPLE_SEPARATOR`] but not exactly three non-empty names.
+pub fn vector_spec_error(spec: &str) -> Option<&'static str> {
+    if spec.trim().is_empty() {
+        return Some("a fluxgate needs a column prefix or three columns X:Y:Z");
+    }
+    if !spec.contains(TRIPLE_SEPARATOR) {
+        return None;
+    }
+    let parts: Vec<&str> = spec.split(TRIPLE_SEPARATOR).map(str::trim).collect();
+    if parts.len() != 3 || parts.iter().any(|p| p.is_empty()) {
+        return Some("three columns are named X:Y:Z, each non-empty");
+    }
+    None
+}
+
+/// Raw channel names that stand for tolles' own when a file does not have those: SGL's raw
+/// export (MagNav.jl's `Flt1003_sample.xyz`) names its channels so. Names match whatever their
+/// case; `n` is a magnetometer's number, `L` a fluxgate's letter.
+///
+/// | raw | tolles |
+/// |---|---|
+/// | `TIME` (s of day) | `tt` |
+/// | `LINE` | `line` |
+/// | `ROLL`, `PITCH`, `AZIMUTH` | `ins_roll`, `ins_pitch`, `ins_yaw` |
+/// | `LAT`, `LONG` | `lat`, `lon` |
+/// | `DIURNAL` | `diurnal` |
+/// | `UNCOMPMAGn` | `mag_n_uc` |
+/// | `COMPMAGn` | `mag_n_c` |
+/// | `IGRFMAGn` | `mag_n_igrf`; the lowest `n` also `igrf` |
+/// | `FLUXL_X`, `FLUXL_Y`, `FLUXL_Z`, `FLUXL_TOT` | `flux_l_x`, `flux_l_y`, `flux_l_z`, `flux_l_tot` |
+pub const ALIASES: [(&str, &str); 8] = [
+    ("TIME", TIME_COLUMN),
+    ("LINE", LINE_COLUMN),
+    ("ROLL", ROLL),
+    ("PITCH", PITCH),
+    ("AZIMUTH", YAW),
+    ("LAT", LATITUDE),
+    ("LONG", LONGITUDE),
+    ("DIURNAL", DIURNAL),
+];
+
+/// The tolles names a raw channel `raw` stands for ([`ALIASES`] and its numbered patterns),
+/// matched whatever its case.
+///
+/// ```
+/// use tolles_io::schema::canonical_names;
+/// assert_eq!(canonical_names("AZIMUTH"), ["ins_yaw"]);
+/// assert_eq!(canonical_names("uncompmag3"), ["mag_3_uc"]);
+/// assert_eq!(canonical_names("FLUXB_Y"), ["flux_b_y"]);
+/// assert!(canonical_names("mag_1_uc").is_empty());
+/// ```
+pub fn canonical_names(raw: &str) -> Vec<String> {
+    let upper = raw.trim().to_ascii_uppercase();
+    if let Some((_, name)) = ALIASES.iter().find(|(r, _)| *r == upper) {
+        return vec![name.to_string()];
+    }
+    let numbered = |prefix: &str| {
+        upper
+            .strip_prefix(prefix)
+            .filter(|n| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()))
+            .map(|n| n.to_string())
+    };
+    if let Some(n) = numbered("UNCOMPMAG") {
+        return vec![format!("mag_{n}_uc")];
+    }
+    if let Some(n) = numbered("COMPMAG") {
+        return vec![format!("mag_{n}_c")];
+    }
+    if let Some(n) = numbered("IGRFMAG") {
+        return vec![format!("mag_{n}_igrf")];
+    }
+    if let Some(rest) = upper.strip_prefix("FLUX") {
+        let mut chars = rest.chars();
+        if let (Some(letter @ 'A'..='Z'), Some('_')) = (chars.next(), chars.next()) {
+            let axis = chars.as_str();
+            if matches!(axis, "X" | "Y" | "Z" | "TOT") {
+                let letter = letter.to_ascii_lowercase();
+                return vec![format!("flux_{letter}_{}", axis.to_ascii_lowercase())];
+            }
+        }
+    }
+    Vec::new()
+}
+
+/// The aliases a table with `headers` gets: `(tolles name, column index)` for every raw
+/// channel (see [`canonical_names`]) whose tolles name no column has (as
+/// [`crate::table::find_column`] finds names, also by case); each name once, from the first
+/// raw channel that gives it. `igrf` also comes from the lowest-numbered `IGRFMAGn`.
+pub fn aliases(headers: &[String]) -> Vec<(String, usize)> {
+    let present =
+        |name: &str| crate::table::find_column(std::path::Path::new(""), headers, name).is_ok();
+    let mut out: Vec<(String, usize)> = Vec::new();
+    let mut igrf: Option<(u64, usize)> = None;
+    for (k, header) in headers.iter().enumerate() {
+        for name in canonical_names(header) {
+            if let Some(n) = name
+                .strip_prefix("mag_")
+                .and_then(|r| r.strip_suffix("_igrf"))
+                .and_then(|n| n.parse::<u64>().ok())
+            {
+                if igrf.is_none_or(|(m, _)| n < m) {
+                    igrf = Some((n, k));
+                }
+            }
+            if !present(&name) && !out.iter().any(|(o, _)| *o == name) {
+                out.push((name, k));
+            }
+        }
+    }
+    if let Some((_, k)) = igrf.filter(|_| !present(IGRF)) {
+        out.push((IGRF.to_string(), k));
+    }
+    out
 }
 
 /// The compensated column of `scalar`: `mag_1_uc` → `mag_1_c`; a name without `_uc` gets `_c`
@@ -81,6 +222,39 @@ mod tests {
 
     fn strings(names: &[&str]) -> Vec<String> {
         names.iter().map(|s| s.to_string()).collect()
+    }
+
+    #[test]
+    fn sgl_raw_names_alias_tolles_names_only_when_those_are_absent() {
+        let headers = strings(&[
+            "TIME", "ROLL", "AZIMUTH", "IGRFMAG2", "IGRFMAG1", "FLUXA_X", "ins_roll", "LAT",
+            "LATITUDE",
+        ]);
+        let got = aliases(&headers);
+        let names: Vec<(&str, usize)> = got.iter().map(|(n, k)| (n.as_str(), *k)).collect();
+        assert_eq!(
+            names,
+            [
+                ("tt", 0),
+                ("ins_yaw", 2),
+                ("mag_2_igrf", 3),
+                ("mag_1_igrf", 4),
+                ("flux_a_x", 5),
+                ("igrf", 4)
+            ]
+        );
+        // LAT is found as `lat` by case already; no alias is needed.
+        assert!(canonical_names("FLUXA_W").is_empty());
+        assert!(canonical_names("COMPMAG").is_empty());
+    }
+
+    #[test]
+    fn a_triple_names_three_columns_and_bad_ones_are_refused() {
+        assert_eq!(vector_columns(" a : b :c"), ["a", "b", "c"]);
+        assert!(vector_spec_error("a:b").is_some());
+        assert!(vector_spec_error("a::c").is_some());
+        assert!(vector_spec_error("").is_some());
+        assert!(vector_spec_error("flux_a").is_none());
     }
 
     #[test]

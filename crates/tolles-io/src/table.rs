@@ -135,6 +135,7 @@ pub struct Table {
     origin: Origin,
     metadata: Vec<(String, f64)>,
     notes: Vec<String>,
+    aliases: Vec<(String, usize)>,
 }
 
 impl Table {
@@ -172,6 +173,7 @@ impl Table {
             origin: lines.map_or(Origin::InOrder, Origin::Lines),
             metadata: Vec::new(),
             notes: Vec::new(),
+            aliases: Vec::new(),
         })
     }
 
@@ -186,6 +188,47 @@ impl Table {
     pub fn with_notes(mut self, notes: Vec<String>) -> Self {
         self.notes = notes;
         self
+    }
+
+    /// Adds other names for columns: `(name, index)` makes [`Table::index_of`] find column
+    /// `index` also as `name` (case-insensitively) when no column is called so. The headers,
+    /// and so every file written from the table, are unchanged. See
+    /// [`crate::schema::aliases`].
+    pub fn with_aliases(mut self, aliases: Vec<(String, usize)>) -> Self {
+        self.aliases = aliases;
+        self
+    }
+
+    /// The other names columns are also found by: `(name, column index)`.
+    pub fn aliases(&self) -> &[(String, usize)] {
+        &self.aliases
+    }
+
+    /// Renames column `old` (found as [`Table::index_of`] finds it) to `new`; an error if there
+    /// is no such column or another column is already called `new`. Aliases of the table are
+    /// dropped (they were chosen for the old names).
+    pub fn rename(&mut self, old: &str, new: &str) -> Result<(), IoError> {
+        let index = find_column(&self.path, &self.headers, old)?;
+        let new = new.trim();
+        if new.is_empty() {
+            return Err(IoError::Empty {
+                path: self.path.clone(),
+            });
+        }
+        if self
+            .headers
+            .iter()
+            .enumerate()
+            .any(|(k, h)| k != index && h == new)
+        {
+            return Err(IoError::DuplicateColumn {
+                path: self.path.clone(),
+                column: new.to_string(),
+            });
+        }
+        self.headers[index] = new.to_string();
+        self.aliases.clear();
+        Ok(())
     }
 
     /// Reads a CSV file with a header row.
@@ -325,6 +368,7 @@ impl Table {
             },
             metadata: self.metadata.clone(),
             notes: self.notes.clone(),
+            aliases: self.aliases.clone(),
         }
     }
 
@@ -337,7 +381,13 @@ impl Table {
     /// exactly that name, one column whose name differs only in case is taken (GDF and XYZ
     /// files often name their channels in capitals).
     pub fn index_of(&self, name: &str) -> Result<usize, IoError> {
-        find_column(&self.path, &self.headers, name)
+        find_column(&self.path, &self.headers, name).or_else(|e| {
+            self.aliases
+                .iter()
+                .find(|(alias, _)| alias.eq_ignore_ascii_case(name))
+                .map(|(_, k)| *k)
+                .ok_or(e)
+        })
     }
 
     /// Column `name` as numbers; missing values are NaN.
@@ -362,14 +412,21 @@ impl Table {
         }
     }
 
-    /// Columns `PREFIX_x`, `PREFIX_y`, `PREFIX_z` as a vector series.
-    pub fn vector(&self, prefix: &str) -> Result<VectorSeries, IoError> {
-        let [x, y, z] = crate::schema::vector_columns(prefix);
-        Ok(VectorSeries::new(
-            self.numeric(&x)?,
-            self.numeric(&y)?,
-            self.numeric(&z)?,
-        ))
+    /// Columns `PREFIX_x`, `PREFIX_y`, `PREFIX_z` as a vector series (the suffixes in any
+    /// case), or the three columns of a triple `X:Y:Z`; see [`crate::schema::vector_columns`].
+    /// A missing column's error suggests the fluxgate prefixes the file has.
+    pub fn vector(&self, spec: &str) -> Result<VectorSeries, IoError> {
+        let [x, y, z] = crate::schema::vector_columns(spec);
+        let column = |name: &str| {
+            self.numeric(name).map_err(|e| match e {
+                IoError::MissingColumn { path, column, hint } if !spec.contains(':') => {
+                    let hint = suggest_vector(&self.headers, spec).unwrap_or(hint);
+                    IoError::MissingColumn { path, column, hint }
+                }
+                other => other,
+            })
+        };
+        Ok(VectorSeries::new(column(&x)?, column(&y)?, column(&z)?))
     }
 
     /// Appends cell (`column`, `row`) as CSV text: text cells as written (a format's dummy
@@ -405,13 +462,15 @@ pub fn find_column(path: &Path, headers: &[String], name: &str) -> Result<usize,
         })
 }
 
+/// `; did you mean A, B?` with the headers near `name` (case-insensitively), or the header's
+/// first names when none is near.
 pub(crate) fn suggest(headers: &[String], name: &str) -> String {
-    let stem = name.trim_end_matches(['x', 'y', 'z']).trim_end_matches('_');
+    let n = name.to_ascii_lowercase();
+    let stem = n.trim_end_matches(['x', 'y', 'z']).trim_end_matches('_');
     let near: Vec<&str> = headers
         .iter()
         .filter(|h| {
             let h = h.to_ascii_lowercase();
-            let n = name.to_ascii_lowercase();
             h.contains(&n) || n.contains(&h) || (!stem.is_empty() && h.starts_with(stem))
         })
         .map(String::as_str)
@@ -423,6 +482,27 @@ pub(crate) fn suggest(headers: &[String], name: &str) -> String {
     } else {
         format!("; did you mean {}?", near.join(", "))
     }
+}
+
+/// `; did you mean FLUXA?` with the fluxgate prefixes in `headers` (names `P_x`, `P_y`, `P_z`
+/// in any case) near `prefix`, case-insensitively; `None` when none is near.
+fn suggest_vector(headers: &[String], prefix: &str) -> Option<String> {
+    let lower: Vec<String> = headers.iter().map(|h| h.to_ascii_lowercase()).collect();
+    let wanted = prefix.to_ascii_lowercase();
+    let near: Vec<&str> = headers
+        .iter()
+        .zip(&lower)
+        .filter_map(|(h, l)| {
+            let stem = l.strip_suffix("_x")?;
+            let others = ["_y", "_z"].map(|a| format!("{stem}{a}"));
+            let complete = others.iter().all(|o| lower.contains(o));
+            let close =
+                stem.starts_with(&wanted) || wanted.starts_with(stem) || stem.contains(&wanted);
+            (complete && close).then(|| &h[..stem.len()])
+        })
+        .take(6)
+        .collect();
+    (!near.is_empty()).then(|| format!("; did you mean {}?", near.join(", ")))
 }
 
 /// Parses one cell: empty or NaN is missing (NaN); otherwise a number or `None`.
@@ -693,6 +773,42 @@ mod tests {
         assert!(err.contains("no column \"flux_a_x\""), "{err}");
         let err = t.numeric("mag").unwrap_err().to_string();
         assert!(err.contains("the header has: tt, flux_b_x"), "{err}");
+    }
+
+    #[test]
+    fn vector_suggestions_are_caseless_prefixes() {
+        let t = read("tt,FLUXA_X,FLUXA_Y,FLUXA_Z\n1,2,3,4\n").unwrap();
+        let err = t.vector("FLUX").unwrap_err().to_string();
+        assert!(err.contains("did you mean FLUXA?"), "{err}");
+        let err = t.vector("flux").unwrap_err().to_string();
+        assert!(err.contains("did you mean FLUXA?"), "{err}");
+        assert_eq!(t.vector("fluxa").unwrap().z[0], 4.0);
+        assert_eq!(t.vector("FLUXA_Z:FLUXA_Y:FLUXA_X").unwrap().x[0], 4.0);
+        let err = t.numeric("fluxa").unwrap_err().to_string();
+        assert!(
+            err.contains("did you mean FLUXA_X, FLUXA_Y, FLUXA_Z?"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn aliases_find_columns_and_renames_change_headers() {
+        let t = read("AZIMUTH,b\n1,2\n").unwrap();
+        let aliases = crate::schema::aliases(t.headers());
+        let mut t = t.with_aliases(aliases);
+        assert_eq!(t.numeric("ins_yaw").unwrap(), [1.0]);
+        assert_eq!(t.numeric("azimuth").unwrap(), [1.0]);
+        t.rename("b", "c").unwrap();
+        assert_eq!(t.headers(), ["AZIMUTH", "c"]);
+        assert!(t
+            .rename("nope", "d")
+            .unwrap_err()
+            .to_string()
+            .contains("\"nope\""));
+        assert!(matches!(
+            t.rename("c", "AZIMUTH"),
+            Err(IoError::DuplicateColumn { .. })
+        ));
     }
 
     #[test]

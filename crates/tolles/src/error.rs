@@ -23,6 +23,16 @@ pub enum Error {
     /// A file could not be read or written, or is malformed.
     #[error(transparent)]
     Io(#[from] IoError),
+    /// A column could not be renamed: no column `old`, or `new` is taken.
+    #[error("renaming {old:?} to {new:?}: {source}")]
+    Rename {
+        old: String,
+        new: String,
+        source: Box<IoError>,
+    },
+    /// A fluxgate named neither by a prefix nor by three columns `X:Y:Z`.
+    #[error("fluxgate {spec:?}: {reason}")]
+    VectorSpec { spec: String, reason: &'static str },
     /// Rows could not be selected by line or time.
     #[error(transparent)]
     Select(#[from] SelectError),

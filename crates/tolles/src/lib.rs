@@ -40,6 +40,7 @@
 //! ## What is where
 //! - [`read`]: flights from any format, row selection by line and time, sample rate;
 //! - [`fit`]: one or several scalars, in parallel, to a [`model::ModelFile`];
+//! - [`info`]: what a flight file holds (columns, units, rows, sample rate, lines, missing values);
 //! - [`model`]: saving and loading models;
 //! - [`compensate`]: applying a model, whole in memory or in bounded memory ([`compensate::Memory`]);
 //! - [`fom`]: the figure of merit of a compensation box, before and after;
@@ -67,6 +68,7 @@ pub mod demo;
 pub mod error;
 pub mod fit;
 pub mod fom;
+pub mod info;
 pub mod model;
 pub mod plan;
 pub mod procedure;

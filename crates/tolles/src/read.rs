@@ -42,7 +42,19 @@ pub fn read(
     progress: &dyn Progress,
     warnings: &mut Vec<Warning>,
 ) -> Result<FlightData> {
-    let table = read_table(path, progress, warnings)?;
+    read_renamed(path, selection, &[], progress, warnings)
+}
+
+/// [`read`], with columns renamed `(old, new)` right after reading (before the selection and
+/// the aliases; see [`rename`]).
+pub fn read_renamed(
+    path: &Path,
+    selection: &RowSelection,
+    renames: &[(String, String)],
+    progress: &dyn Progress,
+    warnings: &mut Vec<Warning>,
+) -> Result<FlightData> {
+    let table = read_table_renamed(path, renames, progress, warnings)?;
     let (table, selected) = select(table, selection)?;
     warnings.extend(selected.clone().map(|selection| Warning::RowsSelected {
         path: path.to_path_buf(),
@@ -51,12 +63,63 @@ pub fn read(
     Ok(FlightData { table, selected })
 }
 
-/// Reads a flight table whole; what the reader left out of it is added to `warnings`.
+/// Reads a flight table whole; what the reader left out of it is added to `warnings`. Raw
+/// channel names (SGL's `AZIMUTH`, `UNCOMPMAG1`, `FLUXA_X`, …) answer to tolles' names when
+/// the table has no such columns ([`tolles_io::schema::aliases`]); which did is added to
+/// `warnings`.
 pub fn read_table(
     path: &Path,
     progress: &dyn Progress,
     warnings: &mut Vec<Warning>,
 ) -> Result<Table> {
+    read_table_renamed(path, &[], progress, warnings)
+}
+
+/// [`read_table`], with columns renamed `(old, new)` right after reading (see [`rename`]).
+pub fn read_table_renamed(
+    path: &Path,
+    renames: &[(String, String)],
+    progress: &dyn Progress,
+    warnings: &mut Vec<Warning>,
+) -> Result<Table> {
+    let mut table = read_raw(path, progress, warnings)?;
+    rename(&mut table, renames)?;
+    Ok(with_aliases(table, warnings))
+}
+
+/// Renames columns of `table`, each `(old, new)` in turn: `old` is found as any column is
+/// (exactly, or by case when only one matches); an error names an unknown `old` (with near
+/// names) or a `new` another column already has.
+pub fn rename(table: &mut Table, renames: &[(String, String)]) -> Result<()> {
+    for (old, new) in renames {
+        table.rename(old, new).map_err(|source| Error::Rename {
+            old: old.clone(),
+            new: new.clone(),
+            source: Box::new(source),
+        })?;
+    }
+    Ok(())
+}
+
+/// `table` answering to tolles' names for the raw channels it has
+/// ([`tolles_io::schema::aliases`]); a warning lists them, when there are any.
+pub fn with_aliases(table: Table, warnings: &mut Vec<Warning>) -> Table {
+    let aliases = tolles_io::schema::aliases(table.headers());
+    if aliases.is_empty() {
+        return table;
+    }
+    warnings.push(Warning::ColumnsAliased {
+        path: table.path().to_path_buf(),
+        aliases: aliases
+            .iter()
+            .map(|(name, k)| (table.headers()[*k].clone(), name.clone()))
+            .collect(),
+    });
+    table.with_aliases(aliases)
+}
+
+/// Reads a flight table as the file has it.
+fn read_raw(path: &Path, progress: &dyn Progress, warnings: &mut Vec<Warning>) -> Result<Table> {
     let format = Format::from_path(path);
     let table = match format {
         Format::Csv | Format::Xyz => {
@@ -121,7 +184,17 @@ pub struct Flight<'t> {
 
 impl<'t> Flight<'t> {
     /// The columns `scalar` and `V_x/_y/_z` for every V in `vectors`, and the time column.
+    /// A vector is a prefix (`flux_a`) or three columns `X:Y:Z`
+    /// ([`tolles_io::schema::vector_columns`]).
     pub fn from_table(table: &'t Table, scalar: &str, vectors: &[String]) -> Result<Self> {
+        for spec in vectors {
+            if let Some(reason) = tolles_io::schema::vector_spec_error(spec) {
+                return Err(Error::VectorSpec {
+                    spec: spec.clone(),
+                    reason,
+                });
+            }
+        }
         let scalar = table.numeric(scalar)?;
         let flux = vectors
             .iter()
@@ -176,7 +249,14 @@ impl<'t> Flight<'t> {
             },
             FitError::NothingUsable(what) => {
                 let column = match what.strip_prefix("fluxgate component ") {
-                    Some(axis) => format!("{}_{axis}", self.vectors[0]),
+                    Some(axis) => {
+                        let columns = tolles_io::schema::vector_columns(&self.vectors[0]);
+                        let k = ["x", "y", "z"].iter().position(|a| *a == axis);
+                        match k {
+                            Some(k) => columns[k].clone(),
+                            None => format!("{}_{axis}", self.vectors[0]),
+                        }
+                    }
                     None if what == "the scalar" => scalar.to_string(),
                     None => {
                         return Error::Fit {

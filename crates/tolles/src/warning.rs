@@ -65,6 +65,12 @@ pub enum Warning {
         /// The chosen relative ridge strength, when it is the largest tried.
         top_lambda: Option<f64>,
     },
+    /// Not a problem: raw channels (SGL's `AZIMUTH`, …) a table also answers to under tolles'
+    /// names, as `(raw, tolles)`, because it has no columns of those names.
+    ColumnsAliased {
+        path: PathBuf,
+        aliases: Vec<(String, String)>,
+    },
     /// Anything else, as a sentence that names the file.
     Other(String),
 }
@@ -123,6 +129,13 @@ impl fmt::Display for Warning {
             ),
             Warning::RowsSelected { path, selection } => {
                 write!(f, "{}: {}", path.display(), selection.summary)
+            }
+            Warning::ColumnsAliased { path, aliases } => {
+                let list: Vec<String> = aliases
+                    .iter()
+                    .map(|(raw, name)| format!("{raw} as {name}"))
+                    .collect();
+                write!(f, "{}: using columns {}", path.display(), list.join(", "))
             }
             Warning::Other(text) => f.write_str(text),
         }

@@ -63,6 +63,7 @@ pub fn run(args: Args) -> Result<()> {
             level: args.level,
         },
         selection: args.select.rows(),
+        renames: args.select.renames.clone(),
         memory,
         chunk_rows: chunk_rows.as_ref().map(|(_, rows)| *rows),
     };

@@ -40,9 +40,10 @@ pub struct Args {
     /// commas (mag_3_uc,mag_4_uc,mag_5_uc) give one model holding a fit per scalar
     #[arg(long)]
     pub scalar: String,
-    /// Fluxgate column prefix: `flux_a` reads flux_a_x, flux_a_y, flux_a_z (nT, body frame FRD);
-    /// several separated by commas (flux_a,flux_b,flux_c) build one design in which each
-    /// fluxgate adds its own block of terms, for every scalar
+    /// Fluxgate column prefix: `flux_a` reads flux_a_x, flux_a_y, flux_a_z (nT, body frame FRD;
+    /// the suffixes in any case, so FLUXA reads FLUXA_X …), or three columns X:Y:Z
+    /// (FLUXA_X:FLUXA_Y:FLUXA_Z); several separated by commas (flux_a,flux_b,flux_c) build one
+    /// design in which each fluxgate adds its own block of terms, for every scalar
     #[arg(long)]
     pub vector: String,
     /// Where to write the model (JSON); standard output if omitted

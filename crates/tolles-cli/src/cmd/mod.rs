@@ -4,6 +4,7 @@ pub mod compensate;
 pub mod demo;
 pub mod fit;
 pub mod fom;
+pub mod info;
 pub mod plan;
 pub mod procedure;
 pub mod report;

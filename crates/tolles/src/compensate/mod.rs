@@ -237,6 +237,9 @@ pub struct FileRequest {
     pub compensate: CompensateRequest,
     /// Rows to compensate and write (all when empty).
     pub selection: RowSelection,
+    /// Columns renamed `(old, new)` right after reading (see [`crate::read::rename`]); the
+    /// output is written under the new names. Renaming reads the survey whole.
+    pub renames: Vec<(String, String)>,
     /// Whether the survey may be read in chunks.
     pub memory: Memory,
     /// Rows per chunk; giving it asks for chunks (as [`Memory::Bounded`], unless `Whole`).
@@ -278,7 +281,13 @@ pub fn compensate_file(
     if reads_in_chunks(model, request) {
         return chunked::compensate_file(model, request, writer, progress, warnings);
     }
-    let data = crate::read::read(&request.survey, &request.selection, progress, warnings)?;
+    let data = crate::read::read_renamed(
+        &request.survey,
+        &request.selection,
+        &request.renames,
+        progress,
+        warnings,
+    )?;
     let columns = compensate(&data.table, model, &request.compensate, warnings)?;
     let destination = match &request.out {
         Some(path) => Destination::File(path.clone()),

@@ -69,6 +69,7 @@ pub fn reads_in_chunks(model: &ModelFile, request: &FileRequest) -> bool {
                 && f.fit.settings.design.extras.is_empty()
                 && f.fit.lag_s == 0.0)
         && request.selection.is_empty()
+        && request.renames.is_empty()
 }
 
 /// Whether reading a survey of `bytes` in `format` whole could take more than half of the

@@ -1,0 +1,97 @@
+//! `tolles info`: what a flight file holds.
+
+use crate::progress::Terminal;
+use crate::render::{self, OrRender, Use};
+use anyhow::Result;
+use std::io::Write;
+use std::path::PathBuf;
+use tolles::info::FlightInfo;
+
+const EXAMPLES: &str = "\
+Examples:
+  tolles info cal.csv
+  tolles info Flt1003_sample.xyz --json
+  tolles info survey.dfn --rename MAGUC=mag_1_uc";
+
+/// Say what a flight file holds: columns (with units where the file states them, and the
+/// tolles names raw channels answer to), rows, sample rate (from tt), lines, time span and
+/// missing values per column.
+#[derive(clap::Args)]
+#[command(after_help = EXAMPLES)]
+pub struct Args {
+    /// Flight: CSV, XYZ, GDF (.dfn/.dat), HDF5 (.h5/.mat) or Parquet, by extension
+    pub flight: PathBuf,
+    /// Print JSON instead of text
+    #[arg(long)]
+    pub json: bool,
+    /// Rename columns right after reading, e.g. --rename MAGUC=mag_1_uc (the flag may repeat)
+    #[arg(long = "rename", value_name = "OLD=NEW", value_delimiter = ',', value_parser = crate::select::parse_rename)]
+    pub renames: Vec<(String, String)>,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let mut warnings = Vec::new();
+    let about = tolles::info::info(
+        &args.flight,
+        &args.renames,
+        &Terminal::default(),
+        &mut warnings,
+    );
+    render::warnings(&mut warnings, Use::Other);
+    let about = about.or_render()?;
+    let mut out = std::io::stdout().lock();
+    if args.json {
+        writeln!(out, "{}", serde_json::to_string_pretty(&about.to_json())?)?;
+    } else {
+        write!(out, "{}", text(&about))?;
+    }
+    Ok(())
+}
+
+/// The description as text, one fact a line and a table of columns.
+fn text(about: &FlightInfo) -> String {
+    let mut s = format!("{} ({})\n", about.path.display(), about.format);
+    s += &format!("rows: {}\n", about.rows);
+    s += &match about.sample_rate_hz {
+        Some(fs) => format!("sample rate: {fs:.6} Hz\n"),
+        None => "sample rate: unknown (no usable tt or dt)\n".to_string(),
+    };
+    if let Some((a, b)) = about.time_span_s {
+        s += &format!("time: {a} .. {b} s ({:.1} s)\n", b - a);
+    }
+    match &about.lines {
+        Some(lines) => {
+            let ids: Vec<String> = lines
+                .iter()
+                .map(|l| format!("{} ({} rows)", l.id, l.rows))
+                .collect();
+            s += &format!("lines: {}: {}\n", lines.len(), ids.join(", "));
+        }
+        None => s += "lines: no line column\n",
+    }
+    for (name, value) in &about.metadata {
+        s += &format!("{name} = {value}\n");
+    }
+    let width = about
+        .columns
+        .iter()
+        .map(|c| c.name.len())
+        .max()
+        .unwrap_or(6)
+        .max(6);
+    s += &format!(
+        "{:<width$}  {:<8}  {:>8}  {:>11}  also\n",
+        "column", "unit", "missing", "non-numeric"
+    );
+    for c in &about.columns {
+        s += &format!(
+            "{:<width$}  {:<8}  {:>8}  {:>11}  {}\n",
+            c.name,
+            c.unit.as_deref().unwrap_or(""),
+            c.missing,
+            c.non_numeric,
+            c.aliases.join(", ")
+        );
+    }
+    s
+}
