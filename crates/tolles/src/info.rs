@@ -212,7 +212,8 @@ fn gdf_units(path: &Path) -> Vec<(String, String)> {
         return Vec::new();
     };
     match tolles_io::gdf::parse_dfn(&text, path, text.len() + 1) {
-        Ok((_, fields)) => fields
+        Ok(definition) => definition
+            .fields
             .into_iter()
             .filter_map(|f| Some((f.name, f.units?)))
             .collect(),
