@@ -201,17 +201,10 @@ fn fit(
     extras: Vec<String>,
 ) -> PyResult<(String, Vec<String>)> {
     let terms: Terms = terms.parse().map_err(failed)?;
-    let magnitude = match magnitude.map(str::to_ascii_lowercase).as_deref() {
-        None => None,
-        Some("linear") => Some(MagnitudeChoice::Linear),
-        Some("exact") => Some(MagnitudeChoice::Exact),
-        Some("auto") => Some(MagnitudeChoice::Auto),
-        Some(other) => {
-            return Err(failed(format!(
-                "magnitude must be \"linear\", \"exact\" or \"auto\", got {other:?}"
-            )))
-        }
-    };
+    let magnitude = magnitude
+        .map(str::parse::<MagnitudeChoice>)
+        .transpose()
+        .map_err(|e| failed(format!("magnitude: {e}")))?;
     let lambda = match lambda_ {
         None => Lambda::auto(),
         Some(x) if x.is_finite() && x >= 0.0 => Lambda::Fixed(x),

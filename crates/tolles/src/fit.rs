@@ -185,14 +185,8 @@ fn fit_lagged(
     if lag_s == 0.0 {
         return fit_scalar(scalar, flight.inputs(), fs_hz, tt, settings);
     }
-    let moved: Vec<_> = flight
-        .flux
-        .iter()
-        .map(|f| lag::shifted(f, lag_s, fs_hz))
-        .collect();
-    let inputs = tolles_core::model::vector::Fluxgates::from(&moved)
-        .with_extras(flight.extras.iter().map(Vec::as_slice).collect());
-    let mut fitted = fit_scalar(scalar, inputs, fs_hz, tt, settings)?;
+    let inputs = flight.lagged_inputs(lag_s, fs_hz);
+    let mut fitted = fit_scalar(scalar, &inputs, fs_hz, tt, settings)?;
     fitted.lag_s = lag_s;
     Ok(fitted)
 }

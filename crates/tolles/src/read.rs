@@ -222,6 +222,23 @@ impl<'t> Flight<'t> {
         Ok(self)
     }
 
+    /// The fluxgates as they read `lag_s` seconds later (see `tolles_core::fit::lag::shifted`),
+    /// with the extra channels as they are.
+    pub fn lagged_inputs(
+        &self,
+        lag_s: f64,
+        fs_hz: f64,
+    ) -> tolles_core::model::vector::SlicedInputs {
+        tolles_core::model::vector::SlicedInputs {
+            series: self
+                .flux
+                .iter()
+                .map(|f| tolles_core::fit::lag::shifted(f, lag_s, fs_hz))
+                .collect(),
+            extras: self.extras.clone(),
+        }
+    }
+
     /// The fluxgates with the extra channels, as the core's fit and compensation take them.
     pub fn inputs(&self) -> tolles_core::model::vector::Fluxgates<'_> {
         tolles_core::model::vector::Fluxgates::from(&self.flux)

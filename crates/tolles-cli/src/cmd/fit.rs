@@ -75,7 +75,7 @@ pub struct Args {
     /// Magnitude model: `linear` (Tolles-Lawson's B̂·H), `exact` (|B + H| − |B|, fitted by
     /// Gauss-Newton) or `auto` (the one cross-validation prefers). Default: `auto` when λ is
     /// cross-validated, `linear` with a fixed λ (MagNav's procedure)
-    #[arg(long, value_parser = parse_magnitude)]
+    #[arg(long, value_parser = str::parse::<MagnitudeChoice>)]
     pub magnitude: Option<MagnitudeChoice>,
     /// Heading levels: `on` also fits the low frequencies against the calibrated fluxgate's
     /// magnitude, `off` fits the band only. Default: on when λ is cross-validated and there is
@@ -105,15 +105,6 @@ fn parse_lambda(text: &str) -> Result<Lambda, String> {
     match text.parse::<f64>() {
         Ok(x) if x.is_finite() && x >= 0.0 => Ok(Lambda::Fixed(x)),
         _ => Err(format!("expected `auto` or a number ≥ 0, got {text:?}")),
-    }
-}
-
-fn parse_magnitude(text: &str) -> Result<MagnitudeChoice, String> {
-    match text.to_ascii_lowercase().as_str() {
-        "linear" => Ok(MagnitudeChoice::Linear),
-        "exact" => Ok(MagnitudeChoice::Exact),
-        "auto" => Ok(MagnitudeChoice::Auto),
-        _ => Err(format!("expected linear, exact or auto, got {text:?}")),
     }
 }
 

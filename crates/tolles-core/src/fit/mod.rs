@@ -163,6 +163,20 @@ pub enum MagnitudeChoice {
     Auto,
 }
 
+impl std::str::FromStr for MagnitudeChoice {
+    type Err = String;
+
+    /// `linear`, `exact` or `auto`, in any case.
+    fn from_str(text: &str) -> Result<Self, String> {
+        match text.trim().to_ascii_lowercase().as_str() {
+            "linear" => Ok(MagnitudeChoice::Linear),
+            "exact" => Ok(MagnitudeChoice::Exact),
+            "auto" => Ok(MagnitudeChoice::Auto),
+            _ => Err(format!("expected linear, exact or auto, got {text:?}")),
+        }
+    }
+}
+
 /// Gauss-Newton iterations of the exact fit at most.
 const EXACT_ITERATIONS: usize = 8;
 

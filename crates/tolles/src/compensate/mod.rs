@@ -145,16 +145,10 @@ pub fn compensate_flight(
         magnitude: fit.fit.magnitude,
     };
     // A fluxgate that samples late is read that much later, as the fit did.
-    let moved: Vec<_> = flight
-        .flux
-        .iter()
-        .map(|f| tolles_core::fit::lag::shifted(f, fit.fit.lag_s, fs_hz))
-        .collect();
-    let inputs = tolles_core::model::vector::Fluxgates::from(&moved)
-        .with_extras(flight.extras.iter().map(Vec::as_slice).collect());
+    let inputs = flight.lagged_inputs(fit.fit.lag_s, fs_hz);
     Ok(compensate_model(
         &flight.scalar,
-        inputs,
+        &inputs,
         flight.tt.as_deref(),
         model,
         fs_hz / fit.fit.fs_hz,
