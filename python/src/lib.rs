@@ -107,7 +107,14 @@ fn model_columns(model: &ModelFile) -> Vec<String> {
     for fit in &model.fits {
         wanted.push(fit.scalar.clone());
         wanted.extend(fit.vectors.iter().flat_map(|v| vector_columns(v)));
-        wanted.extend(fit.fit.settings.design.extras.iter().cloned());
+        wanted.extend(
+            fit.fit
+                .settings
+                .design
+                .extras
+                .iter()
+                .map(|e| e.name.clone()),
+        );
     }
     wanted
 }
@@ -226,12 +233,12 @@ fn fit(
         fs_hz: fs,
         magnitude,
         levels,
-        extras,
+        extras: tolles::fit::parse_extras(&extras).map_err(|e| failed(format!("extras: {e}")))?,
         ..FitRequest::new(scalars, vectors)
     };
     let mut wanted = request.scalars.clone();
     wanted.extend(request.vectors.iter().flat_map(|v| vector_columns(v)));
-    wanted.extend(request.extras.iter().cloned());
+    wanted.extend(request.extras.iter().map(|e| e.name.clone()));
     let table = Frame::new(source, names, get, dt).table(&wanted)?;
     let mut warnings = Vec::new();
     let model = py
@@ -307,7 +314,14 @@ fn fom(
     let mut wanted = attitude_and(&scalar);
     if let Some(fit) = fit {
         wanted.extend(fit.vectors.iter().flat_map(|v| vector_columns(v)));
-        wanted.extend(fit.fit.settings.design.extras.iter().cloned());
+        wanted.extend(
+            fit.fit
+                .settings
+                .design
+                .extras
+                .iter()
+                .map(|e| e.name.clone()),
+        );
     }
     let table = Frame::new(source, names, get, dt).table(&wanted)?;
     let request = FomRequest {

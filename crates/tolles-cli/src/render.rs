@@ -160,7 +160,12 @@ pub fn fit_summary(model: &ScalarModel, cal: &Path) -> std::io::Result<()> {
                 format!(
                     "{}+{} {}",
                     score.terms,
-                    score.extras.join("+"),
+                    score
+                        .extras
+                        .iter()
+                        .map(ToString::to_string)
+                        .collect::<Vec<_>>()
+                        .join("+"),
                     score.magnitude
                 )
             },

@@ -54,6 +54,7 @@ fn feed(stream: &mut StreamCompensator<usize>, k: usize) -> f64 {
         time_s: Some(k as f64 / FS_HZ),
         scalars: &scalars,
         fluxgates: &flux,
+        extras: &[],
     };
     let mut sum = 0.0;
     stream.push(k, Some(s), Vec::new(), |o| sum += o.compensated[0]);

@@ -43,6 +43,7 @@ fn stream_with(
             time_s: Some(flight.tt[k]),
             scalars: &flight.scalar[k..k + 1],
             fluxgates: &[flight.flux.at(k)],
+            extras: &[],
         };
         s.push(k, Some(sample), Vec::new(), |o| out.push(o.compensated[0]));
     }

@@ -30,6 +30,7 @@ pub struct Layout {
     time: Option<usize>,
     scalars: Vec<(usize, String)>,
     fluxgates: Vec<[(usize, String); 3]>,
+    extras: Vec<(usize, String)>,
     /// The output header line (without newline): the input's plus the added columns.
     pub output_header: String,
 }
@@ -49,6 +50,8 @@ pub struct Line {
     pub scalars: Vec<f64>,
     /// Fluxgate vectors (nT), NaN components when unreadable.
     pub fluxgates: Vec<[f64; 3]>,
+    /// Extra channels ([`Layout::from_header_with_extras`]), NaN when unreadable.
+    pub extras: Vec<f64>,
     /// What was wrong with the line or its cells.
     pub flags: Vec<Flag>,
 }
@@ -61,6 +64,17 @@ impl Layout {
         header: &str,
         scalars: &[&str],
         fluxgates: &[&str],
+        added: &[&str],
+    ) -> Result<Self, String> {
+        Self::from_header_with_extras(header, scalars, fluxgates, &[], added)
+    }
+
+    /// [`Layout::from_header`], also finding the extra channel columns `extras` (e.g. currents).
+    pub fn from_header_with_extras(
+        header: &str,
+        scalars: &[&str],
+        fluxgates: &[&str],
+        extras: &[&str],
         added: &[&str],
     ) -> Result<Self, String> {
         let names: Vec<String> = split_fields(header)
@@ -83,6 +97,7 @@ impl Layout {
                 Ok([find(&x)?, find(&y)?, find(&z)?])
             })
             .collect::<Result<_, String>>()?;
+        let extras = extras.iter().map(|e| find(e)).collect::<Result<_, _>>()?;
         let mut output_header = header.to_string();
         let wanted: Vec<&str> = added.iter().copied().chain(["status"]).collect();
         for (name, _) in crate::schema::output_names(&names, &wanted) {
@@ -94,6 +109,7 @@ impl Layout {
             time: names.iter().position(|n| n == TIME_COLUMN),
             scalars,
             fluxgates,
+            extras,
             output_header,
         })
     }
@@ -112,6 +128,7 @@ impl Layout {
             time_s: self.time.map(|_| f64::NAN),
             scalars: vec![f64::NAN; self.scalars.len()],
             fluxgates: vec![[f64::NAN; 3]; self.fluxgates.len()],
+            extras: vec![f64::NAN; self.extras.len()],
             flags: Vec::new(),
         };
         let Ok(text) = std::str::from_utf8(raw) else {
@@ -143,9 +160,11 @@ impl Layout {
             .iter()
             .map(|axes| axes.each_ref().map(&mut cell))
             .collect();
+        let extras: Vec<f64> = self.extras.iter().map(&mut cell).collect();
         line.time_s = time;
         line.scalars = scalars;
         line.fluxgates = fluxgates;
+        line.extras = extras;
         line
     }
 

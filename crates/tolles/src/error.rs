@@ -186,20 +186,6 @@ pub enum Error {
         scalar: String,
         vectors: Vec<String>,
     },
-    /// A fit a live stream cannot apply yet: it uses extra channels.
-    #[error("{}: the fit of {scalar} uses extra channels ({}); `stream` does not take them yet: use `compensate`", path.display(), extras.join(","))]
-    StreamExtras {
-        path: PathBuf,
-        scalar: String,
-        extras: Vec<String>,
-    },
-    /// A fit a live stream cannot apply yet: it has a fluxgate lag.
-    #[error("{}: the fit of {scalar} reads the fluxgate {lag_s} s late; `stream` does not apply a lag yet: use `compensate`", path.display())]
-    StreamLag {
-        path: PathBuf,
-        scalar: String,
-        lag_s: f64,
-    },
     /// A live stream's header that lacks a column the model needs, or cannot be read.
     #[error("{0}")]
     StreamHeader(String),

@@ -8,6 +8,7 @@ use rayon::prelude::*;
 use std::str::FromStr;
 use tolles_core::fit::{fit as fit_scalar, lag, Band, FitSettings, Lambda, MagnitudeChoice};
 use tolles_core::model::design::Design;
+pub use tolles_core::model::extra::ExtraChannel;
 use tolles_core::model::terms::TermSet;
 use tolles_io::model::{ModelFile, ScalarModel};
 use tolles_io::table::Table;
@@ -61,8 +62,9 @@ pub struct FitRequest {
     /// cross-validated and there is one fluxgate.
     pub levels: Option<bool>,
     /// Extra channels (e.g. currents, A) that each add `B̂x·c, B̂y·c, B̂z·c`; with a
-    /// cross-validated λ they are kept only if they predict held-out data 2 % better.
-    pub extras: Vec<String>,
+    /// cross-validated λ they are kept only if they predict held-out data 2 % better. Each may
+    /// be low-passed and lagged ([`ExtraChannel`]).
+    pub extras: Vec<ExtraChannel>,
     /// The fluxgate's lag behind the scalar: none, given (s), or estimated.
     pub lag: Lag,
 }
@@ -95,6 +97,12 @@ impl FromStr for Lag {
             },
         }
     }
+}
+
+/// Extra channel specs `NAME[:lowpass=HZ][:lag=S]` parsed; an error names the spec and the
+/// option at fault.
+pub fn parse_extras(specs: &[String]) -> std::result::Result<Vec<ExtraChannel>, String> {
+    specs.iter().map(|s| s.parse()).collect()
 }
 
 /// Largest lag (s) the automatic search tries either way.
@@ -182,9 +190,6 @@ fn fit_lagged(
         Lag::Seconds(s) => s,
         Lag::Auto => lag::estimate(scalar, &flight.flux[0], fs_hz, tt, settings, LAG_SEARCH_S)?,
     };
-    if lag_s == 0.0 {
-        return fit_scalar(scalar, flight.inputs(), fs_hz, tt, settings);
-    }
     let inputs = flight.lagged_inputs(lag_s, fs_hz);
     let mut fitted = fit_scalar(scalar, &inputs, fs_hz, tt, settings)?;
     fitted.lag_s = lag_s;

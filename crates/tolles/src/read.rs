@@ -6,6 +6,7 @@ use crate::progress::{CountingReader, Progress, Stage};
 use crate::warning::Warning;
 use std::path::Path;
 use tolles_core::fit::FitError;
+use tolles_core::model::extra::ExtraChannel;
 use tolles_core::model::vector::VectorSeries;
 use tolles_core::signal::segment::{first_non_increasing, median_step};
 use tolles_io::format::Format;
@@ -176,10 +177,10 @@ pub struct Flight<'t> {
     pub vectors: Vec<String>,
     /// Time (s), when the table has a time column.
     pub tt: Option<Vec<f64>>,
-    /// Extra channels (e.g. currents), one per name in `extra_names`.
+    /// Extra channels (e.g. currents) as read, one per spec in `extra_specs`.
     pub extras: Vec<Vec<f64>>,
-    /// The extra channels' column names.
-    pub extra_names: Vec<String>,
+    /// The extra channels' columns and conditioning.
+    pub extra_specs: Vec<ExtraChannel>,
 }
 
 impl<'t> Flight<'t> {
@@ -208,22 +209,24 @@ impl<'t> Flight<'t> {
             vectors: vectors.to_vec(),
             tt,
             extras: Vec::new(),
-            extra_names: Vec::new(),
+            extra_specs: Vec::new(),
         })
     }
 
-    /// The same flight with the extra channels `names` read from its table.
-    pub fn with_extras(mut self, names: &[String]) -> Result<Self> {
-        self.extras = names
+    /// The same flight with the extra channels `specs` read from its table (conditioned later,
+    /// by [`Flight::lagged_inputs`], which knows the sample rate).
+    pub fn with_extras(mut self, specs: &[ExtraChannel]) -> Result<Self> {
+        self.extras = specs
             .iter()
-            .map(|n| self.table.numeric(n))
+            .map(|spec| self.table.numeric(&spec.name))
             .collect::<std::result::Result<Vec<_>, _>>()?;
-        self.extra_names = names.to_vec();
+        self.extra_specs = specs.to_vec();
         Ok(self)
     }
 
     /// The fluxgates as they read `lag_s` seconds later (see `tolles_core::fit::lag::shifted`),
-    /// with the extra channels as they are.
+    /// with the extra channels low-passed and lagged as their specs say
+    /// ([`ExtraChannel::condition`]), at sample rate `fs_hz` (Hz): what fit and compensation use.
     pub fn lagged_inputs(
         &self,
         lag_s: f64,
@@ -235,14 +238,13 @@ impl<'t> Flight<'t> {
                 .iter()
                 .map(|f| tolles_core::fit::lag::shifted(f, lag_s, fs_hz))
                 .collect(),
-            extras: self.extras.clone(),
+            extras: self
+                .extras
+                .iter()
+                .zip(&self.extra_specs)
+                .map(|(raw, spec)| spec.condition(raw, fs_hz))
+                .collect(),
         }
-    }
-
-    /// The fluxgates with the extra channels, as the core's fit and compensation take them.
-    pub fn inputs(&self) -> tolles_core::model::vector::Fluxgates<'_> {
-        tolles_core::model::vector::Fluxgates::from(&self.flux)
-            .with_extras(self.extras.iter().map(Vec::as_slice).collect())
     }
 
     /// The sample rate (Hz): `fs_hz` if given, else from the time column or the file's `dt`.

@@ -40,8 +40,11 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 use tolles_core::compensate::adapt::AdaptSettings;
+use tolles_core::compensate::align::{Aligner, Channel};
 pub use tolles_core::compensate::stream::Derivative;
 use tolles_core::compensate::stream::{Flag, Output, Sample, ScalarSpec, StreamCompensator};
+use tolles_core::model::extra::{ExtraChannel, LowPass};
+use tolles_core::signal::shift::Shift;
 use tolles_io::model::ModelFile;
 use tolles_io::stream_line::{Layout, Line};
 
@@ -87,7 +90,14 @@ impl Default for StreamRequest {
 #[derive(Debug, Clone)]
 pub struct Setup {
     specs: Vec<ScalarSpec>,
+    /// The fluxgate prefixes the header must have.
     fluxgates: Vec<String>,
+    /// The extra channel columns the header must have.
+    extra_columns: Vec<String>,
+    /// The fluxgates as the scalars' models read them: one per fluxgate, lag and extra channels.
+    groups: Vec<Group>,
+    /// The extra channels as the models condition them, each once.
+    extras: Vec<ExtraChannel>,
     outputs: Vec<String>,
     fs_hz: f64,
     derivative: Derivative,
@@ -98,7 +108,10 @@ pub struct Setup {
 
 impl Setup {
     /// The streaming form of `model` (read from `path`, which names it in errors). Every fit
-    /// must use a single fluxgate; fits may share one.
+    /// must use a single fluxgate; fits may share one. Extra channels are read from each line
+    /// and conditioned (low-pass, lag) as in `compensate`; a lag of the fluxgate or an extra
+    /// channel that needs later samples holds every line back until they arrive
+    /// ([`Setup::delay_samples`]).
     pub fn new(model: &ModelFile, path: &Path, request: &StreamRequest) -> Result<Self> {
         crate::compensate::check_model(model, path)?;
         let fs_hz = request.fs_hz.unwrap_or(model.fits[0].fit.fs_hz);
@@ -106,6 +119,8 @@ impl Setup {
             return Err(Error::BadSampleRate { fs_hz });
         }
         let mut fluxgates: Vec<String> = Vec::new();
+        let mut groups: Vec<Group> = Vec::new();
+        let mut extras: Vec<ExtraChannel> = Vec::new();
         let mut specs = Vec::new();
         for m in &model.fits {
             let [vector] = &m.vectors[..] else {
@@ -115,28 +130,14 @@ impl Setup {
                     vectors: m.vectors.clone(),
                 });
             };
-            let extras = &m.fit.settings.design.extras;
-            if !extras.is_empty() {
-                return Err(Error::StreamExtras {
-                    path: path.to_path_buf(),
-                    scalar: m.scalar.clone(),
-                    extras: extras.clone(),
-                });
-            }
-            if m.fit.lag_s != 0.0 {
-                return Err(Error::StreamLag {
-                    path: path.to_path_buf(),
-                    scalar: m.scalar.clone(),
-                    lag_s: m.fit.lag_s,
-                });
-            }
-            let j = match fluxgates.iter().position(|f| f == vector) {
-                Some(j) => j,
-                None => {
-                    fluxgates.push(vector.clone());
-                    fluxgates.len() - 1
-                }
+            let group = Group {
+                fluxgate: index_of(&mut fluxgates, vector.clone()),
+                lag_s: m.fit.lag_s,
+                extras: (m.fit.settings.design.extras.iter())
+                    .map(|e| index_of(&mut extras, e.clone()))
+                    .collect(),
             };
+            let j = index_of(&mut groups, group);
             let fit = &m.fit;
             let design = fit.settings.design.clone();
             let ratio = fs_hz / fit.fs_hz;
@@ -145,10 +146,17 @@ impl Setup {
                     .with_magnitude(fit.magnitude),
             );
         }
+        let mut extra_columns = Vec::new();
+        for e in &extras {
+            index_of(&mut extra_columns, e.name.clone());
+        }
         Ok(Setup {
             outputs: model.fits.iter().map(|m| m.output_column.clone()).collect(),
             specs,
             fluxgates,
+            extra_columns,
+            groups,
+            extras,
             fs_hz,
             derivative: request.derivative,
             adapt: request.adapt,
@@ -161,6 +169,80 @@ impl Setup {
     pub fn fs_hz(&self) -> f64 {
         self.fs_hz
     }
+
+    /// How many lines an output line waits for beyond its own: the samples ahead that the
+    /// lags need (a fluxgate read later, an extra channel whose field leads it), plus one for
+    /// central differences.
+    pub fn delay_samples(&self) -> usize {
+        let central = usize::from(self.derivative == Derivative::Central);
+        Aligner::<()>::new(self.channels()).delay() + central
+    }
+
+    /// The aligner's channels: every group's fluxgate components shifted by its lag, then every
+    /// extra channel low-passed and lagged; sources are the line's fluxgate components, then
+    /// its extra columns.
+    fn channels(&self) -> Vec<Channel> {
+        let flux = self.groups.iter().flat_map(|g| {
+            let shift = Shift::new(g.lag_s * self.fs_hz);
+            (0..3).map(move |axis| Channel::shifted(3 * g.fluxgate + axis, shift))
+        });
+        let extras = self.extras.iter().map(|e| {
+            let column = self.extra_columns.iter().position(|c| *c == e.name);
+            Channel {
+                source: 3 * self.fluxgates.len() + column.expect("every name is listed"),
+                lowpass: e.lowpass_hz.map(|hz| LowPass::new(hz, self.fs_hz)),
+                shift: e.shift(self.fs_hz),
+            }
+        });
+        flux.chain(extras).collect()
+    }
+
+    /// A new compensator for one stream.
+    fn compensator<T>(&self) -> StreamCompensator<T> {
+        let names = self
+            .groups
+            .iter()
+            .map(|g| self.fluxgates[g.fluxgate].clone());
+        StreamCompensator::new(
+            self.specs.clone(),
+            names.collect(),
+            self.fs_hz,
+            self.derivative,
+        )
+        .with_extras(
+            self.extras.iter().map(|e| e.name.clone()).collect(),
+            self.groups.iter().map(|g| g.extras.clone()).collect(),
+        )
+    }
+}
+
+/// A fluxgate as some scalars' models read it: shifted by their lag, usable where their extra
+/// channels are.
+#[derive(Debug, Clone, PartialEq)]
+struct Group {
+    /// Index into [`Setup::fluxgates`].
+    fluxgate: usize,
+    /// The model's lag (s).
+    lag_s: f64,
+    /// Indices into [`Setup::extras`], in design order.
+    extras: Vec<usize>,
+}
+
+/// The index of `item` in `list`, added at the end if new.
+fn index_of<T: PartialEq>(list: &mut Vec<T>, item: T) -> usize {
+    match list.iter().position(|x| *x == item) {
+        Some(k) => k,
+        None => {
+            list.push(item);
+            list.len() - 1
+        }
+    }
+}
+
+/// The line's values the aligner takes: fluxgate components, then extra channels.
+fn sources(line: &Line) -> Vec<f64> {
+    let flux = line.fluxgates.iter().flatten().copied();
+    flux.chain(line.extras.iter().copied()).collect()
 }
 
 /// One stream: a header line, then lines until the end of `input`; exactly one line out for
@@ -199,12 +281,8 @@ fn serve_lines(
     let layout = layout(setup, &raw)?;
     writeln!(out, "{}", layout.output_header).map_err(Error::StreamIo)?;
     out.flush().map_err(Error::StreamIo)?;
-    let mut stream = StreamCompensator::new(
-        setup.specs.clone(),
-        setup.fluxgates.clone(),
-        setup.fs_hz,
-        setup.derivative,
-    );
+    let mut stream = setup.compensator();
+    let mut aligner = Aligner::new(setup.channels());
     if setup.adapt {
         stream.adapt(&AdaptSettings::default())?;
     }
@@ -221,18 +299,9 @@ fn serve_lines(
         };
         let arrived = Instant::now();
         stats.samples_in.fetch_add(1, Ordering::Relaxed);
-        let (scalars, fluxgates, flags) = (
-            line.scalars.clone(),
-            line.fluxgates.clone(),
-            line.flags.clone(),
-        );
-        let sample = line.well_formed.then_some(Sample {
-            time_s: line.time_s,
-            scalars: &scalars,
-            fluxgates: &fluxgates,
-        });
-        stream.push((line, arrived), sample, flags, |o| {
-            format_output(&layout, stats, o, &mut text)
+        let values = sources(&line);
+        aligner.push((line, arrived), &values, |payload, aligned| {
+            compensate_line(&mut stream, &layout, stats, payload, aligned, &mut text)
         });
         out.write_all(text.as_bytes()).map_err(Error::StreamIo)?;
         text.clear();
@@ -241,9 +310,36 @@ fn serve_lines(
             out.flush().map_err(Error::StreamIo)?;
         }
     }
+    aligner.finish(|payload, aligned| {
+        compensate_line(&mut stream, &layout, stats, payload, aligned, &mut text)
+    });
     stream.finish(|o| format_output(&layout, stats, o, &mut text));
     out.write_all(text.as_bytes()).map_err(Error::StreamIo)?;
     out.flush().map_err(Error::StreamIo)
+}
+
+/// Pushes a line, its fluxgates and extra channels `aligned` (as [`Setup::channels`] orders
+/// them), into the compensator; appends the output lines that are ready to `text`.
+fn compensate_line(
+    stream: &mut StreamCompensator<(Line, Instant)>,
+    layout: &Layout,
+    stats: &Stats,
+    (line, arrived): (Line, Instant),
+    aligned: &[f64],
+    text: &mut String,
+) {
+    let (vectors, extras) = aligned.split_at(3 * stream.fluxgate_count());
+    let fluxgates: Vec<[f64; 3]> = vectors.chunks(3).map(|v| [v[0], v[1], v[2]]).collect();
+    let (scalars, flags) = (line.scalars.clone(), line.flags.clone());
+    let sample = line.well_formed.then_some(Sample {
+        time_s: line.time_s,
+        scalars: &scalars,
+        fluxgates: &fluxgates,
+        extras,
+    });
+    stream.push((line, arrived), sample, flags, |o| {
+        format_output(layout, stats, o, text)
+    });
 }
 
 /// Where the header line `raw` puts the model's columns.
@@ -252,8 +348,10 @@ fn layout(setup: &Setup, raw: &[u8]) -> Result<Layout> {
     let header = header.trim_start_matches('\u{feff}');
     let scalars: Vec<&str> = setup.specs.iter().map(|s| s.name.as_str()).collect();
     let fluxgates: Vec<&str> = setup.fluxgates.iter().map(String::as_str).collect();
+    let extras: Vec<&str> = setup.extra_columns.iter().map(String::as_str).collect();
     let outputs: Vec<&str> = setup.outputs.iter().map(String::as_str).collect();
-    Layout::from_header(header, &scalars, &fluxgates, &outputs).map_err(Error::StreamHeader)
+    Layout::from_header_with_extras(header, &scalars, &fluxgates, &extras, &outputs)
+        .map_err(Error::StreamHeader)
 }
 
 fn format_output(

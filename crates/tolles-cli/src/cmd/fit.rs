@@ -85,7 +85,10 @@ pub struct Args {
     /// Extra channels as regressors, e.g. currents: `--extra cur_strb,cur_1`. Each adds the
     /// columns B̂x·c, B̂y·c, B̂z·c (a field of fixed direction in the aircraft, proportional to
     /// the channel); with λ `auto` the fit keeps them only if they predict held-out data 2 %
-    /// better. The model names them, and `compensate`, `fom` and `report` read them
+    /// better. Per channel, `:lowpass=HZ` (a causal first-order low-pass, for a field smoothed
+    /// by inductance) and `:lag=S` (the field follows the channel S seconds late), e.g.
+    /// `--extra cur_strb:lowpass=0.5:lag=0.2,cur_1`. The model names them, and `compensate`,
+    /// `stream`, `fom` and `report` read and condition them the same way
     #[arg(long)]
     pub extra: Option<String>,
     /// The fluxgate's lag behind the scalar: `auto` estimates it (sub-sample, within ±1 s, on
@@ -151,7 +154,8 @@ fn request(args: &Args) -> Result<FitRequest> {
         levels: args.levels,
         lag: args.lag,
         extras: match &args.extra {
-            Some(list) => name_list(list, "--extra")?,
+            Some(list) => tolles::fit::parse_extras(&name_list(list, "--extra")?)
+                .map_err(|e| anyhow::anyhow!("--extra {e}"))?,
             None => Vec::new(),
         },
         ..FitRequest::new(

@@ -17,6 +17,7 @@
 //! are rescaled by `fs_survey / fs_calibration` to keep the physical eddy terms (seconds).
 
 pub mod adapt;
+pub mod align;
 pub mod stream;
 
 use crate::fit::scalar_usable;

@@ -9,7 +9,7 @@
 //! let mut stream = StreamCompensator::new(vec![spec], vec!["flux_a".into()], 10.0, Derivative::Central);
 //! let mut out = Vec::new();
 //! for (k, bx) in [30_000.0, 0.0, 30_000.0].into_iter().enumerate() {
-//!     let sample = Sample { time_s: Some(0.1 * k as f64), scalars: &[50_000.0], fluxgates: &[[bx, 0.0, 40_000.0]] };
+//!     let sample = Sample { time_s: Some(0.1 * k as f64), scalars: &[50_000.0], fluxgates: &[[bx, 0.0, 40_000.0]], extras: &[] };
 //!     // The payload (here the line number) comes back with the sample's result.
 //!     stream.push(k, Some(sample), Vec::new(), |o| out.push((o.payload, o.compensated[0], o.is_ok())));
 //! }
@@ -179,8 +179,13 @@ impl ScalarSpec {
         }
     }
 
-    /// The same model applied with `magnitude` (linear unless set).
+    /// The same model applied with `magnitude` (linear unless set; a design with extra
+    /// channels is applied linearly, as batch compensation does).
     pub fn with_magnitude(self, magnitude: Magnitude) -> Self {
+        let magnitude = match self.design.extras.is_empty() {
+            true => magnitude,
+            false => Magnitude::Linear,
+        };
         Self { magnitude, ..self }
     }
 
@@ -189,13 +194,15 @@ impl ScalarSpec {
         &self.coefficients
     }
 
-    /// The correction (nT) for field `b` (nT) changing by `db` (nT/sample): `A·β`, or the exact
-    /// `|B + H| − |B|`. Leaves in `row` the design row, or for the exact model the Jacobian row
-    /// (see [`crate::model::magnitude`]), which adaptation regresses on.
-    fn field(&self, b: [f64; 3], db: [f64; 3], row: &mut [f64]) -> f64 {
+    /// The correction (nT) for field `b` (nT) changing by `db` (nT/sample) and the extra
+    /// channels `extras` (design order): `A·β`, or the exact `|B + H| − |B|`. Leaves in `row`
+    /// the design row, or for the exact model the Jacobian row (see
+    /// [`crate::model::magnitude`]), which adaptation regresses on.
+    fn field(&self, b: [f64; 3], db: [f64; 3], extras: &[f64], row: &mut [f64]) -> f64 {
         match self.magnitude {
             Magnitude::Linear => {
-                self.design.row(&self.columns, b, db, row);
+                self.design
+                    .row_with_extras(&self.columns, b, db, extras, row);
                 row.iter().zip(&self.coefficients).map(|(a, c)| a * c).sum()
             }
             Magnitude::Exact => {
@@ -234,6 +241,9 @@ pub struct Sample<'a> {
     pub scalars: &'a [f64],
     /// One body-frame vector per fluxgate (nT), in order.
     pub fluxgates: &'a [[f64; 3]],
+    /// One value per extra channel of the stream ([`StreamCompensator::with_extras`]), in
+    /// order, conditioned as the model says; empty without extra channels.
+    pub extras: &'a [f64],
 }
 
 /// The result for one input sample.
@@ -269,6 +279,8 @@ struct Held<T> {
     scalars: Vec<f64>,
     /// Usable fluxgate values; `None` where not usable.
     flux: Vec<Option<[f64; 3]>>,
+    /// The extra channels' values.
+    extras: Vec<f64>,
     flags: Vec<Flag>,
 }
 
@@ -287,6 +299,12 @@ pub struct StreamCompensator<T> {
     adapters: Vec<Adapter>,
     values: Vec<f64>,
     row: Vec<f64>,
+    /// Names of the extra channels.
+    extras: Vec<String>,
+    /// Per fluxgate, the extra channels (indices into `extras`) its scalars' designs use, in
+    /// design order: a sample of the fluxgate is usable only with all of them finite.
+    fluxgate_extras: Vec<Vec<usize>>,
+    extra_values: Vec<f64>,
 }
 
 impl<T> StreamCompensator<T> {
@@ -300,6 +318,7 @@ impl<T> StreamCompensator<T> {
         derivative: Derivative,
     ) -> Self {
         let width = scalars.iter().map(|s| s.columns.len()).max().unwrap_or(0);
+        let fluxgates_len = fluxgates.len();
         Self {
             values: vec![f64::NAN; scalars.len()],
             row: vec![0.0; width],
@@ -311,6 +330,27 @@ impl<T> StreamCompensator<T> {
             last_time: None,
             held: None,
             adapters: Vec::new(),
+            fluxgate_extras: vec![Vec::new(); fluxgates_len],
+            extras: Vec::new(),
+            extra_values: Vec::new(),
+        }
+    }
+
+    /// The same compensator with the extra channels `names` (each [`Sample`] carries their
+    /// values in this order) and, per fluxgate, the ones its scalars' designs use, in design
+    /// order (indices into `names`). Fluxgates that share a series but not the extra channels
+    /// are given twice: like batch compensation, a sample whose extra channel is not finite
+    /// breaks the run of the scalars that use it.
+    pub fn with_extras(self, names: Vec<String>, per_fluxgate: Vec<Vec<usize>>) -> Self {
+        assert_eq!(
+            per_fluxgate.len(),
+            self.fluxgates.len(),
+            "one list per fluxgate"
+        );
+        Self {
+            extras: names,
+            fluxgate_extras: per_fluxgate,
+            ..self
         }
     }
 
@@ -328,6 +368,11 @@ impl<T> StreamCompensator<T> {
     /// Per scalar, how many samples have updated its coefficients (empty without adaptation).
     pub fn adaptation_updates(&self) -> Vec<u64> {
         self.adapters.iter().map(Adapter::updates).collect()
+    }
+
+    /// Number of fluxgates (one vector per [`Sample`]).
+    pub fn fluxgate_count(&self) -> usize {
+        self.fluxgates.len()
     }
 
     /// The scalars, in output order.
@@ -349,9 +394,17 @@ impl<T> StreamCompensator<T> {
         let (breaks_run, placeable) = self.check_time(sample.as_ref(), &mut flags);
         let mut flux = vec![None; self.fluxgates.len()];
         let mut scalars = vec![f64::NAN; self.scalars.len()];
+        let mut extras = vec![f64::NAN; self.extras.len()];
         if let Some(s) = sample {
+            for (e, v) in s.extras.iter().enumerate().take(extras.len()) {
+                flag_non_finite(&self.extras[e], *v, &mut flags);
+                extras[e] = *v;
+            }
             for (j, b) in s.fluxgates.iter().enumerate().take(flux.len()) {
-                let finite = self.check_fluxgate(j, *b, &mut flags);
+                let finite = self.check_fluxgate(j, *b, &mut flags)
+                    && self.fluxgate_extras[j]
+                        .iter()
+                        .all(|e| extras[*e].is_finite());
                 flux[j] = (finite && placeable).then_some(*b);
             }
             for (i, v) in s.scalars.iter().enumerate().take(scalars.len()) {
@@ -373,6 +426,7 @@ impl<T> StreamCompensator<T> {
             payload,
             scalars,
             flux,
+            extras,
             flags,
         };
         match self.derivative {
@@ -518,7 +572,10 @@ impl<T> StreamCompensator<T> {
             };
             let row = &mut self.row[..spec.columns.len()];
             let scalar = held.scalars[i];
-            let field = spec.field(b, d, row);
+            self.extra_values.clear();
+            let used = self.fluxgate_extras[j].iter().map(|e| held.extras[*e]);
+            self.extra_values.extend(used);
+            let field = spec.field(b, d, &self.extra_values, row);
             self.values[i] = scalar - (field - spec.level_nt);
             if let Some(adapter) = self.adapters.get_mut(i) {
                 let target = spec.adaptation_target(scalar, field, row);
@@ -594,6 +651,7 @@ mod tests {
                 time_s: Some(tt[k]),
                 scalars: &scalar[k..k + 1],
                 fluxgates: &[flux.at(k)],
+                extras: &[],
             };
             stream.push(k, Some(sample), Vec::new(), &mut record);
         }
@@ -679,6 +737,7 @@ mod tests {
                 time_s: Some(tt[k]),
                 scalars: &scalar[k..k + 1],
                 fluxgates: &[f.at(k)],
+                extras: &[],
             };
             stream.push(k, Some(sample), Vec::new(), &mut |o: Output<'_, usize>| {
                 out.push(o.compensated[0])
@@ -716,6 +775,7 @@ mod tests {
                 time_s: Some(tt[k]),
                 scalars: &scalar[k..k + 1],
                 fluxgates: &[f.at(k)],
+                extras: &[],
             };
             let mut got = Vec::new();
             stream.push(k, Some(sample), Vec::new(), |o| {
@@ -724,7 +784,7 @@ mod tests {
             assert_eq!(got.len(), 1, "no look-ahead");
             let (b, p) = (f.at(k), if k == 0 { f.at(0) } else { f.at(k - 1) });
             let db = [b[0] - p[0], b[1] - p[1], b[2] - p[2]];
-            let expected = 50_000.0 - (s.field(b, db, &mut row) - 1.5);
+            let expected = 50_000.0 - (s.field(b, db, &[], &mut row) - 1.5);
             assert_eq!(got[0], (k, expected));
         }
     }

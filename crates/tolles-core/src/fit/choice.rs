@@ -76,7 +76,7 @@ pub(super) fn union_of_terms(designs: &[Design]) -> Vec<Term> {
 pub(super) struct Chosen {
     pub(super) index: usize,
     pub(super) terms: TermSet,
-    pub(super) extras: Vec<String>,
+    pub(super) extras: Vec<crate::model::extra::ExtraChannel>,
     pub(super) solution: RidgeSolution,
     pub(super) cross_validation: Option<CrossValidation>,
     /// Held-out RMS of the low-frequency rows alone, unweighted (nT), with levels.

@@ -354,7 +354,7 @@ pub struct TermScore {
     pub terms: TermSet,
     /// The extra channels it used.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub extras: Vec<String>,
+    pub extras: Vec<crate::model::extra::ExtraChannel>,
     /// The magnitude model.
     #[serde(default)]
     pub magnitude: Magnitude,

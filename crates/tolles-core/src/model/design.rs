@@ -21,6 +21,7 @@
 //!
 //! The column order is MagNav.jl's `create_TL_A` (see [`crate::model::terms`]).
 
+use crate::model::extra::ExtraChannel;
 pub use crate::model::terms::TermSet;
 use crate::model::terms::{Axis, Column};
 use crate::model::vector::{Fluxgates, VectorSeries};
@@ -47,9 +48,10 @@ pub struct Design {
     pub fluxgates: usize,
     /// Extra channels (e.g. currents) that each add the columns `B̂x·c, B̂y·c, B̂z·c` with the
     /// first fluxgate's B̂, in this order; the data passes them with
-    /// [`Fluxgates::with_extras`](crate::model::vector::Fluxgates::with_extras).
+    /// [`Fluxgates::with_extras`](crate::model::vector::Fluxgates::with_extras), each already
+    /// conditioned as its [`ExtraChannel`] says ([`ExtraChannel::condition`]).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub extras: Vec<String>,
+    pub extras: Vec<ExtraChannel>,
 }
 
 fn one() -> usize {
@@ -80,8 +82,8 @@ impl Design {
         }
     }
 
-    /// The same design with the extra channels `extras` (names, in the data's order).
-    pub fn with_extras(self, extras: Vec<String>) -> Self {
+    /// The same design with the extra channels `extras` (in the data's order).
+    pub fn with_extras(self, extras: Vec<ExtraChannel>) -> Self {
         Self { extras, ..self }
     }
 
@@ -123,7 +125,11 @@ impl Design {
             .iter()
             .map(|t| {
                 if let Column::Extra { channel, axis } = t.column {
-                    format!("{}_{}", self.extras[channel], ["x", "y", "z"][axis.index()])
+                    format!(
+                        "{}_{}",
+                        self.extras[channel].name,
+                        ["x", "y", "z"][axis.index()]
+                    )
                 } else if self.fluxgates == 1 {
                     t.column.to_string()
                 } else if fluxgate_names.len() == self.fluxgates {
@@ -145,13 +151,33 @@ impl Design {
     ///
     /// The eddy-current columns are here: `B̂i·Ḃj / s`.
     pub fn row(&self, columns: &[Column], b: [f64; 3], db: [f64; 3], out: &mut [f64]) {
+        self.row_with_extras(columns, b, db, &[], out);
+    }
+
+    /// [`Design::row`] with the extra channels' values `extras` (conditioned, in design order);
+    /// an extra column without its value is NaN.
+    pub fn row_with_extras(
+        &self,
+        columns: &[Column],
+        b: [f64; 3],
+        db: [f64; 3],
+        extras: &[f64],
+        out: &mut [f64],
+    ) {
         let unit = unit_vector(b);
         for (value, column) in out.iter_mut().zip(columns) {
-            *value = self.value(*column, unit, b, db);
+            *value = self.value(*column, unit, b, db, extras);
         }
     }
 
-    fn value(&self, column: Column, unit: [f64; 3], b: [f64; 3], db: [f64; 3]) -> f64 {
+    fn value(
+        &self,
+        column: Column,
+        unit: [f64; 3],
+        b: [f64; 3],
+        db: [f64; 3],
+        extras: &[f64],
+    ) -> f64 {
         let s = self.bt_scale;
         match column {
             Column::Permanent(i) => unit[i.index()],
@@ -160,8 +186,9 @@ impl Design {
             Column::InducedTraceless(a) => traceless(unit, b, a.index()) / s,
             Column::EddyTraceless(a) => traceless(unit, db, a.index()) / s,
             Column::InducedTrace => trace(unit, b) / s,
-            // A row carries no extra channel: streaming does not take them.
-            Column::Extra { .. } => f64::NAN,
+            Column::Extra { channel, axis } => extras
+                .get(channel)
+                .map_or(f64::NAN, |v| unit[axis.index()] * v),
             Column::Bias => 1.0,
         }
     }

@@ -3,6 +3,7 @@
 
 pub mod conventions;
 pub mod design;
+pub mod extra;
 pub mod interpret;
 pub mod magnitude;
 pub mod terms;

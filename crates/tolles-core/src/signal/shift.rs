@@ -14,24 +14,66 @@
 /// where `k + by` falls outside the samples or a neighbour needed is NaN. Near the ends, where a
 /// cubic lacks a neighbour, the interpolation is linear.
 pub fn shift(x: &[f64], by: f64) -> Vec<f64> {
-    let n = x.len();
-    (0..n)
-        .map(|k| {
-            let t = k as f64 + by;
-            if !(t >= 0.0 && t <= (n - 1) as f64) {
-                return f64::NAN;
-            }
-            let i = (t.floor() as usize).min(n.saturating_sub(2));
-            let u = t - i as f64;
-            if n < 2 {
-                return x[0];
-            }
-            if i == 0 || i + 2 >= n {
-                return x[i] + u * (x[i + 1] - x[i]);
-            }
-            catmull_rom([x[i - 1], x[i], x[i + 1], x[i + 2]], u)
-        })
+    let shift = Shift::new(by);
+    (0..x.len())
+        .map(|k| shift.value(|i| x[i], x.len(), k))
         .collect()
+}
+
+/// A shift by `by` samples, split into whole samples and a fraction, so that every sample is
+/// interpolated with the same weights whether the series is held whole or a window at a time
+/// (a stream, a file read in chunks).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Shift {
+    /// Whole samples (`floor(by)`).
+    whole: i64,
+    /// The fraction of a sample, in `[0, 1)`.
+    fraction: f64,
+}
+
+impl Shift {
+    /// A shift by `by` samples (`y[k] = x(k + by)`).
+    pub fn new(by: f64) -> Self {
+        let whole = by.floor();
+        Self {
+            whole: whole as i64,
+            fraction: by - whole,
+        }
+    }
+
+    /// How many samples past `k` sample `k` of the shifted series needs (negative: it needs
+    /// none, and that many before `k` are the last it reads), unless it falls past the end.
+    pub fn ahead(&self) -> i64 {
+        if self.fraction == 0.0 {
+            self.whole
+        } else {
+            self.whole + 2
+        }
+    }
+
+    /// How many samples before `k` sample `k` of the shifted series may read.
+    pub fn behind(&self) -> i64 {
+        1 - self.whole
+    }
+
+    /// Sample `k` of the shifted series of `n` samples, `x(i)` giving sample `i` (only those
+    /// within [`Shift::behind`] and [`Shift::ahead`] of `k` are asked for).
+    pub fn value(&self, x: impl Fn(usize) -> f64, n: usize, k: usize) -> f64 {
+        let i = k as i64 + self.whole;
+        let u = self.fraction;
+        let last = n as i64 - 1;
+        if i < 0 || i > last || (i == last && u > 0.0) {
+            return f64::NAN;
+        }
+        let i = i as usize;
+        if u == 0.0 {
+            return x(i);
+        }
+        if i == 0 || i + 2 >= n {
+            return x(i) + u * (x(i + 1) - x(i));
+        }
+        catmull_rom([x(i - 1), x(i), x(i + 1), x(i + 2)], u)
+    }
 }
 
 fn catmull_rom(p: [f64; 4], u: f64) -> f64 {
@@ -60,6 +102,22 @@ mod tests {
         let y = shift(&x, 0.3);
         for (k, v) in y.iter().enumerate().take(397).skip(2) {
             assert!((v - (0.05 * (k as f64 + 0.3)).sin()).abs() < 1e-5, "{k}");
+        }
+    }
+
+    #[test]
+    fn a_sample_reads_only_within_behind_and_ahead() {
+        for by in [-3.7, -1.0, -0.2, 0.0, 0.4, 2.0, 2.5] {
+            let shift = Shift::new(by);
+            let x: Vec<f64> = (0..30).map(|k| (k * k) as f64).collect();
+            for k in 0..30 {
+                let reads = |i: usize| {
+                    let d = i as i64 - k as i64;
+                    assert!(-shift.behind() <= d && d <= shift.ahead(), "{by} {k} {i}");
+                    x[i]
+                };
+                shift.value(reads, x.len(), k);
+            }
         }
     }
 }

@@ -63,6 +63,7 @@ impl<'a> Feed<'a> {
             time_s: None,
             scalars: &self.scalars,
             fluxgates: &self.flux,
+            extras: &[],
         }
     }
 }
