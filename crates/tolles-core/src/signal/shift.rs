@@ -32,8 +32,14 @@ pub struct Shift {
 }
 
 impl Shift {
-    /// A shift by `by` samples (`y[k] = x(k + by)`).
+    /// A shift by `by` samples (`y[k] = x(k + by)`); within 1e-9 of a whole number, by that
+    /// number (0.3 s at 10 Hz is 3.0000000000000004 samples: three, not four and a fraction).
     pub fn new(by: f64) -> Self {
+        let by = if (by - by.round()).abs() < 1e-9 {
+            by.round()
+        } else {
+            by
+        };
         let whole = by.floor();
         Self {
             whole: whole as i64,
@@ -103,6 +109,12 @@ mod tests {
         for (k, v) in y.iter().enumerate().take(397).skip(2) {
             assert!((v - (0.05 * (k as f64 + 0.3)).sin()).abs() < 1e-5, "{k}");
         }
+    }
+
+    #[test]
+    fn a_shift_a_rounding_error_off_a_whole_number_is_that_number() {
+        assert_eq!(Shift::new(-0.3 * 10.0), Shift::new(-3.0));
+        assert_eq!(Shift::new(2.9999999999999996).ahead(), 3);
     }
 
     #[test]
