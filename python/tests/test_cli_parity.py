@@ -208,3 +208,20 @@ def test_an_extra_channel_fits_and_compensates_as_the_cli_does(cli, tmp_path):
     out = tolles.compensate(box, model)
     error = out["mag_1_c"] - box["truth_earth"]
     assert float(np.std(error)) < 0.05
+
+
+def test_an_extra_channel_with_options_fits_and_compensates_as_the_cli_does(cli, tmp_path):
+    cli("simulate", "--preset", "uav", "--out", tmp_path / "box.csv")
+    spec = "cur_1:lowpass=2:lag=0.1"
+    cli("fit", tmp_path / "box.csv", "--scalar", "mag_1_uc", "--vector", "flux_a", "--extra", spec,
+        "--lambda", "0.001", "--out", tmp_path / "cli.json")
+    box = tolles.read(tmp_path / "box.csv")
+    model = tolles.fit(box, extra=[spec], lambda_=0.001)
+    model.save(tmp_path / "py.json")
+    assert (tmp_path / "py.json").read_bytes() == (tmp_path / "cli.json").read_bytes()
+    cli("compensate", tmp_path / "box.csv", "--model", tmp_path / "py.json", "--out", tmp_path / "c.csv")
+    theirs = read_csv_columns(tmp_path / "c.csv")["mag_1_c"]
+    ours = tolles.compensate(box, model)["mag_1_c"]
+    assert max_diff(ours, theirs) <= TOL
+    with pytest.raises(tolles.TollesError, match="lowpass"):
+        tolles.fit(box, extra="cur_1:lowpass=0")

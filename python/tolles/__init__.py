@@ -325,7 +325,10 @@ def fit(
     extra : str or list of str
         Extra channels as regressors, e.g. currents (``"cur_strb"``): each adds ``B̂x·c, B̂y·c,
         B̂z·c``; with ``lambda_="auto"`` they are kept only if they predict held-out data 2 %
-        better. ``compensate`` reads them from the survey by name.
+        better. Per channel, ``":lowpass=HZ"`` (causal first-order low-pass) and ``":lag=S"``
+        (the field follows the channel S seconds late), e.g. ``"cur_strb:lowpass=0.5:lag=0.2"``,
+        as ``tolles fit --extra``. ``compensate`` reads them from the survey by name and
+        conditions them the same way.
     """
     columns = _Columns(df)
     lam = None if isinstance(lambda_, str) and lambda_.strip().lower() == "auto" else float(lambda_)

@@ -650,6 +650,13 @@ mod tests {
         Setup {
             specs: vec![ScalarSpec::new("mag_1_uc", 0, design, &beta, 3.0, 1.0)],
             fluxgates: vec!["flux_a".to_string()],
+            extra_columns: Vec::new(),
+            groups: vec![Group {
+                fluxgate: 0,
+                lag_s: 0.0,
+                extras: Vec::new(),
+            }],
+            extras: Vec::new(),
             outputs: vec!["mag_1_c".to_string()],
             fs_hz: 10.0,
             derivative: Derivative::Central,
