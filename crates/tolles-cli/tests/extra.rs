@@ -160,7 +160,7 @@ fn stream_equals_batch(dir: &Path, survey: &str) {
     let s: Vec<Option<f64>> = stream
         .lines()
         .skip(1)
-        .map(|l| l.rsplitn(3, ',').nth(1).unwrap().parse().ok())
+        .map(|l| l.rsplit(',').nth(1).unwrap().parse().ok())
         .collect();
     assert_eq!(b.len(), s.len());
     let n = b.len();
