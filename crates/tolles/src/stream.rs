@@ -29,7 +29,11 @@
 //! (a stream cannot know a file's mean), so the result differs from [`crate::compensate`] by a
 //! constant. A time step over 1.5 nominal steps, a step backwards, a bad value or a malformed
 //! line restarts the derivative, as batch compensation splits runs (see
-//! [`tolles_core::compensate::stream`]). Output is flushed whenever no more input is waiting; writes block
+//! [`tolles_core::compensate::stream`]). Extra channels are read from each line and low-passed
+//! and lagged as the model says; a lag that needs later samples (a fluxgate lag, an extra
+//! channel's negative lag) holds lines back until they arrive ([`Setup::delay_samples`]), and
+//! the values are then exactly those of [`crate::compensate`]
+//! ([`tolles_core::compensate::align`]). Output is flushed whenever no more input is waiting; writes block
 //! when the reader is slow, so nothing queues without bound.
 
 use crate::error::{Error, Result};
