@@ -145,9 +145,13 @@ pub fn fit_summary(model: &ScalarModel, cal: &Path) -> std::io::Result<()> {
             d.samples_in_short_runs
         )?;
     }
+    let target = match &model.reference {
+        Some(reference) => format!("{} − {reference} (full band)", model.scalar),
+        None => "filtered scalar".to_string(),
+    };
     writeln!(
         err,
-        "  filtered scalar {:.4} nT -> residual {:.4} nT (improvement ×{:.2}), cond(AᵀA+Λ) = {:.3e}",
+        "  {target} {:.4} nT -> residual {:.4} nT (improvement ×{:.2}), cond(AᵀA+Λ) = {:.3e}",
         d.filtered_std_before_nt, d.residual_std_nt, d.improvement_ratio, d.condition_number
     )?;
     for score in &d.term_choice {

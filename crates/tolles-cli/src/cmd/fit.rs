@@ -23,7 +23,9 @@ Examples:
   tolles fit cal.csv --scalar mag_1_uc --vector flux_a --out model.json
   # MagNav.jl's exact procedure:
   tolles fit cal.csv --scalar mag_1_uc --vector flux_a --out model.json \\
-      --terms permanent,induced,eddy --lambda 0.001 --band 0.1,0.9 --order 4 --trim 20";
+      --terms permanent,induced,eddy --lambda 0.001 --band 0.1,0.9 --order 4 --trim 20
+  # A cabin magnetometer against the compensated tail stinger, in the full band:
+  tolles fit flight.h5 --scalar mag_3_uc --vector flux_a --reference mag_1_c --out cabin.json";
 
 /// Learn the aircraft's field from a calibration flight (CSV, XYZ, GDF, HDF5 or Parquet).
 ///
@@ -94,6 +96,12 @@ pub struct Args {
     /// `fom` and `report` apply it
     #[arg(long, default_value = "none", allow_hyphen_values = true)]
     pub lag: tolles::fit::Lag,
+    /// A compensated reference magnetometer on the same flight (e.g. the tail stinger's
+    /// mag_1_c, for cabin sensors): the scalar minus it is the aircraft's field itself, fitted
+    /// in the full band, so --band, --order, --trim and --levels do not apply. The
+    /// reference's own errors pass into the model; compensation does not need the reference
+    #[arg(long, value_name = "COLUMN")]
+    pub reference: Option<String>,
     #[command(flatten)]
     pub select: crate::select::Selection,
 }
@@ -150,6 +158,7 @@ fn request(args: &Args) -> Result<FitRequest> {
         magnitude: args.magnitude,
         levels: args.levels,
         lag: args.lag,
+        reference: args.reference.clone(),
         extras: match &args.extra {
             Some(list) => name_list(list, "--extra")?,
             None => Vec::new(),

@@ -65,7 +65,7 @@ use crate::model::design::Design;
 use crate::model::magnitude::{correction, Magnitude};
 use crate::model::terms::TermSet;
 use crate::model::vector::{Fluxgates, VectorSeries};
-use crate::signal::filter::FilterError;
+use crate::signal::filter::{Butterworth, FilterError};
 use crate::signal::segment::contiguous_runs;
 use serde::{Deserialize, Serialize};
 use std::ops::Range;
@@ -147,6 +147,34 @@ pub struct FitSettings {
     /// magnitude (see [`crate::fit::levels`]); one fluxgate only.
     #[serde(default)]
     pub levels: bool,
+    /// What the scalar given to [`fit`] is: a magnetometer's reading (band-passed), or the
+    /// interference itself (fitted in the full band).
+    #[serde(default, skip_serializing_if = "Target::is_band")]
+    pub target: Target,
+}
+
+/// What the scalar given to [`fit`] holds, and so which of its frequencies a fit may use.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Target {
+    /// A magnetometer's reading: the earth's field plus the aircraft's. Only `band` is fitted,
+    /// where the aircraft's manoeuvres dominate; below it the earth field's own changes
+    /// (geology, diurnal, the flight's path) would be taken for interference.
+    #[default]
+    Band,
+    /// The aircraft's field alone (nT): a magnetometer minus a compensated reference
+    /// magnetometer on the same flight (MagNav's `y_type = :d` for cabin sensors). The earth
+    /// field is gone, so every frequency is fitted: no filter, no trim, no heading levels
+    /// (the low frequencies are in the target already). Each run's mean is removed from the
+    /// target and the columns, because two sensors a few metres apart differ by a constant
+    /// that is not the aircraft's.
+    Interference,
+}
+
+impl Target {
+    fn is_band(&self) -> bool {
+        *self == Target::Band
+    }
 }
 
 /// Which magnitude model a fit makes.
@@ -245,6 +273,15 @@ impl FitSettings {
             alternative_terms: Vec::new(),
             magnitude: MagnitudeChoice::Linear,
             levels: false,
+            target: Target::Band,
+        }
+    }
+
+    /// The filter the fit applies to every column and the target; `None` for none.
+    fn filter(&self, fs_hz: f64) -> Result<Option<Butterworth>, FitError> {
+        match self.target {
+            Target::Band => Ok(self.band.butterworth(self.order, fs_hz)?),
+            Target::Interference => Ok(None),
         }
     }
 }
@@ -419,7 +456,7 @@ pub fn fit<'a>(
         scalar,
         flux: &flux,
         runs: contiguous_runs(&usable, tt),
-        filter: settings.band.butterworth(settings.order, fs_hz)?,
+        filter: settings.filter(fs_hz)?,
         settings,
     };
     let designs = settings.candidate_designs();
@@ -469,7 +506,10 @@ pub fn fit<'a>(
             short: band_only.short,
             runs_used: band_only.rows.len(),
             before_std: before,
-            fraction: passband_fraction(settings.band, fs_hz),
+            fraction: match settings.target {
+                Target::Band => passband_fraction(settings.band, fs_hz),
+                Target::Interference => 1.0,
+            },
         },
         chosen.cross_validation,
         chosen.scores,

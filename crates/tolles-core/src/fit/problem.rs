@@ -3,7 +3,7 @@
 
 use super::choice::{choose_design, Chosen};
 use super::levels::{self, LevelDiagnostics, LevelRows, LowFrequency, Reference};
-use super::{FitError, FitSettings, MagnitudeChoice, EXACT_ITERATIONS, EXACT_TOLERANCE};
+use super::{FitError, FitSettings, MagnitudeChoice, Target, EXACT_ITERATIONS, EXACT_TOLERANCE};
 use crate::model::design::Design;
 use crate::model::magnitude::exact_jacobian;
 use crate::model::vector::Fluxgates;
@@ -121,10 +121,12 @@ impl Problem<'_, '_> {
                 level_rows.push(setup.low.rows(a.clone(), level_target)?);
             }
             let n = y.len();
+            let mut signals: Vec<&mut [f64]> = a.as_mut_slice().chunks_mut(n).collect();
+            signals.push(&mut y);
             if let Some(f) = &self.filter {
-                let mut signals: Vec<&mut [f64]> = a.as_mut_slice().chunks_mut(n).collect();
-                signals.push(&mut y);
                 crate::signal::filter::filtfilt_many_unless_constant(f, &mut signals)?;
+            } else if self.settings.target == Target::Interference {
+                signals.iter_mut().for_each(|s| remove_mean(s));
             }
             band.push((
                 a.rows(trim, n - 2 * trim).into_owned(),
@@ -168,7 +170,7 @@ impl Problem<'_, '_> {
         tt: Option<&[f64]>,
     ) -> Result<Option<LevelSetup>, FitError> {
         let s = self.settings;
-        if !s.levels || self.flux.count() != 1 {
+        if !s.levels || s.target == Target::Interference || self.flux.count() != 1 {
             return Ok(None);
         }
         let Some(low) = LowFrequency::new(s.band, s.order, s.trim, fs_hz)? else {
@@ -258,6 +260,12 @@ impl Problem<'_, '_> {
         }
         Ok(best.map(|b| (b, EXACT_ITERATIONS)))
     }
+}
+
+/// Subtracts the mean: a run's intercept, for a target that has no filter to remove it.
+fn remove_mean(x: &mut [f64]) {
+    let mean = x.iter().sum::<f64>() / x.len().max(1) as f64;
+    x.iter_mut().for_each(|v| *v -= mean);
 }
 
 /// `‖a − b‖ / ‖b‖`.
