@@ -59,13 +59,13 @@ pub mod ridge;
 use crate::fit::choice::{choose_design, pick_magnitude, union_of_terms};
 use crate::fit::crossval::{CrossValidation, DEFAULT_FOLDS};
 use crate::fit::levels::LevelDiagnostics;
-use crate::fit::problem::{difference, Problem, Rows};
+use crate::fit::problem::{difference, AboveBand, Problem, Rows};
 use crate::fit::ridge::{RidgeError, RidgeSolution};
-use crate::model::design::Design;
+use crate::model::design::{Design, Term};
 use crate::model::magnitude::{correction, Magnitude};
-use crate::model::terms::TermSet;
+use crate::model::terms::{Column, TermSet};
 use crate::model::vector::{Fluxgates, VectorSeries};
-use crate::signal::filter::{Butterworth, FilterError};
+use crate::signal::filter::{magnav_bandpass, Butterworth, FilterError};
 use crate::signal::segment::contiguous_runs;
 use serde::{Deserialize, Serialize};
 use std::ops::Range;
@@ -277,6 +277,22 @@ impl FitSettings {
         }
     }
 
+    /// With extra channels and a band whose upper edge is on: rows above the band that only
+    /// the extra channels' columns explain (see [`AboveBand`]).
+    fn above_band(&self, fs_hz: f64, union: &[Term]) -> Result<Option<AboveBand>, FitError> {
+        if self.design.extras.is_empty() || self.target != Target::Band {
+            return Ok(None);
+        }
+        let high_pass = magnav_bandpass(self.band.pass2_hz, 0.0, self.order, fs_hz)?;
+        Ok(high_pass.map(|filter| AboveBand {
+            filter,
+            extra: union
+                .iter()
+                .map(|t| matches!(t.column, Column::Extra { .. }))
+                .collect(),
+        }))
+    }
+
     /// The filter the fit applies to every column and the target; `None` for none.
     fn filter(&self, fs_hz: f64) -> Result<Option<Butterworth>, FitError> {
         match self.target {
@@ -452,15 +468,16 @@ pub fn fit<'a>(
         .map(|k| scalar_usable(scalar[k]) && flux.is_finite(k))
         .collect();
     check_not_constant(scalar, flux.series()[0], &usable)?;
+    let designs = settings.candidate_designs();
+    let union = union_of_terms(&designs);
     let problem = Problem {
         scalar,
         flux: &flux,
         runs: contiguous_runs(&usable, tt),
         filter: settings.filter(fs_hz)?,
+        above: settings.above_band(fs_hz, &union)?,
         settings,
     };
-    let designs = settings.candidate_designs();
-    let union = union_of_terms(&designs);
     let linear = |run: Range<usize>, reference: Option<&[f64]>| {
         let a = settings.design.matrix_of(&flux.slice(run.clone()), &union);
         let y = scalar[run].to_vec();
