@@ -386,3 +386,34 @@ fn relative_change(a: &[f64], b: &[f64]) -> f64 {
     let size: f64 = b.iter().map(|y| y * y).sum();
     (diff / size.max(f64::MIN_POSITIVE)).sqrt()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rows_above_the_band_are_merged_in_time_order_and_are_not_level_rows() {
+        // Four band rows (the second a level row) and two rows above the band.
+        let band = (
+            DMatrix::from_column_slice(4, 1, &[1.0, 2.0, 3.0, 4.0]),
+            vec![10.0, 20.0, 30.0, 40.0],
+            vec![false, true, false, false],
+        );
+        let above = (
+            DMatrix::from_column_slice(2, 1, &[-1.0, -2.0]),
+            vec![-10.0, -20.0],
+        );
+        let (a, y, mask) = merge_by_position(band, above);
+        // Positions in the run: band 1/8, 3/8, 5/8, 7/8; above 1/4, 3/4.
+        assert_eq!(y, [10.0, -10.0, 20.0, 30.0, -20.0, 40.0]);
+        assert_eq!(a.column(0).as_slice(), [1.0, -1.0, 2.0, 3.0, -2.0, 4.0]);
+        assert_eq!(mask, [false, false, true, false, false, false]);
+    }
+
+    #[test]
+    fn a_run_mean_is_removed_for_an_interference_target() {
+        let mut x = [1.0, 2.0, 6.0];
+        remove_mean(&mut x);
+        assert_eq!(x, [-2.0, -1.0, 3.0]);
+    }
+}
