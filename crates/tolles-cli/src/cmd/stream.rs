@@ -54,7 +54,7 @@ pub struct Args {
     #[arg(long, value_enum, default_value_t = DerivativeArg::Central)]
     pub derivative: DerivativeArg,
     /// Nominal sample rate of the stream in Hz (default: the model's)
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub fs: Option<f64>,
     /// Adapt the coefficients online (Kalman filter on band-passed rows, updated only during
     /// maneuvers); each stream starts from the model's coefficients
@@ -64,7 +64,12 @@ pub struct Args {
     #[arg(long)]
     pub quiet: bool,
     /// Close a TCP client that sends nothing for this many seconds (0: never)
-    #[arg(long, value_name = "SECONDS", default_value_t = 300.0)]
+    #[arg(
+        long,
+        value_name = "SECONDS",
+        default_value_t = 300.0,
+        allow_negative_numbers = true
+    )]
     pub idle_timeout: f64,
 }
 

@@ -44,9 +44,10 @@ use tolles_io::schema::output_names;
 /// [`Memory::Auto`] a file too large to read whole comfortably ([`needs_bounded_memory`]).
 pub fn reads_in_chunks(model: &ModelFile, request: &FileRequest) -> bool {
     let format = Format::from_path(&request.survey);
+    // Standard input (`-`) is read once, so whole.
     let size = std::fs::metadata(&request.survey)
         .ok()
-        .filter(|m| m.is_file())
+        .filter(|m| m.is_file() && !tolles_io::stdin::is_stdin(&request.survey))
         .map(|m| m.len());
     let wanted = match (request.memory, request.chunk_rows) {
         (Memory::Whole, _) => false,
