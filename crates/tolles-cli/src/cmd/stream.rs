@@ -63,6 +63,12 @@ pub struct Args {
     /// No health lines on stderr
     #[arg(long)]
     pub quiet: bool,
+    /// Rename header columns before the model's are looked up, e.g. --rename MAGUC=mag_1_uc (the
+    /// flag may repeat); the output header has the new names. SGL's raw channel names (TIME,
+    /// UNCOMPMAGn, FLUXA_X, …) need none. A stream has no --line or --time: every line in gets
+    /// its line out
+    #[arg(long = "rename", value_name = "OLD=NEW", value_delimiter = ',', value_parser = crate::select::parse_rename)]
+    pub renames: Vec<(String, String)>,
     /// Close a TCP client that sends nothing for this many seconds (0: never)
     #[arg(
         long,
@@ -91,7 +97,8 @@ pub fn run(args: Args) -> Result<()> {
         idle_timeout: idle_timeout(args.idle_timeout)?,
         ..StreamRequest::default()
     };
-    let setup = Arc::new(Setup::new(&model, &args.model, &request).map_err(setup_error)?);
+    let setup = Setup::new(&model, &args.model, &request).map_err(setup_error)?;
+    let setup = Arc::new(setup.with_renames(args.renames.clone()));
     let stats = Arc::new(Stats::default());
     if !args.quiet {
         let stats = Arc::clone(&stats);
