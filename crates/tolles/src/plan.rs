@@ -274,11 +274,11 @@ const WHAT: &str = "identifiability";
 fn flown(table: &Table, vector: &str, design: &Design) -> Result<Flown> {
     let path = table.path();
     let flux = table.vector(vector)?;
-    let tt = time_column(&table)?.ok_or_else(|| Error::NoTimeColumn {
+    let tt = time_column(table)?.ok_or_else(|| Error::NoTimeColumn {
         path: path.to_path_buf(),
         what: WHAT,
     })?;
-    let (fs_hz, _) = sample_rate(&table, Some(&tt), None)?;
+    let (fs_hz, _) = sample_rate(table, Some(&tt), None)?;
     let (roll, pitch, yaw) = (
         table.numeric(ROLL)?,
         table.numeric(PITCH)?,

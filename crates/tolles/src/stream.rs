@@ -569,6 +569,7 @@ mod tests {
             adapt: true,
             max_line_bytes: DEFAULT_MAX_LINE_BYTES,
             idle_timeout: None,
+            renames: Vec::new(),
         }
     }
 
