@@ -21,6 +21,14 @@ fn run(args: &[&str]) -> (String, String) {
     run_with(args, b"")
 }
 
+/// [`run`] in the directory `dir`, where a file named `-` would show up.
+fn run_in(dir: &Path, args: &[&str]) -> String {
+    let out = tolles().current_dir(dir).args(args).output().unwrap();
+    let stderr = String::from_utf8(out.stderr).unwrap();
+    assert!(out.status.success(), "{args:?}: {stderr}");
+    String::from_utf8(out.stdout).unwrap()
+}
+
 /// Runs `tolles ARGS`, expecting failure; returns stderr, which must be one error line.
 fn fails(args: &[&str]) -> String {
     let out = tolles().args(args).output().unwrap();
@@ -117,16 +125,27 @@ fn a_dash_as_out_writes_the_table_or_model_to_standard_output() {
         "--vector",
         "flux_a",
     ];
-    let (json, _) = run(&[&fit[..], &["--out", "-"]].concat());
+    let json = run_in(dir.path(), &[&fit[..], &["--out", "-"]].concat());
     let from_stdout: Value = serde_json::from_str(&json).unwrap();
     let from_file: Value = serde_json::from_str(&std::fs::read_to_string(&model).unwrap()).unwrap();
     assert_eq!(from_stdout["fits"], from_file["fits"]);
     let compensate = ["compensate", text(&flight), "--model", text(&model)];
-    let (to_dash, _) = run(&[&compensate[..], &["--out", "-"]].concat());
+    let to_dash = run_in(dir.path(), &[&compensate[..], &["--out", "-"]].concat());
     let (plain, _) = run(&compensate);
     assert_eq!(to_dash, plain);
     assert!(to_dash.starts_with("tt,line,"));
-    assert!(!dir.path().join("-").exists() && !Path::new("-").exists());
+    let procedure = [
+        "procedure",
+        text(&flight),
+        "--scalar",
+        "mag_1_uc",
+        "--vector",
+        "flux_a",
+    ];
+    let json = run_in(dir.path(), &[&procedure[..], &["--out", "-"]].concat());
+    let (asked, _) = run(&[&procedure[..], &["--json"]].concat());
+    assert_eq!(json, asked);
+    assert!(!dir.path().join("-").exists(), "no file named -");
 }
 
 /// Every flag whose value may be negative, with a negative value; `--help` after it succeeds
