@@ -410,7 +410,12 @@ fn plan(
         Ok(Maneuvers::Builtin { plan, without })
     };
     let maneuvers = match (flight, maneuvers.trim().to_ascii_lowercase().as_str()) {
-        (Some(path), _) => Maneuvers::Flown { path, vector },
+        (Some(path), _) => Maneuvers::Flown {
+            path,
+            vector,
+            selection: RowSelection::default(),
+            renames: Vec::new(),
+        },
         (None, "box") => builtin(BuiltinPlan::Box)?,
         (None, "patent") => builtin(BuiltinPlan::Patent)?,
         (None, _) => Maneuvers::List(maneuvers),

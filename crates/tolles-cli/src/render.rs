@@ -90,6 +90,18 @@ pub fn error(e: Error) -> anyhow::Error {
             found.join(", ")
         ),
         Error::ManeuverList(e) => anyhow::anyhow!("--maneuvers: {e}"),
+        Error::ScalarNeeded { path: None, .. } => {
+            anyhow::anyhow!("--scalar is needed: name the scalar column (or give a --model with one fit)")
+        }
+        Error::ScalarNeeded {
+            path: Some(path),
+            available,
+        } => anyhow::anyhow!(
+            "{}: the model holds fits for {} scalars; choose one with --scalar {}",
+            path.display(),
+            available.len(),
+            available.join("|")
+        ),
         other => anyhow::Error::new(other),
     }
 }
