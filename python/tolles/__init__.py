@@ -287,6 +287,8 @@ def fit(
     magnitude: Optional[str] = None,
     levels: Optional[bool] = None,
     extra: Names = (),
+    lag: Union[str, float, None] = None,
+    reference: Optional[str] = None,
 ) -> Model:
     """Learn the aircraft's field from a calibration flight, as ``tolles fit`` does.
 
@@ -329,6 +331,16 @@ def fit(
         (the field follows the channel S seconds late), e.g. ``"cur_strb:lowpass=0.5:lag=0.2"``,
         as ``tolles fit --extra``. ``compensate`` reads them from the survey by name and
         conditions them the same way.
+    lag : "auto", float (s) or None
+        The fluxgate's lag behind the scalar: ``"auto"`` estimates it (sub-sample, within ±1 s,
+        on held-out folds), a number gives it in seconds (negative: the fluxgate samples
+        early), ``None`` takes the samples as they come. The model stores it; ``compensate``
+        applies it.
+    reference : str, optional
+        A compensated reference magnetometer column (nT) on the same flight, e.g. the tail
+        stinger's ``mag_1_c`` for a cabin sensor: the scalar minus it is the aircraft's field
+        itself, fitted in the full band (``band``, ``order``, ``trim`` and ``levels`` do not
+        apply).
     """
     columns = _Columns(df)
     lam = None if isinstance(lambda_, str) and lambda_.strip().lower() == "auto" else float(lambda_)
@@ -345,6 +357,8 @@ def fit(
         magnitude,
         None if levels is None else bool(levels),
         [] if not extra else _names(extra, "extra"),
+        None if lag is None else str(lag),
+        reference,
     )
     _warn(notes)
     return Model(text)

@@ -108,9 +108,18 @@ pub struct Setup {
     adapt: bool,
     max_line_bytes: usize,
     idle_timeout: Option<Duration>,
+    /// Columns of every stream's header renamed `(old, new)` before the model's are looked up.
+    renames: Vec<(String, String)>,
 }
 
 impl Setup {
+    /// The same setup with each stream's header columns renamed `(old, new)` first (see
+    /// [`Layout::from_header_renamed`]); an unknown `old` is an error of that stream's header.
+    pub fn with_renames(mut self, renames: Vec<(String, String)>) -> Self {
+        self.renames = renames;
+        self
+    }
+
     /// The streaming form of `model` (read from `path`, which names it in errors). Every fit
     /// must use a single fluxgate; fits may share one. Extra channels are read from each line
     /// and conditioned (low-pass, lag) as in `compensate`; a lag of the fluxgate or an extra
@@ -166,6 +175,7 @@ impl Setup {
             adapt: request.adapt,
             max_line_bytes: request.max_line_bytes,
             idle_timeout: request.idle_timeout,
+            renames: Vec::new(),
         })
     }
 
@@ -354,7 +364,14 @@ fn layout(setup: &Setup, raw: &[u8]) -> Result<Layout> {
     let fluxgates: Vec<&str> = setup.fluxgates.iter().map(String::as_str).collect();
     let extras: Vec<&str> = setup.extra_columns.iter().map(String::as_str).collect();
     let outputs: Vec<&str> = setup.outputs.iter().map(String::as_str).collect();
-    Layout::from_header_with_extras(header, &scalars, &fluxgates, &extras, &outputs)
+    Layout::from_header_with_extras(
+        header,
+        &setup.renames,
+        &scalars,
+        &fluxgates,
+        &extras,
+        &outputs,
+    )
         .map_err(Error::StreamHeader)
 }
 
@@ -667,6 +684,7 @@ mod tests {
             adapt: true,
             max_line_bytes: DEFAULT_MAX_LINE_BYTES,
             idle_timeout: None,
+            renames: Vec::new(),
         }
     }
 
