@@ -372,7 +372,7 @@ fn layout(setup: &Setup, raw: &[u8]) -> Result<Layout> {
         &extras,
         &outputs,
     )
-        .map_err(Error::StreamHeader)
+    .map_err(Error::StreamHeader)
 }
 
 fn format_output(
