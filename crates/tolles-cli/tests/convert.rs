@@ -56,18 +56,30 @@ fn magnav_mat_converts_to_csv_with_every_1d_field_exact() {
     let csv = dir.path().join("tl.csv");
     let stderr = convert(&io_fixture("magnav_test_data_TL.mat"), &csv);
     assert!(
-        stderr.contains("padded to 1000 rows with empty cells: TL_a_1 (18), mag_1_uc_f_t (960), fs (1)"),
+        stderr.contains(
+            "padded to 1000 rows with empty cells: TL_a_1 (18), mag_1_uc_f_t (960), fs (1)"
+        ),
         "{stderr}"
     );
-    assert!(stderr.contains("\"TL_data.A_a\" is a 1000×18 double matrix"), "{stderr}");
-    assert!(stderr.contains("wrote 1000 rows, 11 columns (csv)"), "{stderr}");
+    assert!(
+        stderr.contains("\"TL_data.A_a\" is a 1000×18 double matrix"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("wrote 1000 rows, 11 columns (csv)"),
+        "{stderr}"
+    );
     let t = Table::read(&csv, None).unwrap();
     assert_eq!(t.len(), 1000);
     for field in TL_COLUMNS {
         assert_eq!(t.numeric(field).unwrap(), magnav(field), "{field}");
     }
     for field in ["TL_a_1", "mag_1_uc_f_t", "fs"] {
-        assert_eq!(unpadded(t.numeric(field).unwrap()), magnav(field), "{field}");
+        assert_eq!(
+            unpadded(t.numeric(field).unwrap()),
+            magnav(field),
+            "{field}"
+        );
     }
 }
 
@@ -92,7 +104,11 @@ fn magnav_mat_converts_to_hdf5_with_every_field_at_its_own_length() {
     assert_eq!(side[1], ("mag_1_uc_f_t", magnav("mag_1_uc_f_t").as_slice()));
     assert_eq!(t.metadata("fs"), Some(magnav("fs")[0]), "a scalar dataset");
     assert_eq!(t.metadata("dt"), Some(1.0 / magnav("fs")[0]));
-    assert_eq!(t.file_metadata().count(), 1, "dt is not written: the input has none");
+    assert_eq!(
+        t.file_metadata().count(),
+        1,
+        "dt is not written: the input has none"
+    );
 
     // And back to CSV from the HDF5: the same as from the .mat.
     let csv = dir.path().join("tl.csv");
@@ -128,8 +144,14 @@ fn a_longer_side_column_pads_the_table() {
     tolles_io::hdf5::write(&h5, &columns).unwrap();
     let csv = dir.path().join("long.csv");
     let stderr = convert(&h5, &csv);
-    assert!(stderr.contains("padded to 3 rows with empty cells: a (2), b (2)"), "{stderr}");
-    assert_eq!(std::fs::read_to_string(&csv).unwrap(), "a,b,long\n1,3,5\n2,4,6\n,,7\n");
+    assert!(
+        stderr.contains("padded to 3 rows with empty cells: a (2), b (2)"),
+        "{stderr}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(&csv).unwrap(),
+        "a,b,long\n1,3,5\n2,4,6\n,,7\n"
+    );
     let pq = dir.path().join("long.parquet");
     convert(&h5, &pq);
     let back = Table::read(&pq, None).unwrap();
@@ -158,21 +180,32 @@ fn gdf_text_columns_survive_parquet() {
     let dfn = gdf_independent::fixture("Example_Gravity_NeverNeverLand_1904.dfn");
     let pq = dir.path().join("n.parquet");
     let stderr = convert(&dfn, &pq);
-    assert!(stderr.contains("wrote 265 rows, 26 columns (parquet)"), "{stderr}");
+    assert!(
+        stderr.contains("wrote 265 rows, 26 columns (parquet)"),
+        "{stderr}"
+    );
     let csv = dir.path().join("n.csv");
     convert(&dfn, &csv);
     let from_csv = Table::read(&csv, None).unwrap();
     let from_pq = Table::read(&pq, None).unwrap();
     for name in from_pq.headers() {
-        let (a, b) = (from_pq.numeric(name).unwrap(), from_csv.numeric(name).unwrap());
+        let (a, b) = (
+            from_pq.numeric(name).unwrap(),
+            from_csv.numeric(name).unwrap(),
+        );
         assert!(
-            a.iter().zip(&b).all(|(x, y)| x == y || x.is_nan() && y.is_nan()),
+            a.iter()
+                .zip(&b)
+                .all(|(x, y)| x == y || x.is_nan() && y.is_nan()),
             "{name}"
         );
     }
     let notes = from_pq.notes().join("\n");
     for text in ["TIME", "GRAV_METER", "METER_SERIAL"] {
-        assert!(notes.contains(&format!("column {text:?} is not a numeric column")), "{notes}");
+        assert!(
+            notes.contains(&format!("column {text:?} is not a numeric column")),
+            "{notes}"
+        );
     }
     assert_eq!(from_pq.headers().len() + 3, from_csv.headers().len());
 }
@@ -183,10 +216,18 @@ fn unknown_output_extensions_are_errors_that_list_the_allowed_ones() {
     let input = io_fixture("geosoft.xyz");
     for name in ["out.xlsx", "out.xyz", "out.dfn", "out.mat", "out"] {
         let out = dir.path().join(name);
-        let result = tolles().arg("convert").arg(&input).arg(&out).output().unwrap();
+        let result = tolles()
+            .arg("convert")
+            .arg(&input)
+            .arg(&out)
+            .output()
+            .unwrap();
         let stderr = String::from_utf8(result.stderr).unwrap();
         assert!(!result.status.success(), "{name}");
-        assert!(stderr.contains("use .csv, .h5/.hdf5 or .parquet/.pq"), "{name}: {stderr}");
+        assert!(
+            stderr.contains("use .csv, .h5/.hdf5 or .parquet/.pq"),
+            "{name}: {stderr}"
+        );
         assert_eq!(stderr.lines().count(), 1, "{stderr}");
         assert!(!out.exists(), "{name}");
     }
@@ -198,10 +239,17 @@ fn unknown_output_extensions_are_errors_that_list_the_allowed_ones() {
         .output()
         .unwrap();
     let stderr = String::from_utf8(result.stderr).unwrap();
-    assert!(!result.status.success() && stderr.contains("cannot write .xlsx files"), "{stderr}");
+    assert!(
+        !result.status.success() && stderr.contains("cannot write .xlsx files"),
+        "{stderr}"
+    );
     assert!(!out.exists());
     let csv = dir.path().join("box.csv");
-    tolles().args(["simulate", "--plan", "box", "--out"]).arg(&csv).assert().success();
+    tolles()
+        .args(["simulate", "--plan", "box", "--out"])
+        .arg(&csv)
+        .assert()
+        .success();
     let model = dir.path().join("model.json");
     tolles()
         .arg("fit")
@@ -220,7 +268,10 @@ fn unknown_output_extensions_are_errors_that_list_the_allowed_ones() {
         .output()
         .unwrap();
     let stderr = String::from_utf8(result.stderr).unwrap();
-    assert!(!result.status.success() && stderr.contains("cannot write .xlsx files"), "{stderr}");
+    assert!(
+        !result.status.success() && stderr.contains("cannot write .xlsx files"),
+        "{stderr}"
+    );
     assert!(!out.exists());
 }
 
@@ -240,5 +291,8 @@ fn selection_and_renames_apply() {
     let stderr = String::from_utf8(result.stderr).unwrap();
     assert!(result.status.success(), "{stderr}");
     assert!(stderr.contains("2 rows not selected"), "{stderr}");
-    assert_eq!(std::fs::read_to_string(&out).unwrap(), "tt,line,mag_1_uc\n0.2,2,7\n");
+    assert_eq!(
+        std::fs::read_to_string(&out).unwrap(),
+        "tt,line,mag_1_uc\n0.2,2,7\n"
+    );
 }

@@ -206,39 +206,26 @@ fn write_parts(
     path: &Path,
     format: Format,
 ) -> Result<Written, IoError> {
-    check_unique(table, extra.iter().map(|(n, _)| *n).chain(scalars.iter().map(|(n, _)| *n)), path)?;
+    let names = extra.iter().map(|(n, _)| *n);
+    check_unique(table, names.chain(scalars.iter().map(|(n, _)| *n)), path)?;
     let singles: Vec<[f64; 1]> = scalars.iter().map(|(_, v)| [*v]).collect();
     // CSV and Parquet hold scalars as columns of length 1.
     let mut all_extra = extra.to_vec();
     if format != Format::Hdf5 {
-        all_extra.extend(scalars.iter().zip(&singles).map(|((n, _), v)| (*n, v.as_slice())));
+        let as_columns = scalars.iter().zip(&singles);
+        all_extra.extend(as_columns.map(|((n, _), v)| (*n, v.as_slice())));
     }
     let longest = all_extra.iter().map(|(_, v)| v.len()).max().unwrap_or(0);
-    let rows = table.len().max(longest);
-    let mut written = Written {
-        rows,
-        columns: table.headers().len() + extra.len() + scalars.len(),
-        ..Written::default()
+    let rows = match format {
+        Format::Hdf5 => table.len(),
+        _ => table.len().max(longest),
     };
     let kinds = column_kinds(table, format);
     match format {
         Format::Csv => {
             crate::atomic::write_with(path, |out| write_padded(table, &all_extra, rows, out))?
         }
-        Format::Hdf5 => {
-            written.rows = table.len();
-            let mut outputs: Vec<crate::hdf5::Output<'_>> = kinds
-                .iter()
-                .zip(table.headers())
-                .map(|(kind, name)| match kind {
-                    Kind::Numbers(values) => crate::hdf5::Output::Numbers(name, values),
-                    Kind::Text(text) => crate::hdf5::Output::Text(name, text),
-                })
-                .collect();
-            outputs.extend(extra.iter().map(|(n, v)| crate::hdf5::Output::Numbers(n, v)));
-            outputs.extend(scalars.iter().map(|(n, v)| crate::hdf5::Output::Scalar(n, *v)));
-            crate::hdf5::write_datasets(path, &outputs)?;
-        }
+        Format::Hdf5 => write_hdf5(table, &kinds, extra, scalars, path)?,
         Format::Parquet => {
             let mut outputs: Vec<crate::parquet::Output<'_>> = kinds
                 .iter()
@@ -248,39 +235,59 @@ fn write_parts(
                     Kind::Text(text) => crate::parquet::Output::Text(name, text),
                 })
                 .collect();
-            outputs.extend(all_extra.iter().map(|(n, v)| crate::parquet::Output::Numbers(n, v)));
+            let more = all_extra.iter();
+            outputs.extend(more.map(|(n, v)| crate::parquet::Output::Numbers(n, v)));
             crate::parquet::write_padded(path, &outputs, rows)?;
         }
         Format::Xyz | Format::Gdf => {
             return Err(IoError::Invalid {
                 path: path.to_path_buf(),
-                message: format!(
-                    "writing {format} is not supported; use {}",
-                    crate::format::OUTPUT_EXTENSIONS
-                ),
+                message: format!("writing {format} is not supported; use {OUTPUT_EXTENSIONS}"),
             })
         }
     }
-    written.text_columns = kinds
-        .iter()
-        .zip(table.headers())
-        .filter(|(kind, _)| matches!(kind, Kind::Text(_)) && format != Format::Csv)
-        .map(|(_, name)| name.clone())
-        .collect();
-    if written.rows > table.len() {
-        written
-            .padded
-            .extend(table.headers().iter().map(|h| (h.clone(), table.len())));
+    let mut padded = Vec::new();
+    if rows > table.len() {
+        padded.extend(table.headers().iter().map(|h| (h.clone(), table.len())));
     }
     if format != Format::Hdf5 {
-        written.padded.extend(
-            all_extra
-                .iter()
-                .filter(|(_, v)| v.len() < rows)
-                .map(|(n, v)| (n.to_string(), v.len())),
-        );
+        let short = all_extra.iter().filter(|(_, v)| v.len() < rows);
+        padded.extend(short.map(|(n, v)| (n.to_string(), v.len())));
     }
-    Ok(written)
+    Ok(Written {
+        rows,
+        columns: table.headers().len() + extra.len() + scalars.len(),
+        text_columns: kinds
+            .iter()
+            .zip(table.headers())
+            .filter(|(kind, _)| matches!(kind, Kind::Text(_)))
+            .map(|(_, name)| name.clone())
+            .collect(),
+        padded,
+    })
+}
+
+/// Writes the table's columns as `kinds` says, then `extra` at their own lengths and `scalars`
+/// as scalar datasets, to the HDF5 file `path`.
+fn write_hdf5(
+    table: &Table,
+    kinds: &[Kind<'_>],
+    extra: &[(&str, &[f64])],
+    scalars: &[(&str, f64)],
+    path: &Path,
+) -> Result<(), IoError> {
+    use crate::hdf5::Output;
+    let mut outputs: Vec<Output<'_>> = kinds
+        .iter()
+        .zip(table.headers())
+        .map(|(kind, name)| match kind {
+            Kind::Numbers(values) => Output::Numbers(name, values),
+            Kind::Text(text) => Output::Text(name, text),
+        })
+        .collect();
+    outputs.extend(extra.iter().map(|(n, v)| Output::Numbers(n, v)));
+    outputs.extend(scalars.iter().map(|(n, v)| Output::Scalar(n, *v)));
+    crate::hdf5::write_datasets(path, &outputs)
 }
 
 /// How a column of the table is written in HDF5 or Parquet.

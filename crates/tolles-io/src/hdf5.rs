@@ -130,7 +130,10 @@ fn scalars_only(
         });
     }
     let (headers, values): (Vec<String>, Vec<f64>) = scalars.into_iter().unzip();
-    let columns = values.into_iter().map(|v| Column::Numbers(vec![v])).collect();
+    let columns = values
+        .into_iter()
+        .map(|v| Column::Numbers(vec![v]))
+        .collect();
     Ok(Table::from_columns(path, headers, columns, None)?
         .with_notes(notes)
         .with_dt_from_fs())
@@ -232,7 +235,11 @@ pub fn write_datasets(path: &Path, datasets: &[Output<'_>]) -> Result<(), IoErro
 /// The cells of `text` as one fixed-length UTF-8 string type (as long as the longest cell,
 /// shorter ones padded with NULs, which readers strip) and its bytes.
 fn fixed_strings(text: &TextColumn) -> (hdf5_pure::Datatype, Vec<u8>) {
-    let size = (0..text.len()).map(|k| text.get(k).len()).max().unwrap_or(0).max(1);
+    let size = (0..text.len())
+        .map(|k| text.get(k).len())
+        .max()
+        .unwrap_or(0)
+        .max(1);
     let mut bytes = Vec::with_capacity(size * text.len());
     for k in 0..text.len() {
         let cell = text.get(k).as_bytes();
@@ -425,6 +432,59 @@ mod tests {
         let at = bytes.windows(8).position(|w| w == dims).unwrap();
         bytes[at..at + 8].copy_from_slice(&length.to_le_bytes());
         bytes
+    }
+
+    #[test]
+    fn units_attributes_are_found_in_any_case() {
+        let dir = tempfile::TempDir::new().unwrap();
+        let path = dir.path().join("u.h5");
+        let mut builder = FileBuilder::new();
+        builder
+            .create_dataset("tt")
+            .with_f64_data(&[0.0, 0.1])
+            .set_attr("units", AttrValue::String("s".into()));
+        builder
+            .create_dataset("mag_1_uc")
+            .with_f64_data(&[5.0, 6.0])
+            .set_attr("Units", AttrValue::String(" nT ".into()));
+        builder.create_dataset("x").with_f64_data(&[1.0, 2.0]);
+        std::fs::write(&path, builder.finish().unwrap()).unwrap();
+        let mut units = super::units(&path);
+        units.sort();
+        assert_eq!(
+            units,
+            [("mag_1_uc".into(), "nT".into()), ("tt".into(), "s".into())]
+        );
+        assert!(super::units(&dir.path().join("absent.h5")).is_empty());
+    }
+
+    #[test]
+    fn text_and_scalar_datasets_are_written() {
+        let dir = tempfile::TempDir::new().unwrap();
+        let path = dir.path().join("t.h5");
+        let table = Table::from_reader("a,s\n1,x\n2,long é\n".as_bytes(), "t.csv").unwrap();
+        let Column::Text(text) = &table.columns()[1] else {
+            panic!("text")
+        };
+        write_datasets(
+            &path,
+            &[
+                Output::Numbers("a", &[1.0, 2.0]),
+                Output::Text("s", text),
+                Output::Scalar("dt", 0.1),
+                Output::Numbers("side", &[3.0]),
+            ],
+        )
+        .unwrap();
+        let file = File::open(&path).unwrap();
+        assert_eq!(
+            file.dataset("s").unwrap().read_string().unwrap(),
+            ["x", "long é"]
+        );
+        let back = read(&path).unwrap();
+        assert_eq!(back.metadata("dt"), Some(0.1));
+        assert_eq!(back.side_columns()[0].values, [3.0]);
+        assert_eq!(back.headers(), ["a"]);
     }
 
     #[test]

@@ -216,7 +216,10 @@ pub fn write_padded(path: &Path, columns: &[Output<'_>], rows: usize) -> Result<
             };
             match output {
                 Output::Numbers(_, values) => {
-                    let mut part: Vec<f64> = values.get(start..end.min(values.len())).unwrap_or(&[]).to_vec();
+                    let mut part: Vec<f64> = values
+                        .get(start..end.min(values.len()))
+                        .unwrap_or(&[])
+                        .to_vec();
                     part.resize(end - start, f64::NAN);
                     write_values(&mut column, &part)
                 }
@@ -241,7 +244,9 @@ fn write_text(
     let mut present = Vec::new();
     let mut defs = Vec::with_capacity(rows.len());
     for k in rows {
-        let cell = (k < text.len()).then(|| text.get(k)).filter(|c| !c.is_empty());
+        let cell = (k < text.len())
+            .then(|| text.get(k))
+            .filter(|c| !c.is_empty());
         match cell.filter(|_| !text.is_dummy(k)) {
             Some(cell) => {
                 present.push(ByteArray::from(cell));
@@ -262,9 +267,13 @@ fn output_schema(columns: &[Output<'_>]) -> Result<Arc<Type>, ParquetError> {
         .iter()
         .map(|output| {
             let builder = match output {
-                Output::Numbers(name, _) => Type::primitive_type_builder(name, PhysicalType::DOUBLE),
-                Output::Text(name, _) => Type::primitive_type_builder(name, PhysicalType::BYTE_ARRAY)
-                    .with_logical_type(Some(LogicalType::String)),
+                Output::Numbers(name, _) => {
+                    Type::primitive_type_builder(name, PhysicalType::DOUBLE)
+                }
+                Output::Text(name, _) => {
+                    Type::primitive_type_builder(name, PhysicalType::BYTE_ARRAY)
+                        .with_logical_type(Some(LogicalType::String))
+                }
             };
             builder
                 .with_repetition(Repetition::OPTIONAL)

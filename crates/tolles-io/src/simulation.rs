@@ -13,8 +13,8 @@
 //! ```
 
 use crate::error::IoError;
-use crate::schema;
 use crate::format::Format;
+use crate::schema;
 use crate::table::write_columns_to;
 use serde::Serialize;
 use std::path::Path;

@@ -783,7 +783,12 @@ pub fn write_padded(
     writer.write_record(&header).map_err(into_io)?;
     let values: Vec<&[f64]> = extra.iter().map(|(_, v)| *v).collect();
     let longest = values.iter().map(|v| v.len()).max().unwrap_or(0);
-    write_padded_rows(table, &values, rows.max(table.len()).max(longest), &mut writer)?;
+    write_padded_rows(
+        table,
+        &values,
+        rows.max(table.len()).max(longest),
+        &mut writer,
+    )?;
     writer.flush()
 }
 
@@ -1020,7 +1025,15 @@ mod tests {
 
     #[test]
     fn format_value_round_trips() {
-        for v in [0.1, 1e-300, 50_123.456_789_012_34, -3.0, 3.334_722e-11, -2e300, 5e-324] {
+        for v in [
+            0.1,
+            1e-300,
+            50_123.456_789_012_34,
+            -3.0,
+            3.334_722e-11,
+            -2e300,
+            5e-324,
+        ] {
             let mut s = String::new();
             format_value(v, &mut s);
             assert_eq!(s.parse::<f64>().unwrap(), v, "{s}");

@@ -221,7 +221,13 @@ fn text_columns_are_written_as_text_to_binary_formats() {
         .unwrap()
         .map(|row| row.unwrap().to_string())
         .collect();
-    assert_eq!(rows, ["{a: 1.0, name: \"ana\", n: 7.0}", "{a: 2.0, name: null, n: null}"]);
+    assert_eq!(
+        rows,
+        [
+            "{a: 1.0, name: \"ana\", n: 7.0}",
+            "{a: 2.0, name: null, n: null}"
+        ]
+    );
 }
 
 /// Cut and corrupted binary files are errors, never panics.

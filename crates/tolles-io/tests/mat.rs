@@ -124,7 +124,10 @@ fn scipy_savemat_files_read_like_loadmat() {
         assert_eq!(t.metadata("N"), Some(8.0));
         assert_eq!(t.metadata("dt"), Some(0.1));
         let short = &t.side_columns()[0];
-        assert_eq!((short.name.as_str(), &short.values[..]), ("short", &[1.0, 2.0, 3.0][..]));
+        assert_eq!(
+            (short.name.as_str(), &short.values[..]),
+            ("short", &[1.0, 2.0, 3.0][..])
+        );
         let notes = t.notes().join("\n");
         for left_out in [
             "\"A\" is a 8×2 double matrix, not a column",

@@ -146,7 +146,12 @@ mod tests {
         let text = "tt,line,note\n0.10,L7,a b\n0.2,,\"x,y\"\n";
         std::fs::write(&input, text).unwrap();
         let output = dir.path().join("out.csv");
-        let done = convert(&ConvertRequest::new(&input, &output), &Silent, &mut Vec::new()).unwrap();
+        let done = convert(
+            &ConvertRequest::new(&input, &output),
+            &Silent,
+            &mut Vec::new(),
+        )
+        .unwrap();
         assert_eq!((done.rows, done.columns), (2, 3));
         assert_eq!(std::fs::read_to_string(&output).unwrap(), text);
         let back = Table::read(&output, None).unwrap();

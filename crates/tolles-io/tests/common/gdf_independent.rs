@@ -145,4 +145,3 @@ pub fn check_table(stem: &str, table: &Table) -> (usize, usize) {
     }
     (table.len(), table.headers().len())
 }
-
