@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::gdf_independent::{check_table, fixture};
+use common::gdf_independent::{check_table, expected_columns, fixture};
 use tolles_io::gdf;
 use tolles_io::table::Table;
 
