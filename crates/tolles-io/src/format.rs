@@ -141,9 +141,11 @@ fn read_hdf5_or_mat(path: &Path) -> Result<Table, IoError> {
 }
 
 /// Writes `table` plus the `extra` columns (as long as the table) to `path` in `format` (see
-/// [`crate::table::write_with_column`] for CSV). In HDF5 and Parquet a text column whose cells are all
-/// numbers (or missing) is written as numbers, any other as text (see [`write_everything`]).
-/// The file is written whole or not at all ([`crate::atomic`]), so `path` may be the input.
+/// [`crate::table::write_with_column`] for CSV). HDF5 and Parquet get numbers only here, so
+/// every column must be numeric there (the first cell that is not is an error naming its line
+/// and column, as the chunked writer of `compensate` says it too); [`write_everything`] writes
+/// text as text. The file is written whole or not at all ([`crate::atomic`]), so `path` may be
+/// the input.
 pub fn write_table(
     table: &Table,
     extra: &[(String, Vec<f64>)],
@@ -154,7 +156,7 @@ pub fn write_table(
         .iter()
         .map(|(name, values)| (name.as_str(), values.as_slice()))
         .collect();
-    write_parts(table, &extra, &[], path, format)
+    write_parts(table, &extra, &[], path, format, Text::Refuse)
 }
 
 /// What a table was written as.
@@ -195,7 +197,14 @@ pub fn write_everything(table: &Table, path: &Path, format: Format) -> Result<Wr
         .file_metadata()
         .map(|(name, value)| (name.as_str(), *value))
         .collect();
-    write_parts(table, &side, &scalars, path, format)
+    write_parts(table, &side, &scalars, path, format, Text::Keep)
+}
+
+/// What [`write_parts`] does with a text column that is not all numbers in HDF5 or Parquet.
+#[derive(Clone, Copy, PartialEq)]
+enum Text {
+    Keep,
+    Refuse,
 }
 
 /// Writes `table`, then `extra` columns of any length, then `scalars`; see [`write_everything`].
@@ -205,6 +214,7 @@ fn write_parts(
     scalars: &[(&str, f64)],
     path: &Path,
     format: Format,
+    text: Text,
 ) -> Result<Written, IoError> {
     let names = extra.iter().map(|(n, _)| *n);
     check_unique(table, names.chain(scalars.iter().map(|(n, _)| *n)), path)?;
@@ -220,7 +230,7 @@ fn write_parts(
         Format::Hdf5 => table.len(),
         _ => table.len().max(longest),
     };
-    let kinds = column_kinds(table, format);
+    let kinds = column_kinds(table, format, text)?;
     match format {
         Format::Csv => {
             crate::atomic::write_with(path, |out| write_padded(table, &all_extra, rows, out))?
@@ -296,24 +306,25 @@ enum Kind<'t> {
     Text(&'t TextColumn),
 }
 
-/// Every column of `table` as numbers where it can be, else as its text (none for CSV, which
-/// writes cells as they are).
-fn column_kinds(table: &Table, format: Format) -> Vec<Kind<'_>> {
+/// Every column of `table` as numbers where it can be, else as its text (or, refusing text,
+/// the error naming its first cell that is not a number); none for CSV, which writes cells as
+/// they are.
+fn column_kinds(table: &Table, format: Format, text: Text) -> Result<Vec<Kind<'_>>, IoError> {
     if format == Format::Csv {
-        return Vec::new();
+        return Ok(Vec::new());
     }
-    table
-        .columns()
-        .iter()
-        .enumerate()
-        .map(|(k, column)| match column {
+    let mut kinds = Vec::with_capacity(table.columns().len());
+    for (k, column) in table.columns().iter().enumerate() {
+        kinds.push(match column {
             Column::Numbers(values) => Kind::Numbers(values.as_slice().into()),
-            Column::Text(text) => match table.numeric_at(k) {
+            Column::Text(cells) => match table.numeric_at(k) {
                 Ok(values) => Kind::Numbers(values.into()),
-                Err(_) => Kind::Text(text),
+                Err(_) if text == Text::Keep => Kind::Text(cells),
+                Err(e) => return Err(e),
             },
-        })
-        .collect()
+        });
+    }
+    Ok(kinds)
 }
 
 /// An error when one of `names` is already a column of `table` or repeats.
