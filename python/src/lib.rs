@@ -12,7 +12,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyList;
 use std::path::{Path, PathBuf};
 use tolles::compensate::{CompensateRequest, LevelChoice};
-use tolles::fit::{FitRequest, Terms};
+use tolles::fit::{FitRequest, Lag, Terms};
 use tolles::fom::FomRequest;
 use tolles::{Silent, Warning};
 use tolles_core::fit::{Band, Lambda, MagnitudeChoice};
@@ -173,7 +173,7 @@ fn read<'py>(
 
 /// Fits a model; returns (model JSON, warnings).
 #[pyfunction]
-#[pyo3(signature = (source, names, get, dt, scalars, vectors, terms, lambda_, band, order, trim, fs, magnitude=None, levels=None, extras=Vec::new()))]
+#[pyo3(signature = (source, names, get, dt, scalars, vectors, terms, lambda_, band, order, trim, fs, magnitude=None, levels=None, extras=Vec::new(), lag=None, reference=None))]
 #[allow(clippy::too_many_arguments)]
 fn fit(
     py: Python<'_>,
@@ -192,7 +192,13 @@ fn fit(
     magnitude: Option<&str>,
     levels: Option<bool>,
     extras: Vec<String>,
+    lag: Option<&str>,
+    reference: Option<String>,
 ) -> PyResult<(String, Vec<String>)> {
+    let lag: Lag = lag
+        .unwrap_or("none")
+        .parse()
+        .map_err(|e| failed(format!("lag: {e}")))?;
     let terms: Terms = terms.parse().map_err(failed)?;
     let magnitude = magnitude
         .map(str::parse::<MagnitudeChoice>)
@@ -220,9 +226,12 @@ fn fit(
         magnitude,
         levels,
         extras,
+        lag,
+        reference,
         ..FitRequest::new(scalars, vectors)
     };
     let mut wanted = request.scalars.clone();
+    wanted.extend(request.reference.iter().cloned());
     wanted.extend(request.vectors.iter().flat_map(|v| vector_columns(v)));
     wanted.extend(request.extras.iter().cloned());
     let table = Frame::new(source, names, get, dt).table(&wanted)?;
@@ -394,7 +403,12 @@ fn plan(
         Ok(Maneuvers::Builtin { plan, without })
     };
     let maneuvers = match (flight, maneuvers.trim().to_ascii_lowercase().as_str()) {
-        (Some(path), _) => Maneuvers::Flown { path, vector },
+        (Some(path), _) => Maneuvers::Flown {
+            path,
+            vector,
+            selection: RowSelection::default(),
+            renames: Vec::new(),
+        },
         (None, "box") => builtin(BuiltinPlan::Box)?,
         (None, "patent") => builtin(BuiltinPlan::Patent)?,
         (None, _) => Maneuvers::List(maneuvers),

@@ -208,3 +208,21 @@ def test_an_extra_channel_fits_and_compensates_as_the_cli_does(cli, tmp_path):
     out = tolles.compensate(box, model)
     error = out["mag_1_c"] - box["truth_earth"]
     assert float(np.std(error)) < 0.05
+
+
+def test_a_reference_fit_and_a_lag_match_the_cli(cli, tmp_path):
+    cli("simulate", "--preset", "cabin", "--flux-lag", "0.05", "--out", tmp_path / "box.csv")
+    cli("fit", tmp_path / "box.csv", "--scalar", "mag_1_uc", "--vector", "flux_a",
+        "--reference", "truth_earth", "--lag", "0.05", "--out", tmp_path / "cli.json")
+    box = tolles.read(tmp_path / "box.csv")
+    model = tolles.fit(box, reference="truth_earth", lag=0.05)
+    model.save(tmp_path / "py.json")
+    assert (tmp_path / "py.json").read_bytes() == (tmp_path / "cli.json").read_bytes()
+    fitted = model.fits[0]
+    assert fitted["reference"] == "truth_earth"
+    assert fitted["settings"]["target"] == "interference"
+    assert fitted["lag_s"] == pytest.approx(0.05)
+    with pytest.raises(tolles.TollesError, match="also a scalar"):
+        tolles.fit(box, reference="mag_1_uc")
+    with pytest.raises(tolles.TollesError, match="lag"):
+        tolles.fit(box, lag="soon")

@@ -31,6 +31,8 @@ def fit(
     magnitude: Optional[str] = ...,
     levels: Optional[bool] = ...,
     extras: Sequence[str] = ...,
+    lag: Optional[str] = ...,
+    reference: Optional[str] = ...,
 ) -> Tuple[str, List[str]]: ...
 def compensate(
     source: str,

@@ -1,12 +1,11 @@
-//! Flag values shared by several commands: name lists, pass bands, and reading a whole flight.
+//! Flag values shared by several commands: name lists, pass bands, output paths.
 
 use anyhow::{bail, Context, Result};
-use std::path::Path;
-use tolles_io::table::Table;
+use std::path::PathBuf;
 
-/// Reads a flight table whole, saying on stderr what the reader left out.
-pub fn read_table(path: &Path) -> Result<Table> {
-    crate::select::Selection::default().read(path, crate::render::Use::Other)
+/// An `--out` path; `-` (standard output) is `None`, as when the flag is left out.
+pub fn out_path(out: Option<PathBuf>) -> Option<PathBuf> {
+    out.filter(|path| path.as_os_str() != "-")
 }
 
 /// `mag_3_uc,mag_4_uc` → the names, each once; `what` names the option in errors.

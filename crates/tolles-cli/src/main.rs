@@ -3,6 +3,19 @@
 //! This crate is only the command line; the numerics live in `tolles-core` and the file formats
 //! in `tolles-io`.
 
+/// The help of a flight-file argument: `$what`, then the formats every command reads — one
+/// sentence for all of them, so no command's help forgets one.
+macro_rules! flight_help {
+    ($what:literal) => {
+        concat!(
+            $what,
+            ". Formats, by extension: CSV, Geosoft XYZ, ASEG-GDF (.dfn/.dat), HDF5 (.h5/.hdf5; \
+             MATLAB .mat v5 and v7.3), Parquet (.parquet/.pq); any other extension is read as \
+             CSV. `-` reads standard input (CSV, XYZ, HDF5, MAT or Parquet, told by content)"
+        )
+    };
+}
+
 mod cmd;
 mod input;
 mod progress;
@@ -39,7 +52,7 @@ Examples:
   tolles demo
 
   # The Tolles patent's roll and pitch tables, computed:
-  tolles tables --amplitude 15 --heading 45 --dip 68
+  tolles tables --amplitude 15 --heading 45 --inclination 68
 
   # The patent's compensation procedure, step by step, on a flight:
   tolles procedure patent.csv --scalar mag_1_uc --vector flux_a --out terms.json

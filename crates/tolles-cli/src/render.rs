@@ -90,6 +90,18 @@ pub fn error(e: Error) -> anyhow::Error {
             found.join(", ")
         ),
         Error::ManeuverList(e) => anyhow::anyhow!("--maneuvers: {e}"),
+        Error::ScalarNeeded { path: None, .. } => {
+            anyhow::anyhow!("--scalar is needed: name the scalar column (or give a --model with one fit)")
+        }
+        Error::ScalarNeeded {
+            path: Some(path),
+            available,
+        } => anyhow::anyhow!(
+            "{}: the model holds fits for {} scalars; choose one with --scalar {}",
+            path.display(),
+            available.len(),
+            available.join("|")
+        ),
         other => anyhow::Error::new(other),
     }
 }
@@ -145,9 +157,13 @@ pub fn fit_summary(model: &ScalarModel, cal: &Path) -> std::io::Result<()> {
             d.samples_in_short_runs
         )?;
     }
+    let target = match &model.reference {
+        Some(reference) => format!("{} − {reference} (full band)", model.scalar),
+        None => "filtered scalar".to_string(),
+    };
     writeln!(
         err,
-        "  filtered scalar {:.4} nT -> residual {:.4} nT (improvement ×{:.2}), cond(AᵀA+Λ) = {:.3e}",
+        "  {target} {:.4} nT -> residual {:.4} nT (improvement ×{:.2}), cond(AᵀA+Λ) = {:.3e}",
         d.filtered_std_before_nt, d.residual_std_nt, d.improvement_ratio, d.condition_number
     )?;
     for score in &d.term_choice {

@@ -451,3 +451,54 @@ fn a_survey_without_the_models_columns_names_the_missing_column() {
     let (ok, _, stderr) = same_both_ways(dir.path(), &args);
     assert!(!ok && stderr.contains("no column \"mag_1_uc\""), "{stderr}");
 }
+
+/// A survey whose columns answer to the model's names only through SGL's raw channel names or
+/// `--rename` is read in chunks, and gives what reading it whole gives.
+#[test]
+fn raw_channel_names_and_renames_are_read_in_chunks_too() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    run_ok(
+        d,
+        &[
+            "simulate", "--plan", "box", "--seed", "3", "--out", "cal.csv",
+        ],
+    );
+    let fit = [
+        "fit", "cal.csv", "--scalar", "mag_1_uc", "--vector", "flux_a",
+    ];
+    run_ok(d, &[&fit[..], &["--out", "m.json"]].concat());
+    let text = std::fs::read_to_string(d.join("cal.csv")).unwrap();
+    let (header, body) = text.split_once('\n').unwrap();
+    let renamed = |names: &[(&str, &str)]| {
+        let fields: Vec<&str> = header
+            .split(',')
+            .map(|h| names.iter().find(|(from, _)| *from == h).map_or(h, |n| n.1))
+            .collect();
+        format!("{}\n{body}", fields.join(","))
+    };
+    let sgl = [
+        ("tt", "TIME"),
+        ("mag_1_uc", "UNCOMPMAG1"),
+        ("flux_a_x", "FLUXA_X"),
+        ("flux_a_y", "FLUXA_Y"),
+        ("flux_a_z", "FLUXA_Z"),
+    ];
+    std::fs::write(d.join("sgl.csv"), renamed(&sgl)).unwrap();
+    std::fs::write(d.join("own.csv"), renamed(&[("mag_1_uc", "MAGUC")])).unwrap();
+    let cases: [&[&str]; 2] = [
+        &["sgl.csv", "--model", "m.json"],
+        &["own.csv", "--model", "m.json", "--rename", "MAGUC=mag_1_uc"],
+    ];
+    for args in cases {
+        assert!(is_chunked(d, args), "{args:?} is read whole");
+        let (ok, out, err) = same_both_ways(d, args);
+        assert!(ok, "{args:?}: {err}");
+        let header = out.lines().next().unwrap();
+        assert!(header.ends_with(",mag_1_c"), "{header}");
+    }
+    let (_, _, err) = same_both_ways(d, &["sgl.csv", "--model", "m.json"]);
+    assert!(err.contains("UNCOMPMAG1"), "the aliases are said: {err}");
+    let (ok, _, err) = same_both_ways(d, &["own.csv", "--model", "m.json", "--rename", "NOPE=x"]);
+    assert!(!ok && err.contains("--rename NOPE=x"), "{err}");
+}

@@ -231,7 +231,10 @@ fn without_a_fluxgate_the_attitude_and_dip_give_the_direction_cosines() {
     let out = tolles(&["procedure", path, "--scalar", "mag_1_uc"]);
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.starts_with("error: ") && err.contains("--dip"), "{err}");
+    assert!(
+        err.starts_with("error: ") && err.contains("--inclination"),
+        "{err}"
+    );
     assert_eq!(err.trim_end().lines().count(), 1);
     let doc: Value = serde_json::from_str(&ok(&tolles(&[
         "procedure",

@@ -333,3 +333,48 @@ fn listen(dir: &std::path::Path, args: &[&str]) -> (std::process::Child, String)
         .to_string();
     (server, address)
 }
+
+/// Runs `tolles stream ARGS` on `input`; returns stdout.
+fn stream_out(dir: &Path, args: &[&str], input: &str) -> String {
+    let out = tolles()
+        .current_dir(dir)
+        .arg("stream")
+        .args(args)
+        .arg("--quiet")
+        .write_stdin(input.to_string())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{args:?}: {stderr}");
+    String::from_utf8(out.stdout).unwrap()
+}
+
+#[test]
+fn a_stream_takes_raw_channel_names_and_renames_as_a_file_does() {
+    let dir = TempDir::new().unwrap();
+    let survey = model_and_survey(dir.path());
+    let plain = stream_out(dir.path(), &["--model", "m.json"], &survey);
+    let (header, body) = survey.split_once('\n').unwrap();
+    let with_header = |names: &[(&str, &str)]| {
+        let fields: Vec<&str> = header
+            .split(',')
+            .map(|h| names.iter().find(|(from, _)| *from == h).map_or(h, |n| n.1))
+            .collect();
+        (fields.join(","), format!("{}\n{body}", fields.join(",")))
+    };
+    let (sgl_header, sgl) = with_header(&[
+        ("tt", "TIME"),
+        ("mag_1_uc", "UNCOMPMAG1"),
+        ("flux_a_x", "FLUXA_X"),
+        ("flux_a_y", "FLUXA_Y"),
+        ("flux_a_z", "FLUXA_Z"),
+    ]);
+    let out = stream_out(dir.path(), &["--model", "m.json"], &sgl);
+    let (first, rest) = out.split_once('\n').unwrap();
+    assert_eq!(first, format!("{sgl_header},mag_1_c,status"));
+    assert_eq!(rest, plain.split_once('\n').unwrap().1);
+    // Renamed back, the output is the stream of the original names, header included.
+    let (_, own) = with_header(&[("mag_1_uc", "MAGUC")]);
+    let args = ["--model", "m.json", "--rename", "MAGUC=mag_1_uc"];
+    assert_eq!(stream_out(dir.path(), &args, &own), plain);
+}

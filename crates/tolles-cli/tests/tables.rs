@@ -129,5 +129,5 @@ fn out_of_range_input_is_a_one_line_error() {
 fn help_has_a_worked_example() {
     let out = tables(&["--help"]);
     let text = String::from_utf8(out.stdout).unwrap();
-    assert!(text.contains("tolles tables --amplitude 15 --heading 0 --dip 68"));
+    assert!(text.contains("tolles tables --amplitude 15 --heading 0 --inclination 68"));
 }

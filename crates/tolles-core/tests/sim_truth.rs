@@ -26,6 +26,7 @@ fn settings(terms: &str, lambda: Lambda) -> FitSettings {
         alternative_terms: Vec::new(),
         magnitude: tolles_core::fit::MagnitudeChoice::Linear,
         levels: false,
+        target: tolles_core::fit::Target::Band,
     }
 }
 

@@ -59,6 +59,8 @@ pub struct ChunkReader {
     rows_read: usize,
     /// Row index of the first row of the chunk returned last.
     first_row: usize,
+    /// Whether [`ChunkReader::rename`] changed `headers` from the file's.
+    renamed: bool,
     source: Source,
 }
 
@@ -139,6 +141,7 @@ impl ChunkReader {
             rows,
             rows_read: 0,
             first_row: 0,
+            renamed: false,
             source,
         })
     }
@@ -156,6 +159,15 @@ impl ChunkReader {
             p.keep(self.keep.as_deref());
         }
         self
+    }
+
+    /// Renames column `old` (found as [`crate::table::find_column`] finds it) to `new` in the
+    /// headers and in every chunk read from now on, as [`Table::rename`] renames a table read
+    /// whole; an error if there is no such column or another is already called `new`.
+    pub fn rename(&mut self, old: &str, new: &str) -> Result<(), IoError> {
+        crate::table::rename_header(&self.path, &mut self.headers, old, new)?;
+        self.renamed = true;
+        Ok(())
     }
 
     /// The file being read.
@@ -210,11 +222,23 @@ impl ChunkReader {
                 crate::parquet::contained(path, || p.next_rows(path, self.rows, first))?
             }
         };
-        if let Some(t) = &table {
+        let mut table = table;
+        if let Some(t) = &mut table {
             self.first_row = self.rows_read;
             self.rows_read += t.len();
+            if self.renamed {
+                t.set_headers(self.kept_headers());
+            }
         }
         Ok(table)
+    }
+
+    /// The (renamed) names of the columns a chunk holds.
+    fn kept_headers(&self) -> Vec<String> {
+        match &self.keep {
+            Some(keep) => keep.iter().map(|&j| self.headers[j].clone()).collect(),
+            None => self.headers.clone(),
+        }
     }
 }
 
@@ -597,6 +621,24 @@ mod tests {
     fn while_chunks(reader: &mut ChunkReader) -> Result<(), IoError> {
         while reader.next_chunk()?.is_some() {}
         Ok(())
+    }
+
+    #[test]
+    fn renamed_columns_keep_their_new_names_in_every_chunk() {
+        let csv = temp("n.csv", "A,b,c\n1,2,3\n4,5,6\n7,8,9\n");
+        let xyz = temp("n.xyz", "/ A b c\n1 2 3\n4 5 6\n7 8 9\n");
+        for (path, format) in [(csv, Format::Csv), (xyz, Format::Xyz)] {
+            let mut reader = ChunkReader::open(&path, format, 2).unwrap();
+            reader.rename("a", "x").unwrap();
+            let e = reader.rename("x", "b").unwrap_err();
+            assert!(matches!(e, IoError::DuplicateColumn { .. }), "{e}");
+            assert!(reader.rename("nope", "y").is_err());
+            assert_eq!(reader.headers()[..3], ["x", "b", "c"]);
+            let mut reader = reader.only(vec![2, 0]);
+            while let Some(chunk) = reader.next_chunk().unwrap() {
+                assert_eq!(chunk.headers(), ["c", "x"], "{format}");
+            }
+        }
     }
 
     #[test]

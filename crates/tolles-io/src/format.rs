@@ -115,7 +115,11 @@ impl FromStr for Format {
 
 impl Table {
     /// Reads `path` in `format`, or in the format its extension names when `format` is `None`.
+    /// `-` is standard input, in the format its content shows ([`crate::stdin`]).
     pub fn read(path: &Path, format: Option<Format>) -> Result<Table, IoError> {
+        if crate::stdin::is_stdin(path) {
+            return crate::stdin::read(format);
+        }
         match format.unwrap_or_else(|| Format::from_path(path)) {
             Format::Csv => Table::read_csv(path),
             Format::Xyz => crate::xyz::read(path),

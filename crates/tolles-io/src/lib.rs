@@ -26,6 +26,7 @@ pub mod parquet;
 pub mod schema;
 pub mod select;
 pub mod simulation;
+pub mod stdin;
 pub mod stream_line;
 pub mod table;
 pub mod xyz;

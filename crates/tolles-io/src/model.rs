@@ -58,6 +58,11 @@ pub struct ScalarModel {
     pub vectors: Vec<String>,
     /// Name of the compensated column that `compensate` adds.
     pub output_column: String,
+    /// The compensated reference magnetometer (nT) the scalar was fitted against, when it was
+    /// (`fit --reference`): the fit's target was `scalar − reference`, the aircraft's field
+    /// itself. Compensation does not read it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reference: Option<String>,
     /// Coefficients, settings and diagnostics.
     #[serde(flatten)]
     pub fit: Fit,
@@ -79,10 +84,19 @@ impl ScalarModel {
             scalar: scalar.to_string(),
             vectors: vectors.to_vec(),
             output_column: compensated_name(scalar),
+            reference: None,
             patent: physical.patent_terms(),
             physical,
             fit,
         }
+    }
+}
+
+impl ScalarModel {
+    /// Records that the fit was made against the reference magnetometer `column`.
+    pub fn with_reference(mut self, column: Option<&str>) -> Self {
+        self.reference = column.map(str::to_string);
+        self
     }
 }
 

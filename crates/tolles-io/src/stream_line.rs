@@ -63,15 +63,42 @@ impl Layout {
         fluxgates: &[&str],
         added: &[&str],
     ) -> Result<Self, String> {
-        let names: Vec<String> = split_fields(header)
+        Self::from_header_renamed(header, &[], scalars, fluxgates, added)
+    }
+
+    /// [`Layout::from_header`], with the header's columns renamed `(old, new)` first (as
+    /// [`crate::table::Table::rename`] renames; the output header then has the new names). A
+    /// column is found as in a table read whole: by name, by case when only one matches, or
+    /// as the raw channel that answers to it ([`crate::schema::aliases`]: SGL's `TIME`,
+    /// `UNCOMPMAG1`, `FLUXA_X`, …).
+    pub fn from_header_renamed(
+        header: &str,
+        renames: &[(String, String)],
+        scalars: &[&str],
+        fluxgates: &[&str],
+        added: &[&str],
+    ) -> Result<Self, String> {
+        let mut names: Vec<String> = split_fields(header)
             .map_err(|e| format!("header: {e}"))?
             .iter()
             .map(|f| f.trim().to_string())
             .collect();
+        let here = std::path::Path::new("header");
+        for (old, new) in renames {
+            crate::table::rename_header(here, &mut names, old, new)
+                .map_err(|e| format!("renaming {old} to {new}: {e}"))?;
+        }
+        let aliases = crate::schema::aliases(&names);
+        let index = |name: &str| {
+            crate::table::find_column(here, &names, name)
+                .ok()
+                .or_else(|| {
+                    let alias = aliases.iter().find(|(a, _)| a.eq_ignore_ascii_case(name));
+                    alias.map(|(_, k)| *k)
+                })
+        };
         let find = |name: &str| {
-            names
-                .iter()
-                .position(|n| n == name)
+            index(name)
                 .map(|k| (k, name.to_string()))
                 .ok_or_else(|| format!("header has no column {name:?}"))
         };
@@ -83,7 +110,19 @@ impl Layout {
                 Ok([find(&x)?, find(&y)?, find(&z)?])
             })
             .collect::<Result<_, String>>()?;
-        let mut output_header = header.to_string();
+        let mut output_header = match renames.is_empty() {
+            true => header.to_string(),
+            false => {
+                let mut text = String::new();
+                for (k, name) in names.iter().enumerate() {
+                    if k > 0 {
+                        text.push(',');
+                    }
+                    push_field(&mut text, name);
+                }
+                text
+            }
+        };
         let wanted: Vec<&str> = added.iter().copied().chain(["status"]).collect();
         for (name, _) in crate::schema::output_names(&names, &wanted) {
             output_header.push(',');
@@ -91,7 +130,7 @@ impl Layout {
         }
         Ok(Self {
             width: names.len(),
-            time: names.iter().position(|n| n == TIME_COLUMN),
+            time: index(TIME_COLUMN),
             scalars,
             fluxgates,
             output_header,
@@ -265,6 +304,26 @@ mod tests {
             &["mag_1_c"],
         )
         .unwrap()
+    }
+
+    #[test]
+    fn raw_channel_names_and_renamed_columns_are_found() {
+        let raw = "TIME,UNCOMPMAG1,FLUXA_X,FLUXA_Y,FLUXA_Z";
+        let layout = Layout::from_header(raw, &["mag_1_uc"], &["flux_a"], &["mag_1_c"]).unwrap();
+        let line = layout.parse(b"0.5,50000,1,2,3");
+        assert_eq!(
+            (line.time_s, line.fluxgates[0]),
+            (Some(0.5), [1.0, 2.0, 3.0])
+        );
+        assert_eq!(layout.output_header, format!("{raw},mag_1_c,status"));
+        let renames = [("M".to_string(), "mag_1_uc".to_string())];
+        let header = "tt,M,flux_a_x,flux_a_y,flux_a_z";
+        let layout =
+            Layout::from_header_renamed(header, &renames, &["mag_1_uc"], &["flux_a"], &[]).unwrap();
+        assert_eq!(layout.parse(b"0,7,1,2,3").scalars, [7.0]);
+        assert!(layout.output_header.starts_with("tt,mag_1_uc,flux_a_x"));
+        let e = Layout::from_header_renamed("tt", &renames, &[], &[], &[]).unwrap_err();
+        assert!(e.starts_with("renaming M to mag_1_uc: header: "), "{e}");
     }
 
     #[test]

@@ -291,27 +291,15 @@ impl Table {
     /// is no such column or another column is already called `new`. Aliases of the table are
     /// dropped (they were chosen for the old names).
     pub fn rename(&mut self, old: &str, new: &str) -> Result<(), IoError> {
-        let index = find_column(&self.path, &self.headers, old)?;
-        let new = new.trim();
-        if new.is_empty() {
-            return Err(IoError::Empty {
-                path: self.path.clone(),
-            });
-        }
-        if self
-            .headers
-            .iter()
-            .enumerate()
-            .any(|(k, h)| k != index && h == new)
-        {
-            return Err(IoError::DuplicateColumn {
-                path: self.path.clone(),
-                column: new.to_string(),
-            });
-        }
-        self.headers[index] = new.to_string();
+        rename_header(&self.path, &mut self.headers, old, new)?;
         self.aliases.clear();
         Ok(())
+    }
+
+    /// The same columns under `names` (one per column), for a reader that renamed its header.
+    pub(crate) fn set_headers(&mut self, names: Vec<String>) {
+        debug_assert_eq!(names.len(), self.headers.len());
+        self.headers = names;
     }
 
     /// Reads a CSV file with a header row.
@@ -524,6 +512,35 @@ impl Table {
             Column::Numbers(v) => format_value(v[row], out),
         }
     }
+}
+
+/// Renames header `old` (found as [`find_column`] finds it) of the file `path` to `new`; an
+/// error if there is no such header or another is already called `new`.
+pub(crate) fn rename_header(
+    path: &Path,
+    headers: &mut [String],
+    old: &str,
+    new: &str,
+) -> Result<(), IoError> {
+    let index = find_column(path, headers, old)?;
+    let new = new.trim();
+    if new.is_empty() {
+        return Err(IoError::Empty {
+            path: path.to_path_buf(),
+        });
+    }
+    if headers
+        .iter()
+        .enumerate()
+        .any(|(k, h)| k != index && h == new)
+    {
+        return Err(IoError::DuplicateColumn {
+            path: path.to_path_buf(),
+            column: new.to_string(),
+        });
+    }
+    headers[index] = new.to_string();
+    Ok(())
 }
 
 /// The index of column `name` in `headers` (of the file `path`), or an error that suggests near

@@ -22,7 +22,7 @@ pub fn page(data: &ReportData) -> Report {
     let mut report = Report::new(format!("Compensation report: {}", request.flight.display()))
         .subtitle(format!(
             "Scalar {} at {:.3} Hz, {} samples; figure-of-merit band {}–{} Hz.",
-            request.scalar,
+            request.scalar.as_deref().unwrap_or_default(),
             data.fom.fs_hz,
             data.fom.tt.len(),
             request.band.pass1_hz,

@@ -93,6 +93,14 @@ pub enum Error {
         scalar: String,
         available: Vec<String>,
     },
+    /// No scalar named, and no model holding exactly one fit to take it from.
+    #[error("{}", scalar_needed(path.as_deref(), available))]
+    ScalarNeeded {
+        /// The model file, if one was given.
+        path: Option<PathBuf>,
+        /// The scalars its fits are for.
+        available: Vec<String>,
+    },
     /// A request without the column names it needs.
     #[error("no {what} column named")]
     NoColumnNamed { what: &'static str },
@@ -247,5 +255,18 @@ impl Error {
             e.kind(),
             ErrorKind::BrokenPipe | ErrorKind::ConnectionReset | ErrorKind::ConnectionAborted
         ))
+    }
+}
+
+/// The text of [`Error::ScalarNeeded`].
+fn scalar_needed(model: Option<&std::path::Path>, available: &[String]) -> String {
+    match model {
+        None => "no scalar column named, and no model to take it from".to_string(),
+        Some(path) => format!(
+            "{}: the model holds fits for {} scalars ({}); name the one to use",
+            path.display(),
+            available.len(),
+            available.join(", ")
+        ),
     }
 }

@@ -1,12 +1,14 @@
 //! Learning a model from a calibration flight: one fit per scalar, in parallel.
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::progress::{Progress, Stage};
 use crate::read::{checked_names, Flight};
 use crate::warning::Warning;
 use rayon::prelude::*;
 use std::str::FromStr;
-use tolles_core::fit::{fit as fit_scalar, lag, Band, FitSettings, Lambda, MagnitudeChoice};
+use tolles_core::fit::{
+    fit as fit_scalar, lag, Band, FitSettings, Lambda, MagnitudeChoice, Target,
+};
 use tolles_core::model::design::Design;
 use tolles_core::model::terms::TermSet;
 use tolles_io::model::{ModelFile, ScalarModel};
@@ -65,6 +67,11 @@ pub struct FitRequest {
     pub extras: Vec<String>,
     /// The fluxgate's lag behind the scalar: none, given (s), or estimated.
     pub lag: Lag,
+    /// A compensated reference magnetometer (nT) on the same flight, e.g. the tail stinger's
+    /// `mag_1_c` for cabin sensors: each scalar minus it is the aircraft's field itself, fitted
+    /// in the full band ([`Target::Interference`]: `band`, `order`, `trim` and heading levels
+    /// do not apply).
+    pub reference: Option<String>,
 }
 
 /// How to line the fluxgate(s) up with the scalar.
@@ -118,6 +125,7 @@ impl FitRequest {
             levels: None,
             extras: Vec::new(),
             lag: Lag::None,
+            reference: None,
         }
     }
 
@@ -148,9 +156,13 @@ impl FitRequest {
             trim: self.trim,
             alternative_terms,
             magnitude: self.magnitude_choice(),
-            levels: self
-                .levels
-                .unwrap_or(self.cross_validated() && self.vectors.len() == 1),
+            levels: self.levels.unwrap_or(
+                self.cross_validated() && self.vectors.len() == 1 && self.reference.is_none(),
+            ),
+            target: match self.reference {
+                Some(_) => Target::Interference,
+                None => Target::Band,
+            },
         }
     }
 
@@ -210,6 +222,31 @@ fn poor_fit(scalar: &str, fit: &tolles_core::fit::Fit) -> Option<Warning> {
     })
 }
 
+/// What each scalar's fit explains (nT): the scalar, or the scalar minus the reference.
+fn targets(table: &Table, request: &FitRequest) -> Result<Vec<Vec<f64>>> {
+    let reference = match &request.reference {
+        Some(name) if request.scalars.contains(name) => {
+            return Err(Error::Invalid(format!(
+                "--reference {name:?} is also a scalar to fit; the reference must be another, \
+                 already compensated magnetometer"
+            )))
+        }
+        Some(name) => Some(table.numeric(name)?),
+        None => None,
+    };
+    request
+        .scalars
+        .iter()
+        .map(|name| {
+            let scalar = table.numeric(name)?;
+            Ok(match &reference {
+                Some(r) => scalar.iter().zip(r).map(|(s, r)| s - r).collect(),
+                None => scalar,
+            })
+        })
+        .collect()
+}
+
 /// Fits every scalar of `request` on the calibration flight `table`, on all cores: one model
 /// holding a fit per scalar, in the order asked for. What was noticed (a given sample rate
 /// that differs from the time column's) is added to `warnings`.
@@ -226,11 +263,7 @@ pub fn fit(
     let (fs_hz, warning) = flight.sample_rate(request.fs_hz)?;
     warnings.extend(warning);
     let settings = request.settings();
-    let columns = request
-        .scalars
-        .iter()
-        .map(|name| table.numeric(name))
-        .collect::<std::result::Result<Vec<_>, _>>()?;
+    let columns = targets(table, request)?;
     progress.begin(Stage::Fitting, None);
     let fitted: Vec<_> = columns
         .par_iter()
@@ -244,7 +277,8 @@ pub fn fit(
         .map(|(name, fitted)| {
             let fitted = fitted.map_err(|e| flight.explain(e, name))?;
             warnings.extend(poor_fit(name, &fitted));
-            Ok(ScalarModel::new(name, &request.vectors, fitted))
+            Ok(ScalarModel::new(name, &request.vectors, fitted)
+                .with_reference(request.reference.as_deref()))
         })
         .collect::<Result<Vec<_>>>()?;
     Ok(ModelFile::new(models))

@@ -189,6 +189,28 @@ fn compensated(
     Ok(result.compensated)
 }
 
+/// The scalar to work on: `scalar` when one is named, else the scalar of the only fit of the
+/// `model` read from the file `path`; [`Error::ScalarNeeded`] when neither says which.
+pub fn scalar_to_use(scalar: Option<&str>, model: Option<(&ModelFile, &Path)>) -> Result<String> {
+    if let Some(scalar) = scalar {
+        return Ok(scalar.to_string());
+    }
+    match model {
+        Some((model, _)) if model.fits.len() == 1 => Ok(model.fits[0].scalar.clone()),
+        Some((model, path)) => {
+            crate::compensate::check_model(model, path)?;
+            Err(Error::ScalarNeeded {
+                path: Some(path.to_path_buf()),
+                available: model.fits.iter().map(|f| f.scalar.clone()).collect(),
+            })
+        }
+        None => Err(Error::ScalarNeeded {
+            path: None,
+            available: Vec::new(),
+        }),
+    }
+}
+
 /// The model's fit for the scalar `scalar`; `path` names the model file in errors.
 pub fn fit_for<'m>(model: &'m ModelFile, path: &Path, scalar: &str) -> Result<&'m ScalarModel> {
     crate::compensate::check_model(model, path)?;

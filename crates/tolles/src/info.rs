@@ -7,7 +7,7 @@
 //! # let path = dir.path().join("box.csv");
 //! let flight = simulate::simulate(&simulate::SimulateRequest::default(), &Silent).unwrap();
 //! simulate::write(&flight, &path).unwrap();
-//! let about = info::info(&path, &[], &Silent, &mut Vec::new()).unwrap();
+//! let about = info::info(&path, &Default::default(), &[], &Silent, &mut Vec::new()).unwrap();
 //! assert!(about.columns.iter().any(|c| c.name == "mag_1_uc"));
 //! assert!(about.sample_rate_hz.unwrap() > 0.0);
 //! ```
@@ -113,22 +113,23 @@ impl FlightInfo {
     }
 }
 
-/// Reads the flight at `path` (any format, columns renamed `(old, new)` first) and says what it
-/// holds. Nothing about its values is an error: a time column that does not increase simply
+/// Reads the flight at `path` (any format, columns renamed `(old, new)` first, only the rows
+/// `selection` keeps) and says what it holds. Nothing about its values is an error: a time column that does not increase simply
 /// gives no sample rate.
 pub fn info(
     path: &Path,
+    selection: &tolles_io::select::RowSelection,
     renames: &[(String, String)],
     progress: &dyn Progress,
     warnings: &mut Vec<Warning>,
 ) -> Result<FlightInfo> {
     let mut read_warnings = Vec::new();
-    let table = crate::read::read_table_renamed(path, renames, progress, &mut read_warnings);
+    let table = crate::read::read_renamed(path, selection, renames, progress, &mut read_warnings);
     // What was left out and the side columns are part of the answer, not warnings.
     read_warnings
         .retain(|w| !matches!(w, Warning::ReaderNote { .. } | Warning::SideColumns { .. }));
     warnings.append(&mut read_warnings);
-    let table = table?;
+    let table = table?.table;
     let format = Format::from_path(path);
     let units = match format {
         Format::Gdf => gdf_units(path),
@@ -175,7 +176,7 @@ pub fn info(
         Some((first, finite.next_back().unwrap_or(first)))
     });
     Ok(FlightInfo {
-        path: path.to_path_buf(),
+        path: table.path().to_path_buf(),
         format: format.names()[0].to_string(),
         rows: table.len(),
         columns,
@@ -262,7 +263,7 @@ mod tests {
         )
         .unwrap();
         let mut warnings = Vec::new();
-        let about = info(&path, &[], &Silent, &mut warnings).unwrap();
+        let about = info(&path, &Default::default(), &[], &Silent, &mut warnings).unwrap();
         assert_eq!(about.rows, 3);
         assert!((about.sample_rate_hz.unwrap() - 10.0).abs() < 1e-9);
         assert_eq!(about.time_span_s, Some((0.0, 0.2)));
@@ -285,7 +286,7 @@ mod tests {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("../tolles-io/tests/fixtures/magnav_test_data_TL.mat");
         let mut warnings = Vec::new();
-        let about = info(&path, &[], &Silent, &mut warnings).unwrap();
+        let about = info(&path, &Default::default(), &[], &Silent, &mut warnings).unwrap();
         assert_eq!(
             about.side_columns,
             [

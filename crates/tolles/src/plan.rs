@@ -21,11 +21,11 @@
 
 use crate::error::{Error, Result};
 use crate::progress::Progress;
-use crate::read::{read_table, sample_rate, time_column};
+use crate::read::{sample_rate, time_column};
 use crate::warning::Warning;
 use serde_json::{json, Value};
 use std::ops::Range;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use tolles_core::flight::environment::Environment;
 use tolles_core::flight::field_estimate::level_field;
 use tolles_core::flight::plan::{Axis, BoxPlan, PatentPlan, Plan};
@@ -40,6 +40,8 @@ use tolles_core::model::interpret::AircraftField;
 use tolles_core::model::terms::TermSet;
 use tolles_core::signal::filter::{magnav_bandpass, Butterworth, FilterError};
 use tolles_io::schema::{PITCH, ROLL, YAW};
+use tolles_io::select::RowSelection;
+use tolles_io::table::Table;
 
 /// The band-pass (Hz) applied to the design rows, as in MagNav's fits.
 pub const BAND_HZ: (f64, f64) = (0.1, 0.9);
@@ -70,7 +72,14 @@ pub enum Maneuvers {
     List(String),
     /// A flown flight: its harmonic maneuvers, found in the attitude columns, weighed with its
     /// fluxgate `vector_x/_y/_z` (nT); the dip and intensity come from that fluxgate too.
-    Flown { path: PathBuf, vector: String },
+    /// Only the rows `selection` keeps are used (all when empty), after the columns are renamed
+    /// `(old, new)` (see [`crate::read::rename`]).
+    Flown {
+        path: PathBuf,
+        vector: String,
+        selection: RowSelection,
+        renames: Vec<(String, String)>,
+    },
 }
 
 /// What to evaluate.
@@ -150,8 +159,14 @@ pub fn plan(
     let mut scenario = Scenario::new(AircraftField::default(), 0);
     let mut field = request.field;
     let blocks = match &request.maneuvers {
-        Maneuvers::Flown { path, vector } => {
-            let flown = flown(path, vector, &design, progress, warnings)?;
+        Maneuvers::Flown {
+            path,
+            vector,
+            selection,
+            renames,
+        } => {
+            let read = crate::read::read_renamed(path, selection, renames, progress, warnings)?;
+            let flown = flown(&read.table, vector, &design)?;
             scenario.fs_hz = flown.fs_hz;
             field.inclination_deg = flown.dip_deg;
             field.intensity_nt = flown.intensity_nt;
@@ -256,20 +271,14 @@ struct Flown {
 
 const WHAT: &str = "identifiability";
 
-fn flown(
-    path: &Path,
-    vector: &str,
-    design: &Design,
-    progress: &dyn Progress,
-    warnings: &mut Vec<Warning>,
-) -> Result<Flown> {
-    let table = read_table(path, progress, warnings)?;
+fn flown(table: &Table, vector: &str, design: &Design) -> Result<Flown> {
+    let path = table.path();
     let flux = table.vector(vector)?;
-    let tt = time_column(&table)?.ok_or_else(|| Error::NoTimeColumn {
+    let tt = time_column(table)?.ok_or_else(|| Error::NoTimeColumn {
         path: path.to_path_buf(),
         what: WHAT,
     })?;
-    let (fs_hz, _) = sample_rate(&table, Some(&tt), None)?;
+    let (fs_hz, _) = sample_rate(table, Some(&tt), None)?;
     let (roll, pitch, yaw) = (
         table.numeric(ROLL)?,
         table.numeric(PITCH)?,
@@ -392,6 +401,8 @@ mod tests {
             maneuvers: Maneuvers::Flown {
                 path,
                 vector: "flux_a".into(),
+                selection: RowSelection::default(),
+                renames: Vec::new(),
             },
             ..PlanRequest::default()
         };

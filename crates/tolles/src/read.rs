@@ -33,7 +33,7 @@ pub struct Selection {
 }
 
 /// Reads the flight at `path` in the format its extension names (CSV, XYZ, GDF, HDF5 or
-/// Parquet) and keeps the rows `selection` selects (all when it is empty). Text files report
+/// Parquet; `-` is standard input, in the format its content shows) and keeps the rows `selection` selects (all when it is empty). Text files report
 /// their bytes read to `progress`; what the reader left out, and what the selection kept, are
 /// added to `warnings`.
 pub fn read(
@@ -57,7 +57,7 @@ pub fn read_renamed(
     let table = read_table_renamed(path, renames, progress, warnings)?;
     let (table, selected) = select(table, selection)?;
     warnings.extend(selected.clone().map(|selection| Warning::RowsSelected {
-        path: path.to_path_buf(),
+        path: table.path().to_path_buf(),
         selection,
     }));
     Ok(FlightData { table, selected })
@@ -122,6 +122,7 @@ pub fn with_aliases(table: Table, warnings: &mut Vec<Warning>) -> Table {
 fn read_raw(path: &Path, progress: &dyn Progress, warnings: &mut Vec<Warning>) -> Result<Table> {
     let format = Format::from_path(path);
     let table = match format {
+        _ if tolles_io::stdin::is_stdin(path) => Table::read(path, None)?,
         Format::Csv | Format::Xyz => {
             let file = std::fs::File::open(path).map_err(|source| IoError::Open {
                 path: path.to_path_buf(),
@@ -144,7 +145,7 @@ fn read_raw(path: &Path, progress: &dyn Progress, warnings: &mut Vec<Warning>) -
         other => Table::read(path, Some(other))?,
     };
     warnings.extend(table.notes().iter().map(|note| Warning::ReaderNote {
-        path: path.to_path_buf(),
+        path: table.path().to_path_buf(),
         note: note.clone(),
     }));
     if !table.side_columns().is_empty() {

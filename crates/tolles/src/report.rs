@@ -4,7 +4,7 @@
 //! `tolles-report` crate lays it out as HTML.
 
 use crate::error::{Error, Result};
-use crate::fom::{fit_for, fom, FomOutcome, FomRequest};
+use crate::fom::{fit_for, fom, scalar_to_use, FomOutcome, FomRequest};
 use crate::progress::Progress;
 use crate::warning::Warning;
 use std::path::PathBuf;
@@ -14,6 +14,7 @@ use tolles_core::maneuvers::fom::{bandpassed, FomSettings};
 use tolles_core::signal::metrics::std_dev;
 use tolles_core::signal::spectrum::{welch, Spectrum};
 use tolles_io::model::{ModelFile, ScalarModel};
+use tolles_io::select::RowSelection;
 
 /// The column of a simulated flight that holds the true earth field (nT).
 pub const TRUTH_COLUMN: &str = "truth_earth";
@@ -23,8 +24,8 @@ pub const TRUTH_COLUMN: &str = "truth_earth";
 pub struct ReportRequest {
     /// The flight, in any format [`crate::read`] reads, with attitude and the scalar.
     pub flight: PathBuf,
-    /// The uncompensated scalar column (nT).
-    pub scalar: String,
+    /// The uncompensated scalar column (nT); `None` takes the scalar of the model's only fit.
+    pub scalar: Option<String>,
     /// A model file with a fit for the scalar; without one, only the uncompensated flight.
     pub model: Option<PathBuf>,
     /// Band-pass (Hz) of the figure of merit and the band-passed plots; default 0.05–1 Hz.
@@ -33,6 +34,10 @@ pub struct ReportRequest {
     pub order: usize,
     /// Sample rate (Hz) when the flight has no time column (or to override it).
     pub fs_hz: Option<f64>,
+    /// Rows to report on (all when empty).
+    pub selection: RowSelection,
+    /// Columns renamed `(old, new)` right after reading (see [`crate::read::rename`]).
+    pub renames: Vec<(String, String)>,
 }
 
 impl ReportRequest {
@@ -41,11 +46,13 @@ impl ReportRequest {
         let fom = FomRequest::new(scalar);
         Self {
             flight: flight.into(),
-            scalar: scalar.to_string(),
+            scalar: Some(scalar.to_string()),
             model: None,
             band: fom.band,
             order: fom.order,
             fs_hz: None,
+            selection: RowSelection::default(),
+            renames: Vec::new(),
         }
     }
 }
@@ -124,8 +131,9 @@ pub struct ManeuverRow {
     pub after_nt: Option<f64>,
 }
 
-/// Reads the flight (and the model) of `request` and computes what its report shows. What was
-/// noticed (rows that cannot be compensated, maneuvers with gaps) is added to `warnings`.
+/// Reads the flight (and the model) of `request` and computes what its report shows; the
+/// request kept in it names the scalar used. What was noticed (rows that cannot be compensated,
+/// maneuvers with gaps, the rows selected) is added to `warnings`.
 pub fn build(
     request: &ReportRequest,
     progress: &dyn Progress,
@@ -136,17 +144,28 @@ pub fn build(
         .as_deref()
         .map(|path| ModelFile::read(path).map(|m| (m, path)))
         .transpose()?;
+    let model = model.as_ref().map(|(m, path)| (m, *path));
+    let scalar = scalar_to_use(request.scalar.as_deref(), model)?;
+    let request = &ReportRequest {
+        scalar: Some(scalar.clone()),
+        ..request.clone()
+    };
     let fit = model
-        .as_ref()
-        .map(|(model, path)| fit_for(model, path, &request.scalar).cloned())
+        .map(|(model, path)| fit_for(model, path, &scalar).cloned())
         .transpose()?;
-    let read = crate::read::read(&request.flight, &Default::default(), progress, warnings)?;
+    let read = crate::read::read_renamed(
+        &request.flight,
+        &request.selection,
+        &request.renames,
+        progress,
+        warnings,
+    )?;
     let truth = read.table.numeric(TRUTH_COLUMN).ok();
     let fom_request = FomRequest {
         band: request.band,
         order: request.order,
         fs_hz: request.fs_hz,
-        ..FomRequest::new(&request.scalar)
+        ..FomRequest::new(&scalar)
     };
     let outcome = fom(&read.table, &fom_request, fit.as_ref(), warnings)?;
     let trace_of = |x: &[f64]| trace(x, &outcome, request);

@@ -94,9 +94,18 @@ pub struct Setup {
     adapt: bool,
     max_line_bytes: usize,
     idle_timeout: Option<Duration>,
+    /// Columns of every stream's header renamed `(old, new)` before the model's are looked up.
+    renames: Vec<(String, String)>,
 }
 
 impl Setup {
+    /// The same setup with each stream's header columns renamed `(old, new)` first (see
+    /// [`Layout::from_header_renamed`]); an unknown `old` is an error of that stream's header.
+    pub fn with_renames(mut self, renames: Vec<(String, String)>) -> Self {
+        self.renames = renames;
+        self
+    }
+
     /// The streaming form of `model` (read from `path`, which names it in errors). Every fit
     /// must use a single fluxgate; fits may share one.
     pub fn new(model: &ModelFile, path: &Path, request: &StreamRequest) -> Result<Self> {
@@ -154,6 +163,7 @@ impl Setup {
             adapt: request.adapt,
             max_line_bytes: request.max_line_bytes,
             idle_timeout: request.idle_timeout,
+            renames: Vec::new(),
         })
     }
 
@@ -253,7 +263,8 @@ fn layout(setup: &Setup, raw: &[u8]) -> Result<Layout> {
     let scalars: Vec<&str> = setup.specs.iter().map(|s| s.name.as_str()).collect();
     let fluxgates: Vec<&str> = setup.fluxgates.iter().map(String::as_str).collect();
     let outputs: Vec<&str> = setup.outputs.iter().map(String::as_str).collect();
-    Layout::from_header(header, &scalars, &fluxgates, &outputs).map_err(Error::StreamHeader)
+    Layout::from_header_renamed(header, &setup.renames, &scalars, &fluxgates, &outputs)
+        .map_err(Error::StreamHeader)
 }
 
 fn format_output(
@@ -558,6 +569,7 @@ mod tests {
             adapt: true,
             max_line_bytes: DEFAULT_MAX_LINE_BYTES,
             idle_timeout: None,
+            renames: Vec::new(),
         }
     }
 

@@ -22,18 +22,17 @@ Examples:
 #[derive(clap::Args)]
 #[command(after_help = EXAMPLES)]
 pub struct Args {
-    /// Survey data (CSV, XYZ, GDF .dfn/.dat, HDF5 or Parquet by extension) with the model's
-    /// scalar and fluxgate columns
+    #[arg(help = flight_help!("Survey data with the model's scalar and fluxgate columns"))]
     pub survey: PathBuf,
     /// Model file written by `tolles fit`
     #[arg(long)]
     pub model: PathBuf,
     /// Output file, in the format its extension names (.csv, .h5/.hdf5, .parquet/.pq; any
-    /// other extension is an error); CSV on standard output if omitted
+    /// other extension is an error); CSV on standard output if omitted or `-`
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Sample rate of the survey in Hz, if it has no `tt` column (default: the model's)
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub fs: Option<f64>,
     /// The level of the aircraft's field subtracted: `mean`, its mean over the rows written,
     /// which stays in the data (MagNav's choice); `model`, the calibration flight's mean stored
@@ -57,7 +56,7 @@ pub fn run(args: Args) -> Result<()> {
     let model = tolles::model::load_model(&args.model).or_render()?;
     let request = FileRequest {
         survey: args.survey,
-        out: args.out,
+        out: crate::input::out_path(args.out),
         compensate: CompensateRequest {
             fs_hz: args.fs,
             level: args.level,

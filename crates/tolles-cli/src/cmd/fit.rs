@@ -23,7 +23,9 @@ Examples:
   tolles fit cal.csv --scalar mag_1_uc --vector flux_a --out model.json
   # MagNav.jl's exact procedure:
   tolles fit cal.csv --scalar mag_1_uc --vector flux_a --out model.json \\
-      --terms permanent,induced,eddy --lambda 0.001 --band 0.1,0.9 --order 4 --trim 20";
+      --terms permanent,induced,eddy --lambda 0.001 --band 0.1,0.9 --order 4 --trim 20
+  # A cabin magnetometer against the compensated tail stinger, in the full band:
+  tolles fit flight.h5 --scalar mag_3_uc --vector flux_a --reference mag_1_c --out cabin.json";
 
 /// Learn the aircraft's field from a calibration flight (CSV, XYZ, GDF, HDF5 or Parquet).
 ///
@@ -33,8 +35,7 @@ Examples:
 #[derive(clap::Args)]
 #[command(after_help = EXAMPLES)]
 pub struct Args {
-    /// Calibration flight: CSV, XYZ, GDF (.dfn/.dat), HDF5 (.h5/.mat) or Parquet, by extension;
-    /// time column `tt` (s) if present
+    #[arg(help = flight_help!("Calibration flight; time column `tt` (s) if present"))]
     pub cal: PathBuf,
     /// Uncompensated scalar magnetometer column (nT), e.g. mag_1_uc; several separated by
     /// commas (mag_3_uc,mag_4_uc,mag_5_uc) give one model holding a fit per scalar
@@ -46,7 +47,7 @@ pub struct Args {
     /// design in which each fluxgate adds its own block of terms, for every scalar
     #[arg(long)]
     pub vector: String,
-    /// Where to write the model (JSON); standard output if omitted
+    /// Where to write the model (JSON); standard output if omitted or `-`
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Terms: `auto`, or a list of patent, permanent|p, induced|i, it, i5, i3, eddy|e, et, e8,
@@ -61,7 +62,7 @@ pub struct Args {
     pub lambda: Lambda,
     /// Pass band LO,HI in Hz; an edge ≤ 0 or ≥ fs/2 turns band-pass into low- or high-pass,
     /// both invalid means no filtering
-    #[arg(long, default_value = "0.1,0.9")]
+    #[arg(long, default_value = "0.1,0.9", allow_hyphen_values = true)]
     pub band: String,
     /// Butterworth order (per band edge)
     #[arg(long, default_value_t = 4)]
@@ -70,7 +71,7 @@ pub struct Args {
     #[arg(long, default_value_t = 20)]
     pub trim: usize,
     /// Sample rate in Hz (required when the file has no `tt` column)
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub fs: Option<f64>,
     /// Magnitude model: `linear` (Tolles-Lawson's B̂·H), `exact` (|B + H| − |B|, fitted by
     /// Gauss-Newton) or `auto` (the one cross-validation prefers). Default: `auto` when λ is
@@ -94,6 +95,12 @@ pub struct Args {
     /// `fom` and `report` apply it
     #[arg(long, default_value = "none", allow_hyphen_values = true)]
     pub lag: tolles::fit::Lag,
+    /// A compensated reference magnetometer on the same flight (e.g. the tail stinger's
+    /// mag_1_c, for cabin sensors): the scalar minus it is the aircraft's field itself, fitted
+    /// in the full band, so --band, --order, --trim and --levels do not apply. The
+    /// reference's own errors pass into the model; compensation does not need the reference
+    #[arg(long, value_name = "COLUMN")]
+    pub reference: Option<String>,
     #[command(flatten)]
     pub select: crate::select::Selection,
 }
@@ -119,7 +126,8 @@ fn parse_on_off(text: &str) -> Result<bool, String> {
 pub fn run(args: Args) -> Result<()> {
     let request = request(&args)?;
     let table = args.select.read(&args.cal, Use::Fit)?;
-    fit_and_save(&table, &request, args.out.as_deref())
+    let out = crate::input::out_path(args.out);
+    fit_and_save(&table, &request, out.as_deref())
 }
 
 fn fit_and_save(table: &Table, request: &FitRequest, out: Option<&Path>) -> Result<()> {
@@ -150,6 +158,7 @@ fn request(args: &Args) -> Result<FitRequest> {
         magnitude: args.magnitude,
         levels: args.levels,
         lag: args.lag,
+        reference: args.reference.clone(),
         extras: match &args.extra {
             Some(list) => name_list(list, "--extra")?,
             None => Vec::new(),

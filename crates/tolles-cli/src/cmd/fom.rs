@@ -39,16 +39,17 @@ Examples:
 #[derive(clap::Args)]
 #[command(after_help = EXAMPLES)]
 pub struct Args {
-    /// Flight data (CSV, XYZ, GDF, HDF5 or Parquet, by extension) with tt, ins_roll, ins_pitch, ins_yaw and the scalar column
+    #[arg(help = flight_help!("Flight data with tt, ins_roll, ins_pitch, ins_yaw and the scalar column"))]
     pub flight: PathBuf,
-    /// Scalar magnetometer column (nT)
+    /// Scalar magnetometer column (nT); with a --model holding one fit, that fit's scalar by
+    /// default
     #[arg(long)]
-    pub scalar: String,
+    pub scalar: Option<String>,
     /// Model file written by `tolles fit`; also report the FOM after compensation
     #[arg(long)]
     pub model: Option<PathBuf>,
     /// Band-pass edges LO,HI in Hz applied before taking peak-to-peaks
-    #[arg(long, default_value = "0.05,1.0")]
+    #[arg(long, default_value = "0.05,1.0", allow_hyphen_values = true)]
     pub band: String,
     /// Butterworth order of the band-pass (per edge)
     #[arg(long, default_value_t = 4)]
@@ -57,57 +58,58 @@ pub struct Args {
     #[arg(long)]
     pub json: bool,
     /// Sample rate in Hz (default: from the tt column)
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub fs: Option<f64>,
     #[command(flatten)]
     pub select: crate::select::Selection,
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let outcome = evaluate(&args)?;
+    let (scalar, outcome) = evaluate(&args)?;
     let mut out = std::io::stdout().lock();
     if args.json {
         writeln!(out, "{}", serde_json::to_string_pretty(&outcome.to_json())?)?;
     } else {
-        write_table(&mut out, &args, &outcome)?;
+        write_table(&mut out, &args, &scalar, &outcome)?;
     }
     out.flush()?;
     Ok(())
 }
 
-/// The library's FOM of the flight the flags name, its warnings said on stderr.
-fn evaluate(args: &Args) -> Result<FomOutcome> {
+/// The scalar and the library's FOM of the flight the flags name, its warnings said on stderr.
+fn evaluate(args: &Args) -> Result<(String, FomOutcome)> {
     let (pass1_hz, pass2_hz) = parse_band(&args.band)?;
-    let request = FomRequest {
-        band: Band { pass1_hz, pass2_hz },
-        order: args.order,
-        fs_hz: args.fs,
-        ..FomRequest::new(&args.scalar)
-    };
     let model = args
         .model
         .as_deref()
         .map(|path| tolles_io::model::ModelFile::read(path).map(|m| (m, path)))
         .transpose()?;
+    let model = model.as_ref().map(|(m, path)| (m, *path));
+    let scalar = tolles::fom::scalar_to_use(args.scalar.as_deref(), model).or_render()?;
+    let request = FomRequest {
+        band: Band { pass1_hz, pass2_hz },
+        order: args.order,
+        fs_hz: args.fs,
+        ..FomRequest::new(&scalar)
+    };
     let fit = model
-        .as_ref()
-        .map(|(model, path)| tolles::fom::fit_for(model, path, &args.scalar))
+        .map(|(model, path)| tolles::fom::fit_for(model, path, &scalar))
         .transpose()
         .or_render()?;
     let table = args.select.read(&args.flight, Use::Fom)?;
     let mut warnings = Vec::new();
     let outcome = tolles::fom::fom(&table, &request, fit, &mut warnings);
     render::warnings(&mut warnings, Use::Fom);
-    outcome.or_render()
+    Ok((scalar, outcome.or_render()?))
 }
 
-fn write_table(out: &mut impl Write, args: &Args, o: &FomOutcome) -> Result<()> {
+fn write_table(out: &mut impl Write, args: &Args, scalar: &str, o: &FomOutcome) -> Result<()> {
     let (lo, hi) = o.before.band_hz;
     writeln!(
         out,
         "FOM of {}, scalar {}{}",
         args.flight.display(),
-        args.scalar,
+        scalar,
         args.model
             .as_ref()
             .map(|m| format!(", model {}", m.display()))

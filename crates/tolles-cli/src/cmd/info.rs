@@ -11,7 +11,9 @@ const EXAMPLES: &str = "\
 Examples:
   tolles info cal.csv
   tolles info Flt1003_sample.xyz --json
-  tolles info survey.dfn --rename MAGUC=mag_1_uc";
+  tolles info survey.dfn --rename MAGUC=mag_1_uc
+  tolles info cal.csv --line 1002.02
+  gunzip -c cal.csv.gz | tolles info -";
 
 /// Say what a flight file holds: columns (with units where the file states them: GDF UNITS=,
 /// HDF5 `units` attributes; and the tolles names raw channels answer to), rows, sample rate
@@ -20,21 +22,21 @@ Examples:
 #[derive(clap::Args)]
 #[command(after_help = EXAMPLES)]
 pub struct Args {
-    /// Flight: CSV, XYZ, GDF (.dfn/.dat), HDF5 (.h5/.mat) or Parquet, by extension
+    #[arg(help = flight_help!("Flight"))]
     pub flight: PathBuf,
     /// Print JSON instead of text
     #[arg(long)]
     pub json: bool,
-    /// Rename columns right after reading, e.g. --rename MAGUC=mag_1_uc (the flag may repeat)
-    #[arg(long = "rename", value_name = "OLD=NEW", value_delimiter = ',', value_parser = crate::select::parse_rename)]
-    pub renames: Vec<(String, String)>,
+    #[command(flatten)]
+    pub select: crate::select::Selection,
 }
 
 pub fn run(args: Args) -> Result<()> {
     let mut warnings = Vec::new();
     let about = tolles::info::info(
         &args.flight,
-        &args.renames,
+        &args.select.rows(),
+        &args.select.renames,
         &Terminal::default(),
         &mut warnings,
     );

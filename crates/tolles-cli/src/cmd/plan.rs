@@ -2,7 +2,7 @@
 
 use crate::progress::Terminal;
 use crate::render::{self, OrRender, Use};
-use anyhow::{anyhow, Result};
+use anyhow::{anyhow, bail, Result};
 use clap::ValueEnum;
 use std::io::Write;
 use tolles::plan::{BuiltinPlan, Maneuvers, PlanOutcome, PlanRequest, BAND_HZ};
@@ -50,7 +50,7 @@ pub enum Kind {
 #[derive(clap::Args)]
 #[command(after_help = EXAMPLES)]
 pub struct Args {
-    /// A flown calibration flight (CSV with tt, ins_roll, ins_pitch, ins_yaw and the fluxgate)
+    #[arg(help = flight_help!("A flown calibration flight with tt, ins_roll, ins_pitch, ins_yaw and the fluxgate"))]
     pub flight: Option<std::path::PathBuf>,
     /// Fluxgate prefix of the flight (flux_a reads flux_a_x, flux_a_y, flux_a_z)
     #[arg(long, requires = "flight")]
@@ -65,16 +65,21 @@ pub struct Args {
     #[arg(long)]
     pub maneuvers: Option<String>,
     /// Scalar noise level the standard errors assume (nT)
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(long, default_value_t = 0.01, allow_negative_numbers = true)]
     pub noise: f64,
-    /// Field inclination (degrees, down positive)
-    #[arg(long, default_value_t = 68.0, allow_hyphen_values = true)]
+    /// Inclination (dip) of the earth field (degrees, positive down)
+    #[arg(
+        long,
+        visible_alias = "dip",
+        default_value_t = 68.0,
+        allow_negative_numbers = true
+    )]
     pub inclination: f64,
     /// Field declination (degrees)
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub declination: f64,
     /// Field intensity (nT)
-    #[arg(long, default_value_t = 52_000.0)]
+    #[arg(long, default_value_t = 52_000.0, allow_negative_numbers = true)]
     pub intensity: f64,
     /// Terms of the model
     #[arg(long, default_value = "permanent,i5,e8")]
@@ -82,6 +87,9 @@ pub struct Args {
     /// Print JSON instead of a table
     #[arg(long)]
     pub json: bool,
+    /// Rows and names of the flight (only with a flight)
+    #[command(flatten)]
+    pub select: crate::select::Selection,
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -117,7 +125,14 @@ fn maneuvers(args: &Args) -> Result<Maneuvers> {
         return Ok(Maneuvers::Flown {
             path: path.clone(),
             vector,
+            selection: args.select.rows(),
+            renames: args.select.renames.clone(),
         });
+    }
+    if !args.select.rows().is_empty() || !args.select.renames.is_empty() {
+        bail!(
+            "--line, --time and --rename choose rows and names of a flight; give the flight file"
+        );
     }
     if let Some(list) = &args.maneuvers {
         return Ok(Maneuvers::List(list.clone()));

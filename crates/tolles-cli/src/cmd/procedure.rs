@@ -1,6 +1,5 @@
 //! `tolles procedure`: the Tolles patent's compensation procedure, step by step, on a flight.
 
-use crate::input::read_table;
 use crate::render::{self, OrRender, Use};
 use anyhow::{bail, Result};
 use std::io::Write;
@@ -11,15 +10,15 @@ use tolles_core::patent::Term;
 
 const EXAMPLES: &str = "\
 Examples:
-  # Simulate the patent's flight in a uniform field (dip 68°, declination −3°) and run its
+  # Simulate the patent's flight in a uniform field (inclination 68°, declination −3°) and run its
   # procedure on it:
   tolles simulate --plan patent --preset cabin --geology 0 --diurnal 0 \\
       --inclination 68 --declination -3 --intensity 52000 --out f.csv
   tolles procedure f.csv --scalar mag_1_uc --vector flux_a --declination -3 --out terms.json
 
-  # Without a fluxgate: direction cosines from the attitude, the dip and the declination, and
+  # Without a fluxgate: direction cosines from the attitude, the inclination and the declination, and
   # the field magnitude H from the median of the scalar:
-  tolles procedure f.csv --scalar mag_1_uc --dip 68 --declination -3
+  tolles procedure f.csv --scalar mag_1_uc --inclination 68 --declination -3
 
   # What the procedure can still do when the northeast and northwest rolls are missing:
   tolles procedure f.csv --scalar mag_1_uc --vector flux_a --ignore 'roll on 045' --ignore 'roll on 315'
@@ -46,7 +45,7 @@ procedure needed and did not find.";
 #[derive(clap::Args)]
 #[command(after_help = EXAMPLES)]
 pub struct Args {
-    /// Flight CSV
+    #[arg(help = flight_help!("Calibration flight with tt, ins_roll, ins_pitch, ins_yaw and the scalar"))]
     pub flight: PathBuf,
     /// Scalar magnetometer column (nT)
     #[arg(long)]
@@ -54,14 +53,15 @@ pub struct Args {
     /// Fluxgate columns PREFIX_x/_y/_z (nT, body frame): gives the direction cosines and H
     #[arg(long)]
     pub vector: Option<String>,
-    /// Dip of the earth field (degrees, down positive); required without --vector
-    #[arg(long, allow_negative_numbers = true)]
-    pub dip: Option<f64>,
+    /// Inclination (dip) of the earth field (degrees, positive down); required without --vector
+    #[arg(long, visible_alias = "dip", allow_negative_numbers = true)]
+    pub inclination: Option<f64>,
     /// Declination (degrees east): magnetic heading = ins_yaw − declination. With --vector it
     /// only names the headings (a maneuver matches a step's heading within 20°)
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub declination: f64,
-    /// Write the terms and the step-by-step report as JSON here
+    /// Write the terms and the step-by-step report as JSON here (`-`: standard output, in
+    /// place of the text report)
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Print the JSON on stdout instead of the text report
@@ -70,12 +70,14 @@ pub struct Args {
     /// Leave out a maneuver found in the flight, e.g. 'roll on 045' (repeatable)
     #[arg(long)]
     pub ignore: Vec<String>,
+    #[command(flatten)]
+    pub select: crate::select::Selection,
 }
 
-const NO_DIP: &str = "without --vector the direction cosines come from the attitude: give the dip with --dip DEG (and --declination DEG)";
+const NO_DIP: &str = "without --vector the direction cosines come from the attitude: give the inclination with --inclination DEG (and --declination DEG)";
 
 pub fn run(args: Args) -> Result<()> {
-    let direction = match (&args.vector, args.dip) {
+    let direction = match (&args.vector, args.inclination) {
         (Some(vector), _) => Direction::Fluxgate {
             vector: vector.clone(),
         },
@@ -87,17 +89,18 @@ pub fn run(args: Args) -> Result<()> {
         ignore: args.ignore.clone(),
         ..ProcedureRequest::new(&args.scalar, direction)
     };
-    let table = read_table(&args.flight)?;
+    let table = args.select.read(&args.flight, Use::Other)?;
     let mut warnings = Vec::new();
     let outcome = tolles::procedure::procedure(&table, &request, &mut warnings);
     render::warnings(&mut warnings, Use::Other);
     let outcome = outcome.or_render()?;
     let text = serde_json::to_string_pretty(&outcome.to_json())?;
-    if let Some(path) = &args.out {
+    let out_path = crate::input::out_path(args.out.clone());
+    if let Some(path) = &out_path {
         tolles::tolles_io::atomic::write_bytes(path, format!("{text}\n").as_bytes())?;
     }
     let mut out = std::io::stdout().lock();
-    if args.json {
+    if args.json || (args.out.is_some() && out_path.is_none()) {
         writeln!(out, "{text}")?;
     } else {
         print_report(&mut out, &outcome)?;

@@ -19,11 +19,12 @@ Examples:
 #[derive(clap::Args)]
 #[command(after_help = EXAMPLES)]
 pub struct Args {
-    /// Flight in any format `fit` reads (tt, ins_roll, ins_pitch, ins_yaw, the scalar, and the model's fluxgate)
+    #[arg(help = flight_help!("Flight with tt, ins_roll, ins_pitch, ins_yaw, the scalar, and the model's fluxgate"))]
     pub flight: PathBuf,
-    /// Uncompensated scalar column (nT)
+    /// Uncompensated scalar column (nT); with a --model holding one fit, that fit's scalar by
+    /// default
     #[arg(long)]
-    pub scalar: String,
+    pub scalar: Option<String>,
     /// Model from `tolles fit`; without it the report shows the uncompensated flight only
     #[arg(long)]
     pub model: Option<PathBuf>,
@@ -31,11 +32,13 @@ pub struct Args {
     #[arg(long)]
     pub out: PathBuf,
     /// Pass band LO,HI (Hz) of the figure of merit and the band-passed plots
-    #[arg(long, default_value = "0.05,1")]
+    #[arg(long, default_value = "0.05,1", allow_hyphen_values = true)]
     pub band: String,
     /// Sample rate (Hz), if the file has no tt column
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub fs: Option<f64>,
+    #[command(flatten)]
+    pub select: crate::select::Selection,
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -44,7 +47,10 @@ pub fn run(args: Args) -> Result<()> {
         model: args.model,
         band: Band { pass1_hz, pass2_hz },
         fs_hz: args.fs,
-        ..ReportRequest::new(args.flight, &args.scalar)
+        scalar: args.scalar,
+        selection: args.select.rows(),
+        renames: args.select.renames.clone(),
+        ..ReportRequest::new(args.flight, "")
     };
     let index = render::report(&request, &args.out)?;
     eprintln!("report written to {}", index.display());

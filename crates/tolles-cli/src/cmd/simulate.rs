@@ -60,70 +60,70 @@ pub struct Args {
     #[arg(long, value_enum, default_value = "cabin")]
     pub preset: Preset,
     /// Sample rate (Hz)
-    #[arg(long, default_value_t = 10.0)]
+    #[arg(long, default_value_t = 10.0, allow_negative_numbers = true)]
     pub fs: f64,
     /// Ground speed (m/s)
-    #[arg(long, default_value_t = 60.0)]
+    #[arg(long, default_value_t = 60.0, allow_negative_numbers = true)]
     pub speed: f64,
     /// Start latitude (degrees) for IGRF-14
-    #[arg(long, default_value_t = 45.4)]
+    #[arg(long, default_value_t = 45.4, allow_negative_numbers = true)]
     pub lat: f64,
     /// Start longitude (degrees east) for IGRF-14
-    #[arg(long, default_value_t = -75.7, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = -75.7, allow_negative_numbers = true)]
     pub lon: f64,
     /// Altitude above the WGS84 ellipsoid (m)
-    #[arg(long, default_value_t = 3000.0)]
+    #[arg(long, default_value_t = 3000.0, allow_negative_numbers = true)]
     pub alt: f64,
     /// Date YYYY-MM-DD for IGRF-14
     #[arg(long, default_value = "2025-07-01")]
     pub date: String,
-    /// Instead of IGRF: a uniform field of this inclination (degrees, down positive)…
-    #[arg(long, requires_all = ["declination", "intensity"], allow_hyphen_values = true)]
+    /// Instead of IGRF: a uniform field of this inclination (dip; degrees, positive down)…
+    #[arg(long, visible_alias = "dip", requires_all = ["declination", "intensity"], allow_negative_numbers = true)]
     pub inclination: Option<f64>,
     /// …declination (degrees east of true north)…
-    #[arg(long, requires_all = ["inclination", "intensity"], allow_hyphen_values = true)]
+    #[arg(long, requires_all = ["inclination", "intensity"], allow_negative_numbers = true)]
     pub declination: Option<f64>,
     /// …and intensity (nT)
-    #[arg(long, requires_all = ["inclination", "declination"])]
+    #[arg(long, requires_all = ["inclination", "declination"], allow_negative_numbers = true)]
     pub intensity: Option<f64>,
     /// Maneuver period (s), box and patent plans
-    #[arg(long, default_value_t = 6.0)]
+    #[arg(long, default_value_t = 6.0, allow_negative_numbers = true)]
     pub period: f64,
     /// Cycles of each maneuver, box and patent plans
     #[arg(long, default_value_t = 3)]
     pub cycles: u32,
     /// Roll amplitude (degrees); default 10 for the box, 15 for the patent plan
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub roll: Option<f64>,
     /// Pitch amplitude (degrees); default 5 for the box, 10 for the patent plan
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub pitch: Option<f64>,
     /// Yaw amplitude (degrees), box plan
-    #[arg(long, default_value_t = 5.0)]
+    #[arg(long, default_value_t = 5.0, allow_negative_numbers = true)]
     pub yaw: f64,
     /// Number of survey lines
     #[arg(long, default_value_t = 4)]
     pub lines: u32,
     /// Duration of each survey line (s)
-    #[arg(long, default_value_t = 120.0)]
+    #[arg(long, default_value_t = 120.0, allow_negative_numbers = true)]
     pub line_duration: f64,
     /// Turbulence on survey lines (degrees)
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, default_value_t = 0.5, allow_negative_numbers = true)]
     pub turbulence: f64,
     /// Largest geology anomaly (nT); 0 for none
-    #[arg(long, default_value_t = 20.0)]
+    #[arg(long, default_value_t = 20.0, allow_negative_numbers = true)]
     pub geology: f64,
     /// Diurnal variation amplitude (nT, 1 h period); 0 for none
-    #[arg(long, default_value_t = 3.0)]
+    #[arg(long, default_value_t = 3.0, allow_negative_numbers = true)]
     pub diurnal: f64,
     /// Scalar magnetometer white noise (nT)
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(long, default_value_t = 0.01, allow_negative_numbers = true)]
     pub scalar_noise: f64,
     /// Fluxgate white noise per axis (nT)
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, default_value_t = 0.5, allow_negative_numbers = true)]
     pub flux_noise: f64,
-    /// How late the fluxgate samples relative to the scalar (s)
-    #[arg(long, default_value_t = 0.0)]
+    /// How late the fluxgate samples relative to the scalar (s; negative: early)
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub flux_lag: f64,
 }
 

@@ -54,7 +54,7 @@ pub struct Args {
     #[arg(long, value_enum, default_value_t = DerivativeArg::Central)]
     pub derivative: DerivativeArg,
     /// Nominal sample rate of the stream in Hz (default: the model's)
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub fs: Option<f64>,
     /// Adapt the coefficients online (Kalman filter on band-passed rows, updated only during
     /// maneuvers); each stream starts from the model's coefficients
@@ -63,8 +63,19 @@ pub struct Args {
     /// No health lines on stderr
     #[arg(long)]
     pub quiet: bool,
+    /// Rename header columns before the model's are looked up, e.g. --rename MAGUC=mag_1_uc (the
+    /// flag may repeat); the output header has the new names. SGL's raw channel names (TIME,
+    /// UNCOMPMAGn, FLUXA_X, …) need none. A stream has no --line or --time: every line in gets
+    /// its line out
+    #[arg(long = "rename", value_name = "OLD=NEW", value_delimiter = ',', value_parser = crate::select::parse_rename)]
+    pub renames: Vec<(String, String)>,
     /// Close a TCP client that sends nothing for this many seconds (0: never)
-    #[arg(long, value_name = "SECONDS", default_value_t = 300.0)]
+    #[arg(
+        long,
+        value_name = "SECONDS",
+        default_value_t = 300.0,
+        allow_negative_numbers = true
+    )]
     pub idle_timeout: f64,
 }
 
@@ -86,7 +97,8 @@ pub fn run(args: Args) -> Result<()> {
         idle_timeout: idle_timeout(args.idle_timeout)?,
         ..StreamRequest::default()
     };
-    let setup = Arc::new(Setup::new(&model, &args.model, &request).map_err(setup_error)?);
+    let setup = Setup::new(&model, &args.model, &request).map_err(setup_error)?;
+    let setup = Arc::new(setup.with_renames(args.renames.clone()));
     let stats = Arc::new(Stats::default());
     if !args.quiet {
         let stats = Arc::clone(&stats);

@@ -8,15 +8,15 @@ use tolles_core::patent::{Maneuver, Provenance, Section};
 
 const EXAMPLES: &str = "\
 Examples:
-  # The patent's 15° rolls and pitches heading north at dip 68°:
-  tolles tables --amplitude 15 --heading 0 --dip 68
+  # The patent's 15° rolls and pitches heading north at inclination (dip) 68°:
+  tolles tables --amplitude 15 --heading 0 --inclination 68
 
   # Rolls heading east: the T row's fundamental is b·sin φ, the V row's −b·cos φ·sin θp with the
   # patent's θp = −90°:
-  tolles tables --maneuver roll --amplitude 10 --heading 90 --dip 60
+  tolles tables --maneuver roll --amplitude 10 --heading 90 --inclination 60
 
   # As JSON, for a script:
-  tolles tables --maneuver pitch --amplitude 5 --heading 45 --dip 55 --json
+  tolles tables --maneuver pitch --amplitude 5 --heading 45 --inclination 55 --json
 
 Reading a row: a term's share of the magnetometer signal is
   perm:     value (nT)        × (fundamental·sin ωt   + second·cos 2ωt   + …)
@@ -68,9 +68,14 @@ pub struct Args {
     /// Heading in degrees, clockwise from magnetic north
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub heading: f64,
-    /// Dip (inclination) of the earth field in degrees, positive down
-    #[arg(long, default_value_t = 68.0, allow_negative_numbers = true)]
-    pub dip: f64,
+    /// Inclination (dip) of the earth field in degrees, positive down
+    #[arg(
+        long,
+        visible_alias = "dip",
+        default_value_t = 68.0,
+        allow_negative_numbers = true
+    )]
+    pub inclination: f64,
     /// Print JSON instead of text
     #[arg(long)]
     pub json: bool,
@@ -89,7 +94,7 @@ pub fn run(args: Args) -> Result<()> {
                 m,
                 args.amplitude,
                 args.heading,
-                args.dip,
+                args.inclination,
             ))
         })
         .collect::<Result<Vec<_>, _>>()

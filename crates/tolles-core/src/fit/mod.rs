@@ -59,13 +59,13 @@ pub mod ridge;
 use crate::fit::choice::{choose_design, pick_magnitude, union_of_terms};
 use crate::fit::crossval::{CrossValidation, DEFAULT_FOLDS};
 use crate::fit::levels::LevelDiagnostics;
-use crate::fit::problem::{difference, Problem, Rows};
+use crate::fit::problem::{difference, AboveBand, Problem, Rows};
 use crate::fit::ridge::{RidgeError, RidgeSolution};
-use crate::model::design::Design;
+use crate::model::design::{Design, Term};
 use crate::model::magnitude::{correction, Magnitude};
-use crate::model::terms::TermSet;
+use crate::model::terms::{Column, TermSet};
 use crate::model::vector::{Fluxgates, VectorSeries};
-use crate::signal::filter::FilterError;
+use crate::signal::filter::{magnav_bandpass, Butterworth, FilterError};
 use crate::signal::segment::contiguous_runs;
 use serde::{Deserialize, Serialize};
 use std::ops::Range;
@@ -147,6 +147,34 @@ pub struct FitSettings {
     /// magnitude (see [`crate::fit::levels`]); one fluxgate only.
     #[serde(default)]
     pub levels: bool,
+    /// What the scalar given to [`fit`] is: a magnetometer's reading (band-passed), or the
+    /// interference itself (fitted in the full band).
+    #[serde(default, skip_serializing_if = "Target::is_band")]
+    pub target: Target,
+}
+
+/// What the scalar given to [`fit`] holds, and so which of its frequencies a fit may use.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Target {
+    /// A magnetometer's reading: the earth's field plus the aircraft's. Only `band` is fitted,
+    /// where the aircraft's manoeuvres dominate; below it the earth field's own changes
+    /// (geology, diurnal, the flight's path) would be taken for interference.
+    #[default]
+    Band,
+    /// The aircraft's field alone (nT): a magnetometer minus a compensated reference
+    /// magnetometer on the same flight (MagNav's `y_type = :d` for cabin sensors). The earth
+    /// field is gone, so every frequency is fitted: no filter, no trim, no heading levels
+    /// (the low frequencies are in the target already). Each run's mean is removed from the
+    /// target and the columns, because two sensors a few metres apart differ by a constant
+    /// that is not the aircraft's.
+    Interference,
+}
+
+impl Target {
+    fn is_band(&self) -> bool {
+        *self == Target::Band
+    }
 }
 
 /// Which magnitude model a fit makes.
@@ -245,6 +273,31 @@ impl FitSettings {
             alternative_terms: Vec::new(),
             magnitude: MagnitudeChoice::Linear,
             levels: false,
+            target: Target::Band,
+        }
+    }
+
+    /// With extra channels and a band whose upper edge is on: rows above the band that only
+    /// the extra channels' columns explain (see [`AboveBand`]).
+    fn above_band(&self, fs_hz: f64, union: &[Term]) -> Result<Option<AboveBand>, FitError> {
+        if self.design.extras.is_empty() || self.target != Target::Band {
+            return Ok(None);
+        }
+        let high_pass = magnav_bandpass(self.band.pass2_hz, 0.0, self.order, fs_hz)?;
+        Ok(high_pass.map(|filter| AboveBand {
+            filter,
+            extra: union
+                .iter()
+                .map(|t| matches!(t.column, Column::Extra { .. }))
+                .collect(),
+        }))
+    }
+
+    /// The filter the fit applies to every column and the target; `None` for none.
+    fn filter(&self, fs_hz: f64) -> Result<Option<Butterworth>, FitError> {
+        match self.target {
+            Target::Band => Ok(self.band.butterworth(self.order, fs_hz)?),
+            Target::Interference => Ok(None),
         }
     }
 }
@@ -415,15 +468,16 @@ pub fn fit<'a>(
         .map(|k| scalar_usable(scalar[k]) && flux.is_finite(k))
         .collect();
     check_not_constant(scalar, flux.series()[0], &usable)?;
+    let designs = settings.candidate_designs();
+    let union = union_of_terms(&designs);
     let problem = Problem {
         scalar,
         flux: &flux,
         runs: contiguous_runs(&usable, tt),
-        filter: settings.band.butterworth(settings.order, fs_hz)?,
+        filter: settings.filter(fs_hz)?,
+        above: settings.above_band(fs_hz, &union)?,
         settings,
     };
-    let designs = settings.candidate_designs();
-    let union = union_of_terms(&designs);
     let linear = |run: Range<usize>, reference: Option<&[f64]>| {
         let a = settings.design.matrix_of(&flux.slice(run.clone()), &union);
         let y = scalar[run].to_vec();
@@ -469,7 +523,10 @@ pub fn fit<'a>(
             short: band_only.short,
             runs_used: band_only.rows.len(),
             before_std: before,
-            fraction: passband_fraction(settings.band, fs_hz),
+            fraction: match settings.target {
+                Target::Band => passband_fraction(settings.band, fs_hz),
+                Target::Interference => 1.0,
+            },
         },
         chosen.cross_validation,
         chosen.scores,

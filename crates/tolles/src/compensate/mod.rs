@@ -235,7 +235,7 @@ pub struct FileRequest {
     /// Rows to compensate and write (all when empty).
     pub selection: RowSelection,
     /// Columns renamed `(old, new)` right after reading (see [`crate::read::rename`]); the
-    /// output is written under the new names. Renaming reads the survey whole.
+    /// output is written under the new names.
     pub renames: Vec<(String, String)>,
     /// Whether the survey may be read in chunks.
     pub memory: Memory,

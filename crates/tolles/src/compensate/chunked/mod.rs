@@ -44,9 +44,10 @@ use tolles_io::schema::output_names;
 /// [`Memory::Auto`] a file too large to read whole comfortably ([`needs_bounded_memory`]).
 pub fn reads_in_chunks(model: &ModelFile, request: &FileRequest) -> bool {
     let format = Format::from_path(&request.survey);
+    // Standard input (`-`) is read once, so whole.
     let size = std::fs::metadata(&request.survey)
         .ok()
-        .filter(|m| m.is_file())
+        .filter(|m| m.is_file() && !tolles_io::stdin::is_stdin(&request.survey))
         .map(|m| m.len());
     let wanted = match (request.memory, request.chunk_rows) {
         (Memory::Whole, _) => false,
@@ -69,7 +70,6 @@ pub fn reads_in_chunks(model: &ModelFile, request: &FileRequest) -> bool {
                 && f.fit.settings.design.extras.is_empty()
                 && f.fit.lag_s == 0.0)
         && request.selection.is_empty()
-        && request.renames.is_empty()
 }
 
 /// Whether reading a survey of `bytes` in `format` whole could take more than half of the
@@ -126,6 +126,19 @@ pub(super) fn compensate_file(
     let result = run(model, request, writer, progress, warnings);
     progress.finish();
     result
+}
+
+/// Renames the columns of `reader` `(old, new)` in turn, as [`crate::read::rename`] renames a
+/// table read whole (the same errors).
+fn rename(reader: &mut ChunkReader, renames: &[(String, String)]) -> Result<()> {
+    for (old, new) in renames {
+        reader.rename(old, new).map_err(|source| Error::Rename {
+            old: old.clone(),
+            new: new.clone(),
+            source: Box::new(source),
+        })?;
+    }
+    Ok(())
 }
 
 /// Rows per chunk: as requested, else the default.
@@ -218,11 +231,22 @@ impl<'r> Scanned<'r> {
     ) -> Result<Self> {
         let rows_per_chunk = chunk_rows(request.chunk_rows)?;
         let survey = &request.survey;
-        let reader = ChunkReader::open(survey, Format::from_path(survey), rows_per_chunk)?;
+        let mut reader = ChunkReader::open(survey, Format::from_path(survey), rows_per_chunk)?;
         warnings.extend(reader.notes().iter().map(|note| Warning::ReaderNote {
             path: survey.clone(),
             note: note.clone(),
         }));
+        rename(&mut reader, &request.renames)?;
+        let aliases = tolles_io::schema::aliases(reader.headers());
+        if !aliases.is_empty() {
+            warnings.push(Warning::ColumnsAliased {
+                path: survey.clone(),
+                aliases: aliases
+                    .iter()
+                    .map(|(name, k)| (reader.headers()[*k].clone(), name.clone()))
+                    .collect(),
+            });
+        }
         let plan = scan::Plan::new(&reader, model, numeric_output(request));
         if let Some(missing) = plan.nothing_to_read() {
             return Err(missing.into());
@@ -241,11 +265,9 @@ impl<'r> Scanned<'r> {
     /// The survey opened again from its first row.
     fn open(&self) -> Result<ChunkReader> {
         let survey = &self.request.survey;
-        Ok(ChunkReader::open(
-            survey,
-            Format::from_path(survey),
-            self.rows_per_chunk,
-        )?)
+        let mut reader = ChunkReader::open(survey, Format::from_path(survey), self.rows_per_chunk)?;
+        rename(&mut reader, &self.request.renames)?;
+        Ok(reader)
     }
 
     /// For Parquet output, which holds numbers only, the first cell of the file that is not one.

@@ -36,12 +36,20 @@ impl Plan {
     /// as Parquet output needs them all checked as numbers).
     pub fn new(reader: &ChunkReader, model: &ModelFile, every_column: bool) -> Self {
         let headers = reader.headers();
+        // Raw channel names answer to tolles' names, as in a table read whole.
+        let aliases = tolles_io::schema::aliases(headers);
         let mut read: Vec<usize> = match every_column {
             true => (0..headers.len()).collect(),
             false => Vec::new(),
         };
         let mut position = |name: &str| -> Result<usize, IoError> {
-            let index = find_column(reader.path(), headers, name)?;
+            let index = find_column(reader.path(), headers, name).or_else(|e| {
+                aliases
+                    .iter()
+                    .find(|(alias, _)| alias.eq_ignore_ascii_case(name))
+                    .map(|(_, k)| *k)
+                    .ok_or(e)
+            })?;
             Ok(match read.iter().position(|r| *r == index) {
                 Some(p) => p,
                 None => {
