@@ -152,14 +152,7 @@ fn read<'py>(
     Vec<(String, f64)>,
     Vec<String>,
 )> {
-    let selection = RowSelection {
-        lines: lines
-            .unwrap_or_default()
-            .iter()
-            .map(|l| l.parse().map_err(failed))
-            .collect::<PyResult<_>>()?,
-        time: time.map(|t| t.parse().map_err(failed)).transpose()?,
-    };
+    let selection = selection(lines, time)?;
     let mut warnings = Vec::new();
     let data = py
         .detach(|| tolles::read::read(&path, &selection, &Silent, &mut warnings))
@@ -466,6 +459,43 @@ fn output_names(model: &str, names: Vec<String>) -> PyResult<Vec<String>> {
         .collect())
 }
 
+/// Converts the flight file `input` to `output` (CSV, HDF5 or Parquet by extension), as
+/// `tolles convert` does. Returns (rows, columns, padded as (name, length), warnings).
+#[pyfunction]
+#[pyo3(signature = (input, output, lines=None, time=None, renames=None))]
+#[allow(clippy::type_complexity)]
+fn convert(
+    py: Python<'_>,
+    input: PathBuf,
+    output: PathBuf,
+    lines: Option<Vec<String>>,
+    time: Option<String>,
+    renames: Option<Vec<(String, String)>>,
+) -> PyResult<(usize, usize, Vec<(String, usize)>, Vec<String>)> {
+    let request = tolles::convert::ConvertRequest {
+        selection: selection(lines, time)?,
+        renames: renames.unwrap_or_default(),
+        ..tolles::convert::ConvertRequest::new(input, output)
+    };
+    let mut warnings = Vec::new();
+    let done = py
+        .detach(|| tolles::convert::convert(&request, &Silent, &mut warnings))
+        .map_err(failed)?;
+    Ok((done.rows, done.columns, done.padded, texts(&warnings)))
+}
+
+/// The row selection of Python's `line` ids and `time` range text.
+fn selection(lines: Option<Vec<String>>, time: Option<String>) -> PyResult<RowSelection> {
+    Ok(RowSelection {
+        lines: lines
+            .unwrap_or_default()
+            .iter()
+            .map(|l| l.parse().map_err(failed))
+            .collect::<PyResult<_>>()?,
+        time: time.map(|t| t.parse().map_err(failed)).transpose()?,
+    })
+}
+
 /// The model file at `path` as JSON text (checked).
 #[pyfunction]
 fn load_model(path: PathBuf) -> PyResult<String> {
@@ -571,6 +601,7 @@ fn _tolles(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("TollesError", m.py().get_type::<TollesError>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_function(wrap_pyfunction!(read, m)?)?;
+    m.add_function(wrap_pyfunction!(convert, m)?)?;
     m.add_function(wrap_pyfunction!(fit, m)?)?;
     m.add_function(wrap_pyfunction!(compensate, m)?)?;
     m.add_function(wrap_pyfunction!(fom, m)?)?;

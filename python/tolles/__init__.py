@@ -37,6 +37,7 @@ __all__ = [
     "TollesLawson",
     "TollesWarning",
     "compensate",
+    "convert",
     "fit",
     "fom",
     "load_model",
@@ -100,6 +101,45 @@ def _time_range(time: Any) -> Optional[str]:
     start, end = time
     fmt = lambda t: "" if t is None else repr(float(t))  # noqa: E731
     return f"{fmt(start)}..{fmt(end)}"
+
+
+def convert(
+    input: PathLike,
+    output: PathLike,
+    lines: Any = None,
+    time: Any = None,
+    renames: Optional[Mapping[str, str]] = None,
+) -> dict:
+    """Convert a flight file to CSV, HDF5 or Parquet, exactly as ``tolles convert`` does.
+
+    Parameters
+    ----------
+    input : str or path
+        Any file :func:`read` reads (CSV, XYZ, ASEG-GDF2, HDF5, MATLAB v5 or v7.3, Parquet).
+    output : str or path
+        ``.csv``, ``.h5``/``.hdf5`` or ``.parquet``/``.pq``; any other extension is an error.
+        Written whole or not at all.
+    lines, time : optional
+        Keep only these flight lines / this time range (s), as in :func:`read`.
+    renames : dict of old name → new name, optional
+        Columns renamed right after reading.
+
+    Returns
+    -------
+    dict
+        ``rows`` and ``columns`` written, and ``padded``: ``{name: own length}`` of the columns
+        shorter than ``rows`` (MATLAB or HDF5 arrays of another length, scalars), padded with
+        missing cells in CSV and Parquet. What was left out is warned about.
+    """
+    rows, columns, padded, notes = _tolles.convert(
+        os.fspath(input),
+        os.fspath(output),
+        _line_ids(lines),
+        _time_range(time),
+        list((renames or {}).items()),
+    )
+    _warn(notes)
+    return {"rows": rows, "columns": columns, "padded": dict(padded)}
 
 
 def read(path: PathLike, line: Any = None, time: Any = None) -> pd.DataFrame:

@@ -42,6 +42,9 @@ Examples:
   # What a flight file holds (columns, units, rows, sample rate, lines, missing values):
   tolles info cal.csv
 
+  # Any format tolles reads to CSV, HDF5 or Parquet, nothing lost:
+  tolles convert Flt1002.h5 Flt1002.csv
+
   # Simulate a flight whose truth is known:
   tolles simulate --plan box --seed 1 --out box.csv
 
@@ -70,6 +73,7 @@ enum Command {
     Compensate(cmd::compensate::Args),
     Fom(cmd::fom::Args),
     Info(cmd::info::Args),
+    Convert(cmd::convert::Args),
     Demo(cmd::demo::Args),
     Simulate(cmd::simulate::Args),
     Plan(cmd::plan::Args),
@@ -86,6 +90,7 @@ fn main() -> ExitCode {
         Command::Compensate(args) => cmd::compensate::run(args),
         Command::Fom(args) => cmd::fom::run(args),
         Command::Info(args) => cmd::info::run(args),
+        Command::Convert(args) => cmd::convert::run(args),
         Command::Demo(args) => cmd::demo::run(args),
         Command::Simulate(args) => cmd::simulate::run(args),
         Command::Plan(args) => cmd::plan::run(args),

@@ -14,15 +14,17 @@
 //! # std::fs::remove_dir_all(&dir).unwrap();
 //! ```
 //!
-//! The table's rows are as many as the most common length among the 1-D datasets. Scalar
-//! datasets (shape `()` or MATLAB's 1×1) become metadata ([`Table::metadata`]); anything else (other lengths, matrices,
-//! text, groups) is left out and named in [`Table::notes`].
+//! The table's rows are as many as the most common length among the 1-D datasets; 1-D datasets
+//! of other lengths are side columns ([`Table::side_columns`]). Scalar datasets (shape `()` or
+//! MATLAB's 1×1) become metadata ([`Table::metadata`]), or, in a file of scalars only, the
+//! columns of a one-row table; anything else (matrices, text, groups) is left out and named in
+//! [`Table::notes`].
 //!
 //! The crate used is `hdf5-pure` (pure Rust, no C library to install); it reads files written
 //! by h5py and MATLAB v7.3 (whose 512-byte user block precedes the HDF5 superblock).
 
 use crate::error::IoError;
-use crate::table::{Column, Table};
+use crate::table::{Column, SideColumn, Table, TextColumn};
 use hdf5_pure::{AttrValue, DType, Dataset, File, FileBuilder};
 use std::path::Path;
 
@@ -88,42 +90,168 @@ fn read_bytes(bytes: Vec<u8>, path: &Path) -> Result<Table, IoError> {
                 .map(|g| format!("group {g:?} is not a column; left out")),
         );
     }
-    let rows = common_length(&vectors).ok_or_else(|| {
-        invalid("no 1-D numeric dataset at the root to read as a column".to_string())
-    })?;
+    let lengths = vectors.iter().filter_map(|(_, d)| match classify(d) {
+        Ok(Kind::Vector(n)) => Some(n),
+        _ => None,
+    });
+    let Some(rows) = crate::table::most_common_length(lengths) else {
+        return scalars_only(path, metadata, notes);
+    };
     let mut headers = Vec::new();
     let mut columns = Vec::new();
+    let mut side = Vec::new();
     for (name, dataset) in vectors {
         let values = read_values(&dataset, &name, path, limit)?;
         if values.len() == rows {
             headers.push(name);
             columns.push(Column::Numbers(values));
         } else {
-            notes.push(format!(
-                "dataset {name:?} has {} values, not the {rows} of the other columns; left out",
-                values.len()
-            ));
+            side.push(SideColumn { name, values });
         }
     }
     Ok(Table::from_columns(path, headers, columns, None)?
         .with_metadata(metadata)
-        .with_notes(notes))
+        .with_side_columns(side)
+        .with_notes(notes)
+        .with_dt_from_fs())
+}
+
+/// A file of scalars only, as a one-row table of them (the sample interval also as metadata,
+/// so the sample rate is known).
+fn scalars_only(
+    path: &Path,
+    scalars: Vec<(String, f64)>,
+    notes: Vec<String>,
+) -> Result<Table, IoError> {
+    if scalars.is_empty() {
+        return Err(IoError::Invalid {
+            path: path.to_path_buf(),
+            message: "no numeric dataset at the root to read as a column".to_string(),
+        });
+    }
+    let (headers, values): (Vec<String>, Vec<f64>) = scalars.into_iter().unzip();
+    let columns = values
+        .into_iter()
+        .map(|v| Column::Numbers(vec![v]))
+        .collect();
+    Ok(Table::from_columns(path, headers, columns, None)?
+        .with_notes(notes)
+        .with_dt_from_fs())
+}
+
+/// The units each dataset at the root of the HDF5 file `path` states in a `units` (or `unit`,
+/// any case) text attribute, as `(dataset, units)`; empty when the file cannot be read (this
+/// only describes a file that was read already).
+pub fn units(path: &Path) -> Vec<(String, String)> {
+    let Ok(bytes) = std::fs::read(path) else {
+        return Vec::new();
+    };
+    let read = || -> Option<Vec<(String, String)>> {
+        let file = File::from_bytes(without_user_block(bytes)).ok()?;
+        let root = file.root();
+        let mut out = Vec::new();
+        for name in root.datasets().ok()? {
+            let Ok(attrs) = root.dataset(&name).and_then(|d| d.attrs()) else {
+                continue;
+            };
+            let unit = attrs.iter().find_map(|(key, value)| match value {
+                AttrValue::String(u) | AttrValue::AsciiString(u)
+                    if key.eq_ignore_ascii_case("units") || key.eq_ignore_ascii_case("unit") =>
+                {
+                    Some(u.trim().to_string())
+                }
+                _ => None,
+            });
+            out.extend(unit.filter(|u| !u.is_empty()).map(|u| (name, u)));
+        }
+        Some(out)
+    };
+    crate::guard::contain(
+        || Ok(read().unwrap_or_default()),
+        |message| IoError::Invalid {
+            path: path.to_path_buf(),
+            message,
+        },
+    )
+    .unwrap_or_default()
 }
 
 /// Writes `columns` as 1-D float64 datasets at the root of a new HDF5 file.
 pub fn write(path: &Path, columns: &[(String, Vec<f64>)]) -> Result<(), IoError> {
-    for (name, _) in columns {
-        check_name(path, name)?;
+    let datasets: Vec<Output<'_>> = columns
+        .iter()
+        .map(|(name, values)| Output::Numbers(name, values))
+        .collect();
+    write_datasets(path, &datasets)
+}
+
+/// One dataset [`write_datasets`] writes at the root of a file.
+#[derive(Debug, Clone, Copy)]
+pub enum Output<'a> {
+    /// A 1-D float64 dataset of any length; NaN is missing.
+    Numbers(&'a str, &'a [f64]),
+    /// A 1-D fixed-length UTF-8 string dataset of a text column's cells as written.
+    Text(&'a str, &'a TextColumn),
+    /// A scalar (shape `()`) float64 dataset, as the DAF-MIT/SGL files hold `dt` and `N`.
+    Scalar(&'a str, f64),
+}
+
+impl Output<'_> {
+    fn name(&self) -> &str {
+        match self {
+            Output::Numbers(name, _) | Output::Text(name, _) | Output::Scalar(name, _) => name,
+        }
+    }
+}
+
+/// Writes `datasets` at the root of a new HDF5 file, whole or not at all ([`crate::atomic`]).
+pub fn write_datasets(path: &Path, datasets: &[Output<'_>]) -> Result<(), IoError> {
+    for dataset in datasets {
+        check_name(path, dataset.name())?;
     }
     let mut builder = FileBuilder::new();
-    for (name, values) in columns {
-        builder.create_dataset(name).with_f64_data(values);
+    for dataset in datasets {
+        let created = builder.create_dataset(dataset.name());
+        match dataset {
+            Output::Numbers(_, values) => {
+                created.with_f64_data(values);
+            }
+            Output::Scalar(_, value) => {
+                created.with_f64_data(&[*value]).with_shape(&[]);
+            }
+            Output::Text(_, text) => {
+                let (datatype, bytes) = fixed_strings(text);
+                created.with_raw_data(datatype, bytes, text.len() as u64);
+            }
+        }
     }
     let bytes = builder.finish().map_err(|e| IoError::Write {
         path: path.to_path_buf(),
         source: std::io::Error::other(e.to_string()),
     })?;
     crate::atomic::write_bytes(path, &bytes)
+}
+
+/// The cells of `text` as one fixed-length UTF-8 string type (as long as the longest cell,
+/// shorter ones padded with NULs, which readers strip) and its bytes.
+fn fixed_strings(text: &TextColumn) -> (hdf5_pure::Datatype, Vec<u8>) {
+    let size = (0..text.len())
+        .map(|k| text.get(k).len())
+        .max()
+        .unwrap_or(0)
+        .max(1);
+    let mut bytes = Vec::with_capacity(size * text.len());
+    for k in 0..text.len() {
+        let cell = text.get(k).as_bytes();
+        bytes.extend_from_slice(cell);
+        bytes.resize(bytes.len() + size - cell.len(), 0);
+    }
+    let datatype = hdf5_pure::Datatype::String {
+        size: size as u32,
+        padding: hdf5_pure::StringPadding::NullPad,
+        charset: hdf5_pure::CharacterSet::Utf8,
+    };
+    (datatype, bytes)
 }
 
 /// The longest dataset name written (bytes). A name is stored in a message whose size has 16
@@ -268,23 +396,6 @@ fn read_values(
     Ok(values)
 }
 
-/// The most common length among the vector datasets (the longer one on a tie).
-fn common_length(vectors: &[(String, Dataset)]) -> Option<usize> {
-    let mut counts: Vec<(usize, usize)> = Vec::new();
-    for (_, dataset) in vectors {
-        if let Ok(Kind::Vector(n)) = classify(dataset) {
-            match counts.iter_mut().find(|(len, _)| *len == n) {
-                Some((_, count)) => *count += 1,
-                None => counts.push((n, 1)),
-            }
-        }
-    }
-    counts
-        .into_iter()
-        .max_by_key(|&(len, count)| (count, len))
-        .map(|(len, _)| len)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -321,6 +432,59 @@ mod tests {
         let at = bytes.windows(8).position(|w| w == dims).unwrap();
         bytes[at..at + 8].copy_from_slice(&length.to_le_bytes());
         bytes
+    }
+
+    #[test]
+    fn units_attributes_are_found_in_any_case() {
+        let dir = tempfile::TempDir::new().unwrap();
+        let path = dir.path().join("u.h5");
+        let mut builder = FileBuilder::new();
+        builder
+            .create_dataset("tt")
+            .with_f64_data(&[0.0, 0.1])
+            .set_attr("units", AttrValue::String("s".into()));
+        builder
+            .create_dataset("mag_1_uc")
+            .with_f64_data(&[5.0, 6.0])
+            .set_attr("Units", AttrValue::String(" nT ".into()));
+        builder.create_dataset("x").with_f64_data(&[1.0, 2.0]);
+        std::fs::write(&path, builder.finish().unwrap()).unwrap();
+        let mut units = super::units(&path);
+        units.sort();
+        assert_eq!(
+            units,
+            [("mag_1_uc".into(), "nT".into()), ("tt".into(), "s".into())]
+        );
+        assert!(super::units(&dir.path().join("absent.h5")).is_empty());
+    }
+
+    #[test]
+    fn text_and_scalar_datasets_are_written() {
+        let dir = tempfile::TempDir::new().unwrap();
+        let path = dir.path().join("t.h5");
+        let table = Table::from_reader("a,s\n1,x\n2,long é\n".as_bytes(), "t.csv").unwrap();
+        let Column::Text(text) = &table.columns()[1] else {
+            panic!("text")
+        };
+        write_datasets(
+            &path,
+            &[
+                Output::Numbers("a", &[1.0, 2.0]),
+                Output::Text("s", text),
+                Output::Scalar("dt", 0.1),
+                Output::Numbers("side", &[3.0]),
+            ],
+        )
+        .unwrap();
+        let file = File::open(&path).unwrap();
+        assert_eq!(
+            file.dataset("s").unwrap().read_string().unwrap(),
+            ["x", "long é"]
+        );
+        let back = read(&path).unwrap();
+        assert_eq!(back.metadata("dt"), Some(0.1));
+        assert_eq!(back.side_columns()[0].values, [3.0]);
+        assert_eq!(back.headers(), ["a"]);
     }
 
     #[test]

@@ -6,7 +6,8 @@
 //!
 //! Variables are flattened the way MagNav's test data needs:
 //! - a 1-D numeric array (N×1 or 1×N; double, single, int*, uint*, logical) is a column;
-//! - a 1×1 numeric array is a scalar ([`Table::metadata`]);
+//! - a 1×1 numeric array is a scalar ([`Table::metadata`]); in a file of scalars only, each is a
+//!   column of a one-row table instead;
 //! - a 1×1 struct contributes its fields, nested structs too, each named by its path
 //!   (`TL_data.flux_a_x`, `params.TL.lambda`);
 //! - anything else (matrices, text, cells, sparse, complex, objects, struct arrays, empty
@@ -16,9 +17,11 @@
 //! file has that name, so `--vector flux_a` finds MagNav's `TL_data` fields; otherwise by its
 //! dotted path (`TL_data.flux_a_x`). Each column has one name, so a table written back out has
 //! no column twice. As in [`crate::hdf5`], the rows are as many as the most common column
-//! length (the longer on a tie); a column of another length is left out with a note. When the
+//! length (the longer on a tie); a 1-D array of another length is kept as a side column
+//! ([`Table::side_columns`]), which fit and compensate do not use. When the
 //! file has no scalar `dt` but a scalar `fs` (Hz, as in MagNav's `TL_data`), `dt = 1 / fs` is
-//! added to the metadata so the sample rate is known.
+//! added to the metadata so the sample rate is known (as derived metadata, which a converted
+//! file does not hold: see [`Table::file_metadata`]).
 //!
 //! The parser is our own (about 400 lines): `matfile` reads no structs, and `matrw` (0.1) says
 //! its API is not stable yet; bounding every allocation by the file's size is easier to hold to
@@ -27,7 +30,7 @@
 //! (deflate's best ratio), and structs nest at most [`MAX_DEPTH`] deep.
 
 use crate::error::IoError;
-use crate::table::{Column, Table};
+use crate::table::{Column, SideColumn, Table};
 use std::io::Read;
 use std::path::Path;
 
@@ -466,26 +469,29 @@ impl Parser<'_> {
                 e.path.join(".")
             }
         };
-        let mut lengths: Vec<(usize, usize)> = Vec::new();
-        for e in &entries {
-            if let Value::Vector(v) = &e.value {
-                match lengths.iter_mut().find(|(len, _)| *len == v.len()) {
-                    Some((_, count)) => *count += 1,
-                    None => lengths.push((v.len(), 1)),
-                }
+        let lengths: Vec<usize> = entries
+            .iter()
+            .filter_map(|e| match &e.value {
+                Value::Vector(v) => Some(v.len()),
+                _ => None,
+            })
+            .collect();
+        let scalars_only = lengths.is_empty();
+        let rows = match crate::table::most_common_length(lengths) {
+            Some(rows) => rows,
+            // A file of scalars only (MagNav's `test_data_params.mat`) is a one-row table.
+            None if entries.iter().any(|e| matches!(e.value, Value::Scalar(_))) => 1,
+            None => {
+                return Err(IoError::Invalid {
+                    path: path.to_path_buf(),
+                    message: "no numeric variable or struct field to read as a column".into(),
+                })
             }
-        }
-        let rows = lengths
-            .into_iter()
-            .max_by_key(|&(len, count)| (count, len))
-            .map(|(len, _)| len)
-            .ok_or_else(|| IoError::Invalid {
-                path: path.to_path_buf(),
-                message: "no 1-D numeric variable or struct field to read as a column".into(),
-            })?;
+        };
         let mut headers = Vec::new();
         let mut columns = Vec::new();
         let mut metadata = Vec::new();
+        let mut side = Vec::new();
         let mut notes = Vec::new();
         for e in &entries {
             if e.path.iter().any(String::is_empty) {
@@ -495,33 +501,30 @@ impl Parser<'_> {
             }
             let name = name_of(e);
             match &e.value {
+                Value::Scalar(v) if scalars_only => {
+                    headers.push(name);
+                    columns.push(Column::Numbers(vec![*v]));
+                }
                 Value::Scalar(v) => metadata.push((name, *v)),
                 Value::Vector(v) if v.len() == rows => {
                     headers.push(name);
                     columns.push(Column::Numbers(v.clone()));
                 }
-                Value::Vector(v) => notes.push(format!(
-                    "variable {:?} has {} values, not the {rows} of the other columns; left out",
-                    e.path.join("."),
-                    v.len()
-                )),
+                Value::Vector(v) => side.push(SideColumn {
+                    name,
+                    values: v.clone(),
+                }),
                 Value::Other(what) => notes.push(format!(
                     "variable {:?} is {what}; left out",
                     e.path.join(".")
                 )),
             }
         }
-        let sample_interval = crate::schema::SAMPLE_INTERVAL;
-        if !metadata.iter().any(|(n, _)| n == sample_interval) {
-            if let Some(&(_, fs)) = metadata.iter().find(|(n, _)| n == "fs") {
-                if fs.is_finite() && fs > 0.0 {
-                    metadata.push((sample_interval.to_string(), 1.0 / fs));
-                }
-            }
-        }
         Ok(Table::from_columns(path, headers, columns, None)?
             .with_metadata(metadata)
-            .with_notes(notes))
+            .with_side_columns(side)
+            .with_notes(notes)
+            .with_dt_from_fs())
     }
 }
 

@@ -14,13 +14,14 @@
 //!
 //! Double, float, integer and boolean columns are read as numbers; other columns (text,
 //! nested) are left out and named in [`Table::notes`]. Written files hold optional float64
-//! columns, NaN written as null.
+//! columns, NaN written as null, and optional UTF-8 string columns for text that is not numbers
+//! ([`write_padded`]).
 
 use crate::error::IoError;
-use crate::table::{Column, Table};
-use ::parquet::basic::{Repetition, Type as PhysicalType};
+use crate::table::{Column, Table, TextColumn};
+use ::parquet::basic::{LogicalType, Repetition, Type as PhysicalType};
 use ::parquet::column::reader::{ColumnReader, ColumnReaderImpl};
-use ::parquet::data_type::{DataType, DoubleType};
+use ::parquet::data_type::{ByteArray, ByteArrayType, DataType, DoubleType};
 use ::parquet::errors::ParquetError;
 use ::parquet::file::properties::WriterProperties;
 use ::parquet::file::reader::{ChunkReader, FileReader, SerializedFileReader};
@@ -172,32 +173,119 @@ where
 /// Writes `columns` as optional float64 columns (NaN as null) to a new Parquet file, whole or
 /// not at all ([`crate::atomic`]).
 pub fn write(path: &Path, columns: &[(String, Vec<f64>)]) -> Result<(), IoError> {
+    let outputs: Vec<Output<'_>> = columns
+        .iter()
+        .map(|(name, values)| Output::Numbers(name, values))
+        .collect();
+    let rows = columns.first().map_or(0, |(_, v)| v.len());
+    write_padded(path, &outputs, rows)
+}
+
+/// One column [`write_padded`] writes.
+#[derive(Debug, Clone, Copy)]
+pub enum Output<'a> {
+    /// An optional float64 column; NaN is null.
+    Numbers(&'a str, &'a [f64]),
+    /// An optional UTF-8 string column of a text column's cells as written; an empty cell or
+    /// the format's dummy (XYZ's `*`) is null.
+    Text(&'a str, &'a TextColumn),
+}
+
+/// Writes `columns` as a Parquet file of `rows` rows, whole or not at all ([`crate::atomic`]):
+/// a column shorter than `rows` is null in the rows past its end.
+pub fn write_padded(path: &Path, columns: &[Output<'_>], rows: usize) -> Result<(), IoError> {
     let fail = |e: ParquetError| IoError::Write {
         path: path.to_path_buf(),
         source: std::io::Error::other(e.to_string()),
     };
     let file = crate::atomic::AtomicFile::create(path)?;
-    let names: Vec<&str> = columns.iter().map(|(name, _)| name.as_str()).collect();
     let handle = file.file().try_clone().map_err(|source| IoError::Write {
         path: path.to_path_buf(),
         source,
     })?;
-    let mut writer = new_writer(handle, &names).map_err(fail)?;
-    let rows = columns.first().map_or(0, |(_, v)| v.len());
+    let properties = Arc::new(WriterProperties::builder().build());
+    let mut writer =
+        SerializedFileWriter::new(handle, output_schema(columns).map_err(fail)?, properties)
+            .map_err(fail)?;
     for start in (0..rows).step_by(ROW_GROUP) {
         let end = (start + ROW_GROUP).min(rows);
         let mut group = writer.next_row_group().map_err(fail)?;
-        for (_, values) in columns {
+        for output in columns {
             let Some(mut column) = group.next_column().map_err(fail)? else {
                 break;
             };
-            write_values(&mut column, &values[start..end]).map_err(fail)?;
+            match output {
+                Output::Numbers(_, values) => {
+                    let mut part: Vec<f64> = values
+                        .get(start..end.min(values.len()))
+                        .unwrap_or(&[])
+                        .to_vec();
+                    part.resize(end - start, f64::NAN);
+                    write_values(&mut column, &part)
+                }
+                Output::Text(_, text) => write_text(&mut column, text, start..end),
+            }
+            .map_err(fail)?;
             column.close().map_err(fail)?;
         }
         group.close().map_err(fail)?;
     }
     writer.close().map_err(fail)?;
     file.commit()
+}
+
+/// Writes the cells `rows` of `text` to one column of a row group: null for a missing cell
+/// (empty or the format's dummy) and for rows past the column's end.
+fn write_text(
+    column: &mut SerializedColumnWriter<'_>,
+    text: &TextColumn,
+    rows: std::ops::Range<usize>,
+) -> Result<(), ParquetError> {
+    let mut present = Vec::new();
+    let mut defs = Vec::with_capacity(rows.len());
+    for k in rows {
+        let cell = (k < text.len())
+            .then(|| text.get(k))
+            .filter(|c| !c.is_empty());
+        match cell.filter(|_| !text.is_dummy(k)) {
+            Some(cell) => {
+                present.push(ByteArray::from(cell));
+                defs.push(1);
+            }
+            None => defs.push(0),
+        }
+    }
+    column
+        .typed::<ByteArrayType>()
+        .write_batch(&present, Some(&defs), None)?;
+    Ok(())
+}
+
+/// The schema of `columns`: optional float64 and UTF-8 string columns.
+fn output_schema(columns: &[Output<'_>]) -> Result<Arc<Type>, ParquetError> {
+    let fields = columns
+        .iter()
+        .map(|output| {
+            let builder = match output {
+                Output::Numbers(name, _) => {
+                    Type::primitive_type_builder(name, PhysicalType::DOUBLE)
+                }
+                Output::Text(name, _) => {
+                    Type::primitive_type_builder(name, PhysicalType::BYTE_ARRAY)
+                        .with_logical_type(Some(LogicalType::String))
+                }
+            };
+            builder
+                .with_repetition(Repetition::OPTIONAL)
+                .build()
+                .map(Arc::new)
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(Arc::new(
+        Type::group_type_builder("flight")
+            .with_fields(fields)
+            .build()?,
+    ))
 }
 
 /// A writer of optional float64 columns `names`; NaN is written as null.

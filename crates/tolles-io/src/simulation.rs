@@ -13,6 +13,7 @@
 //! ```
 
 use crate::error::IoError;
+use crate::format::Format;
 use crate::schema;
 use crate::table::write_columns_to;
 use serde::Serialize;
@@ -60,9 +61,24 @@ pub const COLUMNS: [(&str, &str); 18] = [
     ("truth_diurnal", "truth: diurnal variation (nT)"),
 ];
 
-/// Writes `flight` as CSV with the columns of [`COLUMNS`] that it has.
+/// Writes `flight` with the columns of [`COLUMNS`] that it has, in the format `path`'s
+/// extension names (CSV, HDF5 or Parquet; any other extension is an error, see
+/// [`Format::for_output`]).
 pub fn write_flight(path: &Path, flight: &SimulatedFlight) -> Result<(), IoError> {
-    write_columns_to(path, &flight_columns(flight))
+    let columns = flight_columns(flight);
+    match Format::for_output(path)? {
+        Format::Csv => write_columns_to(path, &columns),
+        format => {
+            let owned: Vec<(String, Vec<f64>)> = columns
+                .iter()
+                .map(|(name, values)| (name.to_string(), values.to_vec()))
+                .collect();
+            match format {
+                Format::Parquet => crate::parquet::write(path, &owned),
+                _ => crate::hdf5::write(path, &owned),
+            }
+        }
+    }
 }
 
 /// The columns of [`COLUMNS`] that `flight` has, named, in that order.

@@ -83,7 +83,8 @@ impl TextColumn {
         })
     }
 
-    fn is_dummy(&self, k: usize) -> bool {
+    /// True when cell `k` is the format's own dummy (XYZ's `*`, a GDF field's NULL).
+    pub(crate) fn is_dummy(&self, k: usize) -> bool {
         self.missing.token.is_some() && self.missing.token.as_deref() == Some(self.get(k).trim())
             || self.missing.null.is_some() && parse_cell(self.get(k)) == self.missing.null
     }
@@ -113,6 +114,33 @@ impl Column {
     }
 }
 
+/// A 1-D numeric array a file holds beside the table's columns but of another length (in
+/// MagNav's `test_data_TL.mat`, the 960-value `mag_1_uc_f_t` and the 18-value `TL_a_1` beside
+/// 1000-row columns). Fit and compensate do not use it; `tolles convert` writes it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SideColumn {
+    /// The name, as a column of the file would be named.
+    pub name: String,
+    /// The values, in the file's units; NaN is missing.
+    pub values: Vec<f64>,
+}
+
+/// The most common of `lengths` (the longer on a tie): how many rows a table read from a file of
+/// 1-D arrays of several lengths has. `None` when there are none.
+pub(crate) fn most_common_length(lengths: impl IntoIterator<Item = usize>) -> Option<usize> {
+    let mut counts: Vec<(usize, usize)> = Vec::new();
+    for n in lengths {
+        match counts.iter_mut().find(|(len, _)| *len == n) {
+            Some((_, count)) => *count += 1,
+            None => counts.push((n, 1)),
+        }
+    }
+    counts
+        .into_iter()
+        .max_by_key(|&(len, count)| (count, len))
+        .map(|(len, _)| len)
+}
+
 /// Where each row of a table is in the file it was read from, so messages about a table whose
 /// rows were selected still name the file's own lines.
 #[derive(Debug, Clone)]
@@ -134,6 +162,9 @@ pub struct Table {
     len: usize,
     origin: Origin,
     metadata: Vec<(String, f64)>,
+    /// Metadata the reader worked out rather than read (`dt` from MATLAB's `fs`).
+    derived: Vec<String>,
+    side: Vec<SideColumn>,
     notes: Vec<String>,
     aliases: Vec<(String, usize)>,
 }
@@ -172,9 +203,61 @@ impl Table {
             len,
             origin: lines.map_or(Origin::InOrder, Origin::Lines),
             metadata: Vec::new(),
+            derived: Vec::new(),
+            side: Vec::new(),
             notes: Vec::new(),
             aliases: Vec::new(),
         })
+    }
+
+    /// Adds a scalar the reader worked out from the file rather than read from it (MATLAB's
+    /// `dt = 1 / fs`): [`Table::metadata`] finds it, [`Table::file_metadata`] does not, so a
+    /// converted file holds only what the input held.
+    pub fn with_derived_metadata(mut self, name: &str, value: f64) -> Self {
+        self.metadata.push((name.to_string(), value));
+        self.derived.push(name.to_string());
+        self
+    }
+
+    /// The table with the sample interval `dt` (s) in its metadata when the file states it
+    /// otherwise: as 1 / a scalar `fs` (Hz; MagNav's `TL_data.fs`), or, in a one-row table of
+    /// a file's scalars, as its `dt` or `fs` column. Unchanged when `dt` is there already.
+    pub fn with_dt_from_fs(self) -> Self {
+        let dt = crate::schema::SAMPLE_INTERVAL;
+        if self.metadata(dt).is_some() {
+            return self;
+        }
+        let scalar = |name: &str| {
+            self.metadata(name).or_else(|| {
+                (self.len == 1)
+                    .then(|| self.numeric(name).ok().map(|v| v[0]))
+                    .flatten()
+            })
+        };
+        let interval = scalar(dt).or_else(|| scalar("fs").map(|fs| 1.0 / fs));
+        match interval.filter(|dt| dt.is_finite() && *dt > 0.0) {
+            Some(value) => self.with_derived_metadata(dt, value),
+            None => self,
+        }
+    }
+
+    /// The scalars the file itself holds (all of [`Table::all_metadata`] but those the reader
+    /// worked out).
+    pub fn file_metadata(&self) -> impl Iterator<Item = &(String, f64)> {
+        self.metadata
+            .iter()
+            .filter(|(name, _)| !self.derived.contains(name))
+    }
+
+    /// Adds 1-D arrays the file holds beside the columns, of other lengths ([`SideColumn`]).
+    pub fn with_side_columns(mut self, side: Vec<SideColumn>) -> Self {
+        self.side = side;
+        self
+    }
+
+    /// The 1-D arrays the file holds beside the columns, of other lengths; not rows of the table.
+    pub fn side_columns(&self) -> &[SideColumn] {
+        &self.side
     }
 
     /// Adds scalar values the file carries besides its columns (HDF5's `N`, `dt`).
@@ -320,7 +403,8 @@ impl Table {
     }
 
     /// A table of the rows `k` with `keep[k]` true, in order, each keeping its cells as written
-    /// and its place in the file (see [`Table::place_of`]); metadata and notes carry over.
+    /// and its place in the file (see [`Table::place_of`]); metadata, side columns (which are
+    /// not rows) and notes carry over.
     /// The result has no rows when nothing is kept.
     ///
     /// # Panics
@@ -355,6 +439,8 @@ impl Table {
                 Origin::Rows(_) | Origin::InOrder => Origin::Rows(places),
             },
             metadata: self.metadata.clone(),
+            derived: self.derived.clone(),
+            side: self.side.clone(),
             notes: self.notes.clone(),
             aliases: self.aliases.clone(),
         }
@@ -691,20 +777,53 @@ pub fn write_with_column(
 
 /// Writes the rows of `table` plus the `extra` columns (no header), as [`write_with_column`]
 /// does; a file written in chunks is the same text as one written whole.
-#[allow(clippy::needless_range_loop)] // k is a row of the table and of every extra column
 pub(crate) fn write_rows<W: std::io::Write>(
     table: &Table,
     extra: &[&[f64]],
     writer: &mut csv::Writer<W>,
 ) -> std::io::Result<()> {
+    write_padded_rows(table, extra, table.len(), writer)
+}
+
+/// Writes `table` plus the `extra` columns, of any lengths, as CSV of `rows` rows with a header
+/// row: a row past the end of the table or of an extra column has an empty cell there (a
+/// missing value). `rows` below the longest column is raised to it, so nothing is cut off.
+pub fn write_padded(
+    table: &Table,
+    extra: &[(&str, &[f64])],
+    rows: usize,
+    out: impl std::io::Write,
+) -> std::io::Result<()> {
+    let mut writer = csv::WriterBuilder::new().from_writer(out);
+    let mut header: Vec<&str> = table.headers().iter().map(String::as_str).collect();
+    header.extend(extra.iter().map(|(name, _)| *name));
+    writer.write_record(&header).map_err(into_io)?;
+    let values: Vec<&[f64]> = extra.iter().map(|(_, v)| *v).collect();
+    let longest = values.iter().map(|v| v.len()).max().unwrap_or(0);
+    write_padded_rows(
+        table,
+        &values,
+        rows.max(table.len()).max(longest),
+        &mut writer,
+    )?;
+    writer.flush()
+}
+
+fn write_padded_rows<W: std::io::Write>(
+    table: &Table,
+    extra: &[&[f64]],
+    rows: usize,
+    writer: &mut csv::Writer<W>,
+) -> std::io::Result<()> {
     let width = table.headers().len();
     let mut cells = vec![String::new(); width + extra.len()];
-    for k in 0..table.len() {
+    for k in 0..rows {
         for (j, cell) in cells.iter_mut().enumerate() {
             cell.clear();
             match j.checked_sub(width) {
-                None => table.cell_text(j, k, cell),
-                Some(e) => format_value(extra[e][k], cell),
+                None if k < table.len() => table.cell_text(j, k, cell),
+                None => {}
+                Some(e) => format_value(extra[e].get(k).copied().unwrap_or(f64::NAN), cell),
             }
         }
         writer.write_record(&cells).map_err(into_io)?;
@@ -735,10 +854,17 @@ pub fn write_columns_to(path: &Path, columns: &[(&str, &[f64])]) -> Result<(), I
     crate::atomic::write_with(path, |out| write_columns(columns, out))
 }
 
-/// Shortest text that reads back as the same f64; empty for a missing value.
+/// Shortest text that reads back as the same f64; empty for a missing value. Magnitudes below
+/// 1e-5 or from 1e17 on are written with an exponent (`3.3347e-11`), not as dozens of zeros.
 pub fn format_value(v: f64, out: &mut String) {
     use std::fmt::Write;
-    if v.is_finite() {
+    if !v.is_finite() {
+        return;
+    }
+    let magnitude = v.abs();
+    if magnitude != 0.0 && !(1e-5..1e17).contains(&magnitude) {
+        let _ = write!(out, "{v:e}");
+    } else {
         let _ = write!(out, "{v}");
     }
 }
@@ -916,10 +1042,22 @@ mod tests {
 
     #[test]
     fn format_value_round_trips() {
-        for v in [0.1, 1e-300, 50_123.456_789_012_34, -3.0] {
+        for v in [
+            0.1,
+            1e-300,
+            50_123.456_789_012_34,
+            -3.0,
+            3.334_722e-11,
+            -2e300,
+            5e-324,
+        ] {
             let mut s = String::new();
             format_value(v, &mut s);
-            assert_eq!(s.parse::<f64>().unwrap(), v);
+            assert_eq!(s.parse::<f64>().unwrap(), v, "{s}");
+            assert!(s.len() < 25, "{s}");
         }
+        let mut s = String::new();
+        format_value(50_000.0, &mut s);
+        assert_eq!(s, "50000");
     }
 }

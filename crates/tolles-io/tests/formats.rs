@@ -2,7 +2,7 @@
 //! identically, and malformed files give a one-line error naming the file.
 
 use std::path::{Path, PathBuf};
-use tolles_io::format::{write_table, Format};
+use tolles_io::format::{write_everything, write_table, Format};
 use tolles_io::table::Table;
 
 fn fixture(name: &str) -> PathBuf {
@@ -196,15 +196,46 @@ fn csv_round_trip_is_exact() {
 }
 
 #[test]
-fn writing_text_columns_to_a_binary_format_names_the_column() {
-    let t = Table::from_reader("a,name\n1,ana\n".as_bytes(), "t.csv").unwrap();
-    let path = std::env::temp_dir().join(format!("tolles-text-{}.h5", std::process::id()));
-    let err = write_table(&t, &[], &path, Format::Hdf5)
+fn text_columns_are_written_as_text_to_binary_formats() {
+    let t = Table::from_reader("a,name,n\n1,ana,7\n2,,\n".as_bytes(), "t.csv").unwrap();
+    let dir = tempfile::TempDir::new().unwrap();
+    let h5 = dir.path().join("t.h5");
+    // compensate's writer wants numbers, as its chunked writer does: the text cell is named.
+    let err = write_table(&t, &[], &h5, Format::Hdf5)
         .unwrap_err()
         .to_string();
     assert_eq!(
         err,
         "t.csv: line 2, column \"name\": \"ana\" is not a number"
+    );
+    assert!(!h5.exists());
+    let written = write_everything(&t, &h5, Format::Hdf5).unwrap();
+    assert_eq!(written.text_columns, ["name"]);
+    let file = hdf5_pure::File::open(&h5).unwrap();
+    let names = file.dataset("name").unwrap().read_string().unwrap();
+    assert_eq!(names, ["ana", ""]);
+    let back = Table::read(&h5, None).unwrap();
+    assert_eq!(back.numeric("a").unwrap(), [1.0, 2.0]);
+    assert!(back.numeric("n").unwrap()[1].is_nan());
+
+    let pq = dir.path().join("t.parquet");
+    let written = write_everything(&t, &pq, Format::Parquet).unwrap();
+    assert_eq!(written.text_columns, ["name"]);
+    use parquet::file::reader::FileReader;
+    let reader =
+        parquet::file::reader::SerializedFileReader::new(std::fs::File::open(&pq).unwrap())
+            .unwrap();
+    let rows: Vec<String> = reader
+        .get_row_iter(None)
+        .unwrap()
+        .map(|row| row.unwrap().to_string())
+        .collect();
+    assert_eq!(
+        rows,
+        [
+            "{a: 1.0, name: \"ana\", n: 7.0}",
+            "{a: 2.0, name: null, n: null}"
+        ]
     );
 }
 

@@ -44,28 +44,35 @@ fn magnav_test_data_reads_every_field_exactly() {
     }
     assert_eq!(t.metadata("fs"), Some(magnav_csv("fs")[0]));
     assert_eq!(t.metadata("dt"), Some(1.0 / magnav_csv("fs")[0]));
+    assert_eq!(t.file_metadata().count(), 1, "dt is worked out, not read");
+    // Fields of other lengths are side columns, every value kept.
+    let side: Vec<(&str, &[f64])> = t
+        .side_columns()
+        .iter()
+        .map(|c| (c.name.as_str(), c.values.as_slice()))
+        .collect();
+    assert_eq!(side.len(), 2, "{side:?}");
+    assert_eq!(side[0].0, "TL_a_1");
+    assert_eq!(side[0].1, magnav_csv("TL_a_1"));
+    assert_eq!(side[1].0, "mag_1_uc_f_t");
+    assert_eq!(side[1].1, magnav_csv("mag_1_uc_f_t"));
     let notes = t.notes().join("\n");
     for left_out in [
         "\"TL_data.A_a\" is a 1000×18 double matrix, not a column",
         "\"TL_data.A_a_f_t\" is a 960×18 double matrix",
-        "\"TL_data.TL_a_1\" has 18 values, not the 1000",
-        "\"TL_data.mag_1_uc_f_t\" has 960 values",
     ] {
         assert!(notes.contains(left_out), "{left_out} not in {notes}");
     }
-    assert_eq!(t.notes().len(), 4, "{notes}");
+    assert_eq!(t.notes().len(), 2, "{notes}");
 }
 
 #[test]
-fn magnav_params_file_has_scalars_but_no_column() {
-    let err = Table::read(&fixture("magnav_test_data_params.mat"), None)
-        .unwrap_err()
-        .to_string();
-    assert!(
-        err.contains("magnav_test_data_params.mat: no 1-D numeric"),
-        "{err}"
-    );
-    assert_eq!(err.lines().count(), 1);
+fn magnav_params_file_of_scalars_is_a_one_row_table() {
+    let t = Table::read(&fixture("magnav_test_data_params.mat"), None).unwrap();
+    assert_eq!(t.len(), 1);
+    assert!(t.headers().len() > 3, "{:?}", t.headers());
+    assert!(t.side_columns().is_empty());
+    assert_eq!(t.file_metadata().count(), 0);
 }
 
 /// What scipy's `loadmat` read from `matlab_v5.mat` (`scripts/fixtures/gen_mat_fixtures.py`):
@@ -116,12 +123,16 @@ fn scipy_savemat_files_read_like_loadmat() {
         assert_eq!(t.metadata("gain"), Some(2.5));
         assert_eq!(t.metadata("N"), Some(8.0));
         assert_eq!(t.metadata("dt"), Some(0.1));
+        let short = &t.side_columns()[0];
+        assert_eq!(
+            (short.name.as_str(), &short.values[..]),
+            ("short", &[1.0, 2.0, 3.0][..])
+        );
         let notes = t.notes().join("\n");
         for left_out in [
             "\"A\" is a 8×2 double matrix, not a column",
             "\"label\" is a 1×9 char array",
             "\"notes\" is a 1×2 cell array",
-            "\"short\" has 3 values, not the 8",
         ] {
             assert!(
                 notes.contains(left_out),

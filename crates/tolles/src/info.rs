@@ -27,7 +27,8 @@ use tolles_io::table::{Column, Table};
 pub struct ColumnInfo {
     /// The name as the file (after renames) has it.
     pub name: String,
-    /// Units as the file states them (a GDF `.dfn`'s `UNITS=`), if it does.
+    /// Units as the file states them (a GDF `.dfn`'s `UNITS=`/`UNIT=`, an HDF5 dataset's
+    /// `units` attribute), if it does; CSV, XYZ, Parquet and MATLAB v5 files state none.
     pub unit: Option<String>,
     /// tolles' names the column also answers to (SGL raw channels, e.g. `ins_yaw` for AZIMUTH).
     pub aliases: Vec<String>,
@@ -58,14 +59,21 @@ pub struct FlightInfo {
     pub time_span_s: Option<(f64, f64)>,
     /// The flight lines in the order they first appear (when there is a `line` column).
     pub lines: Option<Vec<LineInfo>>,
-    /// Scalars the file carries besides its columns (HDF5's `dt`, `N`).
+    /// Scalars the file carries besides its columns (HDF5's `dt`, `N`; MATLAB's `fs`), and a
+    /// `dt` (s) worked out from `fs`.
     pub metadata: Vec<(String, f64)>,
+    /// 1-D arrays of other lengths than the rows (MATLAB, HDF5), as `(name, length)`: not used
+    /// by fit or compensate; `tolles convert` writes them.
+    pub side_columns: Vec<(String, usize)>,
+    /// What the reader left out (matrices, text, cells, groups), one sentence each.
+    pub left_out: Vec<String>,
 }
 
 impl FlightInfo {
     /// As JSON: `{"path", "format", "rows", "sample_rate_hz", "time_span_s": [start, end],
     /// "lines": [{"id", "rows"}], "columns": [{"name", "unit", "aliases", "missing",
-    /// "non_numeric"}], "metadata": {name: value}}`; absent values are `null`.
+    /// "non_numeric"}], "metadata": {name: value}, "side_columns": [{"name", "length"}],
+    /// "left_out": [sentence]}`; absent values are `null`.
     pub fn to_json(&self) -> Value {
         let columns: Vec<Value> = self
             .columns
@@ -95,6 +103,12 @@ impl FlightInfo {
             "lines": lines,
             "columns": columns,
             "metadata": metadata,
+            "side_columns": self
+                .side_columns
+                .iter()
+                .map(|(name, length)| json!({"name": name, "length": length}))
+                .collect::<Vec<_>>(),
+            "left_out": self.left_out,
         })
     }
 }
@@ -109,12 +123,18 @@ pub fn info(
     progress: &dyn Progress,
     warnings: &mut Vec<Warning>,
 ) -> Result<FlightInfo> {
-    let table = crate::read::read_renamed(path, selection, renames, progress, warnings)?.table;
+    let mut read_warnings = Vec::new();
+    let table = crate::read::read_renamed(path, selection, renames, progress, &mut read_warnings);
+    // What was left out and the side columns are part of the answer, not warnings.
+    read_warnings
+        .retain(|w| !matches!(w, Warning::ReaderNote { .. } | Warning::SideColumns { .. }));
+    warnings.append(&mut read_warnings);
+    let table = table?.table;
     let format = Format::from_path(path);
-    let units = if format == Format::Gdf {
-        gdf_units(path)
-    } else {
-        Vec::new()
+    let units = match format {
+        Format::Gdf => gdf_units(path),
+        Format::Hdf5 => tolles_io::hdf5::units(path),
+        _ => Vec::new(),
     };
     let columns = table
         .headers()
@@ -164,6 +184,12 @@ pub fn info(
         time_span_s,
         lines: lines(&table),
         metadata: table.all_metadata().to_vec(),
+        side_columns: table
+            .side_columns()
+            .iter()
+            .map(|c| (c.name.clone(), c.values.len()))
+            .collect(),
+        left_out: table.notes().to_vec(),
     })
 }
 
@@ -252,5 +278,31 @@ mod tests {
             (1, 2)
         );
         assert!(matches!(warnings[0], Warning::ColumnsAliased { .. }));
+        assert!(about.side_columns.is_empty() && about.left_out.is_empty());
+    }
+
+    #[test]
+    fn side_columns_and_left_out_arrays_are_described_not_warned() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../tolles-io/tests/fixtures/magnav_test_data_TL.mat");
+        let mut warnings = Vec::new();
+        let about = info(&path, &Default::default(), &[], &Silent, &mut warnings).unwrap();
+        assert_eq!(
+            about.side_columns,
+            [
+                ("TL_a_1".to_string(), 18),
+                ("mag_1_uc_f_t".to_string(), 960)
+            ]
+        );
+        assert_eq!(about.left_out.len(), 2, "{:?}", about.left_out);
+        assert!(
+            about.left_out[0].contains("1000×18"),
+            "{:?}",
+            about.left_out
+        );
+        assert!(warnings.is_empty(), "{warnings:?}");
+        assert!((about.sample_rate_hz.unwrap() - 10.0).abs() < 1e-6);
+        let json = about.to_json();
+        assert_eq!(json["side_columns"][1]["length"], 960);
     }
 }

@@ -40,6 +40,7 @@
 //! ## What is where
 //! - [`read`]: flights from any format, row selection by line and time, sample rate;
 //! - [`fit`]: one or several scalars, in parallel, to a [`model::ModelFile`];
+//! - [`convert`]: any format tolles reads to CSV, HDF5 or Parquet, losing nothing;
 //! - [`info`]: what a flight file holds (columns, units, rows, sample rate, lines, missing values);
 //! - [`model`]: saving and loading models;
 //! - [`compensate`]: applying a model, whole in memory or in bounded memory ([`compensate::Memory`]);
@@ -64,6 +65,7 @@
 //! The numerics live in [`tolles_core`], the formats in [`tolles_io`].
 
 pub mod compensate;
+pub mod convert;
 pub mod demo;
 pub mod error;
 pub mod fit;

@@ -149,6 +149,17 @@ fn read_raw(path: &Path, progress: &dyn Progress, warnings: &mut Vec<Warning>) -
         path: table.path().to_path_buf(),
         note: note.clone(),
     }));
+    if !table.side_columns().is_empty() {
+        warnings.push(Warning::SideColumns {
+            path: path.to_path_buf(),
+            rows: table.len(),
+            columns: table
+                .side_columns()
+                .iter()
+                .map(|c| (c.name.clone(), c.values.len()))
+                .collect(),
+        });
+    }
     Ok(table)
 }
 

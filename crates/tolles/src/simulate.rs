@@ -211,7 +211,8 @@ pub fn simulate_plan(
     })
 }
 
-/// Writes the flight as CSV to `path` and its JSON sidecar (every parameter and the true terms)
+/// Writes the flight to `path` (CSV, HDF5 or Parquet by its extension; any other is an error)
+/// and its JSON sidecar (every parameter and the true terms)
 /// beside it; returns the sidecar's path.
 pub fn write(simulated: &Simulated, path: &Path) -> Result<PathBuf> {
     write_flight(path, &simulated.flight)?;

@@ -71,6 +71,21 @@ pub enum Warning {
         path: PathBuf,
         aliases: Vec<(String, String)>,
     },
+    /// 1-D arrays of a MATLAB or HDF5 file whose length is not the table's `rows`, as
+    /// `(name, length)`: kept beside the table ([`tolles_io::table::Table::side_columns`]) but
+    /// not used, except by `convert`.
+    SideColumns {
+        path: PathBuf,
+        rows: usize,
+        columns: Vec<(String, usize)>,
+    },
+    /// Columns of a written file shorter than its `rows`, padded with missing cells (a MATLAB
+    /// or HDF5 array of another length converted to CSV or Parquet), as `(name, own length)`.
+    Padded {
+        path: PathBuf,
+        rows: usize,
+        columns: Vec<(String, usize)>,
+    },
     /// Anything else, as a sentence that names the file.
     Other(String),
 }
@@ -137,7 +152,30 @@ impl fmt::Display for Warning {
                     .collect();
                 write!(f, "{}: using columns {}", path.display(), list.join(", "))
             }
+            Warning::SideColumns { path, rows, columns } => write!(
+                f,
+                "{}: not used, as their lengths are not the {rows} rows of the other columns: {}",
+                path.display(),
+                name_lengths(columns)
+            ),
+            Warning::Padded { path, rows, columns } => {
+                write!(
+                    f,
+                    "{}: padded to {rows} rows with empty cells: {}",
+                    path.display(),
+                    name_lengths(columns)
+                )
+            }
             Warning::Other(text) => f.write_str(text),
         }
     }
+}
+
+/// `a (960), b (18)`.
+fn name_lengths(columns: &[(String, usize)]) -> String {
+    let list: Vec<String> = columns
+        .iter()
+        .map(|(name, len)| format!("{name} ({len})"))
+        .collect();
+    list.join(", ")
 }

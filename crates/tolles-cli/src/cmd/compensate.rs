@@ -27,8 +27,8 @@ pub struct Args {
     /// Model file written by `tolles fit`
     #[arg(long)]
     pub model: PathBuf,
-    /// Output file, in the format its extension names (.csv, .h5/.hdf5/.mat, .parquet/.pq);
-    /// CSV on standard output if omitted or `-`
+    /// Output file, in the format its extension names (.csv, .h5/.hdf5, .parquet/.pq; any
+    /// other extension is an error); CSV on standard output if omitted or `-`
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Sample rate of the survey in Hz, if it has no `tt` column (default: the model's)

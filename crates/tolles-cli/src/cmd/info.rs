@@ -15,9 +15,10 @@ Examples:
   tolles info cal.csv --line 1002.02
   gunzip -c cal.csv.gz | tolles info -";
 
-/// Say what a flight file holds: columns (with units where the file states them, and the
-/// tolles names raw channels answer to), rows, sample rate (from tt), lines, time span and
-/// missing values per column.
+/// Say what a flight file holds: columns (with units where the file states them: GDF UNITS=,
+/// HDF5 `units` attributes; and the tolles names raw channels answer to), rows, sample rate
+/// (from tt, else the file's dt or fs), lines, time span, missing values per column, scalars,
+/// arrays of other lengths and what the reader left out.
 #[derive(clap::Args)]
 #[command(after_help = EXAMPLES)]
 pub struct Args {
@@ -73,6 +74,20 @@ fn text(about: &FlightInfo) -> String {
     }
     for (name, value) in &about.metadata {
         s += &format!("{name} = {value}\n");
+    }
+    if !about.side_columns.is_empty() {
+        let list: Vec<String> = about
+            .side_columns
+            .iter()
+            .map(|(name, length)| format!("{name} ({length})"))
+            .collect();
+        s += &format!(
+            "other lengths (not used; tolles convert keeps them): {}\n",
+            list.join(", ")
+        );
+    }
+    for note in &about.left_out {
+        s += &format!("left out: {note}\n");
     }
     let width = about
         .columns

@@ -1,6 +1,7 @@
 //! One module per subcommand.
 
 pub mod compensate;
+pub mod convert;
 pub mod demo;
 pub mod fit;
 pub mod fom;

@@ -52,7 +52,8 @@ pub struct Args {
     /// Seed of noise, turbulence and geology
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Output CSV (the sidecar goes next to it, with extension .json)
+    /// Output file: .csv, .h5/.hdf5 or .parquet/.pq by extension (the sidecar goes next to it,
+    /// with extension .json)
     #[arg(long)]
     pub out: PathBuf,
     /// Installation: sets the aircraft field and its extras

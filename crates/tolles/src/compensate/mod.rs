@@ -183,7 +183,10 @@ pub fn write_compensated(
         .map(|c| (c.name.clone(), c.values.clone()))
         .collect();
     match destination {
-        Destination::File(path) => Ok(write_table(table, &extra, &path, Format::from_path(&path))?),
+        Destination::File(path) => {
+            write_table(table, &extra, &path, Format::for_output(&path)?)?;
+            Ok(())
+        }
         Destination::Csv(out) => write_with_column(table, &extra, &mut *out)
             .and_then(|_| out.flush())
             .map_err(|source| Error::Write {
@@ -272,6 +275,10 @@ pub fn compensate_file(
     progress: &dyn crate::progress::Progress,
     warnings: &mut Vec<Warning>,
 ) -> Result<FileOutcome> {
+    if let Some(out) = &request.out {
+        // Before any work: an output named in no format tolles writes is a mistake.
+        Format::for_output(out)?;
+    }
     if reads_in_chunks(model, request) {
         return chunked::compensate_file(model, request, writer, progress, warnings);
     }
