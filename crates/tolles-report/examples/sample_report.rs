@@ -126,6 +126,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 BarSeries::new("compensated", vec![0.26, 0.31, 0.22, f64::NAN]).colour(Colour::COMPENSATED),
             ],
             caption: Some("Line 1002.05 has no compensated value (no bar).".into()),
+            log_y: true,
         });
     if missing_image {
         report = report.image("plots/missing.svg", "an image that does not exist");

@@ -240,6 +240,7 @@ fn fom_chart(data: &ReportData) -> BarChart {
             "FOM = sum of the bars: {:.3} nT before{after}.",
             data.fom.before.fom_nt
         )),
+        log_y: true,
     }
 }
 

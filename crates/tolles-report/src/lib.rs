@@ -454,7 +454,7 @@ mod tests {
                 y_label: "nT".into(),
                 categories: vec!["a".into(), "b".into()],
                 series: vec![BarSeries::new("before", vec![3.0, 4.0])],
-                caption: None,
+                ..BarChart::default()
             })
     }
 
@@ -608,7 +608,7 @@ mod tests {
             y_label: "nT".into(),
             categories: vec!["only".into()],
             series: vec![BarSeries::new("s", vec![2.5])],
-            caption: None,
+            ..BarChart::default()
         };
         let svg = chart.to_svg().unwrap().svg;
         assert!(

@@ -15,7 +15,7 @@
 //! assert!(svg.svg.starts_with("<svg") && svg.svg.contains("<polyline"));
 //! ```
 
-use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
 use crate::decimate::polylines;
@@ -103,8 +103,12 @@ pub struct LinePlot {
     pub y_label: String,
     /// The lines.
     pub series: Vec<Series>,
-    /// Logarithmic y axis (for spectra); values ≤ 0 are gaps.
+    /// Logarithmic x axis, decades labelled; values ≤ 0 are gaps.
+    pub log_x: bool,
+    /// Logarithmic y axis (for spectra), decades labelled; values ≤ 0 are gaps.
     pub log_y: bool,
+    /// Shaded intervals of the x axis (pass bands, windows), drawn under the lines.
+    pub spans: Vec<Span>,
     /// Fixed x range; `None` spans the finite data.
     pub x_range: Option<(f64, f64)>,
     /// Fixed y range; `None` spans the drawable data with a margin.
@@ -122,8 +126,12 @@ pub struct BarChart {
     pub y_label: String,
     /// Category names along the x axis.
     pub categories: Vec<String>,
-    /// `(name, value per category)`; non-finite values draw no bar.
+    /// `(name, value per category)`; non-finite values (and values ≤ 0 on a log axis) draw
+    /// no bar.
     pub series: Vec<BarSeries>,
+    /// Logarithmic value axis, decades labelled, for values spanning decades; bars rise from
+    /// the bottom of the axis.
+    pub log_y: bool,
     /// A sentence shown under the chart.
     pub caption: Option<String>,
 }
@@ -200,15 +208,24 @@ impl LinePlot {
                 });
             }
         }
-        let drawable = |v: f64| v.is_finite() && (!self.log_y || v > 0.0);
         let legend: Vec<(String, Colour)> = self
             .series
             .iter()
             .map(|s| s.name.clone())
             .zip(colours(self.series.iter().map(|s| s.colour)))
             .collect();
+        // Everything from here on is in axis units: log10 of the value on a log axis, where
+        // undrawable values (≤ 0, non-finite) become NaN and so gaps.
+        let on_axes: Vec<(Vec<f64>, Vec<f64>)> = self
+            .series
+            .iter()
+            .map(|s| (to_axis(&s.x, self.log_x), to_axis(&s.y, self.log_y)))
+            .collect();
         let mut notes = Vec::new();
-        let Some(x_range) = self.x_range.or_else(|| x_extent(&self.series, drawable)) else {
+        let fixed_x = self.x_range.and_then(|r| range_on_axis(r, self.log_x));
+        let Some(x_range) = fixed_x.or_else(|| {
+            extent(on_axes.iter().flat_map(drawn_x)).map(|r| axis_range(r, self.log_x, false))
+        }) else {
             notes.push("No finite values to plot.".to_string());
             return Ok(RenderedPlot {
                 svg: empty_svg(),
@@ -218,23 +235,23 @@ impl LinePlot {
         };
         let y_range = self
             .y_range
-            .or_else(|| y_extent(&self.series, drawable, self.log_y))
+            .and_then(|r| range_on_axis(r, self.log_y))
+            .or_else(|| {
+                extent(on_axes.iter().flat_map(drawn_y)).map(|r| axis_range(r, self.log_y, true))
+            })
             .unwrap_or((0.0, 1.0));
 
-        let plot_columns = PLOT_WIDTH as usize;
         let mut lines = Vec::new();
         let (mut total, mut drawn, mut gaps) = (0, 0, 0);
-        for (s, (_, colour)) in self.series.iter().zip(&legend) {
-            let runs = polylines(&s.x, &s.y, x_range, plot_columns, |v| {
-                !self.log_y || v > 0.0
-            });
-            total += s.y.len();
+        for ((x, y), (_, colour)) in on_axes.iter().zip(&legend) {
+            let runs = polylines(x, y, x_range, PLOT_WIDTH as usize, |_| true);
+            total += y.len();
             drawn += runs.iter().map(Vec::len).sum::<usize>();
-            gaps +=
-                s.x.iter()
-                    .zip(&s.y)
-                    .filter(|(x, y)| !(x.is_finite() && drawable(**y)))
-                    .count();
+            gaps += x
+                .iter()
+                .zip(y)
+                .filter(|(x, y)| !(x.is_finite() && y.is_finite()))
+                .count();
             lines.push((runs, *colour));
         }
         if drawn < total.saturating_sub(gaps) {
@@ -245,7 +262,7 @@ impl LinePlot {
             ));
         }
         if gaps > 0 {
-            let what = if self.log_y {
+            let what = if self.log_x || self.log_y {
                 "non-finite or non-positive"
             } else {
                 "non-finite"
@@ -261,39 +278,117 @@ impl LinePlot {
             let root =
                 SVGBackend::with_string(&mut svg, (PLOT_WIDTH, PLOT_HEIGHT)).into_drawing_area();
             root.fill(&WHITE).map_err(|e| plot_error(&self.title, e))?;
-            let x_spec = x_range.0..x_range.1;
-            let result = if self.log_y {
-                draw_lines(
-                    &root,
-                    x_spec,
-                    (y_range.0..y_range.1).log_scale(),
-                    self,
-                    &lines,
-                )
-            } else {
-                draw_lines(&root, x_spec, y_range.0..y_range.1, self, &lines)
-            };
-            result.map_err(|e| plot_error(&self.title, e))?;
+            draw_lines(&root, x_range, y_range, self, &lines)
+                .map_err(|e| plot_error(&self.title, e))?;
             root.present().map_err(|e| plot_error(&self.title, e))?;
         }
         Ok(RenderedPlot { svg, legend, notes })
     }
 }
 
+/// A shaded interval of the x axis with a label, such as a filter's pass band.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Span {
+    /// Text drawn at the top of the span.
+    pub label: String,
+    /// Start (units of the plot's x axis).
+    pub from: f64,
+    /// End (units of the plot's x axis).
+    pub to: f64,
+    /// Fill colour (drawn translucent).
+    pub colour: Colour,
+}
+
+/// The values as placed on an axis: unchanged on a linear axis, log10 on a logarithmic one
+/// (where values ≤ 0 become NaN, a gap); non-finite values stay non-finite.
+fn to_axis(values: &[f64], log: bool) -> Vec<f64> {
+    if !log {
+        return values.to_vec();
+    }
+    values
+        .iter()
+        .map(|&v| if v > 0.0 { v.log10() } else { f64::NAN })
+        .collect()
+}
+
+/// A fixed range (data units) on the axis; `None` if it cannot be drawn there.
+fn range_on_axis((lo, hi): (f64, f64), log: bool) -> Option<(f64, f64)> {
+    let r = to_axis(&[lo, hi], log);
+    (r[0].is_finite() && r[1].is_finite() && r[0] < r[1]).then_some((r[0], r[1]))
+}
+
+fn drawn_points((x, y): &(Vec<f64>, Vec<f64>)) -> impl Iterator<Item = (f64, f64)> + '_ {
+    x.iter()
+        .zip(y)
+        .filter(|(x, y)| x.is_finite() && y.is_finite())
+        .map(|(x, y)| (*x, *y))
+}
+
+fn drawn_x(xy: &(Vec<f64>, Vec<f64>)) -> impl Iterator<Item = f64> + '_ {
+    drawn_points(xy).map(|(x, _)| x)
+}
+
+fn drawn_y(xy: &(Vec<f64>, Vec<f64>)) -> impl Iterator<Item = f64> + '_ {
+    drawn_points(xy).map(|(_, y)| y)
+}
+
+fn extent(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
+    min_max(values.filter(|v| v.is_finite()))
+}
+
+/// The axis range (axis units) for data spanning `(lo, hi)`: whole decades on a log axis, so
+/// both ends carry a decade tick; a margin on a linear value axis (`pad`).
+fn axis_range((lo, hi): (f64, f64), log: bool, pad: bool) -> (f64, f64) {
+    if log {
+        let (lo, hi) = (lo.floor(), hi.ceil());
+        return if lo < hi {
+            (lo, hi)
+        } else {
+            (lo - 1.0, hi + 1.0)
+        };
+    }
+    if lo < hi {
+        let margin = if pad { 0.06 * (hi - lo) } else { 0.0 };
+        (lo - margin, hi + margin)
+    } else if !pad {
+        (lo - 0.5, hi + 0.5)
+    } else {
+        let margin = if lo == 0.0 { 1.0 } else { 0.1 * lo.abs() };
+        (lo - margin, hi + margin)
+    }
+}
+
+/// How many labels to ask of the mesh: on a log axis one per decade (at most 13, then every
+/// second or fifth decade), so the ticks land on whole exponents.
+fn label_count((lo, hi): (f64, f64), log: bool, linear: usize) -> usize {
+    if log {
+        ((hi - lo).round() as usize + 1).clamp(2, 13)
+    } else {
+        linear
+    }
+}
+
+/// A tick label at axis position `v`: the value itself, or `10ⁿ` on a log axis (nothing
+/// between decades, where the mesh may put a grid line).
+fn axis_tick(v: f64, log: bool) -> String {
+    if !log {
+        format_tick(v)
+    } else if (v - v.round()).abs() < 1e-6 {
+        format_log_tick(10f64.powi(v.round() as i32))
+    } else {
+        String::new()
+    }
+}
+
 type Lines = [(Vec<Vec<(f64, f64)>>, Colour)];
 
-fn draw_lines<DB, YS>(
+fn draw_lines<DB: DrawingBackend>(
     root: &DrawingArea<DB, plotters::coord::Shift>,
-    x_spec: std::ops::Range<f64>,
-    y_spec: YS,
+    x_range: (f64, f64),
+    y_range: (f64, f64),
     plot: &LinePlot,
     lines: &Lines,
-) -> Result<(), String>
-where
-    DB: DrawingBackend,
-    YS: AsRangedCoord<Value = f64>,
-    YS::CoordDescType: ValueFormatter<f64>,
-{
+) -> Result<(), String> {
     let mut chart = ChartBuilder::on(root)
         .margin_top(14)
         .margin_right(24)
@@ -301,23 +396,17 @@ where
         .margin_bottom(6)
         .x_label_area_size(48)
         .y_label_area_size(78)
-        .build_cartesian_2d(x_spec, y_spec)
+        .build_cartesian_2d(x_range.0..x_range.1, y_range.0..y_range.1)
         .map_err(|e| e.to_string())?;
-    let tick = |v: &f64| format_tick(*v);
-    let y_tick = |v: &f64| {
-        if plot.log_y {
-            format_log_tick(*v)
-        } else {
-            format_tick(*v)
-        }
-    };
+    let x_tick = |v: &f64| axis_tick(*v, plot.log_x);
+    let y_tick = |v: &f64| axis_tick(*v, plot.log_y);
     chart
         .configure_mesh()
         .x_desc(plot.x_label.as_str())
         .y_desc(plot.y_label.as_str())
-        .x_labels(9)
-        .y_labels(7)
-        .x_label_formatter(&tick)
+        .x_labels(label_count(x_range, plot.log_x, 9))
+        .y_labels(label_count(y_range, plot.log_y, 7))
+        .x_label_formatter(&x_tick)
         .y_label_formatter(&y_tick)
         .label_style((FONT, 17).into_font().color(&MUTED))
         .axis_desc_style((FONT, 18).into_font().color(&INK))
@@ -326,6 +415,7 @@ where
         .axis_style(MUTED)
         .draw()
         .map_err(|e| e.to_string())?;
+    draw_spans(root, &chart, x_range, y_range, plot)?;
     for (runs, colour) in lines {
         let style = ShapeStyle::from(&colour.rgb()).stroke_width(1);
         for run in runs {
@@ -343,45 +433,42 @@ where
     Ok(())
 }
 
-fn x_extent(series: &[Series], drawable: impl Fn(f64) -> bool) -> Option<(f64, f64)> {
-    let xs = series.iter().flat_map(|s| {
-        s.x.iter()
-            .zip(&s.y)
-            .filter(|(x, y)| x.is_finite() && drawable(**y))
-            .map(|(x, _)| *x)
-    });
-    let (lo, hi) = min_max(xs)?;
-    Some(if lo < hi {
-        (lo, hi)
-    } else {
-        (lo - 0.5, hi + 0.5)
-    })
-}
+type Chart<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
 
-fn y_extent(series: &[Series], drawable: impl Fn(f64) -> bool, log: bool) -> Option<(f64, f64)> {
-    let ys = series.iter().flat_map(|s| {
-        s.x.iter()
-            .zip(&s.y)
-            .filter(|(x, y)| x.is_finite() && drawable(**y))
-            .map(|(_, y)| *y)
-    });
-    let (lo, hi) = min_max(ys)?;
-    Some(if log {
-        // Whole decades, so the axis reads 10ⁿ at both ends.
-        let lo = 10f64.powf(lo.log10().floor());
-        let hi = 10f64.powf(hi.log10().ceil());
-        if lo < hi {
-            (lo, hi)
-        } else {
-            (lo / 10.0, hi * 10.0)
+/// Shades each span (clipped to the x range) and writes its label at the top, one line lower
+/// per span so that overlapping spans keep readable labels.
+fn draw_spans<DB: DrawingBackend>(
+    root: &DrawingArea<DB, plotters::coord::Shift>,
+    chart: &Chart<DB>,
+    x_range: (f64, f64),
+    (y0, y1): (f64, f64),
+    plot: &LinePlot,
+) -> Result<(), String> {
+    let mut row = 0;
+    for span in &plot.spans {
+        let Some((from, to)) = range_on_axis((span.from, span.to), plot.log_x) else {
+            continue;
+        };
+        let (from, to) = (from.max(x_range.0), to.min(x_range.1));
+        if from >= to {
+            continue;
         }
-    } else if lo < hi {
-        let pad = 0.06 * (hi - lo);
-        (lo - pad, hi + pad)
-    } else {
-        let pad = if lo == 0.0 { 1.0 } else { 0.1 * lo.abs() };
-        (lo - pad, hi + pad)
-    })
+        let fill = span.colour.rgb().mix(0.13).filled();
+        let area = chart.plotting_area();
+        area.draw(&Rectangle::new([(from, y0), (to, y1)], fill))
+            .map_err(|e| e.to_string())?;
+        let (px, py) = area.map_coordinate(&(from, y1));
+        let ink = span.colour.rgb();
+        let style = TextStyle::from((FONT, 15).into_font()).color(&ink);
+        root.draw(&Text::new(
+            span.label.clone(),
+            (px + 5, py + 5 + 19 * row),
+            style,
+        ))
+        .map_err(|e| e.to_string())?;
+        row += 1;
+    }
+    Ok(())
 }
 
 fn min_max(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
@@ -420,7 +507,8 @@ impl BarChart {
             .zip(colours(self.series.iter().map(|s| s.colour)))
             .collect();
         let values = || self.series.iter().flat_map(|s| s.values.iter().copied());
-        let missing = values().filter(|v| !v.is_finite()).count();
+        let drawable = |v: f64| v.is_finite() && (!self.log_y || v > 0.0);
+        let missing = values().filter(|v| !drawable(*v)).count();
         let mut notes = Vec::new();
         if missing > 0 {
             let (values, are, have) = if missing == 1 {
@@ -428,8 +516,13 @@ impl BarChart {
             } else {
                 ("values", "are", "have")
             };
+            let what = if self.log_y {
+                "not finite or not positive (the axis is logarithmic)"
+            } else {
+                "not finite"
+            };
             notes.push(format!(
-                "{missing} {values} {are} not finite and {have} no bar."
+                "{missing} {values} {are} {what} and {have} no bar."
             ));
         }
         if self.categories.is_empty() || self.series.is_empty() {
@@ -440,18 +533,7 @@ impl BarChart {
                 notes,
             });
         }
-        let (lo, hi) = min_max(values().filter(|v| v.is_finite())).unwrap_or((0.0, 1.0));
-        let (lo, hi) = (lo.min(0.0), hi.max(0.0));
-        let span = if hi > lo { hi - lo } else { 1.0 };
-        let y_range = (
-            if lo < 0.0 { lo - 0.08 * span } else { 0.0 },
-            if hi > 0.0 || lo == hi {
-                hi + 0.1 * span
-            } else {
-                0.0
-            },
-        );
-
+        let y_range = self.y_range(values().filter(|v| drawable(*v)));
         let mut svg = String::new();
         {
             let root =
@@ -464,6 +546,26 @@ impl BarChart {
         Ok(RenderedPlot { svg, legend, notes })
     }
 
+    /// The value axis (axis units) for the drawable values: whole decades on a log axis, else
+    /// from zero (or below the lowest negative bar) to above the highest.
+    fn y_range(&self, values: impl Iterator<Item = f64>) -> (f64, f64) {
+        if self.log_y {
+            let exponents = values.map(f64::log10);
+            return extent(exponents).map_or((0.0, 1.0), |r| axis_range(r, true, false));
+        }
+        let (lo, hi) = min_max(values).unwrap_or((0.0, 1.0));
+        let (lo, hi) = (lo.min(0.0), hi.max(0.0));
+        let span = if hi > lo { hi - lo } else { 1.0 };
+        (
+            if lo < 0.0 { lo - 0.08 * span } else { 0.0 },
+            if hi > 0.0 || lo == hi {
+                hi + 0.1 * span
+            } else {
+                0.0
+            },
+        )
+    }
+
     fn draw_bars<DB: DrawingBackend>(
         &self,
         root: &DrawingArea<DB, plotters::coord::Shift>,
@@ -471,35 +573,29 @@ impl BarChart {
         legend: &[(String, Colour)],
     ) -> Result<(), String> {
         let n = self.categories.len();
+        let layout = CategoryLayout::new(&self.categories);
         let mut chart = ChartBuilder::on(root)
             .margin_top(14)
             .margin_right(24)
             .margin_left(8)
             .margin_bottom(6)
-            .x_label_area_size(40)
+            .x_label_area_size(layout.area_height)
             .y_label_area_size(78)
             // A segmented 0..m has m + 1 segments, one per category here.
             .build_cartesian_2d((0..n as i32 - 1).into_segmented(), y0..y1)
             .map_err(|e| e.to_string())?;
-        let category = |v: &SegmentValue<i32>| match v {
-            SegmentValue::CenterOf(i) => self
-                .categories
-                .get(*i as usize)
-                .cloned()
-                .unwrap_or_default(),
-            _ => String::new(),
-        };
-        let tick = |v: &f64| format_tick(*v);
+        // Category names are drawn below (they may need turning); the mesh gives the grid.
+        let no_label = |_: &SegmentValue<i32>| String::new();
+        let tick = |v: &f64| axis_tick(*v, self.log_y);
         chart
             .configure_mesh()
             .disable_x_mesh()
             .y_desc(self.y_label.as_str())
             .x_labels(n)
-            .y_labels(7)
-            .x_label_formatter(&category)
+            .y_labels(label_count((y0, y1), self.log_y, 7))
+            .x_label_formatter(&no_label)
             .y_label_formatter(&tick)
             .label_style((FONT, 17).into_font().color(&MUTED))
-            .x_label_style((FONT, 18).into_font().color(&INK))
             .axis_desc_style((FONT, 18).into_font().color(&INK))
             .bold_line_style(GRID)
             .light_line_style(TRANSPARENT)
@@ -508,42 +604,119 @@ impl BarChart {
             .map_err(|e| e.to_string())?;
 
         let area = chart.plotting_area();
-        let s_count = self.series.len() as f64;
-        let label_values = n * self.series.len() <= 24;
+        let x_at = |i: usize| area.map_coordinate(&(SegmentValue::Exact(i as i32), y0)).0 as f64;
+        let slot = x_at(1) - x_at(0);
+        layout.draw(
+            root,
+            area.map_coordinate(&(SegmentValue::Exact(0), y0)).1,
+            slot,
+            x_at,
+        )?;
+        let bar_width = slot * 0.72 / self.series.len() as f64;
+        // A value is written over its bar only where it fits the bar's width.
+        let value_fits = |text: &str| text_width(text, VALUE_FONT) <= bar_width + 4.0;
+        let base_value = if self.log_y { y0 } else { 0.0 };
         for i in 0..n {
-            let left = area.map_coordinate(&(SegmentValue::Exact(i as i32), 0.0)).0 as f64;
-            let right = area
-                .map_coordinate(&(SegmentValue::Exact(i as i32 + 1), 0.0))
-                .0 as f64;
-            let group = (right - left) * 0.72;
-            let bar = group / s_count;
-            let start = left + (right - left - group) / 2.0;
+            let start = x_at(i) + slot * 0.14;
             for (k, (s, (_, colour))) in self.series.iter().zip(legend).enumerate() {
                 let v = s.values[i];
-                if !v.is_finite() {
+                let Some(at) = self.on_axis(v) else {
                     continue;
-                }
-                let base = area.map_coordinate(&(SegmentValue::Exact(0), 0.0)).1;
-                let top = area.map_coordinate(&(SegmentValue::Exact(0), v)).1;
-                let x0 = (start + k as f64 * bar + 1.0).round() as i32;
-                let x1 = (start + (k + 1) as f64 * bar - 1.0).round() as i32;
+                };
+                let base = area.map_coordinate(&(SegmentValue::Exact(0), base_value)).1;
+                let top = area.map_coordinate(&(SegmentValue::Exact(0), at)).1;
+                let x0 = (start + k as f64 * bar_width + 1.0).round() as i32;
+                let x1 = (start + (k + 1) as f64 * bar_width - 1.0).round() as i32;
                 root.draw(&Rectangle::new(
                     [(x0, top.min(base)), (x1.max(x0 + 1), top.max(base))],
                     colour.rgb().filled(),
                 ))
                 .map_err(|e| e.to_string())?;
-                if label_values {
-                    let y = if v >= 0.0 { top - 6 } else { top + 16 };
-                    let style = TextStyle::from((FONT, 16).into_font()).color(&INK).pos(
-                        plotters::style::text_anchor::Pos::new(
-                            plotters::style::text_anchor::HPos::Center,
-                            plotters::style::text_anchor::VPos::Bottom,
-                        ),
-                    );
-                    root.draw(&Text::new(format_value(v), ((x0 + x1) / 2, y), style))
+                let text = format_value(v);
+                if value_fits(&text) {
+                    let y = if at >= base_value { top - 6 } else { top + 16 };
+                    let style = TextStyle::from((FONT, VALUE_FONT).into_font())
+                        .color(&INK)
+                        .pos(Pos::new(HPos::Center, VPos::Bottom));
+                    root.draw(&Text::new(text, ((x0 + x1) / 2, y), style))
                         .map_err(|e| e.to_string())?;
                 }
             }
+        }
+        Ok(())
+    }
+
+    /// Where `v` sits on the value axis; `None` if it has no bar.
+    fn on_axis(&self, v: f64) -> Option<f64> {
+        let at = to_axis(&[v], self.log_y)[0];
+        at.is_finite().then_some(at)
+    }
+}
+
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+
+const VALUE_FONT: f64 = 16.0;
+const CATEGORY_FONT: f64 = 16.0;
+
+/// Rough width (pixels) of `text` in the sans-serif font at `size` pixels: enough to tell
+/// whether labels would collide.
+fn text_width(text: &str, size: f64) -> f64 {
+    text.chars().count() as f64 * 0.58 * size
+}
+
+/// How the category names go under the bars: level when every name fits its slot, else
+/// turned to read upwards so that neighbours cannot overlap.
+struct CategoryLayout<'a> {
+    names: &'a [String],
+    turned: bool,
+    /// Height (pixels) of the label area under the axis.
+    area_height: u32,
+}
+
+impl<'a> CategoryLayout<'a> {
+    fn new(names: &'a [String]) -> Self {
+        let plot_width = f64::from(PLOT_WIDTH) - 110.0;
+        let slot = plot_width / names.len().max(1) as f64;
+        let widest = names
+            .iter()
+            .map(|n| text_width(n, CATEGORY_FONT))
+            .fold(0.0, f64::max);
+        let turned = widest > slot * 0.92;
+        let area_height = if turned {
+            (widest + 14.0).clamp(40.0, 160.0) as u32
+        } else {
+            40
+        };
+        CategoryLayout {
+            names,
+            turned,
+            area_height,
+        }
+    }
+
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, plotters::coord::Shift>,
+        axis_y: i32,
+        slot: f64,
+        x_at: impl Fn(usize) -> f64,
+    ) -> Result<(), String> {
+        for (i, name) in self.names.iter().enumerate() {
+            let centre = (x_at(i) + slot / 2.0).round() as i32;
+            let font = (FONT, CATEGORY_FONT).into_font();
+            let style = if self.turned {
+                // Turned a quarter anticlockwise and anchored at its end: reads upwards and
+                // ends just under the axis.
+                TextStyle::from(font.transform(FontTransform::Rotate270))
+                    .color(&INK)
+                    .pos(Pos::new(HPos::Right, VPos::Center))
+            } else {
+                TextStyle::from(font)
+                    .color(&INK)
+                    .pos(Pos::new(HPos::Center, VPos::Top))
+            };
+            root.draw(&Text::new(name.clone(), (centre, axis_y + 8), style))
+                .map_err(|e| e.to_string())?;
         }
         Ok(())
     }
@@ -643,20 +816,151 @@ mod tests {
 
     #[test]
     fn axis_ranges_cover_the_data_with_a_margin() {
-        let s = [Series::new(
-            "a",
-            vec![0.0, 1.0, 2.0],
-            vec![0.02, f64::NAN, 299.0],
-        )];
-        let positive = |v: f64| v.is_finite() && v > 0.0;
-        assert_eq!(y_extent(&s, positive, true), Some((0.01, 1000.0)));
-        let (lo, hi) = y_extent(&s, f64::is_finite, false).unwrap();
+        let s = (vec![0.0, 1.0, 2.0], vec![0.02, f64::NAN, 299.0]);
+        let log = (s.0.clone(), to_axis(&s.1, true));
+        let y = extent(drawn_y(&log)).unwrap();
+        assert_eq!(axis_range(y, true, true), (-2.0, 3.0));
+        let (lo, hi) = axis_range(extent(drawn_y(&s)).unwrap(), false, true);
         assert!(lo < 0.02 && hi > 299.0 && hi < 320.0);
-        assert_eq!(x_extent(&s, f64::is_finite), Some((0.0, 2.0)));
-        let flat = [Series::new("b", vec![5.0], vec![7.0])];
-        assert_eq!(x_extent(&flat, f64::is_finite), Some((4.5, 5.5)));
-        let (lo, hi) = y_extent(&flat, f64::is_finite, false).unwrap();
+        assert_eq!(extent(drawn_x(&s)), Some((0.0, 2.0)));
+        assert_eq!(axis_range((5.0, 5.0), false, false), (4.5, 5.5));
+        let (lo, hi) = axis_range((7.0, 7.0), false, true);
         assert!(lo < 7.0 && hi > 7.0);
+        // Axis units are exponents: 10^0.5 sits within one decade, 10^1 alone gets one each side.
+        assert_eq!(axis_range((0.5, 0.5), true, true), (0.0, 1.0));
+        assert_eq!(axis_range((1.0, 1.0), true, true), (0.0, 2.0));
+    }
+
+    #[test]
+    fn a_log_axis_skips_nonpositive_values() {
+        let on_axis = to_axis(&[100.0, 0.0, -3.0, f64::NAN, 0.01], true);
+        assert_eq!(on_axis[0], 2.0);
+        assert!(on_axis[1..4].iter().all(|v| v.is_nan()));
+        assert!((on_axis[4] + 2.0).abs() < 1e-12);
+        assert_eq!(range_on_axis((0.0, 10.0), true), None);
+        assert_eq!(range_on_axis((1.0, 1000.0), true), Some((0.0, 3.0)));
+    }
+
+    fn psd_plot(log_x: bool) -> LinePlot {
+        let f: Vec<f64> = (0..200).map(|k| k as f64 * 0.05).collect();
+        // Bin 0 (f = 0) and a zero density cannot sit on log axes.
+        let mut psd: Vec<f64> = f.iter().map(|f| 1e-3 / (f * f + 1e-2)).collect();
+        psd[7] = 0.0;
+        LinePlot {
+            title: "psd".into(),
+            series: vec![Series::new("psd", f, psd)],
+            log_x,
+            log_y: true,
+            spans: vec![Span {
+                label: "fit band".into(),
+                from: 0.1,
+                to: 0.9,
+                colour: Colour::REFERENCE,
+            }],
+            ..LinePlot::default()
+        }
+    }
+
+    /// The text of every `<text>` element of an SVG.
+    fn texts(svg: &str) -> Vec<String> {
+        svg.split("<text")
+            .skip(1)
+            .filter_map(|t| {
+                Some(
+                    t.split_once('>')?
+                        .1
+                        .split_once("</text>")?
+                        .0
+                        .trim()
+                        .to_string(),
+                )
+            })
+            .collect()
+    }
+
+    #[test]
+    fn log_axes_are_labelled_at_decades_only() {
+        let plot = psd_plot(true).to_svg().unwrap();
+        let labels = texts(&plot.svg);
+        // x from 0.05 to 9.95 Hz: decades 10⁻² to 10¹; y from 1e-3 / 99 to 0.1.
+        for decade in ["10⁻²", "10⁻¹", "10⁰", "10¹", "10⁻⁵", "10⁻¹"] {
+            assert!(labels.iter().any(|l| l == decade), "{decade} in {labels:?}");
+        }
+        // Nothing but powers of ten, the span's label and the empty axis descriptions.
+        let other: Vec<&String> = labels
+            .iter()
+            .filter(|l| !(l.starts_with("10") || *l == "fit band" || l.is_empty()))
+            .collect();
+        assert!(other.is_empty(), "{other:?}");
+        // f = 0 and the zero density are the gaps.
+        assert!(plot
+            .notes
+            .iter()
+            .any(|n| n.starts_with("2 non-finite or non-positive")));
+    }
+
+    #[test]
+    fn spans_are_shaded_and_labelled() {
+        let plot = psd_plot(true).to_svg().unwrap();
+        assert!(texts(&plot.svg).iter().any(|l| l == "fit band"));
+        assert!(plot.svg.contains("opacity=\"0.13"), "no translucent span");
+        let mut outside = psd_plot(true);
+        outside.spans[0].from = 20.0;
+        outside.spans[0].to = 30.0;
+        assert!(!texts(&outside.to_svg().unwrap().svg)
+            .iter()
+            .any(|l| l == "fit band"));
+    }
+
+    #[test]
+    fn all_nonpositive_on_a_log_axis_is_no_data_not_a_panic() {
+        let mut plot = psd_plot(false);
+        plot.series[0].y = vec![0.0; 200];
+        let drawn = plot.to_svg().unwrap();
+        assert!(drawn.svg.contains("no data"));
+        let bars = BarChart {
+            categories: vec!["a".into(), "b".into()],
+            series: vec![BarSeries::new("x", vec![0.0, -1.0])],
+            log_y: true,
+            ..BarChart::default()
+        };
+        let drawn = bars.to_svg().unwrap();
+        assert!(drawn.notes[0].starts_with("2 values are not finite or not positive"));
+    }
+
+    #[test]
+    fn bars_spanning_decades_get_a_log_axis_and_labels_that_do_not_collide() {
+        let categories: Vec<String> = (0..12).map(|k| format!("pitch {:03}°", k * 90)).collect();
+        let before: Vec<f64> = (0..12).map(|k| 20.0 + k as f64).collect();
+        let after: Vec<f64> = (0..12).map(|k| 0.02 + 0.01 * k as f64).collect();
+        let chart = BarChart {
+            categories: categories.clone(),
+            series: vec![
+                BarSeries::new("before", before),
+                BarSeries::new("after", after),
+            ],
+            log_y: true,
+            ..BarChart::default()
+        };
+        let svg = chart.to_svg().unwrap().svg;
+        let labels = texts(&svg);
+        for decade in ["10⁻²", "10⁻¹", "10⁰", "10¹", "10²"] {
+            assert!(labels.iter().any(|l| l == decade), "{decade} in {labels:?}");
+        }
+        // Twelve names are too wide to sit level in their slots, so they are turned.
+        // (and so is the y-axis description).
+        assert_eq!(svg.matches("rotate(270").count(), 12 + 1);
+        // A value is written only over a bar as wide as its text: "20" fits, "0.02" does not.
+        assert!(labels.iter().any(|l| l == "20"));
+        assert!(!labels.iter().any(|l| l == "0.02"));
+        let few = BarChart {
+            categories: vec!["a".into(), "b".into()],
+            series: vec![BarSeries::new("x", vec![0.5, 50.0])],
+            log_y: true,
+            ..BarChart::default()
+        };
+        let labels = texts(&few.to_svg().unwrap().svg);
+        assert!(labels.iter().any(|l| l == "0.5") && labels.iter().any(|l| l == "a"));
     }
 
     #[test]
