@@ -2,10 +2,11 @@
 //! summary cards, signals, spectra, the figure of merit maneuver by maneuver, the heading error
 //! heading by heading and, with a model, its coefficients, patent terms and fit diagnostics.
 
-use crate::plot::{BarChart, BarSeries, Colour, LinePlot, Series};
+use crate::plot::{BarChart, BarSeries, Colour, LinePlot, Series, Span};
 use crate::{Report, ReportError};
 use std::path::{Path, PathBuf};
 use tolles::report::{HeadingRow, ManeuverRow, ReportData};
+use tolles::tolles_core::fit::Target;
 use tolles::tolles_core::maneuvers::detect::Maneuver;
 use tolles::tolles_core::maneuvers::heading::HeadingLevels;
 use tolles::tolles_core::signal::spectrum::Spectrum;
@@ -161,8 +162,9 @@ fn spectra(report: Report, data: &ReportData) -> Report {
     let mut caption = String::new();
     for (name, psd, colour) in inputs {
         caption = spectrum_caption(psd);
-        // Bin 0 (the mean) has no place on a log-frequency reading of noise.
-        let (f, density) = (psd.frequency_hz[1..].to_vec(), psd.density[1..].to_vec());
+        // Bin 0 (the mean, at 0 Hz) cannot sit on a log-frequency axis.
+        let f = psd.frequency_hz.iter().skip(1).copied().collect();
+        let density = psd.density.iter().skip(1).copied().collect();
         series.push(Series::new(name, f, density).colour(colour));
     }
     report.line_plot(LinePlot {
@@ -170,10 +172,43 @@ fn spectra(report: Report, data: &ReportData) -> Report {
         x_label: "frequency (Hz)".into(),
         y_label: "PSD (nT²/Hz)".into(),
         series,
+        log_x: true,
         log_y: true,
-        caption: Some(caption),
+        spans: bands(data),
+        caption: Some(format!(
+            "{caption} Shaded: the band the figure of merit is measured in{}.",
+            if data.fit.is_some() {
+                " and the band the model was fitted in"
+            } else {
+                ""
+            }
+        )),
         ..LinePlot::default()
     })
+}
+
+/// The figure-of-merit band and, with a model fitted to a band, the fit's band.
+fn bands(data: &ReportData) -> Vec<Span> {
+    let band = &data.request.band;
+    let mut spans = vec![Span {
+        label: format!("FOM band {}–{} Hz", band.pass1_hz, band.pass2_hz),
+        from: band.pass1_hz,
+        to: band.pass2_hz,
+        colour: Colour::UNCOMPENSATED,
+    }];
+    if let Some(model) = data.fit.as_ref() {
+        let settings = &model.fit.settings;
+        if settings.target == Target::Band {
+            let band = &settings.band;
+            spans.push(Span {
+                label: format!("fit band {}–{} Hz", band.pass1_hz, band.pass2_hz),
+                from: band.pass1_hz,
+                to: band.pass2_hz,
+                colour: Colour::REFERENCE,
+            });
+        }
+    }
+    spans
 }
 
 fn spectrum_caption(psd: &Spectrum) -> String {
@@ -545,7 +580,18 @@ mod tests {
         ] {
             assert!(html.contains(text), "{text} missing");
         }
-        let plots = std::fs::read_dir(dir.path().join("report/plots")).unwrap();
-        assert_eq!(plots.count(), 5);
+        let plots = dir.path().join("report/plots");
+        assert_eq!(std::fs::read_dir(&plots).unwrap().count(), 5);
+        let svg = |name: &str| std::fs::read_to_string(plots.join(name)).unwrap();
+        // Compensated bars (hundredths of a nT) beside uncompensated ones (tens of nT) need
+        // a log axis to be seen at all.
+        let fom = svg("05-peak-to-peak-of-the-band-passed-scalar-m.svg");
+        for decade in ["10⁻²", "10⁰", "10²"] {
+            assert!(fom.contains(decade), "FOM chart lacks the decade {decade}");
+        }
+        let psd = svg("04-power-spectral-density.svg");
+        for mark in ["FOM band 0.05–1 Hz", "fit band 0.1–0.9 Hz", "10⁻¹"] {
+            assert!(psd.contains(mark), "PSD lacks {mark}");
+        }
     }
 }
