@@ -9,6 +9,7 @@ use tolles::report::{HeadingRow, ManeuverRow, ReportData};
 use tolles::tolles_core::fit::Target;
 use tolles::tolles_core::maneuvers::detect::Maneuver;
 use tolles::tolles_core::maneuvers::heading::HeadingLevels;
+use tolles::tolles_core::model::terms::Column;
 use tolles::tolles_core::signal::spectrum::Spectrum;
 use tolles::tolles_io::model::ScalarModel;
 
@@ -45,11 +46,17 @@ fn summary(report: Report, data: &ReportData) -> Report {
     let before = &data.fom.before;
     let mut items = vec![
         ("FOM before", format!("{:.3} nT", before.fom_nt)),
-        ("noise before", format!("{:.3} nT", before.noise_level_nt)),
+        (
+            "4th-difference noise before",
+            format!("{:.4} nT", before.fourth_difference_nt),
+        ),
     ];
     if let Some(after) = &data.fom.after {
         items.push(("FOM after", format!("{:.3} nT", after.fom_nt)));
-        items.push(("noise after", format!("{:.4} nT", after.noise_level_nt)));
+        items.push((
+            "4th-difference noise after",
+            format!("{:.4} nT", after.fourth_difference_nt),
+        ));
         items.push((
             "improvement",
             format!("×{:.1}", before.fom_nt / after.fom_nt),
@@ -70,7 +77,15 @@ fn summary(report: Report, data: &ReportData) -> Report {
         "maneuvers found",
         format!("{} of 12", 12 - before.missing.len()),
     ));
-    report.summary(&borrowed(&items))
+    let band = &data.request.band;
+    report.summary(&borrowed(&items)).summary_note(format!(
+        "FOM: the sum over the box's maneuvers of the peak-to-peak of the scalar band-passed \
+             {}–{} Hz. 4th-difference noise: the standard deviation of the fourth difference of \
+             the unfiltered scalar over the whole flight, as tolles fom prints it. Improvement: \
+             FOM before ÷ FOM after. Heading error: the largest minus the smallest heading level \
+             (see Heading error).",
+        band.pass1_hz, band.pass2_hz
+    ))
 }
 
 fn borrowed<'a>(items: &'a [(&'a str, String)]) -> Vec<(&'a str, &'a str)> {
@@ -360,22 +375,29 @@ fn heading_cells(row: &HeadingRow) -> Vec<String> {
     ]
 }
 
-/// Coefficients with standard errors and the patent's terms.
+/// Coefficients with standard errors, the aircraft's field they describe and the patent's terms.
 fn model(report: Report, model: &ScalarModel) -> Report {
     let fit = &model.fit;
-    // Several fluxgates name their columns `flux_b.perm_x`: the unit follows the column part.
-    let unit = |name: &str| match name.rsplit('.').next().unwrap_or(name).split('_').next() {
-        Some("perm") | Some("bias") => "nT",
-        _ => "nT per column unit",
-    };
+    let terms = fit.settings.design.design_terms();
     let rows: Vec<Vec<String>> = fit
         .columns
         .iter()
         .zip(&fit.coefficients)
         .zip(&fit.diagnostics.std_errors)
-        .map(|((name, beta), se)| {
-            let cells = [name.clone(), format!("{beta:.6}"), format!("{se:.4}")];
-            [cells.to_vec(), vec![unit(name).into()]].concat()
+        .enumerate()
+        .map(|(k, ((name, beta), se))| {
+            // Design columns are dimensionless (B̂, B̂·B/Bt_scale, B̂·Ḃ/Bt_scale, 1), so their
+            // coefficients are in nT; an extra channel keeps its own unit.
+            let unit = match terms.get(k).map(|t| t.column) {
+                Some(Column::Extra { .. }) => "nT per channel unit",
+                _ => "nT",
+            };
+            vec![
+                name.clone(),
+                format!("{beta:.6}"),
+                format!("{se:.4}"),
+                unit.into(),
+            ]
         })
         .collect();
     let fluxgates = if model.vectors.len() > 1 {
@@ -386,7 +408,10 @@ fn model(report: Report, model: &ScalarModel) -> Report {
     let report = report
         .section("Model")
         .paragraph(format!(
-            "Fit of {} against {fluxgates} {} with terms {} and the {} magnitude; sample rate {:.3} Hz.",
+            "Fit of {} against {fluxgates} {} with terms {} and the {} magnitude; sample rate {:.3} Hz. \
+             Each column is dimensionless (B̂ = B/|B| for the permanent terms, B̂ᵢ·Bⱼ/Bt_scale \
+             for the induced and B̂ᵢ·Ḃⱼ/Bt_scale, Ḃ per sample, for the eddy terms), so every \
+             coefficient is in nT.",
             model.scalar,
             model.vectors.join(", "),
             fit.settings.design.terms,
@@ -397,7 +422,47 @@ fn model(report: Report, model: &ScalarModel) -> Report {
             fit.fs_hz
         ))
         .table(&["column", "coefficient", "standard error", "unit"], &rows);
+    let report = physical(report, model);
     patent(report, model)
+}
+
+/// The aircraft's field the coefficients describe: permanent vector (nT), induced matrix
+/// (dimensionless) and eddy-current matrix (s).
+fn physical(report: Report, model: &ScalarModel) -> Report {
+    let field = &model.physical;
+    let axes = ["x (forward)", "y (right)", "z (down)"];
+    let matrix_rows = |m: &[[f64; 3]; 3]| -> Vec<Vec<String>> {
+        axes.iter()
+            .zip(m)
+            .map(|(axis, row)| {
+                let cells = row.iter().map(|v| format!("{v:.4e}"));
+                std::iter::once(axis.to_string()).chain(cells).collect()
+            })
+            .collect()
+    };
+    let headers = ["field along \\ per earth field along", "x", "y", "z"];
+    let p = field.permanent_nt;
+    report
+        .paragraph(format!(
+            "The same coefficients as the aircraft's field{}: permanent field P = ({:.3}, {:.3}, \
+             {:.3}) nT (x, y, z); the induced matrix I (dimensionless: nT of aircraft field per nT \
+             of earth field) and the eddy-current matrix E (s: nT of aircraft field per nT/s of \
+             change of the earth field). Terms the fit did not have are zero. Only the traceless \
+             part of each matrix (and the symmetric part of I) reaches a scalar magnetometer, so \
+             the trace shown is the one the chosen terms imply.",
+            if model.vectors.len() > 1 {
+                " at the first fluxgate"
+            } else {
+                ""
+            },
+            p[0],
+            p[1],
+            p[2]
+        ))
+        .paragraph("Induced matrix I (dimensionless):")
+        .table(&headers, &matrix_rows(&field.induced))
+        .paragraph("Eddy-current matrix E (s):")
+        .table(&headers, &matrix_rows(&field.eddy_s))
 }
 
 fn patent(report: Report, model: &ScalarModel) -> Report {
@@ -443,7 +508,7 @@ fn diagnostics(mut report: Report, model: &ScalarModel) -> Report {
         ("filtered residual", format!("{:.4} nT", d.residual_std_nt)),
         ("improvement ratio", format!("{:.2}", d.improvement_ratio)),
         (
-            "condition number of AᵀA + Λ",
+            "condition number of AᵀA + λ·diag(AᵀA)",
             format!("{:.3e}", d.condition_number),
         ),
     ];
@@ -580,6 +645,20 @@ mod tests {
         ] {
             assert!(html.contains(text), "{text} missing");
         }
+        // CSS upper-casing would turn λ into Λ; the page itself must not need a capital Λ.
+        assert!(!html.contains('Λ') && !html.contains("uppercase"));
+        // The summary's noise is the quantity `tolles fom` prints, defined under the cards.
+        let noise = format!("{:.4} nT", data.fom.before.fourth_difference_nt);
+        assert!(html.contains(&format!("4th-difference noise before</dt><dd>{noise}")));
+        assert!(html.contains("class=\"summary-note\">FOM: the sum"));
+        for text in [
+            "Induced matrix I (dimensionless)",
+            "Eddy-current matrix E (s)",
+            "so every coefficient is in nT",
+        ] {
+            assert!(html.contains(text), "{text} missing");
+        }
+        assert!(!html.contains("per column unit"));
         let plots = dir.path().join("report/plots");
         assert_eq!(std::fs::read_dir(&plots).unwrap().count(), 5);
         let svg = |name: &str| std::fs::read_to_string(plots.join(name)).unwrap();

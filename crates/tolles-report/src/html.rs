@@ -76,7 +76,7 @@ body {
 }
 .wrap { max-width: 1060px; margin: 0 auto; padding: 0 28px; }
 header.masthead { background: var(--head); color: #fff; padding: 34px 0 30px; }
-.kicker { margin: 0 0 4px; font-size: 13px; letter-spacing: .12em; text-transform: uppercase;
+.kicker { margin: 0 0 4px; font-size: 13px; letter-spacing: .08em;
   color: #9fc3e6; font-weight: 600; }
 header h1 { margin: 0; font-size: 32px; line-height: 1.2; font-weight: 650; }
 header .subtitle { margin: 8px 0 0; color: #cfdbe7; max-width: 70ch; }
@@ -84,7 +84,8 @@ header .subtitle { margin: 8px 0 0; color: #cfdbe7; max-width: 70ch; }
   gap: 12px; margin: 24px 0 0; }
 .summary div { background: rgba(255,255,255,.08); border: 1px solid rgba(255,255,255,.14);
   border-radius: 8px; padding: 10px 14px; }
-.summary dt { font-size: 12px; color: #b8cde0; text-transform: uppercase; letter-spacing: .06em; }
+.summary dt { font-size: 13px; color: #b8cde0; letter-spacing: .02em; }
+.summary-note { margin: 14px 0 0; font-size: 13px; color: #b8cde0; max-width: 95ch; }
 .summary dd { margin: 2px 0 0; font-size: 21px; font-weight: 600;
   font-variant-numeric: tabular-nums; }
 nav.toc { border-bottom: 1px solid var(--line); background: var(--wash); font-size: 14px; }
@@ -107,7 +108,7 @@ dl.kv dt:nth-last-of-type(1), dl.kv dd:last-of-type { border-bottom: 0; }
 table { border-collapse: collapse; width: 100%; font-size: 15px; }
 th, td { padding: 7px 20px; text-align: left; white-space: nowrap; }
 thead th { background: var(--wash); color: var(--muted); font-weight: 600; font-size: 13px;
-  text-transform: uppercase; letter-spacing: .04em; border-bottom: 1px solid var(--line); }
+  border-bottom: 1px solid var(--line); }
 tbody tr + tr td { border-top: 1px solid var(--line); }
 tbody tr:hover { background: #fafbfc; }
 td.num, th.num { text-align: right; font-variant-numeric: tabular-nums; }
@@ -116,8 +117,7 @@ figure.plot { margin: 22px 0 30px; border: 1px solid var(--line); border-radius:
 figure.plot h3 { margin: 0; font-size: 17px; }
 ul.legend { list-style: none; margin: 6px 0 4px; padding: 0; display: flex; flex-wrap: wrap;
   gap: 4px 18px; font-size: 14px; color: var(--muted); }
-ul.legend li::before { content: ""; display: inline-block; width: 18px; height: 4px;
-  border-radius: 2px; margin: 0 7px 3px 0; vertical-align: middle; background: var(--swatch); }
+ul.legend svg { margin: 0 7px 2px 0; vertical-align: middle; }
 figure img { display: block; width: 100%; height: auto; }
 figure .note { margin: 4px 0 0; font-size: 13px; color: var(--muted); }
 figure .caption { margin: 8px 0 0; font-size: 14px; }

@@ -102,6 +102,7 @@ pub struct Report {
     title: String,
     subtitle: Option<String>,
     summary: Vec<(String, String)>,
+    summary_notes: Vec<String>,
     blocks: Vec<Block>,
 }
 
@@ -119,6 +120,7 @@ impl Report {
             title: title.into(),
             subtitle: None,
             summary: Vec::new(),
+            summary_notes: Vec::new(),
             blocks: Vec::new(),
         }
     }
@@ -132,6 +134,12 @@ impl Report {
     /// Headline figures shown as cards in the page header, `(label, value with units)`.
     pub fn summary(mut self, items: &[(&str, &str)]) -> Self {
         self.summary.extend(owned_pairs(items));
+        self
+    }
+
+    /// A sentence under the summary cards, to define what their figures are.
+    pub fn summary_note(mut self, text: impl Into<String>) -> Self {
+        self.summary_notes.push(text.into());
         self
     }
 
@@ -241,6 +249,9 @@ impl Report {
                 );
             }
             out.push_str("</dl>\n");
+        }
+        for note in &self.summary_notes {
+            let _ = writeln!(out, "<p class=\"summary-note\">{}</p>", escape(note));
         }
         out.push_str("</div></header>\n");
         out.push_str(&self.table_of_contents());
@@ -357,12 +368,7 @@ fn figure(out: &mut String, title: &str, file: &str, plot: &RenderedPlot, captio
     if plot.legend.len() > 1 || plot.legend.iter().any(|(n, _)| !n.is_empty()) {
         out.push_str("<ul class=\"legend\">");
         for (name, colour) in &plot.legend {
-            let _ = write!(
-                out,
-                "<li style=\"--swatch: {}\">{}</li>",
-                colour.css(),
-                escape(name)
-            );
+            let _ = write!(out, "<li>{}{}</li>", legend_sample(*colour), escape(name));
         }
         out.push_str("</ul>\n");
     }
@@ -381,6 +387,17 @@ fn figure(out: &mut String, title: &str, file: &str, plot: &RenderedPlot, captio
         let _ = writeln!(out, "<p class=\"caption\">{}</p>", escape(c));
     }
     out.push_str("</figure>\n");
+}
+
+/// A short thick line in the series' colour, as an inline SVG: unlike a CSS background it
+/// also prints.
+fn legend_sample(colour: plot::Colour) -> String {
+    format!(
+        "<svg width=\"22\" height=\"8\" viewBox=\"0 0 22 8\" aria-hidden=\"true\">\
+         <line x1=\"1\" y1=\"4\" x2=\"21\" y2=\"4\" stroke=\"{}\" stroke-width=\"3\" \
+         stroke-linecap=\"round\"/></svg>",
+        colour.css()
+    )
 }
 
 fn write_svg(
@@ -599,6 +616,44 @@ mod tests {
             rendered.notes,
             vec!["No finite values to plot.".to_string()]
         );
+    }
+
+    #[test]
+    fn legend_entries_show_a_line_in_their_colour() {
+        let mut plot = sine_plot(10);
+        plot.series
+            .push(Series::new("second", vec![0.0, 1.0], vec![1.0, 2.0]));
+        let mut out = String::new();
+        figure(&mut out, "t", "t.svg", &plot.to_svg().unwrap(), None);
+        let legend = out.split("<ul class=\"legend\">").nth(1).unwrap();
+        let entries: Vec<&str> = legend
+            .split("</li>")
+            .filter(|e| e.contains("<li>"))
+            .collect();
+        assert_eq!(entries.len(), 2);
+        for (entry, colour) in entries
+            .iter()
+            .zip([Colour::UNCOMPENSATED, Colour::CYCLE[1]])
+        {
+            let stroke = format!("stroke=\"{}\"", colour.css());
+            assert!(
+                entry.contains("<line") && entry.contains(&stroke),
+                "{entry}"
+            );
+            // Sized, so it takes room even before any stylesheet applies.
+            assert!(entry.contains("<svg width=\"22\" height=\"8\""), "{entry}");
+        }
+    }
+
+    #[test]
+    fn summary_notes_are_escaped_under_the_cards() {
+        let page = Report::new("t")
+            .summary(&[("λ", "1")])
+            .summary_note("FOM <defined>")
+            .page("");
+        let header = page.split("</header>").next().unwrap();
+        assert!(header.contains("<p class=\"summary-note\">FOM &lt;defined&gt;</p>"));
+        assert!(header.contains("<dt>λ</dt>"));
     }
 
     #[test]
