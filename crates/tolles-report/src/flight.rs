@@ -77,15 +77,24 @@ fn summary(report: Report, data: &ReportData) -> Report {
         "maneuvers found",
         format!("{} of 12", 12 - before.missing.len()),
     ));
+    report
+        .summary(&borrowed(&items))
+        .summary_note(summary_definitions(data))
+}
+
+/// What the summary's figures are, in the words `tolles fom` uses.
+fn summary_definitions(data: &ReportData) -> String {
     let band = &data.request.band;
-    report.summary(&borrowed(&items)).summary_note(format!(
+    let mut text = format!(
         "FOM: the sum over the box's maneuvers of the peak-to-peak of the scalar band-passed \
-             {}–{} Hz. 4th-difference noise: the standard deviation of the fourth difference of \
-             the unfiltered scalar over the whole flight, as tolles fom prints it. Improvement: \
-             FOM before ÷ FOM after. Heading error: the largest minus the smallest heading level \
-             (see Heading error).",
+         {}–{} Hz. 4th-difference noise: the standard deviation of the fourth difference of the \
+         unfiltered scalar over the whole flight, as tolles fom prints it.",
         band.pass1_hz, band.pass2_hz
-    ))
+    );
+    if data.fom.after.is_some() {
+        text += " Improvement: the uncompensated FOM divided by the compensated one.";
+    }
+    text + " Heading error: the largest minus the smallest heading level (see Heading error)."
 }
 
 fn borrowed<'a>(items: &'a [(&'a str, String)]) -> Vec<(&'a str, &'a str)> {
