@@ -2,7 +2,7 @@
 //! summary cards, signals, spectra, the figure of merit maneuver by maneuver, the heading error
 //! heading by heading and, with a model, its coefficients, patent terms and fit diagnostics.
 
-use crate::plot::{BarChart, BarSeries, Colour, LinePlot, Series, Span};
+use crate::plot::{format_value, BarChart, BarSeries, Colour, LinePlot, Series, Span};
 use crate::{Report, ReportError};
 use std::path::{Path, PathBuf};
 use tolles::report::{HeadingRow, ManeuverRow, ReportData};
@@ -444,12 +444,12 @@ fn physical(report: Report, model: &ScalarModel) -> Report {
         axes.iter()
             .zip(m)
             .map(|(axis, row)| {
-                let cells = row.iter().map(|v| format!("{v:.4e}"));
+                let cells = row.iter().map(|v| format_value(*v));
                 std::iter::once(axis.to_string()).chain(cells).collect()
             })
             .collect()
     };
-    let headers = ["field along \\ per earth field along", "x", "y", "z"];
+    let headers = ["aircraft field along ↓, earth field along →", "x", "y", "z"];
     let p = field.permanent_nt;
     report
         .paragraph(format!(
