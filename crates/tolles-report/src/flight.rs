@@ -517,7 +517,7 @@ fn diagnostics(mut report: Report, model: &ScalarModel) -> Report {
         ("filtered residual", format!("{:.4} nT", d.residual_std_nt)),
         ("improvement ratio", format!("{:.2}", d.improvement_ratio)),
         (
-            "condition number of AᵀA + λ·diag(AᵀA)",
+            "condition number of AᵀA + ridge penalty",
             format!("{:.3e}", d.condition_number),
         ),
     ];
@@ -557,7 +557,8 @@ fn diagnostics(mut report: Report, model: &ScalarModel) -> Report {
     }
     report = report
         .section("Fit diagnostics")
-        .key_values(&borrowed(&items));
+        .key_values(&borrowed(&items))
+        .paragraph(fit_definitions(model));
     if let Some(cv) = &d.cross_validation {
         let rows: Vec<Vec<String>> = cv
             .grid
@@ -576,6 +577,25 @@ fn diagnostics(mut report: Report, model: &ScalarModel) -> Report {
             .table(&["λ (× diag AᵀA)", "held-out RMS (nT)"], &rows);
     }
     term_choice(report, model)
+}
+
+/// What the diagnostics' standard deviations are taken of.
+fn fit_definitions(model: &ScalarModel) -> String {
+    let settings = &model.fit.settings;
+    let filtered = if settings.target == Target::Band {
+        format!(
+            "band-passed {}–{} Hz, as the fit saw it",
+            settings.band.pass1_hz, settings.band.pass2_hz
+        )
+    } else {
+        "unfiltered: the fit's target was the aircraft's field itself".to_string()
+    };
+    format!(
+        "Filtered scalar before and filtered residual: standard deviations over the samples used \
+         of the scalar and of the scalar minus the model ({filtered}). Improvement ratio: the \
+         first divided by the second. The condition number (2-norm) measures how well the \
+         coefficients are determined: each factor of ten costs about a digit."
+    )
 }
 
 fn term_choice(report: Report, model: &ScalarModel) -> Report {
@@ -664,6 +684,7 @@ mod tests {
             "Induced matrix I (dimensionless)",
             "Eddy-current matrix E (s)",
             "so every coefficient is in nT",
+            "of the scalar minus the model (band-passed 0.1–0.9 Hz",
         ] {
             assert!(html.contains(text), "{text} missing");
         }
