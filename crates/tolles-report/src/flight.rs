@@ -296,7 +296,8 @@ fn fom_chart(data: &ReportData) -> BarChart {
         categories: rows.iter().map(|m| label(&m.maneuver)).collect(),
         series,
         caption: Some(format!(
-            "FOM = sum of the bars: {:.3} nT before{after}.",
+            "FOM = sum of the bars: {:.3} nT before{after}. The axis is logarithmic; the \
+             table below gives every value.",
             data.fom.before.fom_nt
         )),
         log_y: true,

@@ -683,7 +683,9 @@ impl<'a> CategoryLayout<'a> {
             .fold(0.0, f64::max);
         let turned = widest > slot * 0.92;
         let area_height = if turned {
-            (widest + 14.0).clamp(40.0, 160.0) as u32
+            // `text_width` errs wide so that level labels never touch; a turned label's
+            // room need not.
+            (0.8 * widest + 14.0).clamp(40.0, 160.0) as u32
         } else {
             40
         };
