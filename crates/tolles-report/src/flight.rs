@@ -11,6 +11,10 @@ use tolles::tolles_core::maneuvers::heading::HeadingLevels;
 use tolles::tolles_core::signal::spectrum::Spectrum;
 use tolles::tolles_io::model::ScalarModel;
 
+/// Said in place of the figure-of-merit sections when the flight has no box maneuvers.
+const NO_BOX: &str =
+    "This flight has no compensation-box maneuvers, so it has no figure of merit (FOM).";
+
 /// Lays out `data` and writes it as `dir/index.html` with its plots; returns the page's path.
 pub fn write(data: &ReportData, dir: &Path) -> Result<PathBuf, ReportError> {
     page(data).write(dir)
@@ -29,9 +33,14 @@ pub fn page(data: &ReportData) -> Report {
             request.band.pass2_hz
         ));
     report = summary(report, data);
+    if !has_box(data) {
+        report = report.paragraph(NO_BOX);
+    }
     report = signals(report, data);
     report = spectra(report, data);
-    report = figure_of_merit(report, data);
+    if has_box(data) {
+        report = figure_of_merit(report, data);
+    }
     report = heading_error(report, data);
     if let Some(fit) = &data.fit {
         report = model(report, fit);
@@ -42,20 +51,22 @@ pub fn page(data: &ReportData) -> Report {
 
 fn summary(report: Report, data: &ReportData) -> Report {
     let before = &data.fom.before;
-    let mut items = vec![
-        ("FOM before", format!("{:.3} nT", before.fom_nt)),
-        ("noise before", format!("{:.3} nT", before.noise_level_nt)),
-    ];
+    let mut items = Vec::new();
+    if has_box(data) {
+        items.push(("FOM before", nt(before.fom_nt, 3)));
+    }
+    items.push(("noise before", nt(before.noise_level_nt, 3)));
     if let Some(after) = &data.fom.after {
-        items.push(("FOM after", format!("{:.3} nT", after.fom_nt)));
-        items.push(("noise after", format!("{:.4} nT", after.noise_level_nt)));
-        items.push((
-            "improvement",
-            format!("×{:.1}", before.fom_nt / after.fom_nt),
-        ));
+        if has_box(data) {
+            items.push(("FOM after", nt(after.fom_nt, 3)));
+        }
+        items.push(("noise after", nt(after.noise_level_nt, 4)));
+        if has_box(data) {
+            items.push(("improvement", ratio(before.fom_nt, after.fom_nt)));
+        }
     }
     if let Some(error) = data.fom.heading_before.heading_error_nt {
-        items.push(("heading error before", format!("{error:.2} nT")));
+        items.push(("heading error before", nt(error, 2)));
     }
     if let Some(error) = data
         .fom
@@ -63,13 +74,39 @@ fn summary(report: Report, data: &ReportData) -> Report {
         .as_ref()
         .and_then(|h| h.heading_error_nt)
     {
-        items.push(("heading error after", format!("{error:.3} nT")));
+        items.push(("heading error after", nt(error, 3)));
     }
-    items.push((
-        "maneuvers found",
-        format!("{} of 12", 12 - before.missing.len()),
-    ));
+    if has_box(data) {
+        items.push((
+            "maneuvers found",
+            format!("{} of 12", 12 - before.missing.len()),
+        ));
+    }
     report.summary(&borrowed(&items))
+}
+
+/// True when the flight has compensation-box maneuvers, so a figure of merit.
+fn has_box(data: &ReportData) -> bool {
+    !data.maneuvers.is_empty()
+}
+
+/// `value` in nT with `decimals` places, or "—" when it is not a finite number.
+fn nt(value: f64, decimals: usize) -> String {
+    if value.is_finite() {
+        format!("{value:.decimals$} nT")
+    } else {
+        "— (not computable)".into()
+    }
+}
+
+/// `×before/after`, or "—" when the ratio is not finite (an after of 0).
+fn ratio(before: f64, after: f64) -> String {
+    let r = before / after;
+    if r.is_finite() {
+        format!("×{r:.1}")
+    } else {
+        "— (FOM after is 0)".into()
+    }
 }
 
 fn borrowed<'a>(items: &'a [(&'a str, String)]) -> Vec<(&'a str, &'a str)> {
@@ -546,5 +583,58 @@ mod tests {
         }
         let plots = std::fs::read_dir(dir.path().join("report/plots")).unwrap();
         assert_eq!(plots.count(), 5);
+    }
+
+    /// A model fitted on a simulated box, saved in `dir`.
+    fn box_model(dir: &Path) -> PathBuf {
+        let flight = dir.join("box.csv");
+        let simulated = simulate::simulate(&Default::default(), &Silent).unwrap();
+        simulate::write(&simulated, &flight).unwrap();
+        let mut warnings = Vec::new();
+        let table = tolles::read::read(&flight, &Default::default(), &Silent, &mut warnings)
+            .unwrap()
+            .table;
+        let request = fit::FitRequest::new(vec!["mag_1_uc".into()], vec!["flux_a".into()]);
+        let model = fit::fit(&table, &request, &Silent, &mut warnings).unwrap();
+        let model_path = dir.join("m.json");
+        tolles::model::save_model(&model, &model_path).unwrap();
+        model_path
+    }
+
+    /// The report page of a simulated four-line survey compensated by a box model.
+    fn survey_report(dir: &Path) -> (ReportData, String) {
+        let flight = dir.join("survey.csv");
+        let request = simulate::SimulateRequest {
+            plan: simulate::PlanKind::Survey,
+            lines: 4,
+            ..Default::default()
+        };
+        simulate::write(&simulate::simulate(&request, &Silent).unwrap(), &flight).unwrap();
+        let request = ReportRequest {
+            model: Some(box_model(dir)),
+            ..ReportRequest::new(&flight, "mag_1_uc")
+        };
+        let data = build(&request, &Silent, &mut Vec::new()).unwrap();
+        let index = write(&data, &dir.join("report")).unwrap();
+        (data, std::fs::read_to_string(index).unwrap())
+    }
+
+    #[test]
+    fn a_survey_report_has_no_fom_and_no_undefined_number() {
+        let dir = tempfile::tempdir().unwrap();
+        let (data, html) = survey_report(dir.path());
+        assert!(data.maneuvers.is_empty());
+        assert!(html.contains(NO_BOX));
+        for text in [
+            "FOM before",
+            "Figure of merit",
+            "of 12",
+            "<dt>improvement</dt>",
+        ] {
+            assert!(!html.contains(text), "{text} present");
+        }
+        for text in ["NaN", "nan", "inf", "∞"] {
+            assert!(!html.contains(text), "{text} in the page");
+        }
     }
 }
