@@ -5,6 +5,7 @@
 use crate::plot::{BarChart, BarSeries, Colour, LinePlot, Series};
 use crate::{Report, ReportError};
 use std::path::{Path, PathBuf};
+use tolles::lines::{ExtentSource, HeadingSource, LineRow, LineTable};
 use tolles::report::{HeadingRow, ManeuverRow, ReportData};
 use tolles::tolles_core::maneuvers::detect::Maneuver;
 use tolles::tolles_core::maneuvers::heading::HeadingLevels;
@@ -35,6 +36,9 @@ pub fn page(data: &ReportData) -> Report {
     report = summary(report, data);
     if !has_box(data) {
         report = report.paragraph(NO_BOX);
+    }
+    if let Some(lines) = &data.lines {
+        report = per_line(report, lines, data.compensated.is_some());
     }
     report = signals(report, data);
     report = spectra(report, data);
@@ -111,6 +115,93 @@ fn ratio(before: f64, after: f64) -> String {
 
 fn borrowed<'a>(items: &'a [(&'a str, String)]) -> Vec<(&'a str, &'a str)> {
     items.iter().map(|(k, v)| (*k, v.as_str())).collect()
+}
+
+/// The per-line table, each column defined in the paragraph above it.
+fn per_line(report: Report, lines: &LineTable, compensated: bool) -> Report {
+    let extent_header = match lines.extent_from {
+        ExtentSource::Duration => "duration (s)",
+        _ => "length (km)",
+    };
+    let mut headers = vec!["line", "heading (°)", extent_header, "rows"];
+    if compensated {
+        headers.extend([
+            "residual before (nT)",
+            "residual after (nT)",
+            "noise before (nT)",
+            "noise after (nT)",
+        ]);
+    } else {
+        headers.extend(["residual (nT)", "noise (nT)"]);
+    }
+    headers.push("level (nT)");
+    let cells: Vec<Vec<String>> = lines
+        .rows
+        .iter()
+        .map(|r| line_cells(r, compensated))
+        .collect();
+    report
+        .section("Lines")
+        .paragraph(line_definitions(lines, compensated))
+        .table(&headers, &cells)
+}
+
+fn line_definitions(lines: &LineTable, compensated: bool) -> String {
+    let heading = match lines.heading_from {
+        HeadingSource::Yaw => "the circular mean of ins_yaw",
+        HeadingSource::LatLon => "the circular mean bearing of the track from lat/lon",
+        HeadingSource::NorthEast => "the circular mean bearing of the track from north_m/east_m",
+        HeadingSource::None => "— (the flight has no ins_yaw and no positions)",
+    };
+    let extent = match lines.extent_from {
+        ExtentSource::LatLon => "the track length from lat/lon",
+        ExtentSource::NorthEast => "the track length from north_m/east_m",
+        ExtentSource::Duration => "the time flown on the line (the flight has no positions)",
+    };
+    let signal = if compensated {
+        "compensated scalar"
+    } else {
+        "scalar"
+    };
+    format!(
+        "One row per value of the line column, rows of a line wherever they are. Heading: \
+         {heading}. {}: {extent}. Residual: standard deviation of the scalar about its \
+         least-squares straight line in time over the line (the line's trend removed). Noise: \
+         standard deviation of the fourth difference (x₋₂ − 4x₋₁ + 6x₀ − 4x₊₁ + x₊₂)/16 of the \
+         scalar, as tolles fom prints it. Level: the line's mean {signal} minus the median of \
+         all lines' means. — : too few finite samples (a residual needs 3, a noise 5).",
+        match lines.extent_from {
+            ExtentSource::Duration => "Duration",
+            _ => "Length",
+        }
+    )
+}
+
+fn line_cells(row: &LineRow, compensated: bool) -> Vec<String> {
+    let cell = |v: Option<f64>, decimals: usize| {
+        v.filter(|v| v.is_finite())
+            .map_or("—".into(), |v| format!("{v:.decimals$}"))
+    };
+    let mut cells = vec![
+        row.line.clone(),
+        // 359.96° prints as 0.0, not 360.0.
+        cell(
+            row.heading_deg.map(|h| ((h * 10.0).round() / 10.0) % 360.0),
+            1,
+        ),
+        cell(row.extent, 2),
+        row.rows.to_string(),
+        cell(row.residual_before_nt, 3),
+    ];
+    if compensated {
+        cells.push(cell(row.residual_after_nt, 4));
+    }
+    cells.push(cell(row.noise_before_nt, 4));
+    if compensated {
+        cells.push(cell(row.noise_after_nt, 4));
+    }
+    cells.push(cell(row.level_nt, 3));
+    cells
 }
 
 fn signals(mut report: Report, data: &ReportData) -> Report {
@@ -635,6 +726,41 @@ mod tests {
         }
         for text in ["NaN", "nan", "inf", "∞"] {
             assert!(!html.contains(text), "{text} in the page");
+        }
+    }
+
+    #[test]
+    fn a_survey_report_names_every_line_with_finite_statistics() {
+        let dir = tempfile::tempdir().unwrap();
+        let (data, html) = survey_report(dir.path());
+        let lines = data.lines.as_ref().unwrap();
+        // Four lines joined by three turns, each turn its own line id.
+        assert_eq!(lines.rows.len(), 7);
+        assert_eq!(lines.extent_from, ExtentSource::LatLon);
+        for row in &lines.rows {
+            assert!(
+                html.contains(&format!(">{}</td>", row.line)),
+                "{}",
+                row.line
+            );
+            let numbers = [
+                row.heading_deg,
+                row.extent,
+                row.residual_before_nt,
+                row.residual_after_nt,
+                row.noise_before_nt,
+                row.noise_after_nt,
+                row.level_nt,
+            ];
+            assert!(
+                numbers.iter().all(|v| v.is_some_and(f64::is_finite)),
+                "{row:?}"
+            );
+            // Compensation removes the aircraft's field from the line's residual.
+            assert!(row.residual_after_nt < row.residual_before_nt, "{row:?}");
+        }
+        for id in ["1001", "1002", "1003", "1004"] {
+            assert!(lines.rows.iter().any(|r| r.line == id), "{id}");
         }
     }
 }
