@@ -156,7 +156,7 @@ fn group(ids: &[String]) -> Vec<Line> {
             Some(line) => line.runs.push(start..k),
             None => lines.push(Line {
                 id: ids[start].clone(),
-                runs: vec![start..k],
+                runs: std::iter::once(start..k).collect(),
             }),
         }
         start = k;
