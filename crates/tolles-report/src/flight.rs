@@ -2,6 +2,7 @@
 //! summary cards, signals, spectra, the figure of merit maneuver by maneuver, the heading error
 //! heading by heading and, with a model, its coefficients, patent terms and fit diagnostics.
 
+use crate::map::ScatterMap;
 use crate::plot::{BarChart, BarSeries, Colour, LinePlot, Series};
 use crate::{Report, ReportError};
 use std::path::{Path, PathBuf};
@@ -18,11 +19,84 @@ const NO_BOX: &str =
 
 /// Lays out `data` and writes it as `dir/index.html` with its plots; returns the page's path.
 pub fn write(data: &ReportData, dir: &Path) -> Result<PathBuf, ReportError> {
-    page(data).write(dir)
+    let maps = maps(data);
+    let index = page_with(data, &maps).write(dir)?;
+    for map in &maps {
+        crate::write_file(&dir.join(&map.src), &map.svg)?;
+    }
+    Ok(index)
 }
 
-/// The report of `data`.
+/// The report of `data`, its maps referenced but not written (see [`write`]).
 pub fn page(data: &ReportData) -> Report {
+    page_with(data, &maps(data))
+}
+
+/// A map of the track as an SVG, and where the page expects it.
+struct Map {
+    src: String,
+    alt: String,
+    svg: String,
+}
+
+/// Maps of the track coloured by the compensated field and by the correction (with a model),
+/// or by the uncompensated field; none without positions.
+fn maps(data: &ReportData) -> Vec<Map> {
+    let Some(track) = &data.track else {
+        return Vec::new();
+    };
+    let before = &data.fom.scalar;
+    let colourings: Vec<(&str, &str, Vec<f64>)> = match &data.fom.compensated {
+        Some(after) => vec![
+            ("compensated", "compensated field (nT)", after.clone()),
+            (
+                "correction",
+                "correction = uncompensated − compensated (nT)",
+                before.iter().zip(after).map(|(b, a)| b - a).collect(),
+            ),
+        ],
+        None => vec![("uncompensated", "uncompensated field (nT)", before.clone())],
+    };
+    colourings
+        .into_iter()
+        .filter_map(|(name, label, value)| {
+            let svg = ScatterMap {
+                title: label,
+                east_km: &track.east_km,
+                north_km: &track.north_km,
+                value: &value,
+                value_label: "nT",
+            }
+            .to_svg()?;
+            Some(Map {
+                src: format!("plots/map-{name}.svg"),
+                alt: format!("Map of the track coloured by the {label}"),
+                svg,
+            })
+        })
+        .collect()
+}
+
+fn map_section(mut report: Report, data: &ReportData, maps: &[Map]) -> Report {
+    let Some(track) = data.track.as_ref().filter(|_| !maps.is_empty()) else {
+        return report;
+    };
+    let from = if track.from_lat_lon {
+        "lat/lon on a sphere flattened about the first position"
+    } else {
+        "north_m/east_m"
+    };
+    report = report.section("Map").paragraph(format!(
+        "The track east and north (km) of its start, from {from}; colours run blue–white–red \
+         between the value's 2nd and 98th percentiles (values beyond take the end colours)."
+    ));
+    for map in maps {
+        report = report.image(&map.src, &map.alt);
+    }
+    report
+}
+
+fn page_with(data: &ReportData, maps: &[Map]) -> Report {
     let request = &data.request;
     let mut report = Report::new(format!("Compensation report: {}", request.flight.display()))
         .subtitle(format!(
@@ -40,6 +114,7 @@ pub fn page(data: &ReportData) -> Report {
     if let Some(lines) = &data.lines {
         report = per_line(report, lines, data.compensated.is_some());
     }
+    report = map_section(report, data, maps);
     report = signals(report, data);
     report = spectra(report, data);
     if has_box(data) {
@@ -673,7 +748,8 @@ mod tests {
             assert!(html.contains(text), "{text} missing");
         }
         let plots = std::fs::read_dir(dir.path().join("report/plots")).unwrap();
-        assert_eq!(plots.count(), 5);
+        // Five plots and the two maps of the track.
+        assert_eq!(plots.count(), 7);
     }
 
     /// A model fitted on a simulated box, saved in `dir`.
@@ -758,6 +834,11 @@ mod tests {
             );
             // Compensation removes the aircraft's field from the line's residual.
             assert!(row.residual_after_nt < row.residual_before_nt, "{row:?}");
+        }
+        for map in ["map-compensated.svg", "map-correction.svg"] {
+            let svg = std::fs::read_to_string(dir.path().join("report/plots").join(map)).unwrap();
+            assert!(svg.matches("<circle").count() > 1000, "{map}");
+            assert!(html.contains(&format!("src=\"plots/{map}\"")), "{map}");
         }
         for id in ["1001", "1002", "1003", "1004"] {
             assert!(lines.rows.iter().any(|r| r.line == id), "{id}");

@@ -123,6 +123,28 @@ pub fn line_table(table: &Table, inputs: &LineInputs) -> Option<LineTable> {
     })
 }
 
+/// Where the aircraft was, row by row, on a local flat earth.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Track {
+    /// East of the first position (km).
+    pub east_km: Vec<f64>,
+    /// North of the first position (km).
+    pub north_km: Vec<f64>,
+    /// True when made from `lat`/`lon`, false from `north_m`/`east_m`.
+    pub from_lat_lon: bool,
+}
+
+/// The track of `table` from `lat`/`lon`, else `north_m`/`east_m`; `None` without either.
+pub fn track(table: &Table) -> Option<Track> {
+    let (north, east, from_lat_lon) = positions(table)?;
+    let km = |m: Vec<f64>| m.into_iter().map(|v| v / 1000.0).collect();
+    Some(Track {
+        east_km: km(east),
+        north_km: km(north),
+        from_lat_lon,
+    })
+}
+
 /// A line id and the runs of consecutive rows on it.
 struct Line {
     id: String,
@@ -296,6 +318,16 @@ mod tests {
         assert_eq!(a.residual_after_nt, None);
         // Means 109.5 and 125: the median is 117.25.
         assert!((b.level_nt.unwrap() - 7.75).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_track_from_north_east_in_km_and_none_without_positions() {
+        let t = table(&[("north_m", vec![0.0, 1500.0]), ("east_m", vec![0.0, -20.0])]);
+        let track = track(&t).unwrap();
+        assert_eq!(track.north_km, [0.0, 1.5]);
+        assert_eq!(track.east_km, [0.0, -0.02]);
+        assert!(!track.from_lat_lon);
+        assert!(super::track(&table(&[("lat", vec![1.0])])).is_none());
     }
 
     #[test]

@@ -5,7 +5,7 @@
 
 use crate::error::{Error, Result};
 use crate::fom::{fit_for, fom, scalar_to_use, FomOutcome, FomRequest};
-use crate::lines::{line_table, LineInputs, LineTable};
+use crate::lines::{line_table, track, LineInputs, LineTable, Track};
 use crate::progress::Progress;
 use crate::warning::Warning;
 use std::path::PathBuf;
@@ -88,6 +88,8 @@ pub struct ReportData {
     pub headings: Vec<HeadingRow>,
     /// Statistics line by line, when the flight has a line column with several lines.
     pub lines: Option<LineTable>,
+    /// Where the aircraft was, when the flight has positions.
+    pub track: Option<Track>,
 }
 
 /// The scalar's level on one heading's straight legs, before and after compensation.
@@ -182,6 +184,7 @@ pub fn build(
     );
     Ok(ReportData {
         lines,
+        track: track(&read.table),
         uncompensated: trace_of(&outcome.scalar)?,
         compensated: outcome.compensated.as_deref().map(trace_of).transpose()?,
         error: outcome
