@@ -115,35 +115,41 @@ impl Frame {
             svg,
             "<rect x=\"{x0:.1}\" y=\"{y1:.1}\" width=\"{:.1}\" height=\"{:.1}\" fill=\"none\" \
              stroke=\"#888\"/>\
-             <text x=\"{x0:.1}\" y=\"{:.1}\">{:.2}</text>\
-             <text x=\"{x1:.1}\" y=\"{:.1}\" text-anchor=\"end\">{:.2}</text>\
+             <text x=\"{x0:.1}\" y=\"{:.1}\">{}</text>\
+             <text x=\"{x1:.1}\" y=\"{:.1}\" text-anchor=\"end\">{}</text>\
              <text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"middle\">east (km)</text>\
-             <text x=\"{:.1}\" y=\"{y0:.1}\" text-anchor=\"end\">{:.2}</text>\
-             <text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"end\">{:.2}</text>\
-             <text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"end\">north (km)</text>",
+             <text x=\"{:.1}\" y=\"{y0:.1}\" text-anchor=\"end\">{}</text>\
+             <text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"end\">{}</text>\
+             <text transform=\"translate(14 {:.1}) rotate(-90)\" text-anchor=\"middle\">\
+             north (km)</text>",
             x1 - x0,
             y0 - y1,
             y0 + 14.0,
-            self.east0,
+            km(self.east0),
             y0 + 14.0,
-            self.east0 + self.span_km.0,
+            km(self.east0 + self.span_km.0),
             (x0 + x1) / 2.0,
             y0 + 30.0,
             x0 - 4.0,
-            self.north0,
+            km(self.north0),
             x0 - 4.0,
             y1 + 10.0,
-            self.north0 + self.span_km.1,
-            x0 - 4.0,
+            km(self.north0 + self.span_km.1),
             (y0 + y1) / 2.0,
         );
     }
 }
 
+/// A position (km) to 0.1 km, never "-0.0".
+fn km(value: f64) -> String {
+    let rounded = (value * 10.0).round() / 10.0;
+    format!("{:.1}", rounded + 0.0)
+}
+
 /// A vertical bar from `lo` (bottom) to `hi` (top) at the right of the map.
 fn colour_bar(svg: &mut String, lo: f64, hi: f64, label: &str) {
     let (_, _, t, b) = MARGIN;
-    let x = MAP_SIZE.0 - 56.0;
+    let x = MAP_SIZE.0 - 72.0;
     let height = MAP_SIZE.1 - t - b;
     let steps = 40;
     for k in 0..steps {
@@ -158,7 +164,7 @@ fn colour_bar(svg: &mut String, lo: f64, hi: f64, label: &str) {
     }
     let _ = write!(
         svg,
-        "<text x=\"{}\" y=\"{}\">{hi:.2}</text><text x=\"{}\" y=\"{}\">{lo:.2}</text>\
+        "<text x=\"{}\" y=\"{}\">{hi:.1}</text><text x=\"{}\" y=\"{}\">{lo:.1}</text>\
          <text x=\"{}\" y=\"{}\" font-size=\"10\">{}</text>",
         x + 15.0,
         t + 8.0,
@@ -245,5 +251,7 @@ mod tests {
         assert_eq!(colour(0.5), "#f7f7f7");
         assert_eq!(colour(1.0), "#b2182b");
         assert_eq!(scale(5.0, 1.0, 1.0), 0.5);
+        assert_eq!(km(-0.00001), "0.0");
+        assert_eq!(km(1.26), "1.3");
     }
 }
