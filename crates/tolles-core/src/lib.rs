@@ -75,3 +75,4 @@ pub mod maneuvers;
 pub mod model;
 pub mod patent;
 pub mod signal;
+pub mod survey;

@@ -23,6 +23,10 @@ pub const YAW: &str = "ins_yaw";
 pub const LATITUDE: &str = "lat";
 /// Longitude (deg).
 pub const LONGITUDE: &str = "lon";
+/// Distance north of a local origin (m), as the simulator writes it.
+pub const NORTH: &str = "north_m";
+/// Distance east of a local origin (m), as the simulator writes it.
+pub const EAST: &str = "east_m";
 /// Diurnal variation (nT), as a base station measured it.
 pub const DIURNAL: &str = "diurnal";
 /// The core field of the IGRF model at the aircraft (nT).

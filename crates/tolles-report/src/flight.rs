@@ -2,9 +2,11 @@
 //! summary cards, signals, spectra, the figure of merit maneuver by maneuver, the heading error
 //! heading by heading and, with a model, its coefficients, patent terms and fit diagnostics.
 
+use crate::map::ScatterMap;
 use crate::plot::{format_value, BarChart, BarSeries, Colour, LinePlot, Series, Span};
 use crate::{Report, ReportError};
 use std::path::{Path, PathBuf};
+use tolles::lines::{ExtentSource, HeadingSource, LineRow, LineTable};
 use tolles::report::{HeadingRow, ManeuverRow, ReportData};
 use tolles::tolles_core::fit::Target;
 use tolles::tolles_core::maneuvers::detect::Maneuver;
@@ -13,13 +15,90 @@ use tolles::tolles_core::model::terms::Column;
 use tolles::tolles_core::signal::spectrum::Spectrum;
 use tolles::tolles_io::model::ScalarModel;
 
+/// Said in place of the figure-of-merit sections when the flight has no box maneuvers.
+const NO_BOX: &str =
+    "This flight has no compensation-box maneuvers, so it has no figure of merit (FOM).";
+
 /// Lays out `data` and writes it as `dir/index.html` with its plots; returns the page's path.
 pub fn write(data: &ReportData, dir: &Path) -> Result<PathBuf, ReportError> {
-    page(data).write(dir)
+    let maps = maps(data);
+    let index = page_with(data, &maps).write(dir)?;
+    for map in &maps {
+        crate::write_file(&dir.join(&map.src), &map.svg)?;
+    }
+    Ok(index)
 }
 
-/// The report of `data`.
+/// The report of `data`, its maps referenced but not written (see [`write`]).
 pub fn page(data: &ReportData) -> Report {
+    page_with(data, &maps(data))
+}
+
+/// A map of the track as an SVG, and where the page expects it.
+struct Map {
+    src: String,
+    alt: String,
+    svg: String,
+}
+
+/// Maps of the track coloured by the compensated field and by the correction (with a model),
+/// or by the uncompensated field; none without positions.
+fn maps(data: &ReportData) -> Vec<Map> {
+    let Some(track) = &data.track else {
+        return Vec::new();
+    };
+    let before = &data.fom.scalar;
+    let colourings: Vec<(&str, &str, Vec<f64>)> = match &data.fom.compensated {
+        Some(after) => vec![
+            ("compensated", "compensated field (nT)", after.clone()),
+            (
+                "correction",
+                "correction = uncompensated − compensated (nT)",
+                before.iter().zip(after).map(|(b, a)| b - a).collect(),
+            ),
+        ],
+        None => vec![("uncompensated", "uncompensated field (nT)", before.clone())],
+    };
+    colourings
+        .into_iter()
+        .filter_map(|(name, label, value)| {
+            let svg = ScatterMap {
+                title: label,
+                east_km: &track.east_km,
+                north_km: &track.north_km,
+                value: &value,
+                value_label: "nT",
+            }
+            .to_svg()?;
+            Some(Map {
+                src: format!("plots/map-{name}.svg"),
+                alt: format!("Map of the track coloured by the {label}"),
+                svg,
+            })
+        })
+        .collect()
+}
+
+fn map_section(mut report: Report, data: &ReportData, maps: &[Map]) -> Report {
+    let Some(track) = data.track.as_ref().filter(|_| !maps.is_empty()) else {
+        return report;
+    };
+    let from = if track.from_lat_lon {
+        "lat/lon on a sphere flattened about the first position"
+    } else {
+        "north_m/east_m"
+    };
+    report = report.section("Map").paragraph(format!(
+        "The track east and north (km) of its start, from {from}; colours run blue–white–red \
+         between the value's 2nd and 98th percentiles (values beyond take the end colours)."
+    ));
+    for map in maps {
+        report = report.image(&map.src, &map.alt);
+    }
+    report
+}
+
+fn page_with(data: &ReportData, maps: &[Map]) -> Report {
     let request = &data.request;
     let mut report = Report::new(format!("Compensation report: {}", request.flight.display()))
         .subtitle(format!(
@@ -31,9 +110,18 @@ pub fn page(data: &ReportData) -> Report {
             request.band.pass2_hz
         ));
     report = summary(report, data);
+    if !has_box(data) {
+        report = report.paragraph(NO_BOX);
+    }
+    if let Some(lines) = &data.lines {
+        report = per_line(report, lines, data.compensated.is_some());
+    }
+    report = map_section(report, data, maps);
     report = signals(report, data);
     report = spectra(report, data);
-    report = figure_of_merit(report, data);
+    if has_box(data) {
+        report = figure_of_merit(report, data);
+    }
     report = heading_error(report, data);
     if let Some(fit) = &data.fit {
         report = model(report, fit);
@@ -44,26 +132,28 @@ pub fn page(data: &ReportData) -> Report {
 
 fn summary(report: Report, data: &ReportData) -> Report {
     let before = &data.fom.before;
-    let mut items = vec![
-        ("FOM before", format!("{:.3} nT", before.fom_nt)),
-        (
-            "4th-difference noise before",
-            format!("{:.4} nT", before.fourth_difference_nt),
-        ),
-    ];
+    let mut items = Vec::new();
+    if has_box(data) {
+        items.push(("FOM before", nt(before.fom_nt, 3)));
+    }
+    items.push((
+        "4th-difference noise before",
+        nt(before.fourth_difference_nt, 4),
+    ));
     if let Some(after) = &data.fom.after {
-        items.push(("FOM after", format!("{:.3} nT", after.fom_nt)));
+        if has_box(data) {
+            items.push(("FOM after", nt(after.fom_nt, 3)));
+        }
         items.push((
             "4th-difference noise after",
-            format!("{:.4} nT", after.fourth_difference_nt),
+            nt(after.fourth_difference_nt, 4),
         ));
-        items.push((
-            "improvement",
-            format!("×{:.1}", before.fom_nt / after.fom_nt),
-        ));
+        if has_box(data) {
+            items.push(("improvement", ratio(before.fom_nt, after.fom_nt)));
+        }
     }
     if let Some(error) = data.fom.heading_before.heading_error_nt {
-        items.push(("heading error before", format!("{error:.2} nT")));
+        items.push(("heading error before", nt(error, 2)));
     }
     if let Some(error) = data
         .fom
@@ -71,12 +161,14 @@ fn summary(report: Report, data: &ReportData) -> Report {
         .as_ref()
         .and_then(|h| h.heading_error_nt)
     {
-        items.push(("heading error after", format!("{error:.3} nT")));
+        items.push(("heading error after", nt(error, 3)));
     }
-    items.push((
-        "maneuvers found",
-        format!("{} of 12", 12 - before.missing.len()),
-    ));
+    if has_box(data) {
+        items.push((
+            "maneuvers found",
+            format!("{} of 12", 12 - before.missing.len()),
+        ));
+    }
     report
         .summary(&borrowed(&items))
         .summary_note(summary_definitions(data))
@@ -85,20 +177,135 @@ fn summary(report: Report, data: &ReportData) -> Report {
 /// What the summary's figures are, in the words `tolles fom` uses.
 fn summary_definitions(data: &ReportData) -> String {
     let band = &data.request.band;
-    let mut text = format!(
-        "FOM: the sum over the box's maneuvers of the peak-to-peak of the scalar band-passed \
-         {}–{} Hz. 4th-difference noise: the standard deviation of the fourth difference of the \
-         unfiltered scalar over the whole flight, as tolles fom prints it.",
-        band.pass1_hz, band.pass2_hz
-    );
-    if data.fom.after.is_some() {
+    let mut text = String::new();
+    if has_box(data) {
+        text += &format!(
+            "FOM: the sum over the box's maneuvers of the peak-to-peak of the scalar band-passed \
+             {}–{} Hz. ",
+            band.pass1_hz, band.pass2_hz
+        );
+    }
+    text += "4th-difference noise: the standard deviation of the fourth difference of the \
+             unfiltered scalar over the whole flight, as tolles fom prints it.";
+    if has_box(data) && data.fom.after.is_some() {
         text += " Improvement: the uncompensated FOM divided by the compensated one.";
     }
     text + " Heading error: the largest minus the smallest heading level (see Heading error)."
 }
 
+/// True when the flight has compensation-box maneuvers, so a figure of merit.
+fn has_box(data: &ReportData) -> bool {
+    !data.maneuvers.is_empty()
+}
+
+/// `value` in nT with `decimals` places, or "—" when it is not a finite number.
+fn nt(value: f64, decimals: usize) -> String {
+    if value.is_finite() {
+        format!("{value:.decimals$} nT")
+    } else {
+        "— (not computable)".into()
+    }
+}
+
+/// `×before/after`, or "—" when the ratio is not finite (an after of 0).
+fn ratio(before: f64, after: f64) -> String {
+    let r = before / after;
+    if r.is_finite() {
+        format!("×{r:.1}")
+    } else {
+        "— (FOM after is 0)".into()
+    }
+}
+
 fn borrowed<'a>(items: &'a [(&'a str, String)]) -> Vec<(&'a str, &'a str)> {
     items.iter().map(|(k, v)| (*k, v.as_str())).collect()
+}
+
+/// The per-line table, each column defined in the paragraph above it.
+fn per_line(report: Report, lines: &LineTable, compensated: bool) -> Report {
+    let extent_header = match lines.extent_from {
+        ExtentSource::Duration => "duration (s)",
+        _ => "length (km)",
+    };
+    let mut headers = vec!["line", "heading (°)", extent_header, "rows"];
+    if compensated {
+        headers.extend([
+            "residual before (nT)",
+            "residual after (nT)",
+            "noise before (nT)",
+            "noise after (nT)",
+        ]);
+    } else {
+        headers.extend(["residual (nT)", "noise (nT)"]);
+    }
+    headers.push("level (nT)");
+    let cells: Vec<Vec<String>> = lines
+        .rows
+        .iter()
+        .map(|r| line_cells(r, compensated))
+        .collect();
+    report
+        .section("Lines")
+        .paragraph(line_definitions(lines, compensated))
+        .table(&headers, &cells)
+}
+
+fn line_definitions(lines: &LineTable, compensated: bool) -> String {
+    let heading = match lines.heading_from {
+        HeadingSource::Yaw => "the circular mean of ins_yaw",
+        HeadingSource::LatLon => "the circular mean bearing of the track from lat/lon",
+        HeadingSource::NorthEast => "the circular mean bearing of the track from north_m/east_m",
+        HeadingSource::None => "— (the flight has no ins_yaw and no positions)",
+    };
+    let extent = match lines.extent_from {
+        ExtentSource::LatLon => "the track length from lat/lon",
+        ExtentSource::NorthEast => "the track length from north_m/east_m",
+        ExtentSource::Duration => "the time flown on the line (the flight has no positions)",
+    };
+    let signal = if compensated {
+        "compensated scalar"
+    } else {
+        "scalar"
+    };
+    format!(
+        "One row per value of the line column, rows of a line wherever they are. Heading: \
+         {heading}. {}: {extent}. Residual: standard deviation of the scalar about its \
+         least-squares straight line in time over the line (the line's trend removed). Noise: \
+         standard deviation of the fourth difference (x₋₂ − 4x₋₁ + 6x₀ − 4x₊₁ + x₊₂)/16 of the \
+         scalar, as tolles fom prints it. Level: the line's mean {signal} minus the median of \
+         all lines' means. — : too few finite samples (a residual needs 3, a noise 5).",
+        match lines.extent_from {
+            ExtentSource::Duration => "Duration",
+            _ => "Length",
+        }
+    )
+}
+
+fn line_cells(row: &LineRow, compensated: bool) -> Vec<String> {
+    let cell = |v: Option<f64>, decimals: usize| {
+        v.filter(|v| v.is_finite())
+            .map_or("—".into(), |v| format!("{v:.decimals$}"))
+    };
+    let mut cells = vec![
+        row.line.clone(),
+        // 359.96° prints as 0.0, not 360.0.
+        cell(
+            row.heading_deg.map(|h| ((h * 10.0).round() / 10.0) % 360.0),
+            1,
+        ),
+        cell(row.extent, 2),
+        row.rows.to_string(),
+        cell(row.residual_before_nt, 3),
+    ];
+    if compensated {
+        cells.push(cell(row.residual_after_nt, 4));
+    }
+    cells.push(cell(row.noise_before_nt, 4));
+    if compensated {
+        cells.push(cell(row.noise_after_nt, 4));
+    }
+    cells.push(cell(row.level_nt, 3));
+    cells
 }
 
 fn signals(mut report: Report, data: &ReportData) -> Report {
@@ -691,7 +898,8 @@ mod tests {
         }
         assert!(!html.contains("per column unit"));
         let plots = dir.path().join("report/plots");
-        assert_eq!(std::fs::read_dir(&plots).unwrap().count(), 5);
+        // Five plots and the two maps of the track.
+        assert_eq!(std::fs::read_dir(&plots).unwrap().count(), 7);
         let svg = |name: &str| std::fs::read_to_string(plots.join(name)).unwrap();
         // Compensated bars (hundredths of a nT) beside uncompensated ones (tens of nT) need
         // a log axis to be seen at all.
@@ -702,6 +910,99 @@ mod tests {
         let psd = svg("04-power-spectral-density.svg");
         for mark in ["FOM band 0.05–1 Hz", "fit band 0.1–0.9 Hz", "10⁻¹"] {
             assert!(psd.contains(mark), "PSD lacks {mark}");
+        }
+    }
+
+    /// A model fitted on a simulated box, saved in `dir`.
+    fn box_model(dir: &Path) -> PathBuf {
+        let flight = dir.join("box.csv");
+        let simulated = simulate::simulate(&Default::default(), &Silent).unwrap();
+        simulate::write(&simulated, &flight).unwrap();
+        let mut warnings = Vec::new();
+        let table = tolles::read::read(&flight, &Default::default(), &Silent, &mut warnings)
+            .unwrap()
+            .table;
+        let request = fit::FitRequest::new(vec!["mag_1_uc".into()], vec!["flux_a".into()]);
+        let model = fit::fit(&table, &request, &Silent, &mut warnings).unwrap();
+        let model_path = dir.join("m.json");
+        tolles::model::save_model(&model, &model_path).unwrap();
+        model_path
+    }
+
+    /// The report page of a simulated four-line survey compensated by a box model.
+    fn survey_report(dir: &Path) -> (ReportData, String) {
+        let flight = dir.join("survey.csv");
+        let request = simulate::SimulateRequest {
+            plan: simulate::PlanKind::Survey,
+            lines: 4,
+            ..Default::default()
+        };
+        simulate::write(&simulate::simulate(&request, &Silent).unwrap(), &flight).unwrap();
+        let request = ReportRequest {
+            model: Some(box_model(dir)),
+            ..ReportRequest::new(&flight, "mag_1_uc")
+        };
+        let data = build(&request, &Silent, &mut Vec::new()).unwrap();
+        let index = write(&data, &dir.join("report")).unwrap();
+        (data, std::fs::read_to_string(index).unwrap())
+    }
+
+    #[test]
+    fn a_survey_report_has_no_fom_and_no_undefined_number() {
+        let dir = tempfile::tempdir().unwrap();
+        let (data, html) = survey_report(dir.path());
+        assert!(data.maneuvers.is_empty());
+        assert!(html.contains(NO_BOX));
+        for text in [
+            "FOM before",
+            "Figure of merit",
+            "of 12",
+            "<dt>improvement</dt>",
+        ] {
+            assert!(!html.contains(text), "{text} present");
+        }
+        for text in ["NaN", "nan", "inf", "∞"] {
+            assert!(!html.contains(text), "{text} in the page");
+        }
+    }
+
+    #[test]
+    fn a_survey_report_names_every_line_with_finite_statistics() {
+        let dir = tempfile::tempdir().unwrap();
+        let (data, html) = survey_report(dir.path());
+        let lines = data.lines.as_ref().unwrap();
+        // Four lines joined by three turns, each turn its own line id.
+        assert_eq!(lines.rows.len(), 7);
+        assert_eq!(lines.extent_from, ExtentSource::LatLon);
+        for row in &lines.rows {
+            assert!(
+                html.contains(&format!(">{}</td>", row.line)),
+                "{}",
+                row.line
+            );
+            let numbers = [
+                row.heading_deg,
+                row.extent,
+                row.residual_before_nt,
+                row.residual_after_nt,
+                row.noise_before_nt,
+                row.noise_after_nt,
+                row.level_nt,
+            ];
+            assert!(
+                numbers.iter().all(|v| v.is_some_and(f64::is_finite)),
+                "{row:?}"
+            );
+            // Compensation removes the aircraft's field from the line's residual.
+            assert!(row.residual_after_nt < row.residual_before_nt, "{row:?}");
+        }
+        for map in ["map-compensated.svg", "map-correction.svg"] {
+            let svg = std::fs::read_to_string(dir.path().join("report/plots").join(map)).unwrap();
+            assert!(svg.matches("<circle").count() > 1000, "{map}");
+            assert!(html.contains(&format!("src=\"plots/{map}\"")), "{map}");
+        }
+        for id in ["1001", "1002", "1003", "1004"] {
+            assert!(lines.rows.iter().any(|r| r.line == id), "{id}");
         }
     }
 }

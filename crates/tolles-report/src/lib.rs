@@ -37,6 +37,7 @@
 pub mod decimate;
 pub mod flight;
 pub mod html;
+pub mod map;
 pub mod plot;
 
 use std::fmt::Write as _;

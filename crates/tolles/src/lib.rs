@@ -71,6 +71,7 @@ pub mod error;
 pub mod fit;
 pub mod fom;
 pub mod info;
+pub mod lines;
 pub mod model;
 pub mod plan;
 pub mod procedure;

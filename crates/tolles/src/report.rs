@@ -5,6 +5,7 @@
 
 use crate::error::{Error, Result};
 use crate::fom::{fit_for, fom, scalar_to_use, FomOutcome, FomRequest};
+use crate::lines::{line_table, track, LineInputs, LineTable, Track};
 use crate::progress::Progress;
 use crate::warning::Warning;
 use std::path::PathBuf;
@@ -85,6 +86,10 @@ pub struct ReportData {
     /// order (N, E, S, W); the heading errors themselves are in [`FomOutcome::heading_before`]
     /// and [`FomOutcome::heading_after`].
     pub headings: Vec<HeadingRow>,
+    /// Statistics line by line, when the flight has a line column with several lines.
+    pub lines: Option<LineTable>,
+    /// Where the aircraft was, when the flight has positions.
+    pub track: Option<Track>,
 }
 
 /// The scalar's level on one heading's straight legs, before and after compensation.
@@ -169,7 +174,17 @@ pub fn build(
     };
     let outcome = fom(&read.table, &fom_request, fit.as_ref(), warnings)?;
     let trace_of = |x: &[f64]| trace(x, &outcome, request);
+    let lines = line_table(
+        &read.table,
+        &LineInputs {
+            tt: &outcome.tt,
+            before: &outcome.scalar,
+            after: outcome.compensated.as_deref(),
+        },
+    );
     Ok(ReportData {
+        lines,
+        track: track(&read.table),
         uncompensated: trace_of(&outcome.scalar)?,
         compensated: outcome.compensated.as_deref().map(trace_of).transpose()?,
         error: outcome

@@ -40,7 +40,7 @@
 
 use crate::maneuvers::detect::{Maneuver, ManeuverKind, CARDINAL_HEADINGS_DEG};
 use crate::signal::filter::{Band, Butterworth, FilterError, Response};
-use crate::signal::metrics::{fourth_difference, std_dev};
+use crate::signal::metrics::{fourth_difference_noise, std_dev};
 use crate::signal::segment::contiguous_runs;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
@@ -207,7 +207,7 @@ pub fn fom(
             .collect(),
         maneuvers,
         noise_level_nt: std_dev(&filtered),
-        fourth_difference_nt: std_dev(&fourth_difference(signal_nt)),
+        fourth_difference_nt: fourth_difference_noise(signal_nt),
     })
 }
 

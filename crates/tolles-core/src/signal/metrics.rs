@@ -40,6 +40,12 @@ pub fn fourth_difference(x: &[f64]) -> Vec<f64> {
     d
 }
 
+/// High-pass noise (units of `x`): the standard deviation of the [`fourth_difference`] of `x`,
+/// over its finite values (NaN with fewer than 5 samples). `tolles fom` prints it.
+pub fn fourth_difference_noise(x: &[f64]) -> f64 {
+    std_dev(&fourth_difference(x))
+}
+
 /// Population standard deviation of the finite values (NaN if there are none).
 pub fn std_dev(x: &[f64]) -> f64 {
     let finite = || x.iter().copied().filter(|v| v.is_finite());

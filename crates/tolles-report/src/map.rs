@@ -1,0 +1,257 @@
+//! A map of a flight's track as an SVG scatter, each point coloured by a value (nT) on a
+//! blue–white–red scale between the value's 2nd and 98th percentiles, with a colour bar.
+
+use crate::html::escape;
+use std::fmt::Write as _;
+
+/// Width and height of a map (px).
+pub const MAP_SIZE: (f64, f64) = (460.0, 420.0);
+/// Most points drawn; longer tracks are thinned evenly so the file stays small.
+const MAX_POINTS: usize = 6000;
+const MARGIN: (f64, f64, f64, f64) = (56.0, 70.0, 24.0, 44.0); // left, right, top, bottom
+
+/// Points east and north (km) and the value (nT) that colours each.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScatterMap<'a> {
+    /// Title drawn above the map.
+    pub title: &'a str,
+    /// East of the origin (km).
+    pub east_km: &'a [f64],
+    /// North of the origin (km).
+    pub north_km: &'a [f64],
+    /// The colouring value (nT).
+    pub value: &'a [f64],
+    /// What the value is, for the colour bar.
+    pub value_label: &'a str,
+}
+
+impl ScatterMap<'_> {
+    /// The SVG, or `None` when no point has a finite position and value.
+    pub fn to_svg(&self) -> Option<String> {
+        let points = self.points();
+        let values: Vec<f64> = points.iter().map(|p| p.2).collect();
+        let (lo, hi) = (percentile(&values, 0.02)?, percentile(&values, 0.98)?);
+        let frame = Frame::around(&points);
+        let (w, h) = MAP_SIZE;
+        let mut svg = format!(
+            "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" \
+             viewBox=\"0 0 {w} {h}\" font-family=\"sans-serif\" font-size=\"11\">\
+             <rect width=\"{w}\" height=\"{h}\" fill=\"white\"/>\
+             <text x=\"{}\" y=\"14\" text-anchor=\"middle\" font-size=\"12\">{}</text>",
+            w / 2.0,
+            escape(self.title)
+        );
+        for (e, n, v) in &points {
+            let (x, y) = frame.xy(*e, *n);
+            let _ = write!(
+                svg,
+                "<circle cx=\"{x:.1}\" cy=\"{y:.1}\" r=\"1.6\" fill=\"{}\"/>",
+                colour(scale(*v, lo, hi))
+            );
+        }
+        frame.axes(&mut svg);
+        colour_bar(&mut svg, lo, hi, self.value_label);
+        svg.push_str("</svg>\n");
+        Some(svg)
+    }
+
+    /// The finite points, thinned to at most [`MAX_POINTS`].
+    fn points(&self) -> Vec<(f64, f64, f64)> {
+        let finite: Vec<(f64, f64, f64)> = self
+            .east_km
+            .iter()
+            .zip(self.north_km)
+            .zip(self.value)
+            .map(|((e, n), v)| (*e, *n, *v))
+            .filter(|(e, n, v)| e.is_finite() && n.is_finite() && v.is_finite())
+            .collect();
+        let stride = finite.len().div_ceil(MAX_POINTS).max(1);
+        finite.into_iter().step_by(stride).collect()
+    }
+}
+
+/// The plotting area and the km-to-pixel scale, the same on both axes so the track keeps its
+/// shape.
+struct Frame {
+    east0: f64,
+    north0: f64,
+    px_per_km: f64,
+    span_km: (f64, f64),
+}
+
+impl Frame {
+    fn around(points: &[(f64, f64, f64)]) -> Frame {
+        let (mut e0, mut e1, mut n0, mut n1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+        for (e, n, _) in points {
+            (e0, e1, n0, n1) = (e0.min(*e), e1.max(*e), n0.min(*n), n1.max(*n));
+        }
+        // A track along one axis (or one point) still needs a width to scale.
+        let span_km = ((e1 - e0).max(1e-3), (n1 - n0).max(1e-3));
+        let (w, h) = Self::area();
+        Frame {
+            east0: e0,
+            north0: n0,
+            px_per_km: (w / span_km.0).min(h / span_km.1),
+            span_km,
+        }
+    }
+
+    fn area() -> (f64, f64) {
+        let (l, r, t, b) = MARGIN;
+        (MAP_SIZE.0 - l - r, MAP_SIZE.1 - t - b)
+    }
+
+    fn xy(&self, east: f64, north: f64) -> (f64, f64) {
+        let (l, _, _, b) = MARGIN;
+        let x = l + (east - self.east0) * self.px_per_km;
+        let y = MAP_SIZE.1 - b - (north - self.north0) * self.px_per_km;
+        (x, y)
+    }
+
+    fn axes(&self, svg: &mut String) {
+        let (x0, y0) = self.xy(self.east0, self.north0);
+        let (x1, y1) = self.xy(self.east0 + self.span_km.0, self.north0 + self.span_km.1);
+        let _ = write!(
+            svg,
+            "<rect x=\"{x0:.1}\" y=\"{y1:.1}\" width=\"{:.1}\" height=\"{:.1}\" fill=\"none\" \
+             stroke=\"#888\"/>\
+             <text x=\"{x0:.1}\" y=\"{:.1}\">{}</text>\
+             <text x=\"{x1:.1}\" y=\"{:.1}\" text-anchor=\"end\">{}</text>\
+             <text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"middle\">east (km)</text>\
+             <text x=\"{:.1}\" y=\"{y0:.1}\" text-anchor=\"end\">{}</text>\
+             <text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"end\">{}</text>\
+             <text transform=\"translate(14 {:.1}) rotate(-90)\" text-anchor=\"middle\">\
+             north (km)</text>",
+            x1 - x0,
+            y0 - y1,
+            y0 + 14.0,
+            km(self.east0),
+            y0 + 14.0,
+            km(self.east0 + self.span_km.0),
+            (x0 + x1) / 2.0,
+            y0 + 30.0,
+            x0 - 4.0,
+            km(self.north0),
+            x0 - 4.0,
+            y1 + 10.0,
+            km(self.north0 + self.span_km.1),
+            (y0 + y1) / 2.0,
+        );
+    }
+}
+
+/// A position (km) to 0.1 km, never "-0.0".
+fn km(value: f64) -> String {
+    let rounded = (value * 10.0).round() / 10.0;
+    format!("{:.1}", rounded + 0.0)
+}
+
+/// A vertical bar from `lo` (bottom) to `hi` (top) at the right of the map.
+fn colour_bar(svg: &mut String, lo: f64, hi: f64, label: &str) {
+    let (_, _, t, b) = MARGIN;
+    let x = MAP_SIZE.0 - 72.0;
+    let height = MAP_SIZE.1 - t - b;
+    let steps = 40;
+    for k in 0..steps {
+        let fraction = (k as f64 + 0.5) / steps as f64;
+        let y = t + height * (1.0 - (k + 1) as f64 / steps as f64);
+        let _ = write!(
+            svg,
+            "<rect x=\"{x}\" y=\"{y:.1}\" width=\"12\" height=\"{:.1}\" fill=\"{}\"/>",
+            height / steps as f64 + 0.5,
+            colour(fraction)
+        );
+    }
+    let _ = write!(
+        svg,
+        "<text x=\"{}\" y=\"{}\">{hi:.1}</text><text x=\"{}\" y=\"{}\">{lo:.1}</text>\
+         <text x=\"{}\" y=\"{}\" font-size=\"10\">{}</text>",
+        x + 15.0,
+        t + 8.0,
+        x + 15.0,
+        t + height,
+        x - 10.0,
+        MAP_SIZE.1 - 8.0,
+        escape(label)
+    );
+}
+
+/// `v` placed in [0, 1] between `lo` and `hi` (0.5 when they are equal).
+fn scale(v: f64, lo: f64, hi: f64) -> f64 {
+    if hi > lo {
+        ((v - lo) / (hi - lo)).clamp(0.0, 1.0)
+    } else {
+        0.5
+    }
+}
+
+/// Blue (0) through white (0.5) to red (1): a diverging scale for anomalies about a level.
+fn colour(fraction: f64) -> String {
+    let (blue, white, red) = (
+        [33.0, 102.0, 172.0],
+        [247.0, 247.0, 247.0],
+        [178.0, 24.0, 43.0],
+    );
+    let (a, b, f) = if fraction < 0.5 {
+        (blue, white, fraction * 2.0)
+    } else {
+        (white, red, fraction * 2.0 - 1.0)
+    };
+    let c = |i: usize| (a[i] + (b[i] - a[i]) * f).round() as u8;
+    format!("#{:02x}{:02x}{:02x}", c(0), c(1), c(2))
+}
+
+/// The `q` quantile of `values` (nearest rank); `None` when empty.
+fn percentile(values: &[f64], q: f64) -> Option<f64> {
+    let mut sorted = values.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let k = ((sorted.len() as f64 - 1.0) * q).round() as usize;
+    sorted.get(k).copied()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_map_draws_every_finite_point_and_a_finite_colour_bar() {
+        let east: Vec<f64> = (0..100).map(|k| k as f64 * 0.1).collect();
+        let north = vec![0.0; 100];
+        let mut value: Vec<f64> = east.iter().map(|e| e * 2.0).collect();
+        value[3] = f64::NAN;
+        let svg = ScatterMap {
+            title: "compensated <field>",
+            east_km: &east,
+            north_km: &north,
+            value: &value,
+            value_label: "nT",
+        }
+        .to_svg()
+        .unwrap();
+        assert_eq!(svg.matches("<circle").count(), 99);
+        assert!(svg.contains("compensated &lt;field&gt;"));
+        assert!(!svg.contains("NaN") && !svg.contains("inf"));
+    }
+
+    #[test]
+    fn no_finite_point_gives_no_map() {
+        let map = ScatterMap {
+            title: "t",
+            east_km: &[f64::NAN],
+            north_km: &[0.0],
+            value: &[1.0],
+            value_label: "nT",
+        };
+        assert!(map.to_svg().is_none());
+    }
+
+    #[test]
+    fn the_colour_scale_runs_blue_white_red() {
+        assert_eq!(colour(0.0), "#2166ac");
+        assert_eq!(colour(0.5), "#f7f7f7");
+        assert_eq!(colour(1.0), "#b2182b");
+        assert_eq!(scale(5.0, 1.0, 1.0), 0.5);
+        assert_eq!(km(-0.00001), "0.0");
+        assert_eq!(km(1.26), "1.3");
+    }
+}

@@ -1,0 +1,361 @@
+//! Statistics of a survey flight line by line, for the report's per-line table: heading,
+//! length, residual about the line's trend before and after compensation, high-pass noise and
+//! the line's level against the others.
+
+use std::ops::Range;
+use tolles_core::signal::metrics::{fourth_difference, std_dev};
+use tolles_core::survey::{
+    circular_mean_deg, detrended_std, local_north_east_m, median, track_bearings_deg,
+    track_length_m,
+};
+use tolles_io::schema::{EAST, LATITUDE, LINE_COLUMN, LONGITUDE, NORTH, YAW};
+use tolles_io::table::{Column, Table};
+
+/// One flight line's statistics; `None` where the line has too few usable samples.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LineRow {
+    /// The line id as the file writes it (numbers as the shortest decimal).
+    pub line: String,
+    /// Rows of the flight on this line.
+    pub rows: usize,
+    /// Circular mean heading (deg, clockwise from north, in [0, 360)).
+    pub heading_deg: Option<f64>,
+    /// Length of the track (km), or without positions the time flown (s).
+    pub extent: Option<f64>,
+    /// Standard deviation of the uncompensated scalar about its least-squares straight line
+    /// in time over the line (nT).
+    pub residual_before_nt: Option<f64>,
+    /// The same of the compensated scalar (nT), with a model.
+    pub residual_after_nt: Option<f64>,
+    /// Fourth-difference noise of the uncompensated scalar (nT), as `tolles fom` prints it.
+    pub noise_before_nt: Option<f64>,
+    /// The same of the compensated scalar (nT), with a model.
+    pub noise_after_nt: Option<f64>,
+    /// Mean of the line's compensated scalar (uncompensated without a model) minus the median
+    /// of all lines' means (nT).
+    pub level_nt: Option<f64>,
+}
+
+/// Where the heading of a line came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum HeadingSource {
+    /// The `ins_yaw` column.
+    Yaw,
+    /// The bearing of the track from `lat`/`lon`.
+    LatLon,
+    /// The bearing of the track from `north_m`/`east_m`.
+    NorthEast,
+    /// Nothing to take it from.
+    None,
+}
+
+/// What [`LineRow::extent`] measures.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ExtentSource {
+    /// Track length (km) from `lat`/`lon`.
+    LatLon,
+    /// Track length (km) from `north_m`/`east_m`.
+    NorthEast,
+    /// Time flown (s) from the time column.
+    Duration,
+}
+
+/// The per-line table of a flight.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LineTable {
+    /// A row per line id, in order of first appearance.
+    pub rows: Vec<LineRow>,
+    /// Where the headings came from.
+    pub heading_from: HeadingSource,
+    /// What the extents measure.
+    pub extent_from: ExtentSource,
+}
+
+/// The signals of a flight, row by row, that the table is computed from.
+pub struct LineInputs<'a> {
+    /// Time (s).
+    pub tt: &'a [f64],
+    /// Uncompensated scalar (nT).
+    pub before: &'a [f64],
+    /// Compensated scalar (nT), with a model.
+    pub after: Option<&'a [f64]>,
+}
+
+/// The per-line table of `table`, or `None` when it has no line column or only one line id.
+pub fn line_table(table: &Table, inputs: &LineInputs) -> Option<LineTable> {
+    let ids = line_ids(table)?;
+    let lines = group(&ids);
+    if lines.len() < 2 || ids.len() != inputs.tt.len() {
+        return None;
+    }
+    let (heading_from, headings) = headings(table, &lines);
+    let (extent_from, extents) = extents(table, inputs.tt, &lines);
+    let levelled = inputs.after.unwrap_or(inputs.before);
+    let means: Vec<f64> = lines.iter().map(|l| mean(&pick(levelled, l))).collect();
+    let median_mean = median(&means);
+    let rows = lines
+        .iter()
+        .zip(headings)
+        .zip(extents)
+        .zip(&means)
+        .map(|(((line, heading_deg), extent), m)| {
+            let tt = pick(inputs.tt, line);
+            let of = |x: &[f64]| (detrended_std(&tt, &pick(x, line)), noise(x, line));
+            let (residual_before_nt, noise_before_nt) = of(inputs.before);
+            let (residual_after_nt, noise_after_nt) = inputs.after.map(of).unwrap_or_default();
+            LineRow {
+                line: line.id.clone(),
+                rows: line.len(),
+                heading_deg,
+                extent,
+                residual_before_nt,
+                residual_after_nt,
+                noise_before_nt,
+                noise_after_nt,
+                level_nt: median_mean.map(|med| m - med).filter(|v| v.is_finite()),
+            }
+        })
+        .collect();
+    Some(LineTable {
+        rows,
+        heading_from,
+        extent_from,
+    })
+}
+
+/// Where the aircraft was, row by row, on a local flat earth.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Track {
+    /// East of the first position (km).
+    pub east_km: Vec<f64>,
+    /// North of the first position (km).
+    pub north_km: Vec<f64>,
+    /// True when made from `lat`/`lon`, false from `north_m`/`east_m`.
+    pub from_lat_lon: bool,
+}
+
+/// The track of `table` from `lat`/`lon`, else `north_m`/`east_m`; `None` without either.
+pub fn track(table: &Table) -> Option<Track> {
+    let (north, east, from_lat_lon) = positions(table)?;
+    let km = |m: Vec<f64>| m.into_iter().map(|v| v / 1000.0).collect();
+    Some(Track {
+        east_km: km(east),
+        north_km: km(north),
+        from_lat_lon,
+    })
+}
+
+/// A line id and the runs of consecutive rows on it.
+struct Line {
+    id: String,
+    runs: Vec<Range<usize>>,
+}
+
+impl Line {
+    fn len(&self) -> usize {
+        self.runs.iter().map(|r| r.len()).sum()
+    }
+}
+
+/// Each row's line id as text, or `None` without a line column.
+fn line_ids(table: &Table) -> Option<Vec<String>> {
+    let index = table.index_of(LINE_COLUMN).ok()?;
+    Some(match &table.columns()[index] {
+        Column::Numbers(v) => v.iter().map(|x| x.to_string()).collect(),
+        Column::Text(t) => (0..t.len()).map(|k| t.get(k).trim().to_string()).collect(),
+    })
+}
+
+/// The lines in order of first appearance, each with its runs of consecutive rows.
+fn group(ids: &[String]) -> Vec<Line> {
+    let mut lines: Vec<Line> = Vec::new();
+    let mut start = 0;
+    for k in 1..=ids.len() {
+        if k < ids.len() && ids[k] == ids[start] {
+            continue;
+        }
+        match lines.iter_mut().find(|l| l.id == ids[start]) {
+            Some(line) => line.runs.push(start..k),
+            None => lines.push(Line {
+                id: ids[start].clone(),
+                runs: std::iter::once(start..k).collect(),
+            }),
+        }
+        start = k;
+    }
+    lines
+}
+
+/// `x` on the line's rows, runs joined.
+fn pick(x: &[f64], line: &Line) -> Vec<f64> {
+    line.runs
+        .iter()
+        .flat_map(|r| x[r.clone()].to_vec())
+        .collect()
+}
+
+fn mean(x: &[f64]) -> f64 {
+    let finite: Vec<f64> = x.iter().copied().filter(|v| v.is_finite()).collect();
+    finite.iter().sum::<f64>() / finite.len() as f64
+}
+
+/// Fourth-difference noise over the line, each run differenced alone so no difference reaches
+/// from one pass of the line to the next.
+fn noise(x: &[f64], line: &Line) -> Option<f64> {
+    let differences: Vec<f64> = line
+        .runs
+        .iter()
+        .flat_map(|r| fourth_difference(&x[r.clone()]))
+        .collect();
+    Some(std_dev(&differences)).filter(|v| v.is_finite())
+}
+
+/// Positions (m) from `lat`/`lon`, else `north_m`/`east_m`.
+fn positions(table: &Table) -> Option<(Vec<f64>, Vec<f64>, bool)> {
+    let column = |name| table.numeric(name).ok();
+    if let (Some(lat), Some(lon)) = (column(LATITUDE), column(LONGITUDE)) {
+        let (north, east) = local_north_east_m(&lat, &lon);
+        return Some((north, east, true));
+    }
+    Some((column(NORTH)?, column(EAST)?, false))
+}
+
+fn headings(table: &Table, lines: &[Line]) -> (HeadingSource, Vec<Option<f64>>) {
+    if let Ok(yaw) = table.numeric(YAW) {
+        let per_line = lines
+            .iter()
+            .map(|l| circular_mean_deg(&pick(&yaw, l)))
+            .collect();
+        return (HeadingSource::Yaw, per_line);
+    }
+    let Some((north, east, from_lat_lon)) = positions(table) else {
+        return (HeadingSource::None, vec![None; lines.len()]);
+    };
+    let per_line = lines
+        .iter()
+        .map(|l| {
+            let bearings: Vec<f64> = l
+                .runs
+                .iter()
+                .flat_map(|r| track_bearings_deg(&north[r.clone()], &east[r.clone()]))
+                .collect();
+            circular_mean_deg(&bearings)
+        })
+        .collect();
+    let source = if from_lat_lon {
+        HeadingSource::LatLon
+    } else {
+        HeadingSource::NorthEast
+    };
+    (source, per_line)
+}
+
+fn extents(table: &Table, tt: &[f64], lines: &[Line]) -> (ExtentSource, Vec<Option<f64>>) {
+    let finite = |v: f64| Some(v).filter(|v| v.is_finite());
+    if let Some((north, east, from_lat_lon)) = positions(table) {
+        let km = |l: &Line| {
+            let m: f64 = l
+                .runs
+                .iter()
+                .map(|r| track_length_m(&north[r.clone()], &east[r.clone()]))
+                .sum();
+            finite(m / 1000.0)
+        };
+        let source = if from_lat_lon {
+            ExtentSource::LatLon
+        } else {
+            ExtentSource::NorthEast
+        };
+        return (source, lines.iter().map(km).collect());
+    }
+    let seconds = |l: &Line| {
+        let s: f64 = l.runs.iter().map(|r| tt[r.end - 1] - tt[r.start]).sum();
+        finite(s)
+    };
+    (ExtentSource::Duration, lines.iter().map(seconds).collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::Path;
+
+    fn table(columns: &[(&str, Vec<f64>)]) -> Table {
+        let headers = columns.iter().map(|(n, _)| n.to_string()).collect();
+        let columns = columns
+            .iter()
+            .map(|(_, v)| Column::Numbers(v.clone()))
+            .collect();
+        Table::from_columns(Path::new("t"), headers, columns, None).unwrap()
+    }
+
+    #[test]
+    fn two_lines_flown_north_and_south_without_positions() {
+        let n = 40;
+        let tt: Vec<f64> = (0..n).map(|k| k as f64 * 0.5).collect();
+        let line: Vec<f64> = (0..n).map(|k| if k < 20 { 7.0 } else { 8.5 }).collect();
+        let yaw: Vec<f64> = (0..n).map(|k| if k < 20 { 359.0 } else { 180.0 }).collect();
+        // A trend on line 7 and a level 10 nT higher on line 8.5.
+        let before: Vec<f64> = (0..n)
+            .map(|k| if k < 20 { 100.0 + k as f64 } else { 125.0 })
+            .collect();
+        let t = table(&[("line", line), ("ins_yaw", yaw)]);
+        let inputs = LineInputs {
+            tt: &tt,
+            before: &before,
+            after: None,
+        };
+        let lines = line_table(&t, &inputs).unwrap();
+        assert_eq!(lines.heading_from, HeadingSource::Yaw);
+        assert_eq!(lines.extent_from, ExtentSource::Duration);
+        let [a, b] = &lines.rows[..] else { panic!() };
+        assert_eq!((a.line.as_str(), b.line.as_str()), ("7", "8.5"));
+        assert_eq!((a.rows, b.rows), (20, 20));
+        assert!((a.heading_deg.unwrap() - 359.0).abs() < 1e-9);
+        assert_eq!(a.extent, Some(9.5));
+        assert!(a.residual_before_nt.unwrap() < 1e-9);
+        assert!(a.noise_before_nt.unwrap() < 1e-9);
+        assert_eq!(a.residual_after_nt, None);
+        // Means 109.5 and 125: the median is 117.25.
+        assert!((b.level_nt.unwrap() - 7.75).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_track_from_north_east_in_km_and_none_without_positions() {
+        let t = table(&[("north_m", vec![0.0, 1500.0]), ("east_m", vec![0.0, -20.0])]);
+        let track = track(&t).unwrap();
+        assert_eq!(track.north_km, [0.0, 1.5]);
+        assert_eq!(track.east_km, [0.0, -0.02]);
+        assert!(!track.from_lat_lon);
+        assert!(super::track(&table(&[("lat", vec![1.0])])).is_none());
+    }
+
+    #[test]
+    fn one_line_or_no_line_column_gives_no_table() {
+        let tt = [0.0, 1.0];
+        let inputs = LineInputs {
+            tt: &tt,
+            before: &[1.0, 2.0],
+            after: None,
+        };
+        assert!(line_table(&table(&[("line", vec![3.0, 3.0])]), &inputs).is_none());
+        assert!(line_table(&table(&[("x", vec![3.0, 4.0])]), &inputs).is_none());
+    }
+
+    #[test]
+    fn tiny_lines_have_no_statistics_but_no_panic() {
+        let tt = [0.0, 1.0, 2.0];
+        let inputs = LineInputs {
+            tt: &tt,
+            before: &[1.0, 2.0, f64::NAN],
+            after: Some(&[1.0, 2.0, 3.0]),
+        };
+        let t = table(&[("line", vec![1.0, 2.0, 1.0])]);
+        let lines = line_table(&t, &inputs).unwrap();
+        assert_eq!(lines.rows[0].rows, 2);
+        assert_eq!(lines.rows[0].residual_before_nt, None);
+        assert_eq!(lines.rows[0].noise_after_nt, None);
+        assert_eq!(lines.rows[0].heading_deg, None);
+        assert_eq!(lines.rows[1].extent, Some(0.0));
+    }
+}
