@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{column, std, tolles};
+use common::{column, error_vs_truth_where_computed, tolles};
 use std::path::Path;
 use tempfile::TempDir;
 
@@ -46,13 +46,10 @@ fn survey_error(dir: &Path, flags: &[&str]) -> (f64, String) {
         .assert()
         .success();
     let csv = std::fs::read_to_string(dir.join("c.csv")).unwrap();
-    let error: Vec<f64> = column(&csv, "mag_1_c")
-        .iter()
-        .zip(column(&csv, "truth_earth"))
-        // A lag leaves a few rows at the ends without a value.
-        .filter_map(|(c, t)| Some(c.as_ref()? - t?))
-        .collect();
-    (std(&error), String::from_utf8(out.stderr).unwrap())
+    (
+        error_vs_truth_where_computed(&csv, "mag_1_c"),
+        String::from_utf8(out.stderr).unwrap(),
+    )
 }
 
 #[test]
@@ -108,12 +105,7 @@ fn a_fluxgate_lag_is_estimated_stored_and_applied() {
             .assert()
             .success();
         let csv = std::fs::read_to_string(dir.path().join("c.csv")).unwrap();
-        let e: Vec<f64> = column(&csv, "mag_1_c")
-            .iter()
-            .zip(column(&csv, "truth_earth"))
-            .filter_map(|(c, t)| Some(c.as_ref()? - t?))
-            .collect();
-        std(&e)
+        error_vs_truth_where_computed(&csv, "mag_1_c")
     };
     fit("none", "none.json");
     let (with, without) = (error("auto.json"), error("none.json"));

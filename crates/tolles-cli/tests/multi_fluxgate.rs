@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{column, std, tolles};
+use common::{error_vs_truth, tolles};
 
 use std::path::{Path, PathBuf};
 use tempfile::TempDir;
@@ -63,12 +63,10 @@ fn survey_error(dir: &Path, cal: &Path, survey: &Path, vectors: &str) -> (f64, S
         String::from_utf8_lossy(&out.stderr)
     );
     let csv = String::from_utf8(out.stdout).unwrap();
-    let error: Vec<f64> = column(&csv, "mag_1_c")
-        .iter()
-        .zip(column(&csv, "truth_earth"))
-        .map(|(c, e)| c.unwrap() - e.unwrap())
-        .collect();
-    (std(&error), std::fs::read_to_string(model).unwrap())
+    (
+        error_vs_truth(&csv, "mag_1_c"),
+        std::fs::read_to_string(model).unwrap(),
+    )
 }
 
 #[test]

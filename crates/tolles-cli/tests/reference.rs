@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{column, std, tolles};
+use common::{error_vs_truth, tolles};
 use std::path::Path;
 use tempfile::TempDir;
 
@@ -61,15 +61,10 @@ fn a_cabin_sensor_fitted_against_the_truth_compensates_a_survey() {
         .assert()
         .success();
     let csv = std::fs::read_to_string(dir.path().join("c.csv")).unwrap();
-    let error = |name: &str| {
-        let e: Vec<f64> = column(&csv, name)
-            .iter()
-            .zip(column(&csv, "truth_earth"))
-            .map(|(c, t)| c.unwrap() - t.unwrap())
-            .collect();
-        std(&e)
-    };
-    let (before, after) = (error("mag_1_uc"), error("mag_1_c"));
+    let (before, after) = (
+        error_vs_truth(&csv, "mag_1_uc"),
+        error_vs_truth(&csv, "mag_1_c"),
+    );
     eprintln!("cabin survey against the truth: {before:.3} nT uncompensated, {after:.4} nT after");
     assert!(
         after < 0.05 && before > 100.0 * after,

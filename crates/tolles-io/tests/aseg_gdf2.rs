@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::gdf_independent::{check_table, expected_columns, fixture};
+use common::gdf_independent::{check_table, expected_columns, fixture, SURVEYS};
 use tolles_io::gdf;
 use tolles_io::table::Table;
 
@@ -79,18 +79,7 @@ fn all_ten_example_surveys_read_and_match_an_independent_reading() {
 /// included, and every numeric column stays readable.
 #[test]
 fn surveys_cut_anywhere_in_their_last_records_still_read() {
-    for stem in [
-        "Example_AeroMag_MuppetTown_2009",
-        "Example_Gravity_LooneyTunesValley_1930",
-        "Example_Gravity_NeverNeverLand_1904",
-        "Example_Gravity_Springfield_1989",
-        "Example_GroundMag_Bedrock_6000BC",
-        "Example_GroundMag_HillValley_1985",
-        "Example_Mag_Gondwana_200Ma",
-        "Example_Mag_HillValley_1985",
-        "Example_Rad256_SeasameSt_2008",
-        "Example_Rad_BowsersCastle_2012",
-    ] {
+    for stem in SURVEYS {
         let dfn = std::fs::read_to_string(fixture(&format!("{stem}.dfn"))).unwrap();
         let dat = std::fs::read_to_string(fixture(&format!("{stem}.dat"))).unwrap();
         let columns = expected_columns(&dfn);

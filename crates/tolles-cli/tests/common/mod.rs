@@ -34,6 +34,27 @@ pub fn column(csv: &str, name: &str) -> Vec<Option<f64>> {
         .collect()
 }
 
+/// Std (nT) of column `name` minus `truth_earth` in CSV text; every cell must be a number.
+pub fn error_vs_truth(csv: &str, name: &str) -> f64 {
+    let error: Vec<f64> = column(csv, name)
+        .iter()
+        .zip(column(csv, "truth_earth"))
+        .map(|(c, t)| c.unwrap() - t.unwrap())
+        .collect();
+    std(&error)
+}
+
+/// As [`error_vs_truth`] over the rows where `name` has a value (a lag leaves a few rows at
+/// the ends without one).
+pub fn error_vs_truth_where_computed(csv: &str, name: &str) -> f64 {
+    let error: Vec<f64> = column(csv, name)
+        .iter()
+        .zip(column(csv, "truth_earth"))
+        .filter_map(|(c, t)| Some(c.as_ref()? - t?))
+        .collect();
+    std(&error)
+}
+
 /// Population standard deviation.
 pub fn std(x: &[f64]) -> f64 {
     let mean = x.iter().sum::<f64>() / x.len() as f64;
