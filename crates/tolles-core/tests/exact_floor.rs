@@ -9,9 +9,9 @@
 
 mod common;
 
-use common::compensate_with;
+use common::{check_plan, compensate_with};
 use tolles_core::fit::{fit, Fit, FitSettings};
-use tolles_core::flight::plan::{BoxPlan, Plan, SurveyPlan};
+use tolles_core::flight::plan::BoxPlan;
 use tolles_core::flight::sim::{interference, simulate, Installation, Scenario, SimulatedFlight};
 use tolles_core::model::design::central_difference;
 use tolles_core::model::interpret::AircraftField;
@@ -70,25 +70,6 @@ fn scenario(kind: Kind, seed: u64) -> Scenario {
     s.sensors.flux_noise_nt = 0.3;
     s.sensors.fluxgate.bias_nt = [12.0, -10.0, 9.0];
     s
-}
-
-/// A check flight: a box on the intercardinal headings, then survey lines on its last heading
-/// and back (no jump of attitude between them).
-fn check_plan() -> Plan {
-    let mut segments = BoxPlan {
-        headings_deg: vec![45.0, 135.0, 225.0, 315.0],
-        ..BoxPlan::default()
-    }
-    .build()
-    .segments()
-    .to_vec();
-    let survey = SurveyPlan {
-        heading_deg: 315.0,
-        ..SurveyPlan::default()
-    }
-    .build();
-    segments.extend(survey.segments().iter().cloned());
-    Plan::new(segments)
 }
 
 /// The floor: the true aircraft field applied exactly through the fluxgate's readings (nT).

@@ -4,67 +4,15 @@
 
 mod common;
 
+use common::survey_error_with_extras;
+
 use tolles_core::compensate::{compensate_model, Level, Model};
-use tolles_core::fit::{fit, Fit, FitSettings};
+use tolles_core::fit::{fit, FitSettings};
 use tolles_core::flight::plan::{BoxPlan, SurveyPlan};
 use tolles_core::flight::sim::{simulate, CurrentSource, Installation, Scenario, SimulatedFlight};
 use tolles_core::model::design::Design;
 use tolles_core::model::extra::ExtraChannel;
 use tolles_core::model::vector::Fluxgates;
-
-fn settings(extras: &[&str]) -> FitSettings {
-    let recommended = FitSettings::recommended();
-    FitSettings {
-        design: Design {
-            extras: extras.iter().map(|s| s.parse().unwrap()).collect(),
-            ..recommended.design.clone()
-        },
-        ..recommended
-    }
-}
-
-fn inputs<'a>(flight: &'a SimulatedFlight, with_current: bool) -> Fluxgates<'a> {
-    let flux = Fluxgates::from(&flight.flux);
-    if with_current {
-        flux.with_extras(vec![&flight.current_a])
-    } else {
-        flux
-    }
-}
-
-/// Error (nT) against the truth of a survey compensated with a model fitted on a box.
-fn survey_error(scenario: &Scenario, extras: &[&str]) -> (f64, Fit) {
-    let cal = simulate(&BoxPlan::default().build(), scenario).unwrap();
-    let with = !extras.is_empty();
-    let model = fit(
-        &cal.scalar,
-        inputs(&cal, with),
-        10.0,
-        Some(&cal.tt),
-        &settings(extras),
-    )
-    .unwrap();
-    let mut survey_scenario = scenario.clone();
-    survey_scenario.seed += 1;
-    let survey = simulate(&SurveyPlan::default().build(), &survey_scenario).unwrap();
-    let applied = Model {
-        design: &model.settings.design,
-        coefficients: &model.coefficients,
-        magnitude: model.magnitude,
-    };
-    let out = compensate_model(
-        &survey.scalar,
-        inputs(&survey, with && !model.settings.design.extras.is_empty()),
-        Some(&survey.tt),
-        applied,
-        1.0,
-        Level::FileMean,
-    );
-    (
-        common::error_vs_truth(&out.compensated, &survey.earth_nt),
-        model,
-    )
-}
 
 fn strobe(seed: u64) -> Scenario {
     let mut s = Installation::Cabin.scenario(seed);
@@ -93,9 +41,9 @@ fn a_current_as_an_extra_channel_is_removed_almost_as_if_it_were_off() {
             field_nt_per_a: [0.0; 3],
             ..current
         });
-        let (off, _) = survey_error(&quiet, &[]);
-        let (ignored, _) = survey_error(&scenario, &[]);
-        let (with, model) = survey_error(&scenario, &["cur_1"]);
+        let (off, _) = survey_error_with_extras(&quiet, &[]);
+        let (ignored, _) = survey_error_with_extras(&scenario, &[]);
+        let (with, model) = survey_error_with_extras(&scenario, &["cur_1"]);
         eprintln!(
             "{name}: current off {off:.4} nT, current not modelled {ignored:.4} nT, --extra cur_1 {with:.4} nT ({:.2}× off); columns {:?}",
             with / off,
@@ -118,7 +66,7 @@ fn a_channel_that_carries_nothing_is_left_out_by_cross_validation() {
         step_a: 0.0,
         step_every_s: 10.0,
     });
-    let (_, model) = survey_error(&scenario, &["cur_1"]);
+    let (_, model) = survey_error_with_extras(&scenario, &["cur_1"]);
     let chosen = model.diagnostics.term_choice.iter().find(|t| t.chosen);
     eprintln!(
         "chosen {:?}; extras kept {:?}",

@@ -9,11 +9,10 @@
 
 mod common;
 
-use common::compensate_with;
+use common::{check_plan, compensate_with, error_vs_truth};
 use tolles_core::fit::{fit, FitSettings, Target};
-use tolles_core::flight::plan::{BoxPlan, Plan, SurveyPlan};
+use tolles_core::flight::plan::BoxPlan;
 use tolles_core::flight::sim::{simulate, Installation, Scenario, SimulatedFlight};
-use tolles_core::signal::metrics::std_dev;
 
 fn scenario(seed: u64) -> Scenario {
     let mut s = Installation::Cabin.scenario(seed);
@@ -44,34 +43,6 @@ fn reference(flight: &SimulatedFlight, seed: u64) -> Vec<f64> {
         .collect()
 }
 
-fn check_plan() -> Plan {
-    let mut segments = BoxPlan {
-        headings_deg: vec![45.0, 135.0, 225.0, 315.0],
-        ..BoxPlan::default()
-    }
-    .build()
-    .segments()
-    .to_vec();
-    // The lines start on the box's last heading: a jump of attitude would be a spike of eddy
-    // field no fluxgate at 10 Hz can follow.
-    let survey = SurveyPlan {
-        heading_deg: 315.0,
-        ..SurveyPlan::default()
-    };
-    segments.extend(survey.build().segments().iter().cloned());
-    Plan::new(segments)
-}
-
-/// Standard deviation (nT) of `compensated − earth`: heading levels count.
-fn error(compensated: &[f64], flight: &SimulatedFlight) -> f64 {
-    let e: Vec<f64> = compensated
-        .iter()
-        .zip(&flight.earth_nt)
-        .map(|(c, e)| c - e)
-        .collect();
-    std_dev(&e)
-}
-
 #[test]
 fn a_reference_fit_is_closer_to_the_truth_than_the_band_pass() {
     let (mut band_sum, mut reference_sum, mut floor_sum) = (0.0, 0.0, 0.0);
@@ -99,15 +70,15 @@ fn a_reference_fit_is_closer_to_the_truth_than_the_band_pass() {
             .map(|(s, h)| s - h)
             .collect();
         let [b, r, f] = [
-            error(
+            error_vs_truth(
                 &compensate_with(&band, &check.scalar, &check.flux, &check.tt),
-                &check,
+                &check.earth_nt,
             ),
-            error(
+            error_vs_truth(
                 &compensate_with(&against, &check.scalar, &check.flux, &check.tt),
-                &check,
+                &check.earth_nt,
             ),
-            error(&truth, &check),
+            error_vs_truth(&truth, &check.earth_nt),
         ];
         eprintln!(
             "seed {seed}: band-passed defaults {b:.4} nT, against the reference {r:.4} nT, true model {f:.4} nT"

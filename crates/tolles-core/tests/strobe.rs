@@ -7,69 +7,15 @@
 //! current's field switched off. The band alone hardly sees such a current (3–15× before the
 //! rows above the band were added); see `AboveBand` in `fit/problem.rs`.
 
-use tolles_core::compensate::{compensate_model, Level, Model};
-use tolles_core::fit::{fit, FitSettings};
-use tolles_core::flight::plan::{BoxPlan, SurveyPlan};
-use tolles_core::flight::sim::{simulate, CurrentSource, Installation, Scenario, SimulatedFlight};
-use tolles_core::model::design::Design;
-use tolles_core::model::vector::Fluxgates;
-use tolles_core::signal::metrics::std_dev;
+mod common;
 
-fn inputs(flight: &SimulatedFlight, extra: bool) -> Fluxgates<'_> {
-    let flux = Fluxgates::from(&flight.flux);
-    if extra {
-        flux.with_extras(vec![&flight.current_a])
-    } else {
-        flux
-    }
-}
+use common::survey_error_with_extras;
+use tolles_core::flight::sim::{CurrentSource, Installation, Scenario};
 
 /// Survey error (nT) against the truth after a fit on a box, with or without `cur_1`.
 fn survey_error(scenario: &Scenario, extra: bool) -> f64 {
-    let recommended = FitSettings::recommended();
-    let settings = FitSettings {
-        design: Design {
-            extras: if extra {
-                vec!["cur_1".into()]
-            } else {
-                Vec::new()
-            },
-            ..recommended.design.clone()
-        },
-        ..recommended
-    };
-    let cal = simulate(&BoxPlan::default().build(), scenario).unwrap();
-    let model = fit(
-        &cal.scalar,
-        inputs(&cal, extra),
-        10.0,
-        Some(&cal.tt),
-        &settings,
-    )
-    .unwrap();
-    let mut later = scenario.clone();
-    later.seed += 1;
-    let survey = simulate(&SurveyPlan::default().build(), &later).unwrap();
-    let kept = !model.settings.design.extras.is_empty();
-    let out = compensate_model(
-        &survey.scalar,
-        inputs(&survey, kept),
-        Some(&survey.tt),
-        Model {
-            design: &model.settings.design,
-            coefficients: &model.coefficients,
-            magnitude: model.magnitude,
-        },
-        1.0,
-        Level::FileMean,
-    );
-    let error: Vec<f64> = out
-        .compensated
-        .iter()
-        .zip(&survey.earth_nt)
-        .map(|(c, e)| c - e)
-        .collect();
-    std_dev(&error)
+    let extras: &[&str] = if extra { &["cur_1"] } else { &[] };
+    survey_error_with_extras(scenario, extras).0
 }
 
 #[test]

@@ -59,3 +59,82 @@ pub fn compensate_with<'a>(
     )
     .compensated
 }
+
+use tolles_core::compensate::{compensate_model, Level, Model};
+use tolles_core::fit::{fit, Fit, FitSettings};
+use tolles_core::flight::plan::{BoxPlan, Plan, SurveyPlan};
+use tolles_core::flight::sim::{simulate, Scenario, SimulatedFlight};
+use tolles_core::model::design::Design;
+use tolles_core::model::vector::Fluxgates;
+
+/// The defaults with the extra channels `extras` (specs such as `cur_1:lowpass=0.3`).
+pub fn settings_with_extras(extras: &[&str]) -> FitSettings {
+    let recommended = FitSettings::recommended();
+    FitSettings {
+        design: Design {
+            extras: extras.iter().map(|s| s.parse().unwrap()).collect(),
+            ..recommended.design.clone()
+        },
+        ..recommended
+    }
+}
+
+pub fn inputs_with_current<'a>(flight: &'a SimulatedFlight, with_current: bool) -> Fluxgates<'a> {
+    let flux = Fluxgates::from(&flight.flux);
+    if with_current {
+        flux.with_extras(vec![&flight.current_a])
+    } else {
+        flux
+    }
+}
+
+/// Error (nT) against the truth of a survey compensated with a model fitted on a box, the
+/// flight's current (`cur_1`) given as the channels `extras` name (none: not given).
+pub fn survey_error_with_extras(scenario: &Scenario, extras: &[&str]) -> (f64, Fit) {
+    let cal = simulate(&BoxPlan::default().build(), scenario).unwrap();
+    let with = !extras.is_empty();
+    let model = fit(
+        &cal.scalar,
+        inputs_with_current(&cal, with),
+        10.0,
+        Some(&cal.tt),
+        &settings_with_extras(extras),
+    )
+    .unwrap();
+    let mut survey_scenario = scenario.clone();
+    survey_scenario.seed += 1;
+    let survey = simulate(&SurveyPlan::default().build(), &survey_scenario).unwrap();
+    let applied = Model {
+        design: &model.settings.design,
+        coefficients: &model.coefficients,
+        magnitude: model.magnitude,
+    };
+    let out = compensate_model(
+        &survey.scalar,
+        inputs_with_current(&survey, with && !model.settings.design.extras.is_empty()),
+        Some(&survey.tt),
+        applied,
+        1.0,
+        Level::FileMean,
+    );
+    (error_vs_truth(&out.compensated, &survey.earth_nt), model)
+}
+
+/// A check flight: a box on the intercardinal headings, then survey lines on its last heading
+/// and back. The lines start on the box's last heading: a jump of attitude would be a spike of
+/// eddy field no fluxgate at 10 Hz can follow.
+pub fn check_plan() -> Plan {
+    let mut segments = BoxPlan {
+        headings_deg: vec![45.0, 135.0, 225.0, 315.0],
+        ..BoxPlan::default()
+    }
+    .build()
+    .segments()
+    .to_vec();
+    let survey = SurveyPlan {
+        heading_deg: 315.0,
+        ..SurveyPlan::default()
+    };
+    segments.extend(survey.build().segments().iter().cloned());
+    Plan::new(segments)
+}
