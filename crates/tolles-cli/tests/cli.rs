@@ -530,6 +530,35 @@ fn demo_runs_end_to_end_and_shows_the_improvement() {
     ] {
         assert!(dir.path().join(file).exists(), "{file} missing");
     }
+    // Two reports: the box, and the survey against the simulator's truth.
+    for (report, shows) in [
+        ("report", "Maneuvers"),
+        ("survey-report", "Compensated minus truth"),
+    ] {
+        let index = dir.path().join(report).join("index.html");
+        assert!(
+            text.contains(&index.display().to_string()),
+            "{report} not printed"
+        );
+        let html = std::fs::read_to_string(&index).unwrap();
+        assert!(html.contains(shows), "{report} lacks {shows}");
+        for bad in ["NaN", "inf"] {
+            assert!(!html.contains(bad), "{bad} in {report}");
+        }
+        let images: Vec<&str> = html
+            .split("<img src=\"")
+            .skip(1)
+            .map(|s| s.split('"').next().unwrap())
+            .collect();
+        assert!(images.len() > 4, "{report}: {} images", images.len());
+        for src in images {
+            let svg = std::fs::read_to_string(dir.path().join(report).join(src)).unwrap();
+            assert!(
+                svg.starts_with("<svg") && !svg.contains("NaN"),
+                "{report}/{src}"
+            );
+        }
+    }
 }
 
 #[test]

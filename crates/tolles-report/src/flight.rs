@@ -3,8 +3,9 @@
 //! heading by heading and, with a model, its coefficients, patent terms and fit diagnostics.
 
 use crate::map::ScatterMap;
-use crate::plot::{format_value, BarChart, BarSeries, Colour, LinePlot, Series, Span};
-use crate::{Report, ReportError};
+use crate::plot::{format_value, BarChart, BarSeries, Colour, LinePlot, PlotSize, Series, Span};
+use crate::{GridCell, Report, ReportError};
+use std::ops::Range;
 use std::path::{Path, PathBuf};
 use tolles::lines::{ExtentSource, HeadingSource, LineRow, LineTable};
 use tolles::report::{HeadingRow, ManeuverRow, ReportData};
@@ -122,7 +123,9 @@ fn page_with(data: &ReportData, maps: &[Map]) -> Report {
     if has_box(data) {
         report = figure_of_merit(report, data);
     }
+    report = maneuver_detail(report, data);
     report = heading_error(report, data);
+    report = level_against_heading(report, data);
     if let Some(fit) = &data.fit {
         report = model(report, fit);
         report = diagnostics(report, fit);
@@ -592,6 +595,235 @@ fn heading_cells(row: &HeadingRow) -> Vec<String> {
     ]
 }
 
+/// Time (s) shown either side of a maneuver in its small figure.
+const MANEUVER_MARGIN_S: f64 = 5.0;
+
+/// A small figure per counted maneuver: the band-passed scalar before and after (each on its
+/// own axis) and the angle the maneuver swings; nothing for a flight without a box.
+fn maneuver_detail(report: Report, data: &ReportData) -> Report {
+    if data.maneuvers.is_empty() {
+        return report;
+    }
+    let band = &data.request.band;
+    let after = if data.compensated.is_some() {
+        " and after (its own axis: compensation shrinks it a hundred- to a thousandfold)"
+    } else {
+        ""
+    };
+    let cells = data
+        .maneuvers
+        .iter()
+        .map(|row| maneuver_cell(row, data))
+        .collect();
+    report
+        .section("Maneuvers")
+        .paragraph(format!(
+            "Each maneuver the figure of merit counts, {MANEUVER_MARGIN_S} s either side of it              (shaded: the maneuver): the scalar band-passed {}–{} Hz before compensation{after},              and beneath it the angle the maneuver swings (a yaw as its departure from the              maneuver's heading). Peak-to-peak: over the shaded window, as the FOM takes it.",
+            band.pass1_hz, band.pass2_hz
+        ))
+        .grid(cells)
+}
+
+fn maneuver_cell(row: &ManeuverRow, data: &ReportData) -> GridCell {
+    let m = &row.maneuver;
+    let window = maneuver_window(m, data.fom.fs_hz, data.fom.tt.len());
+    let t = data.fom.tt[window.clone()].to_vec();
+    let name = label(m);
+    let panel = |what: &str, y_label: String, y: &[f64], colour: Colour| LinePlot {
+        title: format!("{name} {what}"),
+        y_label,
+        series: vec![Series::new(what, t.clone(), y[window.clone()].to_vec()).colour(colour)],
+        spans: vec![Span {
+            label: String::new(),
+            from: m.start_tt,
+            to: m.end_tt,
+            colour: Colour::REFERENCE,
+        }],
+        size: PlotSize::SMALL,
+        ..LinePlot::default()
+    };
+    let mut plots = vec![panel(
+        "before",
+        "before (nT)".into(),
+        &data.uncompensated.bandpassed,
+        Colour::UNCOMPENSATED,
+    )];
+    if let Some(after) = &data.compensated {
+        plots.push(panel(
+            "after",
+            "after (nT)".into(),
+            &after.bandpassed,
+            Colour::COMPENSATED,
+        ));
+    }
+    if let Some(angle) = data.attitude.angle(m.kind) {
+        let (y_label, angle) = maneuver_angle(m, angle);
+        plots.push(panel("attitude", y_label, &angle, Colour::CYCLE[6]));
+    }
+    if let Some(last) = plots.last_mut() {
+        last.x_label = "time (s)".into();
+    }
+    let after = row
+        .after_nt
+        .map_or(String::new(), |a| format!(", {} nT after", format_value(a)));
+    GridCell {
+        title: name,
+        plots,
+        caption: Some(format!(
+            "Peak-to-peak {} nT before{after}.",
+            format_value(row.before_nt)
+        )),
+    }
+}
+
+/// The rows of `m` with [`MANEUVER_MARGIN_S`] either side, within the flight's `len` rows.
+fn maneuver_window(m: &Maneuver, fs_hz: f64, len: usize) -> Range<usize> {
+    let margin = (MANEUVER_MARGIN_S * fs_hz).round().max(0.0) as usize;
+    let end = m.end.saturating_add(margin).min(len);
+    m.start.saturating_sub(margin).min(end)..end
+}
+
+/// The axis label and the values of the angle `m` swings: roll and pitch as they are, yaw as
+/// its departure from the maneuver's heading in (−180°, 180°], so a box flown north does not
+/// jump between 0° and 360°.
+fn maneuver_angle(m: &Maneuver, angle: &[f64]) -> (String, Vec<f64>) {
+    if m.kind != tolles::tolles_core::maneuvers::ManeuverKind::Yaw {
+        return (format!("{} (°)", m.kind), angle.to_vec());
+    }
+    let heading = m.heading_deg_measured;
+    let departure = |a: &f64| -((heading - a + 180.0).rem_euclid(360.0) - 180.0);
+    (
+        format!("yaw − {heading:.0}° (°)"),
+        angle.iter().map(departure).collect(),
+    )
+}
+
+/// Where the x axis of a level-against-heading plot is labelled (deg).
+const HEADING_TICKS: [f64; 5] = [0.0, 90.0, 180.0, 270.0, 360.0];
+
+/// Level against heading before and after compensation: a box's heading levels; a survey's
+/// lines (or, without a line column, its heading levels); nothing when there is no level.
+fn level_against_heading(report: Report, data: &ReportData) -> Report {
+    let (points, caption) = if !has_box(data) && data.lines.is_some() {
+        (line_levels(data), LINE_LEVELS)
+    } else {
+        (heading_levels(&data.headings), HEADING_LEVELS)
+    };
+    let cells: Vec<GridCell> = points
+        .into_iter()
+        .filter(|p| !p.heading_deg.is_empty())
+        .map(|p| GridCell {
+            title: format!("{} compensation", p.when),
+            plots: vec![heading_plot(&p)],
+            caption: None,
+        })
+        .collect();
+    if cells.is_empty() {
+        return report;
+    }
+    report.paragraph(caption).grid(cells)
+}
+
+const HEADING_LEVELS: &str = "Level against heading: each heading's mean scalar over its      straight and level samples minus the mean of the headings' levels (nT), with ± one standard      error of the mean; before and after compensation on their own axes. The spread is the      heading error.";
+
+const LINE_LEVELS: &str = "Level against heading: each line's mean scalar minus the mean of      the lines' means (nT), at the line's circular mean heading (the Lines table's heading);      before and after compensation on their own axes. A turn is a point of its own where the      line column numbers it.";
+
+/// The points of one level-against-heading plot (deg, nT, nT); error bars may be empty.
+struct LevelPoints {
+    when: &'static str,
+    colour: Colour,
+    heading_deg: Vec<f64>,
+    level_nt: Vec<f64>,
+    error_nt: Vec<f64>,
+}
+
+impl LevelPoints {
+    /// `(heading, level, error)` with finite heading and level, levels made relative to
+    /// their mean.
+    fn new(when: &'static str, colour: Colour, points: Vec<(f64, f64, f64)>) -> Self {
+        let points: Vec<_> = points
+            .into_iter()
+            .filter(|(h, l, _)| h.is_finite() && l.is_finite())
+            .collect();
+        let mean = points.iter().map(|p| p.1).sum::<f64>() / points.len().max(1) as f64;
+        let error_nt = if points.iter().all(|p| p.2.is_finite()) {
+            points.iter().map(|p| p.2).collect()
+        } else {
+            Vec::new()
+        };
+        LevelPoints {
+            when,
+            colour,
+            heading_deg: points.iter().map(|p| p.0).collect(),
+            level_nt: points.iter().map(|p| p.1 - mean).collect(),
+            error_nt,
+        }
+    }
+}
+
+fn heading_levels(rows: &[HeadingRow]) -> Vec<LevelPoints> {
+    let before = rows
+        .iter()
+        .map(|r| (r.heading_deg, r.before_nt.0, r.before_nt.1))
+        .collect();
+    let mut points = vec![LevelPoints::new("Before", Colour::UNCOMPENSATED, before)];
+    if rows.iter().all(|r| r.after_nt.is_some()) {
+        let after = rows
+            .iter()
+            .filter_map(|r| r.after_nt.map(|(l, se)| (r.heading_deg, l, se)))
+            .collect();
+        points.push(LevelPoints::new("After", Colour::COMPENSATED, after));
+    }
+    points
+}
+
+fn line_levels(data: &ReportData) -> Vec<LevelPoints> {
+    let Some(lines) = &data.lines else {
+        return Vec::new();
+    };
+    let nan = f64::NAN;
+    let of = |level: fn(&LineRow) -> Option<f64>| -> Vec<(f64, f64, f64)> {
+        lines
+            .rows
+            .iter()
+            .map(|r| (r.heading_deg.unwrap_or(nan), level(r).unwrap_or(nan), nan))
+            .collect()
+    };
+    let mut points = vec![LevelPoints::new(
+        "Before",
+        Colour::UNCOMPENSATED,
+        of(|r| r.level_before_nt),
+    )];
+    if data.compensated.is_some() {
+        points.push(LevelPoints::new(
+            "After",
+            Colour::COMPENSATED,
+            of(|r| r.level_nt),
+        ));
+    }
+    points
+}
+
+fn heading_plot(p: &LevelPoints) -> LinePlot {
+    // 359.96° belongs beside 0°, not beyond the axis.
+    let heading = p.heading_deg.iter().map(|h| h.rem_euclid(360.0)).collect();
+    LinePlot {
+        title: format!(
+            "Level against heading, {} compensation",
+            p.when.to_lowercase()
+        ),
+        x_label: "heading (°)".into(),
+        y_label: "level − mean (nT)".into(),
+        series: vec![Series::new("level", heading, p.level_nt.clone())
+            .colour(p.colour)
+            .points(p.error_nt.clone())],
+        x_range: Some((0.0, 360.0)),
+        x_ticks: HEADING_TICKS.to_vec(),
+        size: PlotSize::HALF,
+        ..LinePlot::default()
+    }
+}
+
 /// Coefficients with standard errors, the aircraft's field they describe and the patent's terms.
 fn model(report: Report, model: &ScalarModel) -> Report {
     let fit = &model.fit;
@@ -898,8 +1130,11 @@ mod tests {
         }
         assert!(!html.contains("per column unit"));
         let plots = dir.path().join("report/plots");
-        // Five plots and the two maps of the track.
-        assert_eq!(std::fs::read_dir(&plots).unwrap().count(), 7);
+        // Five plots, three per maneuver, two of level against heading and the two maps.
+        assert_eq!(
+            std::fs::read_dir(&plots).unwrap().count(),
+            5 + 3 * 12 + 2 + 2
+        );
         let svg = |name: &str| std::fs::read_to_string(plots.join(name)).unwrap();
         // Compensated bars (hundredths of a nT) beside uncompensated ones (tens of nT) need
         // a log axis to be seen at all.
@@ -929,6 +1164,154 @@ mod tests {
         model_path
     }
 
+    /// The report of the simulated box `box_model` wrote, compensated by its model, with the
+    /// attitude columns `keep_attitude` says.
+    fn box_report(dir: &Path, keep_attitude: bool) -> (ReportData, String) {
+        let request = ReportRequest {
+            model: Some(box_model(dir)),
+            ..ReportRequest::new(dir.join("box.csv"), "mag_1_uc")
+        };
+        let mut data = build(&request, &Silent, &mut Vec::new()).unwrap();
+        if !keep_attitude {
+            data.attitude = Default::default();
+        }
+        let index = write(&data, &dir.join("report")).unwrap();
+        (data, std::fs::read_to_string(index).unwrap())
+    }
+
+    /// The part of `html` from the section headed `heading` to the next section.
+    fn section<'a>(html: &'a str, heading: &str) -> &'a str {
+        let start = html.find(&format!(">{heading}</h2>")).unwrap();
+        let rest = &html[start..];
+        &rest[..rest[5..].find("<h2").map_or(rest.len(), |k| k + 5)]
+    }
+
+    /// Every plot the page shows, read from `dir/report`.
+    fn shown_svgs(dir: &Path, html: &str) -> Vec<String> {
+        html.split("src=\"plots/")
+            .skip(1)
+            .map(|s| s.split('"').next().unwrap())
+            .map(|f| std::fs::read_to_string(dir.join("report/plots").join(f)).unwrap())
+            .collect()
+    }
+
+    #[test]
+    fn every_counted_maneuver_gets_a_small_figure_with_its_attitude() {
+        let dir = tempfile::tempdir().unwrap();
+        let (data, html) = box_report(dir.path(), true);
+        let maneuvers = section(&html, "Maneuvers");
+        let cells = maneuvers.matches("<figure class=\"cell\">").count();
+        assert_eq!(cells, data.maneuvers.len());
+        assert_eq!(cells, 12);
+        // Before, after and the attitude, small.
+        assert_eq!(maneuvers.matches("<img ").count(), 3 * 12);
+        assert_eq!(
+            maneuvers.matches("width=\"320\" height=\"150\"").count(),
+            3 * 12
+        );
+        for row in &data.maneuvers {
+            let p2p = format!("Peak-to-peak {} nT before", format_value(row.before_nt));
+            assert!(maneuvers.contains(&p2p), "{p2p}");
+            assert!(maneuvers.contains(&format!("<h3>{}</h3>", label(&row.maneuver))));
+        }
+        let svgs = shown_svgs(dir.path(), &html);
+        for axis in ["roll (°)", "pitch (°)", "yaw − "] {
+            let panels = svgs.iter().filter(|svg| svg.contains(axis)).count();
+            assert_eq!(panels, 4, "{axis}");
+        }
+        assert_eq!(svgs.len(), 5 + 3 * 12 + 2 + 2);
+        for svg in &svgs {
+            assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+            for bad in ["NaN", "inf", "no data"] {
+                assert!(!svg.contains(bad), "{bad} in a plot");
+            }
+        }
+        for bad in ["NaN", "inf"] {
+            assert!(!html.contains(bad), "{bad} in the page");
+        }
+    }
+
+    #[test]
+    fn a_box_without_attitude_still_reports_its_maneuvers() {
+        let dir = tempfile::tempdir().unwrap();
+        let (_, html) = box_report(dir.path(), false);
+        let maneuvers = section(&html, "Maneuvers");
+        assert_eq!(maneuvers.matches("<figure class=\"cell\">").count(), 12);
+        assert_eq!(maneuvers.matches("<img ").count(), 2 * 12);
+    }
+
+    #[test]
+    fn the_window_of_a_maneuver_keeps_its_margin_inside_the_flight() {
+        let m = Maneuver {
+            kind: tolles::tolles_core::maneuvers::ManeuverKind::Roll,
+            heading_deg: 0.0,
+            heading_deg_measured: 0.0,
+            start: 30,
+            end: 200,
+            start_tt: 3.0,
+            end_tt: 19.9,
+            amplitude_deg: 10.0,
+            period_s: 6.0,
+            half_cycles: 6,
+        };
+        assert_eq!(maneuver_window(&m, 10.0, 1000), 0..250);
+        assert_eq!(maneuver_window(&m, 2.0, 205), 20..205);
+    }
+
+    #[test]
+    fn a_yaw_is_plotted_as_its_departure_from_the_heading() {
+        let mut m = Maneuver {
+            kind: tolles::tolles_core::maneuvers::ManeuverKind::Yaw,
+            heading_deg: 0.0,
+            heading_deg_measured: 359.0,
+            start: 0,
+            end: 3,
+            start_tt: 0.0,
+            end_tt: 0.2,
+            amplitude_deg: 5.0,
+            period_s: 6.0,
+            half_cycles: 6,
+        };
+        let (label, yaw) = maneuver_angle(&m, &[355.0, 359.0, 4.0]);
+        assert_eq!(label, "yaw − 359° (°)");
+        let expected = [-4.0, 0.0, 5.0];
+        assert!(
+            yaw.iter().zip(expected).all(|(a, b)| (a - b).abs() < 1e-9),
+            "{yaw:?}"
+        );
+        m.kind = tolles::tolles_core::maneuvers::ManeuverKind::Pitch;
+        assert_eq!(maneuver_angle(&m, &[4.0]), ("pitch (°)".into(), vec![4.0]));
+    }
+
+    /// Markers drawn in `colour` in an SVG.
+    fn markers(svg: &str, colour: Colour) -> usize {
+        let fill = format!("fill=\"{}\"", colour.css().to_uppercase());
+        svg.lines()
+            .filter(|l| l.starts_with("<circle") && l.contains(&fill))
+            .count()
+    }
+
+    #[test]
+    fn level_against_heading_has_a_point_per_heading_level() {
+        let dir = tempfile::tempdir().unwrap();
+        let (data, html) = box_report(dir.path(), true);
+        let svgs = shown_svgs(dir.path(), section(&html, "Heading error"));
+        let [before, after] = &svgs[..] else {
+            panic!("{} plots", svgs.len())
+        };
+        assert_eq!(markers(before, Colour::UNCOMPENSATED), data.headings.len());
+        assert_eq!(markers(after, Colour::COMPENSATED), data.headings.len());
+        assert_eq!(data.headings.len(), 4);
+        for svg in [before, after] {
+            assert!(!svg.contains("NaN"));
+            assert!(svg.contains(">\n270\n<") || svg.contains(">270<"), "{svg}");
+        }
+        let points = heading_levels(&data.headings);
+        let mean: f64 = points[0].level_nt.iter().sum();
+        assert!(mean.abs() < 1e-9, "levels relative to their mean");
+        assert_eq!(points[1].error_nt.len(), 4);
+    }
+
     /// The report page of a simulated four-line survey compensated by a box model.
     fn survey_report(dir: &Path) -> (ReportData, String) {
         let flight = dir.join("survey.csv");
@@ -942,7 +1325,10 @@ mod tests {
             model: Some(box_model(dir)),
             ..ReportRequest::new(&flight, "mag_1_uc")
         };
-        let data = build(&request, &Silent, &mut Vec::new()).unwrap();
+        let mut warnings = Vec::new();
+        let data = build(&request, &Silent, &mut warnings).unwrap();
+        // No "is this a compensation flight?": the page says it has no box.
+        assert!(warnings.is_empty(), "{warnings:?}");
         let index = write(&data, &dir.join("report")).unwrap();
         (data, std::fs::read_to_string(index).unwrap())
     }
@@ -1004,5 +1390,31 @@ mod tests {
         for id in ["1001", "1002", "1003", "1004"] {
             assert!(lines.rows.iter().any(|r| r.line == id), "{id}");
         }
+    }
+
+    #[test]
+    fn a_survey_plots_each_line_level_against_its_heading() {
+        let dir = tempfile::tempdir().unwrap();
+        let (data, html) = survey_report(dir.path());
+        assert!(!html.contains(">Maneuvers</h2>"));
+        let svgs = shown_svgs(dir.path(), section(&html, "Heading error"));
+        let [before, after] = &svgs[..] else {
+            panic!("{} plots", svgs.len())
+        };
+        let lines = data.lines.as_ref().unwrap();
+        assert_eq!(markers(before, Colour::UNCOMPENSATED), lines.rows.len());
+        assert_eq!(markers(after, Colour::COMPENSATED), lines.rows.len());
+        assert!(html.contains("each line&#39;s mean scalar"));
+    }
+
+    #[test]
+    fn nothing_to_level_is_no_heading_plot() {
+        let dir = tempfile::tempdir().unwrap();
+        let (mut data, _) = survey_report(dir.path());
+        data.lines = None;
+        data.headings.clear();
+        let index = write(&data, &dir.path().join("bare")).unwrap();
+        let html = std::fs::read_to_string(index).unwrap();
+        assert!(!html.contains("Level against heading"));
     }
 }

@@ -121,6 +121,12 @@ ul.legend svg { margin: 0 7px 2px 0; vertical-align: middle; }
 figure img { display: block; width: 100%; height: auto; }
 figure .note { margin: 4px 0 0; font-size: 13px; color: var(--muted); }
 figure .caption { margin: 8px 0 0; font-size: 14px; }
+.grid { display: grid; gap: 12px; margin: 18px 0 28px; }
+figure.cell { margin: 0; border: 1px solid var(--line); border-radius: 8px; padding: 8px 10px;
+  break-inside: avoid; }
+figure.cell h3 { margin: 0 0 4px; font-size: 15px; }
+figure.cell img + img { margin-top: 2px; }
+figure.cell .caption { font-size: 13px; margin-top: 4px; }
 footer { border-top: 1px solid var(--line); color: var(--muted); font-size: 13px; padding: 16px 0 30px; }
 @media print { header.masthead { background: #fff; color: var(--ink); }
   .summary div { border-color: var(--line); } nav.toc { display: none; } }

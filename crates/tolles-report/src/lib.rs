@@ -95,6 +95,19 @@ enum Block {
         src: String,
         alt: String,
     },
+    Grid(Vec<GridCell>),
+}
+
+/// One figure of a grid of small figures (see [`Report::grid`]): a heading, plots stacked
+/// beneath it (usually [`plot::PlotSize::SMALL`]) and a caption.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct GridCell {
+    /// Heading of the figure.
+    pub title: String,
+    /// The plots, top to bottom; each plot's title names its file and is its alt text.
+    pub plots: Vec<LinePlot>,
+    /// A sentence under the plots.
+    pub caption: Option<String>,
 }
 
 /// A report being assembled; [`Report::write`] renders it.
@@ -183,6 +196,13 @@ impl Report {
         self
     }
 
+    /// Small figures side by side, as many to a row as fit the page (one on a narrow screen);
+    /// each cell as wide as its widest plot at most.
+    pub fn grid(mut self, cells: Vec<GridCell>) -> Self {
+        self.blocks.push(Block::Grid(cells));
+        self
+    }
+
     /// An image the caller places in the report directory, referenced by the relative URL
     /// `src` (e.g. `figures/map.png`); `alt` describes it for readers who cannot see it.
     pub fn image(mut self, src: impl Into<String>, alt: impl Into<String>) -> Self {
@@ -215,6 +235,28 @@ impl Report {
                     let rendered = c.to_svg()?;
                     let file = write_svg(&plots_dir, plot_number, &c.title, &rendered)?;
                     figure(&mut body, &c.title, &file, &rendered, c.caption.as_deref());
+                }
+                Block::Grid(cells) => {
+                    body.push_str(&grid_start(cells));
+                    for cell in cells {
+                        let _ = write!(
+                            body,
+                            "<figure class=\"cell\">\n<h3>{}</h3>\n",
+                            escape(&cell.title)
+                        );
+                        for p in &cell.plots {
+                            plot_number += 1;
+                            let rendered = p.to_svg()?;
+                            let file = write_svg(&plots_dir, plot_number, &p.title, &rendered)?;
+                            image(&mut body, &file, &rendered, &p.title);
+                            notes(&mut body, &rendered);
+                        }
+                        if let Some(c) = &cell.caption {
+                            let _ = writeln!(body, "<p class=\"caption\">{}</p>", escape(c));
+                        }
+                        body.push_str("</figure>\n");
+                    }
+                    body.push_str("</div>\n");
                 }
                 other => render_block(&mut body, other),
             }
@@ -318,7 +360,7 @@ fn render_block(out: &mut String, block: &Block) {
                 escape(alt)
             );
         }
-        Block::LinePlot(_) | Block::BarChart(_) => {}
+        Block::LinePlot(_) | Block::BarChart(_) | Block::Grid(_) => {}
     }
 }
 
@@ -373,21 +415,44 @@ fn figure(out: &mut String, title: &str, file: &str, plot: &RenderedPlot, captio
         }
         out.push_str("</ul>\n");
     }
-    let _ = writeln!(
-        out,
-        "<img src=\"plots/{}\" width=\"{}\" height=\"{}\" alt=\"{}\">",
-        escape(file),
-        plot::PLOT_WIDTH,
-        plot::PLOT_HEIGHT,
-        escape(title)
-    );
-    for note in &plot.notes {
-        let _ = writeln!(out, "<p class=\"note\">{}</p>", escape(note));
-    }
+    image(out, file, plot, title);
+    notes(out, plot);
     if let Some(c) = caption {
         let _ = writeln!(out, "<p class=\"caption\">{}</p>", escape(c));
     }
     out.push_str("</figure>\n");
+}
+
+/// The opening of a grid: columns as wide as its widest plot, or narrower to fit.
+fn grid_start(cells: &[GridCell]) -> String {
+    let widest = cells
+        .iter()
+        .flat_map(|c| &c.plots)
+        .map(|p| p.size.width)
+        .max()
+        .unwrap_or(plot::PLOT_WIDTH);
+    // Cells shrink to 85 % of their plots' width before a row gives up a column.
+    let min = (widest as f64 * 0.85).round();
+    format!(
+        "<div class=\"grid\" style=\"grid-template-columns: repeat(auto-fill, minmax(min({min}px, 100%), 1fr))\">\n"
+    )
+}
+
+fn image(out: &mut String, file: &str, plot: &RenderedPlot, alt: &str) {
+    let _ = writeln!(
+        out,
+        "<img src=\"plots/{}\" width=\"{}\" height=\"{}\" alt=\"{}\">",
+        escape(file),
+        plot.size.width,
+        plot.size.height,
+        escape(alt)
+    );
+}
+
+fn notes(out: &mut String, plot: &RenderedPlot) {
+    for note in &plot.notes {
+        let _ = writeln!(out, "<p class=\"note\">{}</p>", escape(note));
+    }
 }
 
 /// A short thick line in the series' colour, as an inline SVG: unlike a CSS background it

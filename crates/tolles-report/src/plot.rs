@@ -26,6 +26,74 @@ pub const PLOT_WIDTH: u32 = 960;
 /// Height of every plot (SVG pixels).
 pub const PLOT_HEIGHT: u32 = 380;
 
+/// The drawn size of a plot (SVG pixels); plots narrower than [`PlotSize::SMALL_BELOW`] get
+/// smaller type and margins, as their page shows them near their own size.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PlotSize {
+    /// Width (SVG pixels).
+    pub width: u32,
+    /// Height (SVG pixels).
+    pub height: u32,
+}
+
+impl PlotSize {
+    /// [`PLOT_WIDTH`] × [`PLOT_HEIGHT`], a plot across the page's column.
+    pub const FULL: PlotSize = PlotSize {
+        width: PLOT_WIDTH,
+        height: PLOT_HEIGHT,
+    };
+    /// A panel of a small multiple, three across the page's column.
+    pub const SMALL: PlotSize = PlotSize {
+        width: 320,
+        height: 150,
+    };
+    /// Half the page's column.
+    pub const HALF: PlotSize = PlotSize {
+        width: 480,
+        height: 300,
+    };
+    /// Plots narrower than this (SVG pixels) use small type.
+    pub const SMALL_BELOW: u32 = 600;
+
+    fn is_small(self) -> bool {
+        self.width < Self::SMALL_BELOW
+    }
+
+    /// Tick-label and axis-description font sizes (pixels).
+    fn fonts(self) -> (u32, u32) {
+        if self.is_small() {
+            (12, 13)
+        } else {
+            (17, 18)
+        }
+    }
+
+    /// Heights of the x-label area and widths of the y-label area (pixels).
+    fn label_areas(self) -> (u32, u32) {
+        if self.is_small() {
+            (34, 60)
+        } else {
+            (48, 78)
+        }
+    }
+}
+
+impl Default for PlotSize {
+    fn default() -> Self {
+        PlotSize::FULL
+    }
+}
+
+/// How a [`Series`] is drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SeriesStyle {
+    /// A line through the points (thinned per pixel column when long).
+    #[default]
+    Line,
+    /// A filled marker at every point, none thinned: for a few dozen values.
+    Points,
+}
+
 /// A colour (8-bit sRGB). The named constants are the Okabe–Ito palette, which stays
 /// distinguishable for colour-blind readers; the same quantity gets the same colour on every
 /// plot of a report.
@@ -72,6 +140,11 @@ pub struct Series {
     pub y: Vec<f64>,
     /// Line colour; `None` takes the next colour of [`Colour::CYCLE`].
     pub colour: Option<Colour>,
+    /// A line or markers.
+    pub style: SeriesStyle,
+    /// Half-length of an error bar at each point (units of the y axis), as many as `y`;
+    /// drawn for [`SeriesStyle::Points`] on a linear y axis. Empty: none.
+    pub y_error: Vec<f64>,
 }
 
 impl Series {
@@ -81,13 +154,21 @@ impl Series {
             name: name.into(),
             x,
             y,
-            colour: None,
+            ..Series::default()
         }
     }
 
     /// The same series drawn in `colour`.
     pub fn colour(mut self, colour: Colour) -> Self {
         self.colour = Some(colour);
+        self
+    }
+
+    /// The same series drawn as markers, with error bars of half-length `y_error` (units of
+    /// the y axis; empty for none).
+    pub fn points(mut self, y_error: Vec<f64>) -> Self {
+        self.style = SeriesStyle::Points;
+        self.y_error = y_error;
         self
     }
 }
@@ -115,6 +196,11 @@ pub struct LinePlot {
     pub y_range: Option<(f64, f64)>,
     /// A sentence shown under the plot.
     pub caption: Option<String>,
+    /// Drawn size; the default is [`PlotSize::FULL`].
+    pub size: PlotSize,
+    /// Where the x axis is labelled (units of the x axis, linear axes only); empty: chosen
+    /// from the range.
+    pub x_ticks: Vec<f64>,
 }
 
 /// A bar chart: one group of bars per category, one bar per series in every group.
@@ -173,6 +259,8 @@ pub struct RenderedPlot {
     pub legend: Vec<(String, Colour)>,
     /// Facts about the drawing worth a reader's notice (decimation, gaps, empty data).
     pub notes: Vec<String>,
+    /// The SVG's size.
+    pub size: PlotSize,
 }
 
 const INK: RGBColor = RGBColor(51, 51, 51);
@@ -198,16 +286,7 @@ fn plot_error(title: &str, e: impl std::fmt::Display) -> ReportError {
 impl LinePlot {
     /// Draws the plot (long series thinned to what the pixels can show).
     pub fn to_svg(&self) -> Result<RenderedPlot, ReportError> {
-        for s in &self.series {
-            if s.x.len() != s.y.len() {
-                return Err(ReportError::SeriesLength {
-                    plot: self.title.clone(),
-                    series: s.name.clone(),
-                    x: s.x.len(),
-                    y: s.y.len(),
-                });
-            }
-        }
+        self.check_lengths()?;
         let legend: Vec<(String, Colour)> = self
             .series
             .iter()
@@ -228,31 +307,50 @@ impl LinePlot {
         }) else {
             notes.push("No finite values to plot.".to_string());
             return Ok(RenderedPlot {
-                svg: empty_svg(),
+                svg: empty_svg(self.size),
                 legend,
                 notes,
+                size: self.size,
             });
         };
         let y_range = self
             .y_range
             .and_then(|r| range_on_axis(r, self.log_y))
             .or_else(|| {
-                extent(on_axes.iter().flat_map(drawn_y)).map(|r| axis_range(r, self.log_y, true))
+                let ends = on_axes
+                    .iter()
+                    .zip(&self.series)
+                    .flat_map(|(xy, s)| self.error_ends(xy, s));
+                extent(ends).map(|r| axis_range(r, self.log_y, true))
             })
             .unwrap_or((0.0, 1.0));
 
         let mut lines = Vec::new();
         let (mut total, mut drawn, mut gaps) = (0, 0, 0);
-        for ((x, y), (_, colour)) in on_axes.iter().zip(&legend) {
-            let runs = polylines(x, y, x_range, PLOT_WIDTH as usize, |_| true);
+        for ((xy, series), (_, colour)) in on_axes.iter().zip(&self.series).zip(&legend) {
+            let (x, y) = xy;
+            let mut shape = Drawn {
+                colour: *colour,
+                runs: Vec::new(),
+                points: Vec::new(),
+            };
+            match series.style {
+                SeriesStyle::Line => {
+                    shape.runs = polylines(x, y, x_range, self.size.width as usize, |_| true);
+                    drawn += shape.runs.iter().map(Vec::len).sum::<usize>();
+                }
+                SeriesStyle::Points => {
+                    shape.points = self.markers(xy, series);
+                    drawn += shape.points.len();
+                }
+            }
             total += y.len();
-            drawn += runs.iter().map(Vec::len).sum::<usize>();
             gaps += x
                 .iter()
                 .zip(y)
                 .filter(|(x, y)| !(x.is_finite() && y.is_finite()))
                 .count();
-            lines.push((runs, *colour));
+            lines.push(shape);
         }
         if drawn < total.saturating_sub(gaps) {
             notes.push(format!(
@@ -275,15 +373,77 @@ impl LinePlot {
 
         let mut svg = String::new();
         {
-            let root =
-                SVGBackend::with_string(&mut svg, (PLOT_WIDTH, PLOT_HEIGHT)).into_drawing_area();
+            let size = (self.size.width, self.size.height);
+            let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
             root.fill(&WHITE).map_err(|e| plot_error(&self.title, e))?;
             draw_lines(&root, x_range, y_range, self, &lines)
                 .map_err(|e| plot_error(&self.title, e))?;
             root.present().map_err(|e| plot_error(&self.title, e))?;
         }
-        Ok(RenderedPlot { svg, legend, notes })
+        Ok(RenderedPlot {
+            svg,
+            legend,
+            notes,
+            size: self.size,
+        })
     }
+
+    /// Every series has as many y values (and error bars, if any) as x values.
+    fn check_lengths(&self) -> Result<(), ReportError> {
+        for s in &self.series {
+            let errors_fit = s.y_error.is_empty() || s.y_error.len() == s.y.len();
+            if s.x.len() != s.y.len() || !errors_fit {
+                return Err(ReportError::SeriesLength {
+                    plot: self.title.clone(),
+                    series: s.name.clone(),
+                    x: s.x.len(),
+                    y: if errors_fit {
+                        s.y.len()
+                    } else {
+                        s.y_error.len()
+                    },
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// The drawable points of a marker series (axis units) with their error bars' half-lengths
+    /// (0 where there is none or the y axis is logarithmic).
+    fn markers(&self, (x, y): &(Vec<f64>, Vec<f64>), series: &Series) -> Vec<(f64, f64, f64)> {
+        (0..x.len())
+            .filter(|&k| x[k].is_finite() && y[k].is_finite())
+            .map(|k| {
+                let error = series.y_error.get(k).copied().unwrap_or(0.0);
+                let error = if self.log_y || !error.is_finite() {
+                    0.0
+                } else {
+                    error.abs()
+                };
+                (x[k], y[k], error)
+            })
+            .collect()
+    }
+
+    /// The y values (axis units) the range must hold: every drawable value and, for markers,
+    /// the ends of its error bar.
+    fn error_ends(&self, xy: &(Vec<f64>, Vec<f64>), series: &Series) -> Vec<f64> {
+        match series.style {
+            SeriesStyle::Line => drawn_y(xy).collect(),
+            SeriesStyle::Points => self
+                .markers(xy, series)
+                .into_iter()
+                .flat_map(|(_, y, e)| [y - e, y + e])
+                .collect(),
+        }
+    }
+}
+
+/// One series as drawn: line runs, or markers `(x, y, error half-length)` in axis units.
+struct Drawn {
+    colour: Colour,
+    runs: Vec<Vec<(f64, f64)>>,
+    points: Vec<(f64, f64, f64)>,
 }
 
 /// A shaded interval of the x axis with a label, such as a filter's pass band.
@@ -368,11 +528,13 @@ fn label_count((lo, hi): (f64, f64), log: bool, linear: usize) -> usize {
     }
 }
 
-/// A tick label at axis position `v`: the value itself, or `10ⁿ` on a log axis (nothing
-/// between decades, where the mesh may put a grid line).
-fn axis_tick(v: f64, log: bool) -> String {
+/// A tick label at axis position `v` of an axis spanning `range`: the value itself (a zero
+/// that rounding left as 3×10⁻¹⁸ printed as 0), or `10ⁿ` on a log axis (nothing between
+/// decades, where the mesh may put a grid line).
+fn axis_tick(v: f64, log: bool, (lo, hi): (f64, f64)) -> String {
     if !log {
-        format_tick(v)
+        let zero = v.abs() < 1e-9 * (hi - lo).abs();
+        format_tick(if zero { 0.0 } else { v })
     } else if (v - v.round()).abs() < 1e-6 {
         format_log_tick(10f64.powi(v.round() as i32))
     } else {
@@ -380,55 +542,132 @@ fn axis_tick(v: f64, log: bool) -> String {
     }
 }
 
-type Lines = [(Vec<Vec<(f64, f64)>>, Colour)];
-
 fn draw_lines<DB: DrawingBackend>(
     root: &DrawingArea<DB, plotters::coord::Shift>,
     x_range: (f64, f64),
     y_range: (f64, f64),
     plot: &LinePlot,
-    lines: &Lines,
+    lines: &[Drawn],
 ) -> Result<(), String> {
+    let (label_font, desc_font) = plot.size.fonts();
+    let (x_area, y_area) = plot.size.label_areas();
+    let small = plot.size.is_small();
     let mut chart = ChartBuilder::on(root)
-        .margin_top(14)
-        .margin_right(24)
-        .margin_left(8)
-        .margin_bottom(6)
-        .x_label_area_size(48)
-        .y_label_area_size(78)
+        .margin_top(if small { 8 } else { 14 })
+        .margin_right(if small { 12 } else { 24 })
+        .margin_left(if small { 4 } else { 8 })
+        .margin_bottom(if small { 4 } else { 6 })
+        .x_label_area_size(x_area)
+        .y_label_area_size(y_area)
         .build_cartesian_2d(x_range.0..x_range.1, y_range.0..y_range.1)
         .map_err(|e| e.to_string())?;
-    let x_tick = |v: &f64| axis_tick(*v, plot.log_x);
-    let y_tick = |v: &f64| axis_tick(*v, plot.log_y);
-    chart
-        .configure_mesh()
-        .x_desc(plot.x_label.as_str())
+    let fixed_ticks = !plot.x_ticks.is_empty() && !plot.log_x;
+    let x_tick = |v: &f64| {
+        if fixed_ticks {
+            String::new()
+        } else {
+            axis_tick(*v, plot.log_x, x_range)
+        }
+    };
+    let y_tick = |v: &f64| axis_tick(*v, plot.log_y, y_range);
+    let x_count = if small { 5 } else { 9 };
+    let y_count = if plot.size.height < 250 { 4 } else { 7 };
+    let mut mesh = chart.configure_mesh();
+    mesh.x_desc(plot.x_label.as_str())
         .y_desc(plot.y_label.as_str())
-        .x_labels(label_count(x_range, plot.log_x, 9))
-        .y_labels(label_count(y_range, plot.log_y, 7))
+        .x_labels(if fixed_ticks {
+            0
+        } else {
+            label_count(x_range, plot.log_x, x_count)
+        })
+        .y_labels(label_count(y_range, plot.log_y, y_count))
         .x_label_formatter(&x_tick)
         .y_label_formatter(&y_tick)
-        .label_style((FONT, 17).into_font().color(&MUTED))
-        .axis_desc_style((FONT, 18).into_font().color(&INK))
+        .label_style((FONT, label_font).into_font().color(&MUTED))
+        .axis_desc_style((FONT, desc_font).into_font().color(&INK))
         .bold_line_style(GRID)
         .light_line_style(TRANSPARENT)
-        .axis_style(MUTED)
-        .draw()
-        .map_err(|e| e.to_string())?;
+        .axis_style(MUTED);
+    if fixed_ticks {
+        mesh.disable_x_mesh();
+    }
+    mesh.draw().map_err(|e| e.to_string())?;
+    if fixed_ticks {
+        draw_x_ticks(root, &chart, x_range, y_range, plot)?;
+    }
     draw_spans(root, &chart, x_range, y_range, plot)?;
-    for (runs, colour) in lines {
-        let style = ShapeStyle::from(&colour.rgb()).stroke_width(1);
-        for run in runs {
-            if run.len() == 1 {
-                chart
-                    .draw_series(std::iter::once(Circle::new(run[0], 2, style.filled())))
-                    .map_err(|e| e.to_string())?;
-            } else {
-                chart
-                    .draw_series(LineSeries::new(run.iter().copied(), style))
-                    .map_err(|e| e.to_string())?;
-            }
+    for shape in lines {
+        draw_shape(root, &mut chart, shape, small)?;
+    }
+    Ok(())
+}
+
+fn draw_shape<DB: DrawingBackend>(
+    root: &DrawingArea<DB, plotters::coord::Shift>,
+    chart: &mut Chart<DB>,
+    shape: &Drawn,
+    small: bool,
+) -> Result<(), String> {
+    let style = ShapeStyle::from(&shape.colour.rgb()).stroke_width(1);
+    for run in &shape.runs {
+        if run.len() == 1 {
+            chart
+                .draw_series(std::iter::once(Circle::new(run[0], 2, style.filled())))
+                .map_err(|e| e.to_string())?;
+        } else {
+            chart
+                .draw_series(LineSeries::new(run.iter().copied(), style))
+                .map_err(|e| e.to_string())?;
         }
+    }
+    // Error bars in pixels: a vertical stroke with a cap at each end.
+    let bar = ShapeStyle::from(&shape.colour.rgb()).stroke_width(2);
+    let cap = if small { 4 } else { 6 };
+    let area = chart.plotting_area();
+    for &(x, y, error) in shape.points.iter().filter(|p| p.2 > 0.0) {
+        let (px, top) = area.map_coordinate(&(x, y + error));
+        let (_, bottom) = area.map_coordinate(&(x, y - error));
+        for path in [
+            vec![(px, top), (px, bottom)],
+            vec![(px - cap, top), (px + cap, top)],
+            vec![(px - cap, bottom), (px + cap, bottom)],
+        ] {
+            root.draw(&PathElement::new(path, bar))
+                .map_err(|e| e.to_string())?;
+        }
+    }
+    let radius = if small { 3 } else { 5 };
+    chart
+        .draw_series(
+            shape
+                .points
+                .iter()
+                .map(|&(x, y, _)| Circle::new((x, y), radius, style.filled())),
+        )
+        .map_err(|e| e.to_string())?;
+    Ok(())
+}
+
+/// Grid lines and labels at the plot's own x ticks (those inside the range).
+fn draw_x_ticks<DB: DrawingBackend>(
+    root: &DrawingArea<DB, plotters::coord::Shift>,
+    chart: &Chart<DB>,
+    x_range: (f64, f64),
+    (y0, y1): (f64, f64),
+    plot: &LinePlot,
+) -> Result<(), String> {
+    let area = chart.plotting_area();
+    let (label_font, _) = plot.size.fonts();
+    let inside = |v: &&f64| (x_range.0..=x_range.1).contains(*v);
+    for &tick in plot.x_ticks.iter().filter(inside) {
+        area.draw(&PathElement::new([(tick, y0), (tick, y1)], GRID))
+            .map_err(|e| e.to_string())?;
+        let (px, py) = area.map_coordinate(&(tick, y0));
+        let style = TextStyle::from((FONT, label_font).into_font())
+            .color(&MUTED)
+            .pos(Pos::new(HPos::Center, VPos::Top));
+        root.draw(&Text::new(format_tick(tick), (px, py + 6), style))
+            .map_err(|e| e.to_string())?;
     }
     Ok(())
 }
@@ -478,9 +717,10 @@ fn min_max(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
     })
 }
 
-fn empty_svg() -> String {
+fn empty_svg(size: PlotSize) -> String {
+    let PlotSize { width, height } = size;
     format!(
-        "<svg width=\"{PLOT_WIDTH}\" height=\"{PLOT_HEIGHT}\" viewBox=\"0 0 {PLOT_WIDTH} {PLOT_HEIGHT}\" \
+        "<svg width=\"{width}\" height=\"{height}\" viewBox=\"0 0 {width} {height}\" \
          xmlns=\"http://www.w3.org/2000/svg\"><rect width=\"100%\" height=\"100%\" fill=\"#fafafa\"/>\
          <text x=\"50%\" y=\"50%\" text-anchor=\"middle\" font-family=\"sans-serif\" font-size=\"16\" \
          fill=\"#666\">no data</text></svg>\n"
@@ -528,9 +768,10 @@ impl BarChart {
         if self.categories.is_empty() || self.series.is_empty() {
             notes.push("No values to plot.".to_string());
             return Ok(RenderedPlot {
-                svg: empty_svg(),
+                svg: empty_svg(PlotSize::FULL),
                 legend,
                 notes,
+                size: PlotSize::FULL,
             });
         }
         let y_range = self.y_range(values().filter(|v| drawable(*v)));
@@ -543,7 +784,12 @@ impl BarChart {
                 .map_err(|e| plot_error(&self.title, e))?;
             root.present().map_err(|e| plot_error(&self.title, e))?;
         }
-        Ok(RenderedPlot { svg, legend, notes })
+        Ok(RenderedPlot {
+            svg,
+            legend,
+            notes,
+            size: PlotSize::FULL,
+        })
     }
 
     /// The value axis (axis units) for the drawable values: whole decades on a log axis, else
@@ -586,7 +832,7 @@ impl BarChart {
             .map_err(|e| e.to_string())?;
         // Category names are drawn below (they may need turning); the mesh gives the grid.
         let no_label = |_: &SegmentValue<i32>| String::new();
-        let tick = |v: &f64| axis_tick(*v, self.log_y);
+        let tick = |v: &f64| axis_tick(*v, self.log_y, (y0, y1));
         chart
             .configure_mesh()
             .disable_x_mesh()
@@ -963,6 +1209,75 @@ mod tests {
         };
         let labels = texts(&few.to_svg().unwrap().svg);
         assert!(labels.iter().any(|l| l == "0.5") && labels.iter().any(|l| l == "a"));
+    }
+
+    /// Three levels against heading with error bars, on the axis a heading plot uses.
+    fn heading_points() -> LinePlot {
+        LinePlot {
+            title: "levels".into(),
+            series: vec![Series::new(
+                "level",
+                vec![0.0, 90.0, f64::NAN, 270.0],
+                vec![1.5, -0.5, 3.0, -1.0],
+            )
+            .colour(Colour::COMPENSATED)
+            .points(vec![0.2, 0.3, 0.1, 0.25])],
+            x_range: Some((0.0, 360.0)),
+            x_ticks: vec![0.0, 90.0, 180.0, 270.0, 360.0],
+            size: PlotSize::HALF,
+            ..LinePlot::default()
+        }
+    }
+
+    #[test]
+    fn points_are_markers_with_error_bars_and_no_line() {
+        let plot = heading_points().to_svg().unwrap();
+        let fill = format!("fill=\"{}\"", Colour::COMPENSATED.css().to_uppercase());
+        let markers = plot
+            .svg
+            .lines()
+            .filter(|l| l.starts_with("<circle") && l.contains(&fill))
+            .count();
+        // The point without a heading is left out, not drawn at NaN.
+        assert_eq!(markers, 3, "{}", plot.svg);
+        let stroke = format!("stroke=\"{}\"", Colour::COMPENSATED.css().to_uppercase());
+        let strokes = plot.svg.lines().filter(|l| l.contains(&stroke)).count();
+        // A bar and two caps per point, and no line joining the points.
+        assert_eq!(strokes, 3 * 3, "{}", plot.svg);
+        assert!(!plot.svg.contains("NaN"));
+        assert!(plot.svg.starts_with("<svg width=\"480\" height=\"300\""));
+        // The range holds the error bars: 1.5 + 0.2 stays inside.
+        let mut tight = heading_points();
+        tight.series[0].y_error = vec![10.0; 4];
+        let labels = texts(&tight.to_svg().unwrap().svg);
+        assert!(labels.iter().any(|l| l == "10"), "{labels:?}");
+    }
+
+    #[test]
+    fn fixed_x_ticks_label_exactly_those_values() {
+        let labels = texts(&heading_points().to_svg().unwrap().svg);
+        for tick in ["0", "90", "180", "270", "360"] {
+            assert!(labels.iter().any(|l| l == tick), "{tick} in {labels:?}");
+        }
+        for automatic in ["50", "100", "200", "300"] {
+            assert!(!labels.iter().any(|l| l == automatic), "{automatic}");
+        }
+    }
+
+    #[test]
+    fn mismatched_error_bars_are_an_error() {
+        let mut plot = heading_points();
+        plot.series[0].y_error.pop();
+        assert!(matches!(
+            plot.to_svg(),
+            Err(ReportError::SeriesLength { x: 4, y: 3, .. })
+        ));
+    }
+
+    #[test]
+    fn a_rounded_zero_tick_reads_0() {
+        assert_eq!(axis_tick(3.47e-18, false, (-0.02, 0.015)), "0");
+        assert_eq!(axis_tick(1e-5, false, (-1e-4, 1e-4)), "10⁻⁵");
     }
 
     #[test]

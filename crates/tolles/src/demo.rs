@@ -4,6 +4,7 @@
 
 use crate::error::Result;
 use crate::progress::Progress;
+use crate::report::ReportRequest;
 use crate::simulate::{simulate_plan, PlanKind, Simulated};
 use std::path::Path;
 use tolles_core::flight::plan::{BoxPlan, SurveyPlan};
@@ -11,6 +12,7 @@ use tolles_core::flight::sim::Installation;
 use tolles_core::signal::filter::magnav_bandpass;
 use tolles_core::signal::metrics::{improvement_ratio, noise_level, std_dev};
 use tolles_io::model::ScalarModel;
+use tolles_io::simulation::SCALAR;
 use tolles_io::table::Table;
 
 /// Pass band (Hz) of the survey's noise levels: MagNav's 0.1–0.9 Hz.
@@ -113,6 +115,39 @@ pub fn compare(survey: &Simulated, compensated: &Path, fit: &ScalarModel) -> Res
         improvement: improvement_ratio(noise_before_nt, noise_after_nt),
         terms,
     })
+}
+
+/// One of the demo's reports: what it shows, where it goes and what it asks for.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DemoReport {
+    /// A few words on what it reports on.
+    pub what: &'static str,
+    /// Its directory, relative to the demo's output directory.
+    pub dir: &'static str,
+    /// The report.
+    pub request: ReportRequest,
+}
+
+/// The demo's two reports: the calibration box compensated with its own model, and the
+/// survey compensated with the box's model out of sample, where the survey file's truth
+/// column ([`crate::report::TRUTH_COLUMN`]) gives the compensated field's error.
+pub fn reports(calibration: &Path, survey: &Path, model: &Path) -> [DemoReport; 2] {
+    let request = |flight: &Path| ReportRequest {
+        model: Some(model.to_path_buf()),
+        ..ReportRequest::new(flight, SCALAR)
+    };
+    [
+        DemoReport {
+            what: "the calibration box",
+            dir: "report",
+            request: request(calibration),
+        },
+        DemoReport {
+            what: "the survey, compensated out of sample, against the simulator's truth",
+            dir: "survey-report",
+            request: request(survey),
+        },
+    ]
 }
 
 #[cfg(test)]

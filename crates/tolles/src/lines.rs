@@ -34,6 +34,8 @@ pub struct LineRow {
     /// Mean of the line's compensated scalar (uncompensated without a model) minus the median
     /// of all lines' means (nT).
     pub level_nt: Option<f64>,
+    /// The same of the uncompensated scalar, with or without a model (nT).
+    pub level_before_nt: Option<f64>,
 }
 
 /// Where the heading of a line came from.
@@ -90,31 +92,41 @@ pub fn line_table(table: &Table, inputs: &LineInputs) -> Option<LineTable> {
     }
     let (heading_from, headings) = headings(table, &lines);
     let (extent_from, extents) = extents(table, inputs.tt, &lines);
-    let levelled = inputs.after.unwrap_or(inputs.before);
-    let means: Vec<f64> = lines.iter().map(|l| mean(&pick(levelled, l))).collect();
-    let median_mean = median(&means);
+    let levels = |x: &[f64]| {
+        let means: Vec<f64> = lines.iter().map(|l| mean(&pick(x, l))).collect();
+        let median_mean = median(&means);
+        means
+            .iter()
+            .map(|m| median_mean.map(|med| m - med).filter(|v| v.is_finite()))
+            .collect::<Vec<_>>()
+    };
+    let levels_before = levels(inputs.before);
+    let levels_after = levels(inputs.after.unwrap_or(inputs.before));
     let rows = lines
         .iter()
         .zip(headings)
         .zip(extents)
-        .zip(&means)
-        .map(|(((line, heading_deg), extent), m)| {
-            let tt = pick(inputs.tt, line);
-            let of = |x: &[f64]| (detrended_std(&tt, &pick(x, line)), noise(x, line));
-            let (residual_before_nt, noise_before_nt) = of(inputs.before);
-            let (residual_after_nt, noise_after_nt) = inputs.after.map(of).unwrap_or_default();
-            LineRow {
-                line: line.id.clone(),
-                rows: line.len(),
-                heading_deg,
-                extent,
-                residual_before_nt,
-                residual_after_nt,
-                noise_before_nt,
-                noise_after_nt,
-                level_nt: median_mean.map(|med| m - med).filter(|v| v.is_finite()),
-            }
-        })
+        .zip(levels_after.into_iter().zip(levels_before))
+        .map(
+            |(((line, heading_deg), extent), (level_nt, level_before_nt))| {
+                let tt = pick(inputs.tt, line);
+                let of = |x: &[f64]| (detrended_std(&tt, &pick(x, line)), noise(x, line));
+                let (residual_before_nt, noise_before_nt) = of(inputs.before);
+                let (residual_after_nt, noise_after_nt) = inputs.after.map(of).unwrap_or_default();
+                LineRow {
+                    line: line.id.clone(),
+                    rows: line.len(),
+                    heading_deg,
+                    extent,
+                    residual_before_nt,
+                    residual_after_nt,
+                    noise_before_nt,
+                    noise_after_nt,
+                    level_nt,
+                    level_before_nt,
+                }
+            },
+        )
         .collect();
     Some(LineTable {
         rows,
@@ -318,6 +330,19 @@ mod tests {
         assert_eq!(a.residual_after_nt, None);
         // Means 109.5 and 125: the median is 117.25.
         assert!((b.level_nt.unwrap() - 7.75).abs() < 1e-9);
+        assert_eq!(b.level_before_nt, b.level_nt);
+        // Compensated 5 nT lower on line 8.5: its level is, but not its level before.
+        let after: Vec<f64> = (0..n)
+            .map(|k| before[k] - if k < 20 { 0.0 } else { 5.0 })
+            .collect();
+        let inputs = LineInputs {
+            after: Some(&after),
+            ..inputs
+        };
+        let lines = line_table(&t, &inputs).unwrap();
+        let b = &lines.rows[1];
+        assert!((b.level_nt.unwrap() - 5.25).abs() < 1e-9);
+        assert!((b.level_before_nt.unwrap() - 7.75).abs() < 1e-9);
     }
 
     #[test]

@@ -12,10 +12,13 @@ use std::path::PathBuf;
 use tolles_core::fit::Band;
 use tolles_core::maneuvers::detect::Maneuver;
 use tolles_core::maneuvers::fom::{bandpassed, FomSettings};
+use tolles_core::maneuvers::ManeuverKind;
 use tolles_core::signal::metrics::std_dev;
 use tolles_core::signal::spectrum::{welch, Spectrum};
 use tolles_io::model::{ModelFile, ScalarModel};
+use tolles_io::schema::{PITCH, ROLL, YAW};
 use tolles_io::select::RowSelection;
+use tolles_io::table::Table;
 
 /// The column of a simulated flight that holds the true earth field (nT).
 pub const TRUTH_COLUMN: &str = "truth_earth";
@@ -90,6 +93,41 @@ pub struct ReportData {
     pub lines: Option<LineTable>,
     /// Where the aircraft was, when the flight has positions.
     pub track: Option<Track>,
+    /// The aircraft's attitude row by row, as far as the flight records it.
+    pub attitude: Attitude,
+}
+
+/// The attitude of the rows reported (deg), each angle `None` when the flight lacks its
+/// column (named in [`tolles_io::schema`]).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Attitude {
+    /// Roll, right wing down positive (deg).
+    pub roll_deg: Option<Vec<f64>>,
+    /// Pitch, nose up positive (deg).
+    pub pitch_deg: Option<Vec<f64>>,
+    /// Yaw, the heading clockwise from north (deg).
+    pub yaw_deg: Option<Vec<f64>>,
+}
+
+impl Attitude {
+    /// The angles of `table` that it has.
+    fn of(table: &Table) -> Self {
+        let angle = |name| table.numeric(name).ok();
+        Attitude {
+            roll_deg: angle(ROLL),
+            pitch_deg: angle(PITCH),
+            yaw_deg: angle(YAW),
+        }
+    }
+
+    /// The angle a maneuver of `kind` swings (deg), if the flight has it.
+    pub fn angle(&self, kind: ManeuverKind) -> Option<&[f64]> {
+        match kind {
+            ManeuverKind::Roll => self.roll_deg.as_deref(),
+            ManeuverKind::Pitch => self.pitch_deg.as_deref(),
+            ManeuverKind::Yaw => self.yaw_deg.as_deref(),
+        }
+    }
 }
 
 /// The scalar's level on one heading's straight legs, before and after compensation.
@@ -182,9 +220,14 @@ pub fn build(
             after: outcome.compensated.as_deref(),
         },
     );
+    if lines.is_some() {
+        // A survey has no box by design; its page says so where a FOM would be.
+        warnings.retain(|w| !matches!(w, Warning::NoManeuvers { .. }));
+    }
     Ok(ReportData {
         lines,
         track: track(&read.table),
+        attitude: Attitude::of(&read.table),
         uncompensated: trace_of(&outcome.scalar)?,
         compensated: outcome.compensated.as_deref().map(trace_of).transpose()?,
         error: outcome
@@ -313,6 +356,15 @@ mod tests {
         assert_eq!(before.headings.len(), 4);
         assert!(before.headings.iter().all(|h| h.after_nt.is_none()));
         assert_eq!(before.truth.as_ref().unwrap().len(), before.fom.tt.len());
+        for kind in ManeuverKind::ALL {
+            let angle = before.attitude.angle(kind).unwrap();
+            assert_eq!(angle.len(), before.fom.tt.len());
+        }
+        // The box's roll maneuvers swing the roll column by ±10°.
+        let roll = &before.maneuvers[0].maneuver;
+        assert_eq!(roll.kind, ManeuverKind::Roll);
+        let swing = &before.attitude.roll_deg.as_ref().unwrap()[roll.start..roll.end];
+        assert!(swing.iter().any(|r| *r > 8.0) && swing.iter().any(|r| *r < -8.0));
 
         let data = crate::read::read(&flight, &Default::default(), &Silent, &mut warnings).unwrap();
         let fit_request =

@@ -11,7 +11,6 @@ use tolles::demo::DemoOutcome;
 use tolles::fit::FitRequest;
 use tolles::fom::FomRequest;
 use tolles::model::ModelFile;
-use tolles::report::ReportRequest;
 use tolles_io::simulation::{SCALAR, VECTOR};
 
 /// Simulate a calibration box and a survey, fit, compensate and compare with the truth.
@@ -19,13 +18,15 @@ use tolles_io::simulation::{SCALAR, VECTOR};
 /// Example: `tolles demo --out /tmp/tolles-demo`
 ///
 /// The aircraft is a cabin installation (a strong field of tens of nT); everything is written
-/// to --out so each step can be repeated by hand with `tolles fit` and `tolles compensate`.
+/// to --out so each step can be repeated by hand with `tolles fit` and `tolles compensate`,
+/// with two reports: --out/report (the calibration box) and --out/survey-report (the survey
+/// compensated with the box's model, against the simulator's truth).
 #[derive(clap::Args)]
 #[command(
     after_help = "Example:\n  tolles demo --out /tmp/tolles-demo\n  tolles fit /tmp/tolles-demo/calibration.csv --scalar mag_1_uc --vector flux_a"
 )]
 pub struct Args {
-    /// Directory for the simulated flights, the model and the compensated survey
+    /// Directory for the simulated flights, the model, the compensated survey and the reports
     #[arg(long, default_value = "tolles-demo")]
     pub out: PathBuf,
     /// Seed of the simulation
@@ -63,28 +64,27 @@ pub fn run(args: Args) -> Result<()> {
     );
     // Read back, as a user repeating the steps by hand would.
     let model = tolles::model::load_model(&model_path).or_render()?;
-    compensate(&model, survey, &compensated)?;
+    compensate(&model, survey.clone(), &compensated)?;
     std::io::stdout().flush()?;
     let fit = &model.fits[0];
     let outcome = tolles::demo::compare(&flights.survey, &compensated, fit).or_render()?;
     print_outcome(&outcome)?;
     figure_of_merit(&cal, &model)?;
-    let report_dir = out.join("report");
-    println!(
-        "\n$ tolles report {} --scalar {SCALAR} --model {} --out {}",
-        cal.display(),
-        model_path.display(),
-        report_dir.display()
-    );
-    let request = ReportRequest {
-        model: Some(model_path),
-        ..ReportRequest::new(cal, SCALAR)
-    };
-    let index = render::report(&request, &report_dir)?;
-    println!(
-        "Open {} in a browser (it needs no network).",
-        index.display()
-    );
+    for report in tolles::demo::reports(&cal, &survey, &model_path) {
+        let dir = out.join(report.dir);
+        println!(
+            "\n$ tolles report {} --scalar {SCALAR} --model {} --out {}",
+            report.request.flight.display(),
+            model_path.display(),
+            dir.display()
+        );
+        let index = render::report(&report.request, &dir)?;
+        println!(
+            "Report on {}: open {} in a browser (it needs no network).",
+            report.what,
+            index.display()
+        );
+    }
     Ok(())
 }
 
