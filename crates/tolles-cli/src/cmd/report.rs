@@ -11,11 +11,13 @@ const EXAMPLES: &str = "\
 Examples:
   tolles demo --out demo
   tolles report demo/calibration.csv --scalar mag_1_uc --model demo/model.json --out demo/report
-  # then open demo/report/index.html in a browser (no network needed)";
+  # then open demo/report/index.html in a browser (no network needed);
+  # the demo also writes demo/survey-report, the survey against the simulator's truth";
 
 /// Write an HTML report of a flight: time series and spectra before and after compensation,
-/// the figure of merit maneuver by maneuver, the model's coefficients with standard errors, its
-/// patent terms and fit diagnostics. Opens in a browser with no network.
+/// the figure of merit maneuver by maneuver with each maneuver and its attitude drawn small,
+/// level against heading (a box's headings or a survey's lines), the model's coefficients with
+/// standard errors, its patent terms and fit diagnostics. Opens in a browser with no network.
 #[derive(clap::Args)]
 #[command(after_help = EXAMPLES)]
 pub struct Args {
