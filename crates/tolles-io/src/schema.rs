@@ -77,7 +77,7 @@ pub fn vector_spec_error(spec: &str) -> Option<&'static str> {
 }
 
 /// Raw channel names that stand for tolles' own when a file does not have those: SGL's raw
-/// export (MagNav.jl's `Flt1003_sample.xyz`) names its channels so. Names match whatever their
+/// export (MagNav.jl's `Flt1003_sample.xyz`) and ASEG-GDF2 survey files name their channels so. Names match whatever their
 /// case; `n` is a magnetometer's number, `L` a fluxgate's letter.
 ///
 /// | raw | tolles |
@@ -85,13 +85,14 @@ pub fn vector_spec_error(spec: &str) -> Option<&'static str> {
 /// | `TIME` (s of day) | `tt` |
 /// | `LINE` | `line` |
 /// | `ROLL`, `PITCH`, `AZIMUTH` | `ins_roll`, `ins_pitch`, `ins_yaw` |
-/// | `LAT`, `LONG` | `lat`, `lon` |
+/// | `LAT`, `LONG`; `LATITUDE`, `LONGITUDE` | `lat`, `lon` |
+/// | `NORTHING`, `EASTING` (projected, m) | `north_m`, `east_m` |
 /// | `DIURNAL` | `diurnal` |
 /// | `UNCOMPMAGn` | `mag_n_uc` |
 /// | `COMPMAGn` | `mag_n_c` |
 /// | `IGRFMAGn` | `mag_n_igrf`; the lowest `n` also `igrf` |
 /// | `FLUXL_X`, `FLUXL_Y`, `FLUXL_Z`, `FLUXL_TOT` | `flux_l_x`, `flux_l_y`, `flux_l_z`, `flux_l_tot` |
-pub const ALIASES: [(&str, &str); 8] = [
+pub const ALIASES: [(&str, &str); 12] = [
     ("TIME", TIME_COLUMN),
     ("LINE", LINE_COLUMN),
     ("ROLL", ROLL),
@@ -99,6 +100,10 @@ pub const ALIASES: [(&str, &str); 8] = [
     ("AZIMUTH", YAW),
     ("LAT", LATITUDE),
     ("LONG", LONGITUDE),
+    ("LATITUDE", LATITUDE),
+    ("LONGITUDE", LONGITUDE),
+    ("NORTHING", NORTH),
+    ("EASTING", EAST),
     ("DIURNAL", DIURNAL),
 ];
 
@@ -247,7 +252,7 @@ mod tests {
                 ("igrf", 4)
             ]
         );
-        // LAT is found as `lat` by case already; no alias is needed.
+        // LAT is found as `lat` by case already; no alias is needed, not even for LATITUDE.
         assert!(canonical_names("FLUXA_W").is_empty());
         assert!(canonical_names("COMPMAG").is_empty());
     }

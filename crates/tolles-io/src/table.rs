@@ -296,6 +296,23 @@ impl Table {
         Ok(())
     }
 
+    /// Replaces the cells of column `name` with `values` (as numbers; NaN is missing); an error
+    /// if there is no such column or `values` has another length than the table.
+    pub fn set_numeric(&mut self, name: &str, values: Vec<f64>) -> Result<(), IoError> {
+        let index = self.index_of(name)?;
+        if values.len() != self.len {
+            return Err(IoError::UnequalColumns {
+                path: self.path.clone(),
+                first: self.headers[0].clone(),
+                expected: self.len,
+                column: self.headers[index].clone(),
+                found: values.len(),
+            });
+        }
+        self.columns[index] = Column::Numbers(values);
+        Ok(())
+    }
+
     /// The same columns under `names` (one per column), for a reader that renamed its header.
     pub(crate) fn set_headers(&mut self, names: Vec<String>) {
         debug_assert_eq!(names.len(), self.headers.len());

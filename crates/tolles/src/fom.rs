@@ -80,19 +80,57 @@ pub fn fom(
     fit: Option<&ScalarModel>,
     warnings: &mut Vec<Warning>,
 ) -> Result<FomOutcome> {
-    let (roll, pitch, yaw) = (
+    let attitude = [
         table.numeric(ROLL)?,
         table.numeric(PITCH)?,
         table.numeric(YAW)?,
-    );
+    ];
+    measure_flight(table, request, fit, Some(attitude), warnings)
+}
+
+/// [`fom`] of any flight: one without the attitude columns (a survey file as delivered, say)
+/// has no maneuvers and no heading levels, which a [`Warning::NoAttitude`] says, instead of
+/// being an error.
+pub fn fom_or_survey(
+    table: &Table,
+    request: &FomRequest,
+    fit: Option<&ScalarModel>,
+    warnings: &mut Vec<Warning>,
+) -> Result<FomOutcome> {
+    let missing: Vec<&str> = [ROLL, PITCH, YAW]
+        .into_iter()
+        .filter(|c| !table.has(c))
+        .collect();
+    if missing.is_empty() {
+        return fom(table, request, fit, warnings);
+    }
+    warnings.push(Warning::NoAttitude {
+        path: table.path().to_path_buf(),
+        columns: missing.join(", "),
+    });
+    measure_flight(table, request, fit, None, warnings)
+}
+
+fn measure_flight(
+    table: &Table,
+    request: &FomRequest,
+    fit: Option<&ScalarModel>,
+    attitude: Option<[Vec<f64>; 3]>,
+    warnings: &mut Vec<Warning>,
+) -> Result<FomOutcome> {
     let scalar = table.numeric(&request.scalar)?;
     let tt = time_column(table)?;
     let (fs_hz, warning) = sample_rate(table, tt.as_deref(), request.fs_hz)?;
     warnings.extend(warning);
     let tt = tt.unwrap_or_else(|| (0..table.len()).map(|k| k as f64 / fs_hz).collect());
-    let maneuvers = detect_maneuvers(&tt, &roll, &pitch, &yaw, &ManeuverSettings::default());
+    let maneuvers = match &attitude {
+        Some([roll, pitch, yaw]) => {
+            detect_maneuvers(&tt, roll, pitch, yaw, &ManeuverSettings::default())
+        }
+        None => Vec::new(),
+    };
     let path = table.path();
-    if maneuvers.is_empty() {
+    if maneuvers.is_empty() && attitude.is_some() {
         warnings.push(Warning::NoManeuvers {
             path: path.to_path_buf(),
             columns: format!("{ROLL}, {PITCH}, {YAW}"),
@@ -113,15 +151,17 @@ pub fn fom(
         .map(|fit| compensated(table, fit, request.fs_hz, warnings))
         .transpose()?;
     let after = compensated.as_deref().map(measure).transpose()?;
-    let attitude = [&roll[..], &pitch, &yaw];
-    let (heading_before, heading_after) = headings(
-        path,
-        &tt,
-        attitude,
-        &maneuvers,
-        &scalar,
-        compensated.as_deref(),
-    )?;
+    let (heading_before, heading_after) = match &attitude {
+        Some([roll, pitch, yaw]) => headings(
+            path,
+            &tt,
+            [roll, pitch, yaw],
+            &maneuvers,
+            &scalar,
+            compensated.as_deref(),
+        )?,
+        None => (no_levels(), compensated.as_ref().map(|_| no_levels())),
+    };
     let outcome = FomOutcome {
         tt,
         fs_hz,
@@ -135,6 +175,16 @@ pub fn fom(
     };
     warnings.extend(gaps(path, &outcome));
     Ok(outcome)
+}
+
+/// The heading levels of a flight without attitude: none.
+fn no_levels() -> HeadingLevels {
+    HeadingLevels {
+        levels: Vec::new(),
+        skipped: Vec::new(),
+        heading_error_nt: None,
+        uncertainty_nt: None,
+    }
 }
 
 /// Heading levels of `scalar` and of `compensated` (nT) over the same straight-and-level
@@ -432,6 +482,24 @@ mod tests {
                 .any(|w| matches!(w, Warning::NoManeuvers { .. })),
             "{warnings:?}"
         );
+    }
+
+    #[test]
+    fn a_flight_without_attitude_is_an_error_for_fom_but_a_survey_for_the_report() {
+        let mut table = flight(PlanKind::Survey, 6);
+        table.rename(ROLL, "roll_elsewhere").unwrap();
+        let request = FomRequest::new("mag_1_uc");
+        let e = fom(&table, &request, None, &mut Vec::new()).unwrap_err();
+        assert!(e.to_string().contains(ROLL), "{e}");
+        let mut warnings = Vec::new();
+        let outcome = fom_or_survey(&table, &request, None, &mut warnings).unwrap();
+        assert!(outcome.maneuvers.is_empty());
+        assert!(outcome.heading_before.levels.is_empty());
+        assert_eq!(outcome.scalar.len(), table.len());
+        assert_eq!(warnings.len(), 1, "{warnings:?}");
+        assert!(warnings[0]
+            .to_string()
+            .contains("no attitude column ins_roll"));
     }
 
     #[test]

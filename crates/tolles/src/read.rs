@@ -8,7 +8,7 @@ use std::path::Path;
 use tolles_core::fit::FitError;
 use tolles_core::model::extra::ExtraChannel;
 use tolles_core::model::vector::VectorSeries;
-use tolles_core::signal::segment::{first_non_increasing, median_step};
+use tolles_core::signal::segment::{first_non_increasing, median_step, run_on};
 use tolles_io::format::Format;
 use tolles_io::schema::{SAMPLE_INTERVAL, TIME_COLUMN};
 use tolles_io::select::RowSelection;
@@ -309,6 +309,26 @@ impl<'t> Flight<'t> {
             cause => Error::Fit { path, cause },
         }
     }
+}
+
+/// Makes the time column of `table` increase where the file's steps back or repeats (a survey
+/// file sorted by line, a second day), as [`tolles_core::signal::segment::run_on`] does, so a
+/// report can filter and plot the whole file; filters restart at each join. Returns a warning
+/// naming the first place moved, or `None` when time already increased (or there is none).
+pub fn run_time_on(table: &mut Table) -> Result<Option<Warning>> {
+    if !table.has(TIME_COLUMN) {
+        return Ok(None);
+    }
+    let (tt, moved) = run_on(&table.numeric(TIME_COLUMN)?);
+    let Some(&first) = moved.first() else {
+        return Ok(None);
+    };
+    table.set_numeric(TIME_COLUMN, tt)?;
+    Ok(Some(Warning::TimeRunOn {
+        path: table.path().to_path_buf(),
+        place: table.place_of(first),
+        places: moved.len(),
+    }))
 }
 
 /// The time column of `table` (s), if it has one; an error if time does not increase.

@@ -4,7 +4,7 @@
 //! `tolles-report` crate lays it out as HTML.
 
 use crate::error::{Error, Result};
-use crate::fom::{fit_for, fom, scalar_to_use, FomOutcome, FomRequest};
+use crate::fom::{fit_for, fom_or_survey, scalar_to_use, FomOutcome, FomRequest};
 use crate::lines::{line_table, track, LineInputs, LineTable, Track};
 use crate::progress::Progress;
 use crate::warning::Warning;
@@ -203,6 +203,8 @@ pub fn build(
         progress,
         warnings,
     )?;
+    let mut read = read;
+    warnings.extend(crate::read::run_time_on(&mut read.table)?);
     let truth = read.table.numeric(TRUTH_COLUMN).ok();
     let fom_request = FomRequest {
         band: request.band,
@@ -210,7 +212,7 @@ pub fn build(
         fs_hz: request.fs_hz,
         ..FomRequest::new(&scalar)
     };
-    let outcome = fom(&read.table, &fom_request, fit.as_ref(), warnings)?;
+    let outcome = fom_or_survey(&read.table, &fom_request, fit.as_ref(), warnings)?;
     let trace_of = |x: &[f64]| trace(x, &outcome, request);
     let lines = line_table(
         &read.table,

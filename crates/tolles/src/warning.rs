@@ -39,6 +39,15 @@ pub enum Warning {
     },
     /// No maneuvers were found in the attitude.
     NoManeuvers { path: PathBuf, columns: String },
+    /// The time column steps back or repeats at `places` places (the first at `place`); the
+    /// report runs time on across them.
+    TimeRunOn {
+        path: PathBuf,
+        place: String,
+        places: usize,
+    },
+    /// The flight has no attitude columns, so no maneuvers and no heading levels.
+    NoAttitude { path: PathBuf, columns: String },
     /// A maneuver window with samples that have no band-passed value.
     ManeuverGap {
         path: PathBuf,
@@ -130,6 +139,16 @@ impl fmt::Display for Warning {
             Warning::NoManeuvers { path, columns } => write!(
                 f,
                 "{}: no roll, pitch or yaw maneuvers found in columns {columns}; is this a compensation flight?",
+                path.display()
+            ),
+            Warning::TimeRunOn { path, place, places } => write!(
+                f,
+                "{}: time steps back or repeats at {places} place(s), the first at {place}; the report runs time on across them (each later stretch starts after a gap, where filters restart), so its times after there are not the file's",
+                path.display()
+            ),
+            Warning::NoAttitude { path, columns } => write!(
+                f,
+                "{}: no attitude column {columns}, so no maneuvers, figure of merit or heading levels",
                 path.display()
             ),
             Warning::ManeuverGap { path, kind, heading, start_tt, end_tt, samples } => write!(

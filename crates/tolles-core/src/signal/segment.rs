@@ -84,6 +84,32 @@ pub fn first_non_increasing(tt: &[f64]) -> Option<usize> {
     None
 }
 
+/// Median steps (see [`median_step`]) between two stretches that [`run_on`] joins: far more than
+/// a gap, so filters restart there.
+pub const RUN_ON_GAP_STEPS: f64 = 100.0;
+
+/// `tt` (s) made increasing: from each sample whose time is not after the previous finite one
+/// (a survey file sorted by line, a second day of flying), the rest is moved on to start
+/// [`RUN_ON_GAP_STEPS`] median steps after that previous time. Returns the new times and the
+/// samples where a stretch was moved on (empty when `tt` already increases).
+pub fn run_on(tt: &[f64]) -> (Vec<f64>, Vec<usize>) {
+    let gap = RUN_ON_GAP_STEPS * median_step(tt).unwrap_or(1.0);
+    let mut out = Vec::with_capacity(tt.len());
+    let mut moved = Vec::new();
+    let (mut shift, mut last) = (0.0, f64::NEG_INFINITY);
+    for (k, &t) in tt.iter().enumerate() {
+        if t.is_finite() {
+            if t + shift <= last {
+                shift = last + gap - t;
+                moved.push(k);
+            }
+            last = t + shift;
+        }
+        out.push(t + shift);
+    }
+    (out, moved)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -106,5 +132,23 @@ mod tests {
         assert_eq!(first_non_increasing(&[0.0, 1.0, 1.0]), Some(2));
         assert_eq!(first_non_increasing(&[0.0, f64::NAN, 2.0, 1.5]), Some(3));
         assert_eq!(first_non_increasing(&[0.0, 1.0, 2.0]), None);
+    }
+
+    #[test]
+    fn run_on_joins_stretches_that_step_back_with_a_gap_between() {
+        let tt = [10.0, 10.1, 10.2, 5.0, 5.1, f64::NAN, 5.3, 5.3, 5.4];
+        let (run, moved) = run_on(&tt);
+        assert_eq!(moved, [3, 7]);
+        assert_eq!(first_non_increasing(&run), None);
+        let step = median_step(&tt).unwrap();
+        let gap = RUN_ON_GAP_STEPS * step;
+        assert!((run[3] - (10.2 + gap)).abs() < 1e-9, "{run:?}");
+        assert!((run[4] - run[3] - 0.1).abs() < 1e-9);
+        assert!(run[5].is_nan());
+        assert!((run[7] - (run[6] + gap)).abs() < 1e-9, "{run:?}");
+        let usable = vec![true; tt.len()];
+        assert_eq!(contiguous_runs(&usable, Some(&run)).len(), 3);
+        let increasing = [1.0, 2.0, 3.0];
+        assert_eq!(run_on(&increasing), (increasing.to_vec(), vec![]));
     }
 }
