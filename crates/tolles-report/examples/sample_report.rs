@@ -10,7 +10,8 @@
 use std::f64::consts::PI;
 
 use tolles_core::signal::spectrum::welch;
-use tolles_report::plot::{BarChart, BarSeries, Colour, LinePlot, Series};
+use tolles_report::live::Live;
+use tolles_report::plot::{BarChart, BarSeries, Colour, LinePlot, Series, Span};
 use tolles_report::Report;
 
 const FS_HZ: f64 = 10.0;
@@ -87,6 +88,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 Series::new("compensated", t.clone(), compensated).colour(Colour::COMPENSATED),
             ],
             caption: Some("The dropout near 12 000 s is a gap; the spike at 6 000 s is kept.".into()),
+            live: Some(Live {
+                windows: vec![Span {
+                    label: "a shaded window".into(),
+                    from: 3_000.0,
+                    to: 3_600.0,
+                    colour: Colour::REFERENCE,
+                }],
+            }),
             ..LinePlot::default()
         })
         .line_plot(LinePlot {

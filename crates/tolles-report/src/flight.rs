@@ -2,6 +2,7 @@
 //! summary cards, signals, spectra, the figure of merit maneuver by maneuver, the heading error
 //! heading by heading and, with a model, its coefficients, patent terms and fit diagnostics.
 
+use crate::live::Live;
 use crate::map::ScatterMap;
 use crate::plot::{format_value, BarChart, BarSeries, Colour, LinePlot, PlotSize, Series, Span};
 use crate::{GridCell, Report, ReportError};
@@ -338,47 +339,110 @@ fn signals(mut report: Report, data: &ReportData) -> Report {
         raw.push(series("truth (earth field)", truth, Colour::REFERENCE));
     }
     let band = &data.request.band;
+    let windows = maneuver_windows(data);
+    let over_time = |title: String, y_label: &str, series, caption: Option<String>| LinePlot {
+        title,
+        x_label: "time (s)".into(),
+        y_label: y_label.into(),
+        series,
+        caption,
+        spans: shading_only(&windows),
+        live: Some(Live {
+            windows: windows.clone(),
+        }),
+        ..LinePlot::default()
+    };
     report = report
         .section("Signals")
-        .line_plot(LinePlot {
-            title: "Scalar magnetometer, mean removed".into(),
-            x_label: "time (s)".into(),
-            y_label: "field − mean (nT)".into(),
-            series: raw,
-            caption: Some(
-                "What compensation removes is the difference between the two curves.".into(),
-            ),
-            ..LinePlot::default()
-        })
-        .line_plot(LinePlot {
-            title: format!(
+        .paragraph(signals_intro(&windows))
+        .line_plot(over_time(
+            "Scalar magnetometer, mean removed".into(),
+            "field − mean (nT)",
+            raw,
+            Some("What compensation removes is the difference between the two curves.".into()),
+        ))
+        .line_plot(over_time(
+            format!(
                 "Band-passed {}–{} Hz (the maneuver noise)",
                 band.pass1_hz, band.pass2_hz
             ),
-            x_label: "time (s)".into(),
-            y_label: "band-passed field (nT)".into(),
-            series: filtered,
-            ..LinePlot::default()
-        });
+            "band-passed field (nT)",
+            filtered,
+            None,
+        ));
     if let Some(error) = &data.error {
-        report = report.line_plot(LinePlot {
-            title: "Compensated minus truth".into(),
-            x_label: "time (s)".into(),
-            y_label: "error (nT)".into(),
-            series: vec![series(
+        report = report.line_plot(over_time(
+            "Compensated minus truth".into(),
+            "error (nT)",
+            vec![series(
                 "compensated − truth",
                 &error.centred,
                 Colour::COMPENSATED,
             )],
-            caption: Some(format!(
+            Some(format!(
                 "Standard deviation {:.4} nT (the simulator's truth column {}).",
                 error.std_nt,
                 tolles::report::TRUTH_COLUMN
             )),
-            ..LinePlot::default()
-        });
+        ));
+    }
+    let attitude: Vec<Series> = [
+        ("roll", data.attitude.roll_deg.as_deref(), Colour::CYCLE[3]),
+        (
+            "pitch",
+            data.attitude.pitch_deg.as_deref(),
+            Colour::CYCLE[4],
+        ),
+    ]
+    .into_iter()
+    .filter_map(|(name, angle, colour)| Some(series(name, angle?, colour)))
+    .collect();
+    if !attitude.is_empty() {
+        report = report.line_plot(over_time(
+            "Attitude".into(),
+            "angle (°)",
+            attitude,
+            Some("Roll (right wing down positive) and pitch (nose up positive).".into()),
+        ));
     }
     report
+}
+
+/// Says what the shaded windows of the time series are, when there are any.
+fn signals_intro(windows: &[Span]) -> String {
+    let mut text =
+        String::from("Each time series is a chart you can zoom (its static image is what prints).");
+    if !windows.is_empty() {
+        text += &format!(
+            " Shaded: the {} maneuvers the figure of merit counts, labelled when there is room.",
+            windows.len()
+        );
+    }
+    text
+}
+
+/// The counted maneuvers as labelled windows of time (s).
+fn maneuver_windows(data: &ReportData) -> Vec<Span> {
+    data.maneuvers
+        .iter()
+        .map(|row| Span {
+            label: label(&row.maneuver),
+            from: row.maneuver.start_tt,
+            to: row.maneuver.end_tt,
+            colour: Colour::REFERENCE,
+        })
+        .collect()
+}
+
+/// The same windows unlabelled: a static image has no room for a dozen labels.
+fn shading_only(windows: &[Span]) -> Vec<Span> {
+    windows
+        .iter()
+        .map(|w| Span {
+            label: String::new(),
+            ..w.clone()
+        })
+        .collect()
 }
 
 fn spectra(report: Report, data: &ReportData) -> Report {
@@ -1130,19 +1194,19 @@ mod tests {
         }
         assert!(!html.contains("per column unit"));
         let plots = dir.path().join("report/plots");
-        // Five plots, three per maneuver, two of level against heading and the two maps.
+        // Six plots, three per maneuver, two of level against heading and the two maps.
         assert_eq!(
             std::fs::read_dir(&plots).unwrap().count(),
-            5 + 3 * 12 + 2 + 2
+            6 + 3 * 12 + 2 + 2
         );
         let svg = |name: &str| std::fs::read_to_string(plots.join(name)).unwrap();
         // Compensated bars (hundredths of a nT) beside uncompensated ones (tens of nT) need
         // a log axis to be seen at all.
-        let fom = svg("05-peak-to-peak-of-the-band-passed-scalar-m.svg");
+        let fom = svg("06-peak-to-peak-of-the-band-passed-scalar-m.svg");
         for decade in ["10⁻²", "10⁰", "10²"] {
             assert!(fom.contains(decade), "FOM chart lacks the decade {decade}");
         }
-        let psd = svg("04-power-spectral-density.svg");
+        let psd = svg("05-power-spectral-density.svg");
         for mark in ["FOM band 0.05–1 Hz", "fit band 0.1–0.9 Hz", "10⁻¹"] {
             assert!(psd.contains(mark), "PSD lacks {mark}");
         }
@@ -1219,7 +1283,11 @@ mod tests {
             let panels = svgs.iter().filter(|svg| svg.contains(axis)).count();
             assert_eq!(panels, 4, "{axis}");
         }
-        assert_eq!(svgs.len(), 5 + 3 * 12 + 2 + 2);
+        // The time series are live charts, with the maneuvers as their windows.
+        assert_eq!(html.matches("data-live=").count(), 4);
+        let data = std::fs::read_to_string(dir.path().join("report/data/04-attitude.js")).unwrap();
+        assert_eq!(data.matches("\"label\":\"roll ").count(), 4);
+        assert_eq!(svgs.len(), 6 + 3 * 12 + 2 + 2);
         for svg in &svgs {
             assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
             for bad in ["NaN", "inf", "no data"] {

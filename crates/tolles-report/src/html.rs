@@ -128,16 +128,54 @@ figure.cell h3 { margin: 0 0 4px; font-size: 15px; }
 figure.cell img + img { margin-top: 2px; }
 figure.cell .caption { font-size: 13px; margin-top: 4px; }
 footer { border-top: 1px solid var(--line); color: var(--muted); font-size: 13px; padding: 16px 0 30px; }
+.live-chart { margin: 6px 0 0; min-height: 0; }
+.live-controls { display: flex; gap: 6px; margin: 4px 0 0; }
+.live-controls button { font: inherit; font-size: 13px; line-height: 1; padding: 5px 10px;
+  border: 1px solid var(--line); border-radius: 6px; background: var(--wash); color: var(--ink);
+  cursor: pointer; }
+.live-controls button:hover { border-color: var(--accent); color: var(--accent); }
+figure:not(.is-live) .live-note, figure:not(.is-live) .live-controls { display: none; }
+figure.is-live > img, figure.is-live > .svg-note, figure.is-live > ul.legend { display: none; }
+.uplot { font-family: inherit; }
+.uplot .u-legend { font-size: 13px; text-align: left; }
+@media print { .live-chart, .live-controls, .live-note { display: none !important; }
+  figure.is-live > img, figure.is-live > .svg-note, figure.is-live > ul.legend { display: block; }
+  figure.is-live > ul.legend { display: flex; } }
 @media print { header.masthead { background: #fff; color: var(--ink); }
   .summary div { border-color: var(--line); } nav.toc { display: none; } }
 "#;
 
-/// Runs when the page has loaded: every `<img>` must have decoded and every inline `<svg>`
-/// must have a size. The verdict goes into `#tolles-check` ("ok N images" or
-/// "broken: …"), which `scripts/check-report` reads from a headless browser.
+/// Runs first, in the page's head: records script errors, failed loads of scripts, images and
+/// style sheets, and `console.error` calls in `window.tollesErrors`, which [`SELF_CHECK`]
+/// reports.
+pub const ERROR_CAPTURE: &str = r#"
+window.tollesErrors = [];
+window.addEventListener("error", function (e) {
+  var t = e.target;
+  if (t && t !== window && (t.src || t.href)) {
+    window.tollesErrors.push("failed to load " + (t.getAttribute("src") || t.getAttribute("href")));
+  } else {
+    window.tollesErrors.push("script error: " + (e.message || "unknown") +
+      (e.filename ? " (" + e.filename.split("/").pop() + ":" + e.lineno + ")" : ""));
+  }
+}, true);
+(function () {
+  var original = console.error;
+  console.error = function () {
+    window.tollesErrors.push("console error: " + Array.prototype.join.call(arguments, " "));
+    return original.apply(console, arguments);
+  };
+})();
+"#;
+
+/// Runs when the page has loaded: every `<img>` must have decoded, every inline `<svg>` must
+/// have a size, every figure meant to be live must hold a started chart with data on a canvas
+/// of some size, and no error may have been recorded (see [`ERROR_CAPTURE`]). The verdict goes
+/// into `#tolles-check` ("ok N images M inline svg K live" or "broken: …"), which
+/// `scripts/check-report` reads from a headless browser.
 pub const SELF_CHECK: &str = r#"
 window.addEventListener("load", function () {
-  var broken = [];
+  var broken = (window.tollesErrors || []).slice();
   var images = document.images;
   for (var i = 0; i < images.length; i++) {
     var im = images[i];
@@ -145,12 +183,18 @@ window.addEventListener("load", function () {
   }
   var svgs = document.querySelectorAll("svg");
   for (var k = 0; k < svgs.length; k++) {
+    if (svgs[k].getClientRects().length === 0) continue; // not displayed (a hidden legend)
     var r = svgs[k].getBoundingClientRect();
     if (!(r.width > 0 && r.height > 0)) broken.push("inline svg #" + (k + 1));
   }
+  var wanted = document.querySelectorAll("figure[data-live]").length;
+  var started = (window.tollesCharts || []).filter(function (u) {
+    return u.data[0].length > 0 && u.ctx.canvas.width > 0 && u.ctx.canvas.height > 0;
+  }).length;
+  if (started !== wanted) broken.push("live charts: " + started + " of " + wanted + " started");
   document.getElementById("tolles-check").textContent = broken.length
     ? "broken: " + broken.join(" ")
-    : "ok " + images.length + " images " + svgs.length + " inline svg";
+    : "ok " + images.length + " images " + svgs.length + " inline svg " + started + " live";
 });
 "#;
 

@@ -37,6 +37,7 @@
 pub mod decimate;
 pub mod flight;
 pub mod html;
+pub mod live;
 pub mod map;
 pub mod plot;
 
@@ -222,19 +223,43 @@ impl Report {
         create_dir(&plots_dir)?;
         let mut body = String::new();
         let mut plot_number = 0;
+        let mut live_scripts = Vec::new();
         for block in &self.blocks {
             match block {
                 Block::LinePlot(p) => {
                     plot_number += 1;
                     let rendered = p.to_svg()?;
                     let file = write_svg(&plots_dir, plot_number, &p.title, &rendered)?;
-                    figure(&mut body, &p.title, &file, &rendered, p.caption.as_deref());
+                    let live = match &p.live {
+                        Some(options) => {
+                            let (src, data) = write_live(dir, &file, p, options)?;
+                            live_scripts.push(src.clone());
+                            Some((src, data))
+                        }
+                        None => None,
+                    };
+                    let live = live.as_ref().map(|(src, data)| (src.as_str(), data));
+                    figure(
+                        &mut body,
+                        &p.title,
+                        &file,
+                        &rendered,
+                        p.caption.as_deref(),
+                        live,
+                    );
                 }
                 Block::BarChart(c) => {
                     plot_number += 1;
                     let rendered = c.to_svg()?;
                     let file = write_svg(&plots_dir, plot_number, &c.title, &rendered)?;
-                    figure(&mut body, &c.title, &file, &rendered, c.caption.as_deref());
+                    figure(
+                        &mut body,
+                        &c.title,
+                        &file,
+                        &rendered,
+                        c.caption.as_deref(),
+                        None,
+                    );
                 }
                 Block::Grid(cells) => {
                     body.push_str(&grid_start(cells));
@@ -261,22 +286,31 @@ impl Report {
                 other => render_block(&mut body, other),
             }
         }
+        if !live_scripts.is_empty() {
+            write_uplot(dir)?;
+        }
         let index = dir.join("index.html");
-        write_file(&index, &self.page(&body))?;
+        write_file(&index, &self.page(&body, &live_scripts))?;
         Ok(index)
     }
 
-    fn page(&self, body: &str) -> String {
+    fn page(&self, body: &str, live_scripts: &[String]) -> String {
         let mut out = String::new();
         let title = escape(&self.title);
         let _ = write!(
             out,
             "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
              <meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n\
-             <title>{title}</title>\n<style>{}</style>\n</head>\n<body>\n\
+             <title>{title}</title>\n<style>{}</style>\n<script>{}</script>\n{}</head>\n<body>\n\
              <header class=\"masthead\"><div class=\"wrap\">\n<p class=\"kicker\">tolles report</p>\n\
              <h1>{title}</h1>\n",
-            html::STYLE
+            html::STYLE,
+            html::ERROR_CAPTURE,
+            if live_scripts.is_empty() {
+                String::new()
+            } else {
+                format!("<link rel=\"stylesheet\" href=\"{UPLOT_CSS_FILE}\">\n")
+            }
         );
         if let Some(s) = &self.subtitle {
             let _ = writeln!(out, "<p class=\"subtitle\">{}</p>", escape(s));
@@ -303,7 +337,8 @@ impl Report {
             "<main class=\"wrap\">\n{body}</main>\n\
              <footer><div class=\"wrap\">Written by tolles-report. This page and its plots open \
              without a network connection.</div></footer>\n\
-             <div id=\"tolles-check\" hidden>pending</div>\n<script>{}</script>\n</body>\n</html>\n",
+             <div id=\"tolles-check\" hidden>pending</div>\n{}<script>{}</script>\n</body>\n</html>\n",
+            live_tags(live_scripts),
             html::SELF_CHECK
         );
         out
@@ -406,14 +441,100 @@ fn table(out: &mut String, headers: &[String], rows: &[Vec<String>]) {
     out.push_str("</tbody></table></div>\n");
 }
 
-fn figure(out: &mut String, title: &str, file: &str, plot: &RenderedPlot, caption: Option<&str>) {
-    let _ = write!(out, "<figure class=\"plot\">\n<h3>{}</h3>\n", escape(title));
+/// Where the vendored uPlot goes in a report directory (relative URLs of the page).
+const UPLOT_JS_FILE: &str = "assets/uPlot.iife.min.js";
+const UPLOT_CSS_FILE: &str = "assets/uPlot.min.css";
+const UPLOT_LICENSE_FILE: &str = "assets/uPlot-LICENSE.txt";
+
+fn write_uplot(dir: &Path) -> Result<(), ReportError> {
+    create_dir(&dir.join("assets"))?;
+    write_file(&dir.join(UPLOT_JS_FILE), live::UPLOT_JS)?;
+    write_file(&dir.join(UPLOT_CSS_FILE), live::UPLOT_CSS)?;
+    write_file(&dir.join(UPLOT_LICENSE_FILE), live::UPLOT_LICENSE)
+}
+
+/// Writes the data of the live chart of `plot` (whose SVG is `svg_file`) as `data/NAME.js`;
+/// returns its URL relative to the page and the data.
+fn write_live(
+    dir: &Path,
+    svg_file: &str,
+    plot: &LinePlot,
+    options: &live::Live,
+) -> Result<(String, live::LiveData), ReportError> {
+    let id = svg_file.trim_end_matches(".svg");
+    let data = live::data_script(id, plot, options)?;
+    create_dir(&dir.join("data"))?;
+    let src = format!("data/{id}.js");
+    write_file(&dir.join(&src), &data.script)?;
+    Ok((src, data))
+}
+
+/// The scripts that draw the live charts: uPlot, every chart's data, then the starter.
+fn live_tags(live_scripts: &[String]) -> String {
+    if live_scripts.is_empty() {
+        return String::new();
+    }
+    let mut out = format!("<script src=\"{UPLOT_JS_FILE}\"></script>\n");
+    for src in live_scripts {
+        let _ = writeln!(out, "<script src=\"{}\"></script>", escape(src));
+    }
+    let _ = writeln!(out, "<script>{}</script>", live::START_SCRIPT);
+    out
+}
+
+/// How to use a live chart, and what its points are.
+fn live_note(data: &live::LiveData) -> String {
+    let points = if data.per_bucket > 1 {
+        format!(
+            " Each pair of points is the lowest and highest of {} samples (the static image keeps \
+             the same per pixel column).",
+            data.per_bucket
+        )
+    } else {
+        " Every sample is drawn.".to_string()
+    };
+    format!(
+        "Drag across the chart to zoom in; ◀ ▶ pan, + − zoom, “all” shows everything (so does a \
+         double-click); click a name in the legend to hide its line (the y axis rescales).{points}"
+    )
+}
+
+fn figure(
+    out: &mut String,
+    title: &str,
+    file: &str,
+    plot: &RenderedPlot,
+    caption: Option<&str>,
+    live: Option<(&str, &live::LiveData)>,
+) {
+    match live {
+        Some((src, _)) => {
+            let id = src.trim_start_matches("data/").trim_end_matches(".js");
+            let _ = write!(
+                out,
+                "<figure class=\"plot\" data-live=\"{}\">\n<h3>{}</h3>\n",
+                escape(id),
+                escape(title)
+            );
+        }
+        None => {
+            let _ = write!(out, "<figure class=\"plot\">\n<h3>{}</h3>\n", escape(title));
+        }
+    }
     if plot.legend.len() > 1 || plot.legend.iter().any(|(n, _)| !n.is_empty()) {
         out.push_str("<ul class=\"legend\">");
         for (name, colour) in &plot.legend {
             let _ = write!(out, "<li>{}{}</li>", legend_sample(*colour), escape(name));
         }
         out.push_str("</ul>\n");
+    }
+    if let Some((_, data)) = live {
+        let _ = writeln!(
+            out,
+            "<div class=\"live-chart\"></div><div class=\"live-controls\"></div>\n\
+             <p class=\"note live-note\">{}</p>",
+            escape(&live_note(data))
+        );
     }
     image(out, file, plot, title);
     notes(out, plot);
@@ -451,7 +572,7 @@ fn image(out: &mut String, file: &str, plot: &RenderedPlot, alt: &str) {
 
 fn notes(out: &mut String, plot: &RenderedPlot) {
     for note in &plot.notes {
-        let _ = writeln!(out, "<p class=\"note\">{}</p>", escape(note));
+        let _ = writeln!(out, "<p class=\"note svg-note\">{}</p>", escape(note));
     }
 }
 
@@ -573,9 +694,65 @@ mod tests {
         assert!(page.contains("<h3>Scalar &lt;field&gt;</h3>"));
         assert_eq!(
             page.matches("<script>").count(),
-            1,
-            "only the self-check runs"
+            2,
+            "only the error capture and the self-check run"
         );
+    }
+
+    #[test]
+    fn a_live_plot_writes_its_data_and_uplot_and_keeps_its_image() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut plot = sine_plot(300_000);
+        plot.live = Some(live::Live::default());
+        let index = Report::new("t")
+            .line_plot(plot)
+            .line_plot(sine_plot(10))
+            .write(dir.path())
+            .unwrap();
+        let page = std::fs::read_to_string(index).unwrap();
+        let figure = page
+            .split("<figure class=\"plot\" data-live=\"01-scalar-field\">")
+            .nth(1)
+            .unwrap();
+        let figure = figure.split("</figure>").next().unwrap();
+        assert!(figure.contains("<div class=\"live-chart\"></div>"));
+        assert!(figure.contains("<img src=\"plots/01-scalar-field.svg\""));
+        assert!(
+            figure.contains("lowest and highest of 5 samples"),
+            "{figure}"
+        );
+        assert_eq!(page.matches("data-live=").count(), 1);
+        let tags = page.split("<div id=\"tolles-check\"").nth(1).unwrap();
+        let order = [
+            "assets/uPlot.iife.min.js",
+            "data/01-scalar-field.js",
+            "tollesCharts",
+        ];
+        let at: Vec<usize> = order.iter().map(|t| tags.find(t).unwrap()).collect();
+        assert!(
+            at.windows(2).all(|w| w[0] < w[1]),
+            "uPlot, data, then the starter"
+        );
+        assert!(page.contains("<link rel=\"stylesheet\" href=\"assets/uPlot.min.css\">"));
+        for file in [
+            "data/01-scalar-field.js",
+            "assets/uPlot.iife.min.js",
+            "assets/uPlot.min.css",
+            "assets/uPlot-LICENSE.txt",
+        ] {
+            assert!(dir.path().join(file).is_file(), "{file}");
+        }
+        let data = std::fs::read_to_string(dir.path().join("data/01-scalar-field.js")).unwrap();
+        assert!(data.len() < 2_000_000, "{} bytes", data.len());
+        assert!(!page.contains("http") && !data.contains("http"));
+    }
+
+    #[test]
+    fn a_page_without_live_plots_loads_no_uplot() {
+        let dir = tempfile::tempdir().unwrap();
+        let page = std::fs::read_to_string(every_element().write(dir.path()).unwrap()).unwrap();
+        assert!(!page.contains("assets/uPlot") && !page.contains("data-live=\""));
+        assert!(!dir.path().join("assets").exists());
     }
 
     #[test]
@@ -690,7 +867,7 @@ mod tests {
         plot.series
             .push(Series::new("second", vec![0.0, 1.0], vec![1.0, 2.0]));
         let mut out = String::new();
-        figure(&mut out, "t", "t.svg", &plot.to_svg().unwrap(), None);
+        figure(&mut out, "t", "t.svg", &plot.to_svg().unwrap(), None, None);
         let legend = out.split("<ul class=\"legend\">").nth(1).unwrap();
         let entries: Vec<&str> = legend
             .split("</li>")
@@ -716,7 +893,7 @@ mod tests {
         let page = Report::new("t")
             .summary(&[("λ", "1")])
             .summary_note("FOM <defined>")
-            .page("");
+            .page("", &[]);
         let header = page.split("</header>").next().unwrap();
         assert!(header.contains("<p class=\"summary-note\">FOM &lt;defined&gt;</p>"));
         assert!(header.contains("<dt>λ</dt>"));

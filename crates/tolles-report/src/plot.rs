@@ -201,6 +201,9 @@ pub struct LinePlot {
     /// Where the x axis is labelled (units of the x axis, linear axes only); empty: chosen
     /// from the range.
     pub x_ticks: Vec<f64>,
+    /// Also drawn as a zoomable chart in the page (see [`crate::live`]), the SVG kept for
+    /// printing and as the fallback; all series must share their x values. `None`: SVG only.
+    pub live: Option<crate::live::Live>,
 }
 
 /// A bar chart: one group of bars per category, one bar per series in every group.
