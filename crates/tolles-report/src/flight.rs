@@ -14,6 +14,7 @@ use tolles::tolles_core::fit::Target;
 use tolles::tolles_core::maneuvers::detect::Maneuver;
 use tolles::tolles_core::maneuvers::heading::HeadingLevels;
 use tolles::tolles_core::model::terms::Column;
+use tolles::tolles_core::signal::metrics::std_dev;
 use tolles::tolles_core::signal::spectrum::Spectrum;
 use tolles::tolles_io::model::ScalarModel;
 
@@ -167,6 +168,10 @@ fn summary(report: Report, data: &ReportData) -> Report {
     {
         items.push(("heading error after", nt(error, 3)));
     }
+    if let Some((before, after)) = truth_errors(data) {
+        items.push(("error vs truth before", nt(before, 3)));
+        items.push(("error vs truth after", nt(after, 4)));
+    }
     if has_box(data) {
         items.push((
             "maneuvers found",
@@ -194,7 +199,31 @@ fn summary_definitions(data: &ReportData) -> String {
     if has_box(data) && data.fom.after.is_some() {
         text += " Improvement: the uncompensated FOM divided by the compensated one.";
     }
-    text + " Heading error: the largest minus the smallest heading level (see Heading error)."
+    if data.fom.heading_before.heading_error_nt.is_some() {
+        text += " Heading error: the largest minus the smallest heading level (see Heading error).";
+    }
+    if truth_errors(data).is_some() {
+        text += &format!(
+            " Error vs truth: the standard deviation of the scalar minus the simulator's true \
+             earth field ({}), before and after compensation.",
+            tolles::report::TRUTH_COLUMN
+        );
+    }
+    text
+}
+
+/// The standard deviations (nT) of the uncompensated and the compensated scalar minus the truth,
+/// when the flight has a truth column and a model.
+fn truth_errors(data: &ReportData) -> Option<(f64, f64)> {
+    let (truth, after) = (data.truth.as_ref()?, data.error.as_ref()?);
+    let before: Vec<f64> = data
+        .uncompensated
+        .centred
+        .iter()
+        .zip(truth)
+        .map(|(s, t)| s - t)
+        .collect();
+    Some((std_dev(&before), after.std_nt))
 }
 
 /// True when the flight has compensation-box maneuvers, so a figure of merit.
@@ -1175,6 +1204,11 @@ mod tests {
             "roll 090°",
             "Heading error",
             "heading error after",
+            "error vs truth before</dt>",
+            &format!(
+                "error vs truth after</dt><dd>{:.4} nT",
+                data.error.as_ref().unwrap().std_nt
+            ),
         ] {
             assert!(html.contains(text), "{text} missing");
         }
