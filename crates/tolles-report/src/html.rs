@@ -128,8 +128,19 @@ figure.cell h3 { margin: 0 0 4px; font-size: 15px; }
 figure.cell img + img { margin-top: 2px; }
 figure.cell .caption { font-size: 13px; margin-top: 4px; }
 footer { border-top: 1px solid var(--line); color: var(--muted); font-size: 13px; padding: 16px 0 30px; }
-@media print { header.masthead { background: #fff; color: var(--ink); }
-  .summary div { border-color: var(--line); } nav.toc { display: none; } }
+@page { margin: 14mm 12mm; }
+@media print {
+  .wrap { max-width: none; padding: 0; }
+  header.masthead { background: #fff; color: #000; padding: 0 0 12px; }
+  header .kicker, header .subtitle, .summary dt, .summary-note { color: #333; }
+  .summary div { background: #fff; border-color: #999; }
+  nav.toc, #tolles-check { display: none; }
+  main > h2 { break-before: page; }
+  h2, h3 { break-after: avoid; }
+  figure, .table-wrap, dl.kv, tr { break-inside: avoid; }
+  .table-wrap { overflow: visible; }
+  tbody tr:hover { background: none; }
+}
 "#;
 
 /// Runs when the page has loaded: every `<img>` must have decoded and every inline `<svg>`

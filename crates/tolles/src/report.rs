@@ -182,40 +182,121 @@ pub fn build(
     progress: &dyn Progress,
     warnings: &mut Vec<Warning>,
 ) -> Result<ReportData> {
-    let model = request
-        .model
-        .as_deref()
-        .map(|path| ModelFile::read(path).map(|m| (m, path)))
-        .transpose()?;
+    let model = read_model(request)?;
     let model = model.as_ref().map(|(m, path)| (m, *path));
     let scalar = scalar_to_use(request.scalar.as_deref(), model)?;
-    let request = &ReportRequest {
-        scalar: Some(scalar.clone()),
-        ..request.clone()
-    };
-    let fit = model
-        .map(|(model, path)| fit_for(model, path, &scalar).cloned())
-        .transpose()?;
-    let read = crate::read::read_renamed(
+    let fit = fit_of(model, &scalar)?;
+    let table = read_flight(request, progress, warnings)?;
+    build_scalar(&table, request, &scalar, fit, warnings)
+}
+
+/// [`build`] for each of `scalars` of one flight, read once: with no scalars, the request's
+/// scalar, else every fit of its model, else an error listing the flight's columns. With
+/// several scalars, each scalar's warnings name it ([`Warning::ForScalar`]).
+pub fn build_each(
+    request: &ReportRequest,
+    scalars: &[String],
+    progress: &dyn Progress,
+    warnings: &mut Vec<Warning>,
+) -> Result<Vec<ReportData>> {
+    let model = read_model(request)?;
+    let model = model.as_ref().map(|(m, path)| (m, *path));
+    let mut scalars = scalars.to_vec();
+    if scalars.is_empty() {
+        scalars = match (&request.scalar, model) {
+            (Some(scalar), _) => vec![scalar.clone()],
+            (None, Some((model, path))) => {
+                crate::compensate::check_model(model, path)?;
+                model.fits.iter().map(|f| f.scalar.clone()).collect()
+            }
+            (None, None) => Vec::new(),
+        };
+    }
+    let fits = scalars
+        .iter()
+        .map(|scalar| fit_of(model, scalar))
+        .collect::<Result<Vec<_>>>()?;
+    let table = read_flight(request, progress, warnings)?;
+    if scalars.is_empty() {
+        return Err(Error::ReportScalarNeeded {
+            path: request.flight.clone(),
+            columns: table.headers().to_vec(),
+        });
+    }
+    let several = scalars.len() > 1;
+    let mut all = Vec::new();
+    for (scalar, fit) in scalars.iter().zip(fits) {
+        let mut noticed = Vec::new();
+        all.push(build_scalar(&table, request, scalar, fit, &mut noticed)?);
+        warnings.extend(noticed.into_iter().map(|warning| match several {
+            true => Warning::ForScalar {
+                scalar: scalar.clone(),
+                warning: Box::new(warning),
+            },
+            false => warning,
+        }));
+    }
+    Ok(all)
+}
+
+/// The model file of `request`, read, with its path.
+fn read_model(request: &ReportRequest) -> Result<Option<(ModelFile, &std::path::Path)>> {
+    request
+        .model
+        .as_deref()
+        .map(|path| Ok((ModelFile::read(path)?, path)))
+        .transpose()
+}
+
+fn fit_of(
+    model: Option<(&ModelFile, &std::path::Path)>,
+    scalar: &str,
+) -> Result<Option<ScalarModel>> {
+    model
+        .map(|(model, path)| fit_for(model, path, scalar).cloned())
+        .transpose()
+}
+
+/// The flight's selected rows, renamed, with time run on where it steps back.
+fn read_flight(
+    request: &ReportRequest,
+    progress: &dyn Progress,
+    warnings: &mut Vec<Warning>,
+) -> Result<Table> {
+    let mut read = crate::read::read_renamed(
         &request.flight,
         &request.selection,
         &request.renames,
         progress,
         warnings,
     )?;
-    let mut read = read;
     warnings.extend(crate::read::run_time_on(&mut read.table)?);
-    let truth = read.table.numeric(TRUTH_COLUMN).ok();
+    Ok(read.table)
+}
+
+/// What the report of `scalar` of the flight `table` shows, with its `fit` if any.
+fn build_scalar(
+    table: &Table,
+    request: &ReportRequest,
+    scalar: &str,
+    fit: Option<ScalarModel>,
+    warnings: &mut Vec<Warning>,
+) -> Result<ReportData> {
+    let request = &ReportRequest {
+        scalar: Some(scalar.to_string()),
+        ..request.clone()
+    };
+    let truth = table.numeric(TRUTH_COLUMN).ok();
     let fom_request = FomRequest {
         band: request.band,
         order: request.order,
         fs_hz: request.fs_hz,
-        ..FomRequest::new(&scalar)
+        ..FomRequest::new(scalar)
     };
-    let outcome = fom_or_survey(&read.table, &fom_request, fit.as_ref(), warnings)?;
+    let outcome = fom_or_survey(table, &fom_request, fit.as_ref(), warnings)?;
     let trace_of = |x: &[f64]| trace(x, &outcome, request);
     let lines = line_table(
-        &read.table,
+        table,
         &LineInputs {
             tt: &outcome.tt,
             before: &outcome.scalar,
@@ -228,8 +309,8 @@ pub fn build(
     }
     Ok(ReportData {
         lines,
-        track: track(&read.table),
-        attitude: Attitude::of(&read.table),
+        track: track(table),
+        attitude: Attitude::of(table),
         uncompensated: trace_of(&outcome.scalar)?,
         compensated: outcome.compensated.as_deref().map(trace_of).transpose()?,
         error: outcome
