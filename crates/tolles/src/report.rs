@@ -478,6 +478,122 @@ mod tests {
         assert!(after.headings.iter().all(|h| h.after_nt.is_some()));
     }
 
+    /// A simulated box with a second scalar `mag_2_uc`: `mag_1_uc` plus a 0.5 nT wobble.
+    fn box_with_two_scalars(dir: &std::path::Path) -> PathBuf {
+        let one = dir.join("one.csv");
+        write(
+            &simulate(&SimulateRequest::default(), &Silent).unwrap(),
+            &one,
+        )
+        .unwrap();
+        let text = std::fs::read_to_string(&one).unwrap();
+        let mut lines = text.lines();
+        let header = lines.next().unwrap();
+        let column = header.split(',').position(|h| h == "mag_1_uc").unwrap();
+        let mut out = format!("{header},mag_2_uc\n");
+        for (row, line) in lines.enumerate() {
+            let value: f64 = line.split(',').nth(column).unwrap().parse().unwrap();
+            out += &format!("{line},{}\n", value + 0.5 * (row as f64 * 0.7).sin());
+        }
+        let two = dir.join("two.csv");
+        std::fs::write(&two, out).unwrap();
+        two
+    }
+
+    #[test]
+    fn two_scalars_are_built_from_one_read_each_as_on_its_own() {
+        let dir = tempfile::tempdir().unwrap();
+        let flight = box_with_two_scalars(dir.path());
+        let scalars = vec!["mag_1_uc".to_string(), "mag_2_uc".to_string()];
+        let mut warnings = Vec::new();
+        let data = crate::read::read(&flight, &Default::default(), &Silent, &mut warnings).unwrap();
+        let fit_request = crate::fit::FitRequest::new(scalars.clone(), vec!["flux_a".into()]);
+        let model = crate::fit::fit(&data.table, &fit_request, &Silent, &mut warnings).unwrap();
+        let model_path = dir.path().join("m.json");
+        crate::model::save_model(&model, &model_path).unwrap();
+        let request = ReportRequest {
+            model: Some(model_path),
+            selection: RowSelection {
+                time: Some("..100000".parse().unwrap()),
+                ..Default::default()
+            },
+            scalar: None,
+            ..ReportRequest::new(&flight, "")
+        };
+
+        let mut warnings = Vec::new();
+        let both = build_each(&request, &[], &Silent, &mut warnings).unwrap();
+        // One read: the rows selected are said once, not per scalar.
+        let selected = warnings
+            .iter()
+            .filter(|w| matches!(w, Warning::RowsSelected { .. }))
+            .count();
+        assert_eq!(selected, 1, "{warnings:?}");
+        let names: Vec<_> = both
+            .iter()
+            .map(|d| d.request.scalar.clone().unwrap())
+            .collect();
+        assert_eq!(names, scalars);
+        for (data, scalar) in both.iter().zip(&scalars) {
+            let alone = build(
+                &ReportRequest {
+                    scalar: Some(scalar.clone()),
+                    ..request.clone()
+                },
+                &Silent,
+                &mut Vec::new(),
+            )
+            .unwrap();
+            assert_eq!(data.fit.as_ref().unwrap().scalar, *scalar);
+            assert_eq!(data.fom.scalar, alone.fom.scalar);
+            assert_eq!(
+                data.fom.after.as_ref().unwrap().fom_nt,
+                alone.fom.after.unwrap().fom_nt
+            );
+            assert_eq!(data.error, alone.error);
+        }
+        // The wobble is left in mag_2_uc by compensation, so its error against truth is larger.
+        let error = |d: &ReportData| d.error.as_ref().unwrap().std_nt;
+        assert!(
+            error(&both[1]) > 10.0 * error(&both[0]),
+            "{} {}",
+            error(&both[1]),
+            error(&both[0])
+        );
+    }
+
+    #[test]
+    fn warnings_of_several_scalars_name_their_scalar() {
+        let dir = tempfile::tempdir().unwrap();
+        let flight = box_with_two_scalars(dir.path());
+        let scalars = ["mag_1_uc".to_string(), "mag_2_uc".to_string()];
+        let mut warnings = Vec::new();
+        let request = ReportRequest {
+            fs_hz: Some(5.0),
+            ..ReportRequest::new(&flight, "")
+        };
+        build_each(&request, &scalars, &Silent, &mut warnings).unwrap();
+        let texts: Vec<String> = warnings.iter().map(|w| w.to_string()).collect();
+        for scalar in &scalars {
+            let prefix = format!("scalar {scalar}: ");
+            assert!(texts.iter().any(|t| t.starts_with(&prefix)), "{texts:?}");
+        }
+    }
+
+    #[test]
+    fn no_scalar_and_no_model_is_an_error_listing_the_columns() {
+        let dir = tempfile::tempdir().unwrap();
+        let flight = box_with_two_scalars(dir.path());
+        let request = ReportRequest {
+            scalar: None,
+            ..ReportRequest::new(&flight, "")
+        };
+        let e = build_each(&request, &[], &Silent, &mut Vec::new()).unwrap_err();
+        let message = e.to_string();
+        assert!(message.contains("mag_1_uc, flux_a_x"), "{message}");
+        assert!(message.ends_with("mag_2_uc"), "{message}");
+    }
+
     #[test]
     fn a_model_without_the_scalar_is_an_error_naming_it() {
         let dir = tempfile::tempdir().unwrap();
