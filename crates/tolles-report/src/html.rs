@@ -135,7 +135,7 @@ footer { border-top: 1px solid var(--line); color: var(--muted); font-size: 13px
   header .kicker, header .subtitle, .summary dt, .summary-note { color: #333; }
   .summary div { background: #fff; border-color: #999; }
   nav.toc, #tolles-check { display: none; }
-  main > h2 { break-before: page; }
+  main > h2:not(:first-child) { break-before: page; }
   h2, h3 { break-after: avoid; }
   figure, .table-wrap, dl.kv, tr { break-inside: avoid; }
   .table-wrap { overflow: visible; }

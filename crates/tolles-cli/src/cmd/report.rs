@@ -11,9 +11,10 @@ const EXAMPLES: &str = "\
 Examples:
   tolles demo --out demo
   tolles report demo/calibration.csv --scalar mag_1_uc --model demo/model.json --out demo/report
-  tolles report survey.csv --scalar mag_4_uc --scalar mag_5_uc --model m.json --out rep --pdf rep.pdf
   # then open demo/report/index.html in a browser (no network needed);
-  # the demo also writes demo/survey-report, the survey against the simulator's truth";
+  # the demo also writes demo/survey-report, the survey against the simulator's truth
+  # Two magnetometers compared on one page, also printed to PDF (needs Chromium):
+  tolles report survey.csv --scalar mag_4_uc --scalar mag_5_uc --model m.json --out rep --pdf rep.pdf";
 
 /// Write an HTML report of a flight: time series and spectra before and after compensation,
 /// the figure of merit maneuver by maneuver with each maneuver and its attitude drawn small,
