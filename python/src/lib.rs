@@ -484,6 +484,52 @@ fn convert(
     Ok((done.rows, done.columns, done.padded, texts(&warnings)))
 }
 
+/// Writes the HTML report of `flight` (each of `scalars`, or every fit of `model`) into `out`,
+/// as `tolles report` does, and prints it to `pdf` if given; returns (index.html's path,
+/// warnings).
+#[pyfunction]
+#[pyo3(signature = (flight, out, model, scalars, lines, time, renames, band, order, fs, pdf))]
+#[allow(clippy::too_many_arguments)]
+fn report(
+    py: Python<'_>,
+    flight: PathBuf,
+    out: PathBuf,
+    model: Option<PathBuf>,
+    scalars: Vec<String>,
+    lines: Option<Vec<String>>,
+    time: Option<String>,
+    renames: Option<Vec<(String, String)>>,
+    band: (f64, f64),
+    order: usize,
+    fs: Option<f64>,
+    pdf: Option<PathBuf>,
+) -> PyResult<(PathBuf, Vec<String>)> {
+    let request = tolles::report::ReportRequest {
+        scalar: None,
+        model,
+        band: Band {
+            pass1_hz: band.0,
+            pass2_hz: band.1,
+        },
+        order,
+        fs_hz: fs,
+        selection: selection(lines, time)?,
+        renames: renames.unwrap_or_default(),
+        ..tolles::report::ReportRequest::new(flight, "")
+    };
+    let mut warnings = Vec::new();
+    let index = py.detach(|| -> Result<PathBuf, String> {
+        let data = tolles::report::build_each(&request, &scalars, &Silent, &mut warnings)
+            .map_err(|e| e.to_string())?;
+        let index = tolles_report::flight::write_each(&data, &out).map_err(|e| e.to_string())?;
+        if let Some(pdf) = &pdf {
+            tolles_report::export::print_pdf(&index, pdf).map_err(|e| e.to_string())?;
+        }
+        Ok(index)
+    });
+    Ok((index.map_err(failed)?, texts(&warnings)))
+}
+
 /// The row selection of Python's `line` ids and `time` range text.
 fn selection(lines: Option<Vec<String>>, time: Option<String>) -> PyResult<RowSelection> {
     Ok(RowSelection {
@@ -605,6 +651,7 @@ fn _tolles(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fit, m)?)?;
     m.add_function(wrap_pyfunction!(compensate, m)?)?;
     m.add_function(wrap_pyfunction!(fom, m)?)?;
+    m.add_function(wrap_pyfunction!(report, m)?)?;
     m.add_function(wrap_pyfunction!(output_names, m)?)?;
     m.add_function(wrap_pyfunction!(procedure, m)?)?;
     m.add_function(wrap_pyfunction!(plan, m)?)?;

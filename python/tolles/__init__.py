@@ -22,6 +22,8 @@ from __future__ import annotations
 
 import json
 import os
+import pathlib
+import tempfile
 import warnings as _warnings
 from typing import Any, Iterable, Mapping, Optional, Sequence, Tuple, Union
 
@@ -44,6 +46,7 @@ __all__ = [
     "plan",
     "procedure",
     "read",
+    "report",
     "simulate",
     "__version__",
 ]
@@ -483,6 +486,52 @@ def fom(
     )
     _warn(notes)
     return json.loads(text)
+
+
+def report(
+    flight: PathLike,
+    out: PathLike,
+    model: Union[Model, PathLike, None] = None,
+    scalar: Optional[Names] = None,
+    line: Any = None,
+    time: Any = None,
+    renames: Optional[Mapping[str, str]] = None,
+    *,
+    band: Tuple[float, float] = (0.05, 1.0),
+    order: int = 4,
+    fs: Optional[float] = None,
+    pdf: Optional[PathLike] = None,
+) -> pathlib.Path:
+    """Write the HTML report of a flight file into the directory ``out``, as ``tolles report``.
+
+    ``scalar``: a column (nT) or several (``"a,b"`` or a list), compared on one page; by
+    default every fit of ``model``. ``model``: a :class:`Model` or a model file; without one,
+    the uncompensated flight only. ``line``, ``time``, ``renames``: as in :func:`convert`.
+    ``band`` (Hz), ``order``: the figure of merit's band-pass. ``pdf``: also print the page to
+    this PDF with headless Chromium (``$TOLLES_CHROMIUM``, or chromium on ``PATH``).
+    Returns the path of ``index.html``; what was noticed is warned about.
+    """
+    scalars = [] if scalar is None else _names(scalar, "scalar")
+    with tempfile.TemporaryDirectory() as scratch:
+        if isinstance(model, Model):
+            path = os.path.join(scratch, "model.json")
+            model.save(path)
+            model = path
+        index, notes = _tolles.report(
+            os.fspath(flight),
+            os.fspath(out),
+            None if model is None else os.fspath(model),
+            scalars,
+            _line_ids(line),
+            _time_range(time),
+            list((renames or {}).items()),
+            _band(band),
+            int(order),
+            None if fs is None else float(fs),
+            None if pdf is None else os.fspath(pdf),
+        )
+    _warn(notes)
+    return pathlib.Path(index)
 
 
 def simulate(plan: str = "box", preset: str = "cabin", seed: int = 1, **options: Any) -> pd.DataFrame:

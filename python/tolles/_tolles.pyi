@@ -84,6 +84,19 @@ def convert(
     time: Optional[str] = ...,
     renames: Optional[Sequence[Tuple[str, str]]] = ...,
 ) -> Tuple[int, int, List[Tuple[str, int]], List[str]]: ...
+def report(
+    flight: str,
+    out: str,
+    model: Optional[str],
+    scalars: Sequence[str],
+    lines: Optional[Sequence[str]],
+    time: Optional[str],
+    renames: Optional[Sequence[Tuple[str, str]]],
+    band: Tuple[float, float],
+    order: int,
+    fs: Optional[float],
+    pdf: Optional[str],
+) -> Tuple[str, List[str]]: ...
 def load_model(path: str) -> str: ...
 def check_model(json: str) -> str: ...
 def save_model(json: str, path: str) -> None: ...

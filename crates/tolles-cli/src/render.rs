@@ -117,13 +117,14 @@ impl<T> OrRender<T> for Result<T, Error> {
     }
 }
 
-/// Builds the report `request` asks for and writes it as HTML to the directory `out`, saying
+/// Builds the report `request` asks for, of each of `scalars` (see
+/// [`tolles::report::build_each`]), and writes it as HTML to the directory `out`, saying
 /// on stderr what was noticed; returns the path of index.html.
-pub fn report(request: &ReportRequest, out: &Path) -> anyhow::Result<PathBuf> {
+pub fn report(request: &ReportRequest, scalars: &[String], out: &Path) -> anyhow::Result<PathBuf> {
     let mut noticed = Vec::new();
-    let data = tolles::report::build(request, &Terminal::default(), &mut noticed);
+    let data = tolles::report::build_each(request, scalars, &Terminal::default(), &mut noticed);
     warnings(&mut noticed, Use::Other);
-    tolles_report::flight::write(&data.or_render()?, out)
+    tolles_report::flight::write_each(&data.or_render()?, out)
         .with_context(|| format!("writing the report to {}", out.display()))
 }
 

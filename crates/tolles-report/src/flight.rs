@@ -24,17 +24,119 @@ const NO_BOX: &str =
 
 /// Lays out `data` and writes it as `dir/index.html` with its plots; returns the page's path.
 pub fn write(data: &ReportData, dir: &Path) -> Result<PathBuf, ReportError> {
-    let maps = maps(data);
-    let index = page_with(data, &maps).write(dir)?;
+    write_each(std::slice::from_ref(data), dir)
+}
+
+/// The report of `data`, its maps referenced but not written (see [`write`]).
+pub fn page(data: &ReportData) -> Report {
+    page_with(data, &maps(data, ""))
+}
+
+/// Lays out the reports of several scalars of one flight on one page (see [`page_each`]) and
+/// writes it as `dir/index.html` with its plots; returns the page's path.
+pub fn write_each(data: &[ReportData], dir: &Path) -> Result<PathBuf, ReportError> {
+    let (page, maps) = page_and_maps(data);
+    let index = page.write(dir)?;
     for map in &maps {
         crate::write_file(&dir.join(&map.src), &map.svg)?;
     }
     Ok(index)
 }
 
-/// The report of `data`, its maps referenced but not written (see [`write`]).
-pub fn page(data: &ReportData) -> Report {
-    page_with(data, &maps(data))
+/// One scalar's report as [`page`]; several: a table comparing them, then each one's sections
+/// headed with its name. Maps are referenced but not written (see [`write_each`]).
+pub fn page_each(data: &[ReportData]) -> Report {
+    page_and_maps(data).0
+}
+
+fn page_and_maps(data: &[ReportData]) -> (Report, Vec<Map>) {
+    if let [one] = data {
+        let maps = maps(one, "");
+        return (page_with(one, &maps), maps);
+    }
+    let mut report = several_header(data);
+    let mut all_maps = Vec::new();
+    for (number, d) in data.iter().enumerate() {
+        let maps = maps(d, &format!("{}-", number + 1));
+        report = report.part(scalar_of(d), page_with(d, &maps));
+        all_maps.extend(maps);
+    }
+    (report, all_maps)
+}
+
+fn scalar_of(data: &ReportData) -> &str {
+    data.request.scalar.as_deref().unwrap_or_default()
+}
+
+/// The title of a report of several scalars and the table comparing them.
+fn several_header(data: &[ReportData]) -> Report {
+    let scalars: Vec<&str> = data.iter().map(scalar_of).collect();
+    let first = data.first();
+    let mut report = Report::new(format!(
+        "Compensation report: {}",
+        first.map_or(String::new(), |d| d.request.flight.display().to_string())
+    ));
+    if let Some(d) = first {
+        report = report.subtitle(format!(
+            "Scalars {} at {:.3} Hz, {} samples; figure-of-merit band {}–{} Hz.",
+            scalars.join(", "),
+            d.fom.fs_hz,
+            d.fom.tt.len(),
+            d.request.band.pass1_hz,
+            d.request.band.pass2_hz
+        ));
+    }
+    let rows: Vec<Vec<String>> = data.iter().map(comparison_cells).collect();
+    report
+        .section("Scalars compared")
+        .paragraph(
+ "Each scalar before and after compensation, as its own sections below define the figures: FOM (box maneuvers), 4th-difference noise, heading error, and the standard deviation of compensated minus the simulator's truth.",
+        )
+        .table(
+            &[
+                "scalar",
+                "FOM before",
+                "FOM after",
+                "4th-diff. noise before",
+                "4th-diff. noise after",
+                "heading error before",
+                "heading error after",
+                "error vs truth",
+            ],
+            &rows,
+        )
+}
+
+/// A row of the comparison table; "—" with the reason where a figure does not exist.
+fn comparison_cells(data: &ReportData) -> Vec<String> {
+    const NO_MODEL: &str = "— (no model)";
+    let after = data.fom.after.as_ref();
+    let fom = |value: Option<f64>| match (has_box(data), value) {
+        (false, _) => "— (no box)".to_string(),
+        (true, None) => NO_MODEL.to_string(),
+        (true, Some(v)) => nt(v, 3),
+    };
+    let heading = |levels: Option<&HeadingLevels>| match levels {
+        None => NO_MODEL.to_string(),
+        Some(l) => l
+            .heading_error_nt
+            .map_or("— (fewer than two headings)".into(), |e| nt(e, 3)),
+    };
+    let truth = match (&data.error, &data.truth) {
+        (Some(e), _) => nt(e.std_nt, 4),
+        (None, Some(_)) => NO_MODEL.to_string(),
+        (None, None) => "— (no truth column)".to_string(),
+    };
+    vec![
+        scalar_of(data).to_string(),
+        fom(Some(data.fom.before.fom_nt)),
+        fom(after.map(|a| a.fom_nt)),
+        nt(data.fom.before.fourth_difference_nt, 4),
+        after.map_or(NO_MODEL.into(), |a| nt(a.fourth_difference_nt, 4)),
+        heading(Some(&data.fom.heading_before)),
+        heading(data.fom.heading_after.as_ref()),
+        truth,
+    ]
 }
 
 /// A map of the track as an SVG, and where the page expects it.
@@ -45,8 +147,8 @@ struct Map {
 }
 
 /// Maps of the track coloured by the compensated field and by the correction (with a model),
-/// or by the uncompensated field; none without positions.
-fn maps(data: &ReportData) -> Vec<Map> {
+/// or by the uncompensated field; none without positions. `tag` starts their file names.
+fn maps(data: &ReportData, tag: &str) -> Vec<Map> {
     let Some(track) = &data.track else {
         return Vec::new();
     };
@@ -74,7 +176,7 @@ fn maps(data: &ReportData) -> Vec<Map> {
             }
             .to_svg()?;
             Some(Map {
-                src: format!("plots/map-{name}.svg"),
+                src: format!("plots/map-{tag}{name}.svg"),
                 alt: format!("Map of the track coloured by the {label}"),
                 svg,
             })

@@ -141,8 +141,19 @@ figure.is-live > img, figure.is-live > .svg-note, figure.is-live > ul.legend { d
 @media print { .live-chart, .live-controls, .live-note { display: none !important; }
   figure.is-live > img, figure.is-live > .svg-note, figure.is-live > ul.legend { display: block; }
   figure.is-live > ul.legend { display: flex; } }
-@media print { header.masthead { background: #fff; color: var(--ink); }
-  .summary div { border-color: var(--line); } nav.toc { display: none; } }
+@page { margin: 14mm 12mm; }
+@media print {
+  .wrap { max-width: none; padding: 0; }
+  header.masthead { background: #fff; color: #000; padding: 0 0 12px; }
+  header .kicker, header .subtitle, .summary dt, .summary-note { color: #333; }
+  .summary div { background: #fff; border-color: #999; }
+  nav.toc, #tolles-check { display: none; }
+  main > h2:not(:first-child) { break-before: page; }
+  h2, h3 { break-after: avoid; }
+  figure, .table-wrap, dl.kv, tr { break-inside: avoid; }
+  .table-wrap { overflow: visible; }
+  tbody tr:hover { background: none; }
+}
 "#;
 
 /// Runs first, in the page's head: records script errors, failed loads of scripts, images and

@@ -35,10 +35,12 @@
 //! [`tolles::report::build`] computes.
 
 pub mod decimate;
+pub mod export;
 pub mod flight;
 pub mod html;
 pub mod live;
 pub mod map;
+mod part;
 pub mod plot;
 
 use std::fmt::Write as _;

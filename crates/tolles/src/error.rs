@@ -101,6 +101,14 @@ pub enum Error {
         /// The scalars its fits are for.
         available: Vec<String>,
     },
+    /// A report with no scalar named and no model to take its scalars from.
+    #[error("{}: name a scalar column to report on; its columns are: {}", path.display(), columns.join(", "))]
+    ReportScalarNeeded {
+        /// The flight.
+        path: PathBuf,
+        /// Its columns, in file order.
+        columns: Vec<String>,
+    },
     /// A request without the column names it needs.
     #[error("no {what} column named")]
     NoColumnNamed { what: &'static str },

@@ -182,40 +182,121 @@ pub fn build(
     progress: &dyn Progress,
     warnings: &mut Vec<Warning>,
 ) -> Result<ReportData> {
-    let model = request
-        .model
-        .as_deref()
-        .map(|path| ModelFile::read(path).map(|m| (m, path)))
-        .transpose()?;
+    let model = read_model(request)?;
     let model = model.as_ref().map(|(m, path)| (m, *path));
     let scalar = scalar_to_use(request.scalar.as_deref(), model)?;
-    let request = &ReportRequest {
-        scalar: Some(scalar.clone()),
-        ..request.clone()
-    };
-    let fit = model
-        .map(|(model, path)| fit_for(model, path, &scalar).cloned())
-        .transpose()?;
-    let read = crate::read::read_renamed(
+    let fit = fit_of(model, &scalar)?;
+    let table = read_flight(request, progress, warnings)?;
+    build_scalar(&table, request, &scalar, fit, warnings)
+}
+
+/// [`build`] for each of `scalars` of one flight, read once: with no scalars, the request's
+/// scalar, else every fit of its model, else an error listing the flight's columns. With
+/// several scalars, each scalar's warnings name it ([`Warning::ForScalar`]).
+pub fn build_each(
+    request: &ReportRequest,
+    scalars: &[String],
+    progress: &dyn Progress,
+    warnings: &mut Vec<Warning>,
+) -> Result<Vec<ReportData>> {
+    let model = read_model(request)?;
+    let model = model.as_ref().map(|(m, path)| (m, *path));
+    let mut scalars = scalars.to_vec();
+    if scalars.is_empty() {
+        scalars = match (&request.scalar, model) {
+            (Some(scalar), _) => vec![scalar.clone()],
+            (None, Some((model, path))) => {
+                crate::compensate::check_model(model, path)?;
+                model.fits.iter().map(|f| f.scalar.clone()).collect()
+            }
+            (None, None) => Vec::new(),
+        };
+    }
+    let fits = scalars
+        .iter()
+        .map(|scalar| fit_of(model, scalar))
+        .collect::<Result<Vec<_>>>()?;
+    let table = read_flight(request, progress, warnings)?;
+    if scalars.is_empty() {
+        return Err(Error::ReportScalarNeeded {
+            path: request.flight.clone(),
+            columns: table.headers().to_vec(),
+        });
+    }
+    let several = scalars.len() > 1;
+    let mut all = Vec::new();
+    for (scalar, fit) in scalars.iter().zip(fits) {
+        let mut noticed = Vec::new();
+        all.push(build_scalar(&table, request, scalar, fit, &mut noticed)?);
+        warnings.extend(noticed.into_iter().map(|warning| match several {
+            true => Warning::ForScalar {
+                scalar: scalar.clone(),
+                warning: Box::new(warning),
+            },
+            false => warning,
+        }));
+    }
+    Ok(all)
+}
+
+/// The model file of `request`, read, with its path.
+fn read_model(request: &ReportRequest) -> Result<Option<(ModelFile, &std::path::Path)>> {
+    request
+        .model
+        .as_deref()
+        .map(|path| Ok((ModelFile::read(path)?, path)))
+        .transpose()
+}
+
+fn fit_of(
+    model: Option<(&ModelFile, &std::path::Path)>,
+    scalar: &str,
+) -> Result<Option<ScalarModel>> {
+    model
+        .map(|(model, path)| fit_for(model, path, scalar).cloned())
+        .transpose()
+}
+
+/// The flight's selected rows, renamed, with time run on where it steps back.
+fn read_flight(
+    request: &ReportRequest,
+    progress: &dyn Progress,
+    warnings: &mut Vec<Warning>,
+) -> Result<Table> {
+    let mut read = crate::read::read_renamed(
         &request.flight,
         &request.selection,
         &request.renames,
         progress,
         warnings,
     )?;
-    let mut read = read;
     warnings.extend(crate::read::run_time_on(&mut read.table)?);
-    let truth = read.table.numeric(TRUTH_COLUMN).ok();
+    Ok(read.table)
+}
+
+/// What the report of `scalar` of the flight `table` shows, with its `fit` if any.
+fn build_scalar(
+    table: &Table,
+    request: &ReportRequest,
+    scalar: &str,
+    fit: Option<ScalarModel>,
+    warnings: &mut Vec<Warning>,
+) -> Result<ReportData> {
+    let request = &ReportRequest {
+        scalar: Some(scalar.to_string()),
+        ..request.clone()
+    };
+    let truth = table.numeric(TRUTH_COLUMN).ok();
     let fom_request = FomRequest {
         band: request.band,
         order: request.order,
         fs_hz: request.fs_hz,
-        ..FomRequest::new(&scalar)
+        ..FomRequest::new(scalar)
     };
-    let outcome = fom_or_survey(&read.table, &fom_request, fit.as_ref(), warnings)?;
+    let outcome = fom_or_survey(table, &fom_request, fit.as_ref(), warnings)?;
     let trace_of = |x: &[f64]| trace(x, &outcome, request);
     let lines = line_table(
-        &read.table,
+        table,
         &LineInputs {
             tt: &outcome.tt,
             before: &outcome.scalar,
@@ -228,8 +309,8 @@ pub fn build(
     }
     Ok(ReportData {
         lines,
-        track: track(&read.table),
-        attitude: Attitude::of(&read.table),
+        track: track(table),
+        attitude: Attitude::of(table),
         uncompensated: trace_of(&outcome.scalar)?,
         compensated: outcome.compensated.as_deref().map(trace_of).transpose()?,
         error: outcome
@@ -395,6 +476,122 @@ mod tests {
         let headings: Vec<f64> = after.headings.iter().map(|h| h.heading_deg).collect();
         assert_eq!(headings, [0.0, 90.0, 180.0, 270.0]);
         assert!(after.headings.iter().all(|h| h.after_nt.is_some()));
+    }
+
+    /// A simulated box with a second scalar `mag_2_uc`: `mag_1_uc` plus a 0.5 nT wobble.
+    fn box_with_two_scalars(dir: &std::path::Path) -> PathBuf {
+        let one = dir.join("one.csv");
+        write(
+            &simulate(&SimulateRequest::default(), &Silent).unwrap(),
+            &one,
+        )
+        .unwrap();
+        let text = std::fs::read_to_string(&one).unwrap();
+        let mut lines = text.lines();
+        let header = lines.next().unwrap();
+        let column = header.split(',').position(|h| h == "mag_1_uc").unwrap();
+        let mut out = format!("{header},mag_2_uc\n");
+        for (row, line) in lines.enumerate() {
+            let value: f64 = line.split(',').nth(column).unwrap().parse().unwrap();
+            out += &format!("{line},{}\n", value + 0.5 * (row as f64 * 0.7).sin());
+        }
+        let two = dir.join("two.csv");
+        std::fs::write(&two, out).unwrap();
+        two
+    }
+
+    #[test]
+    fn two_scalars_are_built_from_one_read_each_as_on_its_own() {
+        let dir = tempfile::tempdir().unwrap();
+        let flight = box_with_two_scalars(dir.path());
+        let scalars = vec!["mag_1_uc".to_string(), "mag_2_uc".to_string()];
+        let mut warnings = Vec::new();
+        let data = crate::read::read(&flight, &Default::default(), &Silent, &mut warnings).unwrap();
+        let fit_request = crate::fit::FitRequest::new(scalars.clone(), vec!["flux_a".into()]);
+        let model = crate::fit::fit(&data.table, &fit_request, &Silent, &mut warnings).unwrap();
+        let model_path = dir.path().join("m.json");
+        crate::model::save_model(&model, &model_path).unwrap();
+        let request = ReportRequest {
+            model: Some(model_path),
+            selection: RowSelection {
+                time: Some("..100000".parse().unwrap()),
+                ..Default::default()
+            },
+            scalar: None,
+            ..ReportRequest::new(&flight, "")
+        };
+
+        let mut warnings = Vec::new();
+        let both = build_each(&request, &[], &Silent, &mut warnings).unwrap();
+        // One read: the rows selected are said once, not per scalar.
+        let selected = warnings
+            .iter()
+            .filter(|w| matches!(w, Warning::RowsSelected { .. }))
+            .count();
+        assert_eq!(selected, 1, "{warnings:?}");
+        let names: Vec<_> = both
+            .iter()
+            .map(|d| d.request.scalar.clone().unwrap())
+            .collect();
+        assert_eq!(names, scalars);
+        for (data, scalar) in both.iter().zip(&scalars) {
+            let alone = build(
+                &ReportRequest {
+                    scalar: Some(scalar.clone()),
+                    ..request.clone()
+                },
+                &Silent,
+                &mut Vec::new(),
+            )
+            .unwrap();
+            assert_eq!(data.fit.as_ref().unwrap().scalar, *scalar);
+            assert_eq!(data.fom.scalar, alone.fom.scalar);
+            assert_eq!(
+                data.fom.after.as_ref().unwrap().fom_nt,
+                alone.fom.after.unwrap().fom_nt
+            );
+            assert_eq!(data.error, alone.error);
+        }
+        // The wobble is left in mag_2_uc by compensation, so its error against truth is larger.
+        let error = |d: &ReportData| d.error.as_ref().unwrap().std_nt;
+        assert!(
+            error(&both[1]) > 10.0 * error(&both[0]),
+            "{} {}",
+            error(&both[1]),
+            error(&both[0])
+        );
+    }
+
+    #[test]
+    fn warnings_of_several_scalars_name_their_scalar() {
+        let dir = tempfile::tempdir().unwrap();
+        let flight = box_with_two_scalars(dir.path());
+        let scalars = ["mag_1_uc".to_string(), "mag_2_uc".to_string()];
+        let mut warnings = Vec::new();
+        let request = ReportRequest {
+            fs_hz: Some(5.0),
+            ..ReportRequest::new(&flight, "")
+        };
+        build_each(&request, &scalars, &Silent, &mut warnings).unwrap();
+        let texts: Vec<String> = warnings.iter().map(|w| w.to_string()).collect();
+        for scalar in &scalars {
+            let prefix = format!("scalar {scalar}: ");
+            assert!(texts.iter().any(|t| t.starts_with(&prefix)), "{texts:?}");
+        }
+    }
+
+    #[test]
+    fn no_scalar_and_no_model_is_an_error_listing_the_columns() {
+        let dir = tempfile::tempdir().unwrap();
+        let flight = box_with_two_scalars(dir.path());
+        let request = ReportRequest {
+            scalar: None,
+            ..ReportRequest::new(&flight, "")
+        };
+        let e = build_each(&request, &[], &Silent, &mut Vec::new()).unwrap_err();
+        let message = e.to_string();
+        assert!(message.contains("mag_1_uc, flux_a_x"), "{message}");
+        assert!(message.ends_with("mag_2_uc"), "{message}");
     }
 
     #[test]

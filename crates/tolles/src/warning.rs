@@ -95,6 +95,11 @@ pub enum Warning {
         rows: usize,
         columns: Vec<(String, usize)>,
     },
+    /// A warning about one scalar of a report of several.
+    ForScalar {
+        scalar: String,
+        warning: Box<Warning>,
+    },
     /// Anything else, as a sentence that names the file.
     Other(String),
 }
@@ -185,6 +190,7 @@ impl fmt::Display for Warning {
                     name_lengths(columns)
                 )
             }
+            Warning::ForScalar { scalar, warning } => write!(f, "scalar {scalar}: {warning}"),
             Warning::Other(text) => f.write_str(text),
         }
     }

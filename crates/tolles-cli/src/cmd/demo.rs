@@ -78,7 +78,7 @@ pub fn run(args: Args) -> Result<()> {
             model_path.display(),
             dir.display()
         );
-        let index = render::report(&report.request, &dir)?;
+        let index = render::report(&report.request, &[], &dir)?;
         println!(
             "Report on {}: open {} in a browser (it needs no network).",
             report.what,

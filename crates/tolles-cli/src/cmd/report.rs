@@ -12,7 +12,9 @@ Examples:
   tolles demo --out demo
   tolles report demo/calibration.csv --scalar mag_1_uc --model demo/model.json --out demo/report
   # then open demo/report/index.html in a browser (no network needed);
-  # the demo also writes demo/survey-report, the survey against the simulator's truth";
+  # the demo also writes demo/survey-report, the survey against the simulator's truth
+  # Two magnetometers compared on one page, also printed to PDF (needs Chromium):
+  tolles report survey.csv --scalar mag_4_uc --scalar mag_5_uc --model m.json --out rep --pdf rep.pdf";
 
 /// Write an HTML report of a flight: time series and spectra before and after compensation,
 /// the figure of merit maneuver by maneuver with each maneuver and its attitude drawn small,
@@ -23,16 +25,21 @@ Examples:
 pub struct Args {
     #[arg(help = flight_help!("Flight with tt, ins_roll, ins_pitch, ins_yaw, the scalar, and the model's fluxgate"))]
     pub flight: PathBuf,
-    /// Uncompensated scalar column (nT); with a --model holding one fit, that fit's scalar by
-    /// default
-    #[arg(long)]
-    pub scalar: Option<String>,
+    /// Uncompensated scalar column (nT); repeat (or separate by commas) for several scalars on
+    /// one page: a table comparing them, then each one's sections. Default: every fit of the
+    /// --model
+    #[arg(long, value_delimiter = ',')]
+    pub scalar: Vec<String>,
     /// Model from `tolles fit`; without it the report shows the uncompensated flight only
     #[arg(long)]
     pub model: Option<PathBuf>,
     /// Directory for index.html and its plots
     #[arg(long)]
     pub out: PathBuf,
+    /// Also print the page to this PDF with headless Chromium (found as $TOLLES_CHROMIUM, or
+    /// chromium, chromium-browser or google-chrome on PATH)
+    #[arg(long, value_name = "FILE.pdf")]
+    pub pdf: Option<PathBuf>,
     /// Pass band LO,HI (Hz) of the figure of merit and the band-passed plots
     #[arg(long, default_value = "0.05,1", allow_hyphen_values = true)]
     pub band: String,
@@ -49,12 +56,16 @@ pub fn run(args: Args) -> Result<()> {
         model: args.model,
         band: Band { pass1_hz, pass2_hz },
         fs_hz: args.fs,
-        scalar: args.scalar,
+        scalar: None,
         selection: args.select.rows(),
         renames: args.select.renames.clone(),
         ..ReportRequest::new(args.flight, "")
     };
-    let index = render::report(&request, &args.out)?;
+    let index = render::report(&request, &args.scalar, &args.out)?;
     eprintln!("report written to {}", index.display());
+    if let Some(pdf) = &args.pdf {
+        tolles_report::export::print_pdf(&index, pdf)?;
+        eprintln!("PDF written to {}", pdf.display());
+    }
     Ok(())
 }
