@@ -371,3 +371,44 @@ fn every_flight_argument_names_every_format_and_standard_input() {
         }
     }
 }
+
+#[test]
+fn fit_takes_several_scalars_by_repeating_the_flag_as_report_does() {
+    let dir = TempDir::new().unwrap();
+    let flight = box_flight(dir.path());
+    let f = text(&flight);
+    // A second scalar: the first plus a constant, so both fit.
+    let csv = std::fs::read_to_string(&flight).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let k = header.iter().position(|h| *h == "mag_1_uc").unwrap();
+    let mut two = format!("{},mag_2_uc\n", header.join(","));
+    for line in lines {
+        let value: f64 = line.split(',').nth(k).unwrap().parse().unwrap();
+        two += &format!("{line},{}\n", value + 12.5);
+    }
+    let two_flight = dir.path().join("two.csv");
+    std::fs::write(&two_flight, two).unwrap();
+    let f2 = text(&two_flight);
+    let (commas, _) = run(&[
+        "fit",
+        f2,
+        "--scalar",
+        "mag_1_uc,mag_2_uc",
+        "--vector",
+        "flux_a",
+    ]);
+    let (repeated, _) = run(&[
+        "fit", f2, "--scalar", "mag_1_uc", "--scalar", "mag_2_uc", "--vector", "flux_a",
+    ]);
+    assert_eq!(commas, repeated);
+    let model: Value = serde_json::from_str(&repeated).unwrap();
+    assert_eq!(model["fits"].as_array().unwrap().len(), 2);
+    // Still required (clap's own message, with its usage line).
+    let out = tolles()
+        .args(["fit", f, "--vector", "flux_a"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--scalar"));
+}

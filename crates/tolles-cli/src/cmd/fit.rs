@@ -37,16 +37,18 @@ Examples:
 pub struct Args {
     #[arg(help = flight_help!("Calibration flight; time column `tt` (s) if present"))]
     pub cal: PathBuf,
-    /// Uncompensated scalar magnetometer column (nT), e.g. mag_1_uc; several separated by
-    /// commas (mag_3_uc,mag_4_uc,mag_5_uc) give one model holding a fit per scalar
-    #[arg(long)]
-    pub scalar: String,
+    /// Uncompensated scalar magnetometer column (nT), e.g. mag_1_uc; several, separated by
+    /// commas (mag_3_uc,mag_4_uc,mag_5_uc) or by repeating the flag, give one model holding a
+    /// fit per scalar
+    #[arg(long, required = true)]
+    pub scalar: Vec<String>,
     /// Fluxgate column prefix: `flux_a` reads flux_a_x, flux_a_y, flux_a_z (nT, body frame FRD;
     /// the suffixes in any case, so FLUXA reads FLUXA_X …), or three columns X:Y:Z
     /// (FLUXA_X:FLUXA_Y:FLUXA_Z); several separated by commas (flux_a,flux_b,flux_c) build one
-    /// design in which each fluxgate adds its own block of terms, for every scalar
-    #[arg(long)]
-    pub vector: String,
+    /// design in which each fluxgate adds its own block of terms, for every scalar (the flag
+    /// may also repeat)
+    #[arg(long, required = true)]
+    pub vector: Vec<String>,
     /// Where to write the model (JSON); standard output if omitted or `-`
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -168,8 +170,8 @@ fn request(args: &Args) -> Result<FitRequest> {
             None => Vec::new(),
         },
         ..FitRequest::new(
-            name_list(&args.scalar, "--scalar")?,
-            name_list(&args.vector, "--vector")?,
+            name_list(&args.scalar.join(","), "--scalar")?,
+            name_list(&args.vector.join(","), "--vector")?,
         )
     })
 }

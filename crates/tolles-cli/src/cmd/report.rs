@@ -16,7 +16,8 @@ Examples:
   # Two magnetometers compared on one page, also printed to PDF (needs Chromium):
   tolles report survey.csv --scalar mag_4_uc --scalar mag_5_uc --model m.json --out rep --pdf rep.pdf";
 
-/// Write an HTML report of a flight: time series and spectra before and after compensation,
+/// Write an HTML report of a flight: zoomable time series (maneuvers shaded) and spectra before
+/// and after compensation,
 /// the figure of merit maneuver by maneuver with each maneuver and its attitude drawn small,
 /// level against heading (a box's headings or a survey's lines), the model's coefficients with
 /// standard errors, its patent terms and fit diagnostics. Opens in a browser with no network.
