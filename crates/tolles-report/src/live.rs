@@ -1,8 +1,9 @@
-//! Zoomable charts. A [`LinePlot`](crate::plot::LinePlot) with [`Live`] options is drawn twice:
+//! Zoomable charts. A [`LinePlot`] with [`Live`] options is drawn twice:
 //! as its static SVG (shown when scripts are off, and when printing) and as an interactive
 //! chart drawn by uPlot (MIT, vendored in `vendor/uplot`, written beside the page in `assets/`)
-//! from a data file `data/NN-slug.js`. Both load from `file://` with no network: a
-//! `<script src>` works there where `fetch` does not.
+//! from a data file `data/NN-slug.js` (float32 in a [`base64`] that cannot spell NaN or inf).
+//! Both load from `file://` with no network: a `<script src>` works there where `fetch` does
+//! not.
 //!
 //! Long series stay fast and small: up to [`MAX_POINTS`] samples are kept as they are; beyond,
 //! each bucket of consecutive samples is kept as its first and last time with each series' lowest
@@ -89,6 +90,7 @@ pub fn data_script(id: &str, plot: &LinePlot, live: &Live) -> Result<LiveData, R
         "x_label": plot.x_label,
         "y_label": plot.y_label,
         "x0": x0,
+        "x_sum": offsets.iter().map(|&t| f64::from(t as f32)).sum::<f64>(),
         "x": f32_base64(&offsets),
         "points": ex.len(),
         "per_bucket": per_bucket,
@@ -174,7 +176,7 @@ fn extremes_in_order(y: &[f64]) -> [f64; 2] {
     }
 }
 
-/// `values` as little-endian 32-bit floats in base64 (NaN stays NaN): half the size of f64,
+/// `values` as little-endian 32-bit floats in [`base64`] (NaN stays NaN): half the size of f64,
 /// and exact to 6·10⁻⁸ of each value, far below what a chart can show.
 pub fn f32_base64(values: &[f64]) -> String {
     let bytes: Vec<u8> = values
@@ -184,10 +186,14 @@ pub fn f32_base64(values: &[f64]) -> String {
     base64(&bytes)
 }
 
-const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+/// The 64 digits of [`base64`]: RFC 4648's without `N` and `n`, with `-` and `_` instead, so
+/// that no run of digits reads `NaN`, `nan` or `inf` (a reader checking a report's files for
+/// those finds only real ones). [`START_SCRIPT`] decodes with the same digits.
+pub const ALPHABET: &str = "ABCDEFGHIJKLMOPQRSTUVWXYZabcdefghijklmopqrstuvwxyz0123456789+/-_";
 
-/// Standard base64 (RFC 4648, with padding), as the browser's `atob` reads it.
+/// Base64 with RFC 4648's layout and padding but the digits of [`ALPHABET`].
 pub fn base64(bytes: &[u8]) -> String {
+    let alphabet = ALPHABET.as_bytes();
     let mut out = String::with_capacity(bytes.len().div_ceil(3) * 4);
     for chunk in bytes.chunks(3) {
         let b = [
@@ -198,7 +204,7 @@ pub fn base64(bytes: &[u8]) -> String {
         let word = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
         for k in 0..4 {
             if k <= chunk.len() {
-                out.push(ALPHABET[(word >> (18 - 6 * k) & 63) as usize] as char);
+                out.push(alphabet[(word >> (18 - 6 * k) & 63) as usize] as char);
             } else {
                 out.push('=');
             }
@@ -214,10 +220,20 @@ pub const START_SCRIPT: &str = r##"
 (function () {
   var store = window.TOLLES_LIVE || {};
   window.tollesCharts = [];
-  function buffer(b64) {
-    var s = atob(b64), a = new Uint8Array(s.length);
-    for (var i = 0; i < s.length; i++) a[i] = s.charCodeAt(i);
-    return a.buffer;
+  var DIGITS = "ABCDEFGHIJKLMOPQRSTUVWXYZabcdefghijklmopqrstuvwxyz0123456789+/-_";
+  var CODE = new Uint8Array(128);
+  for (var d = 0; d < 64; d++) CODE[DIGITS.charCodeAt(d)] = d;
+  function buffer(text) {
+    var pads = text.endsWith("==") ? 2 : text.endsWith("=") ? 1 : 0;
+    var out = new Uint8Array(text.length / 4 * 3 - pads), o = 0;
+    for (var i = 0; i < text.length; i += 4) {
+      var w = (CODE[text.charCodeAt(i)] << 18) | (CODE[text.charCodeAt(i + 1)] << 12) |
+              (CODE[text.charCodeAt(i + 2)] << 6) | CODE[text.charCodeAt(i + 3)];
+      out[o++] = (w >> 16) & 255;
+      if (o < out.length) out[o++] = (w >> 8) & 255;
+      if (o < out.length) out[o++] = w & 255;
+    }
+    return out.buffer;
   }
   function values(b64, offset) {
     var f = new Float32Array(buffer(b64)), out = new Array(f.length);
@@ -279,6 +295,11 @@ pub const START_SCRIPT: &str = r##"
   function start(fig) {
     var id = fig.getAttribute("data-live"), d = store[id];
     if (!d) throw new Error("no data loaded for chart " + id);
+    // The sum of the encoded times, written beside them, proves the decoding.
+    var offsets = new Float32Array(buffer(d.x)), sum = 0;
+    for (var k = 0; k < offsets.length; k++) sum += offsets[k];
+    if (!(Math.abs(sum - d.x_sum) <= 1e-9 * Math.abs(d.x_sum)))
+      throw new Error("its data did not decode (times sum to " + sum + ", not " + d.x_sum + ")");
     var x = values(d.x, d.x0), data = [x], series = [{ label: d.x_label }];
     d.series.forEach(function (s) {
       data.push(values(s.y, 0));
@@ -319,7 +340,7 @@ mod tests {
     use crate::plot::Series;
 
     fn decode_base64(text: &str) -> Vec<u8> {
-        let value = |c: u8| ALPHABET.iter().position(|&a| a == c).unwrap() as u32;
+        let value = |c: u8| ALPHABET.bytes().position(|a| a == c).unwrap() as u32;
         let mut out = Vec::new();
         for quad in text.as_bytes().chunks(4) {
             let pads = quad.iter().filter(|&&c| c == b'=').count();
@@ -340,7 +361,18 @@ mod tests {
     }
 
     #[test]
-    fn base64_matches_the_standard_test_vectors() {
+    fn base64_has_the_standard_layout_and_never_spells_nan_or_inf() {
+        // RFC 4648's test vectors, each standard digit replaced by ours of the same value.
+        const STANDARD: &str = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+        let ours = |standard: &str| -> String {
+            standard
+                .chars()
+                .map(|c| match STANDARD.find(c) {
+                    Some(k) => ALPHABET.as_bytes()[k] as char,
+                    None => c,
+                })
+                .collect()
+        };
         for (plain, coded) in [
             ("", ""),
             ("f", "Zg=="),
@@ -350,9 +382,16 @@ mod tests {
             ("fooba", "Zm9vYmE="),
             ("foobar", "Zm9vYmFy"),
         ] {
-            assert_eq!(base64(plain.as_bytes()), coded);
-            assert_eq!(decode_base64(coded), plain.as_bytes());
+            assert_eq!(base64(plain.as_bytes()), ours(coded), "{plain}");
+            assert_eq!(decode_base64(&ours(coded)), plain.as_bytes());
         }
+        let digits: std::collections::BTreeSet<char> = ALPHABET.chars().collect();
+        assert_eq!(digits.len(), 64);
+        assert!(!digits.contains(&'n') && !digits.contains(&'N'));
+        assert!(!digits.contains(&'=') && !digits.contains(&'"') && !digits.contains(&'\\'));
+        assert!(START_SCRIPT.contains(&format!("var DIGITS = \"{ALPHABET}\"")));
+        let every_byte: Vec<u8> = (0..=255).cycle().take(3 * 4096).collect();
+        assert_eq!(decode_base64(&base64(&every_byte)), every_byte);
     }
 
     #[test]
