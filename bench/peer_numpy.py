@@ -53,18 +53,28 @@ def read(path):
     return frame, frame["mag_1_uc"].to_numpy(), flux
 
 
+def fit_arrays(scalar, flux, fs, terms=18, lam=0.001, band=(0.1, 0.9), order=4, trim=20):
+    """The coefficients of a fit of `scalar` (nT) on `flux` (three arrays, nT) sampled at `fs` Hz."""
+    a = design(*flux, terms)
+    sos = butter(order, [band[0], band[1]], btype="bandpass", fs=fs, output="sos")
+    a = sosfiltfilt(sos, a, axis=0)
+    y = sosfiltfilt(sos, scalar)
+    a, y = a[trim:-trim], y[trim:-trim]
+    gram = a.T @ a
+    gram[np.diag_indices_from(gram)] += lam
+    return np.linalg.solve(gram, a.T @ y)
+
+
+def compensated(scalar, flux, beta):
+    """`scalar` (nT) less the aircraft's field A·β about its mean."""
+    correction = design(*flux, len(beta)) @ np.asarray(beta)
+    return scalar - (correction - correction.mean())
+
+
 def fit(args):
     frame, scalar, flux = read(args.flight)
     fs = 1.0 / np.median(np.diff(frame["tt"].to_numpy()))  # Hz, as tolles takes it from tt
-    a = design(*flux, args.terms)
-    sos = butter(args.order, [args.band[0], args.band[1]], btype="bandpass", fs=fs, output="sos")
-    a = sosfiltfilt(sos, a, axis=0)
-    y = sosfiltfilt(sos, scalar)
-    t = args.trim
-    a, y = a[t:-t], y[t:-t]
-    gram = a.T @ a
-    gram[np.diag_indices_from(gram)] += args.lam
-    beta = np.linalg.solve(gram, a.T @ y)
+    beta = fit_arrays(scalar, flux, fs, args.terms, args.lam, args.band, args.order, args.trim)
     with open(args.model, "w") as f:
         json.dump({"terms": args.terms, "coefficients": beta.tolist()}, f)
 
@@ -73,8 +83,7 @@ def compensate(args):
     frame, scalar, flux = read(args.flight)
     with open(args.model) as f:
         model = json.load(f)
-    correction = design(*flux, model["terms"]) @ np.asarray(model["coefficients"])
-    frame["mag_1_c"] = scalar - (correction - correction.mean())
+    frame["mag_1_c"] = compensated(scalar, flux, model["coefficients"])
     frame.to_csv(args.out, index=False)
 
 
