@@ -57,11 +57,18 @@ impl Selection {
     /// Reads `path` and keeps the selected rows (all without flags), saying on stderr what the
     /// reader left out and which rows were selected.
     pub fn read(&self, path: &Path, purpose: Use) -> Result<Table> {
+        self.read_parsing(path, purpose, &[])
+    }
+
+    /// [`Selection::read`], parsing the columns `needed` as the file is read (see
+    /// `tolles::read::read_parsing`).
+    pub fn read_parsing(&self, path: &Path, purpose: Use, needed: &[String]) -> Result<Table> {
         let mut warnings = Vec::new();
-        let read = tolles::read::read_renamed(
+        let read = tolles::read::read_parsing(
             path,
             &self.rows(),
             &self.renames,
+            needed,
             &Terminal::default(),
             &mut warnings,
         );

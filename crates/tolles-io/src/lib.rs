@@ -23,6 +23,7 @@ pub mod hdf5;
 pub mod mat;
 pub mod model;
 pub mod parquet;
+pub mod rawcsv;
 pub mod schema;
 pub mod select;
 pub mod simulation;

@@ -44,7 +44,7 @@ pub fn read(format: Option<Format>) -> Result<Table, IoError> {
 pub fn from_bytes(bytes: Vec<u8>, format: Option<Format>) -> Result<Table, IoError> {
     let name = Path::new(STDIN_NAME);
     match format.unwrap_or_else(|| sniff(&bytes)) {
-        Format::Csv => Table::from_reader(bytes.as_slice(), name),
+        Format::Csv => Table::from_csv_bytes(bytes, name),
         Format::Xyz => crate::xyz::from_reader(bytes.as_slice(), name),
         Format::Parquet => crate::parquet::from_bytes(bytes, name),
         Format::Hdf5 if crate::mat::is_v5(&bytes) => crate::mat::from_bytes(&bytes, name),

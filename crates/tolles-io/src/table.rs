@@ -17,8 +17,10 @@
 //! naming the line (or, for binary files, the row) and column.
 
 use crate::error::IoError;
+use crate::rawcsv::RawRows;
 use std::io::Read;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use tolles_core::model::vector::VectorSeries;
 
 /// How a text column marks a missing value besides an empty cell or `NaN`.
@@ -30,12 +32,29 @@ pub struct Missing {
     pub null: Option<f64>,
 }
 
-/// One column's cells as written in a text file, stored in one buffer.
+/// One column's cells as written in a text file: stored in one buffer, or left in the file's
+/// own bytes ([`crate::rawcsv`]) until asked for.
 #[derive(Debug, Clone, Default)]
 pub struct TextColumn {
-    text: String,
-    ends: Vec<usize>,
+    cells: Cells,
     missing: Missing,
+}
+
+#[derive(Debug, Clone)]
+enum Cells {
+    /// Cells copied into one buffer; `ends[k]` is where cell k ends.
+    Owned { text: String, ends: Vec<usize> },
+    /// Cell `field` of each row of a CSV file read by [`crate::rawcsv`].
+    Raw { rows: Arc<RawRows>, field: usize },
+}
+
+impl Default for Cells {
+    fn default() -> Self {
+        Cells::Owned {
+            text: String::new(),
+            ends: Vec::new(),
+        }
+    }
 }
 
 impl TextColumn {
@@ -47,26 +66,66 @@ impl TextColumn {
         }
     }
 
+    /// Cell `field` of every row of `rows`.
+    pub(crate) fn raw(rows: Arc<RawRows>, field: usize) -> Self {
+        Self {
+            cells: Cells::Raw { rows, field },
+            missing: Missing::default(),
+        }
+    }
+
     /// Appends a cell.
     pub fn push(&mut self, cell: &str) {
-        self.text.push_str(cell);
-        self.ends.push(self.text.len());
+        if let Cells::Raw { .. } = self.cells {
+            self.cells = self.owned();
+        }
+        if let Cells::Owned { text, ends } = &mut self.cells {
+            text.push_str(cell);
+            ends.push(text.len());
+        }
+    }
+
+    /// The cells copied into one buffer.
+    fn owned(&self) -> Cells {
+        let mut text = String::new();
+        let mut ends = Vec::with_capacity(self.len());
+        for k in 0..self.len() {
+            text.push_str(self.get(k));
+            ends.push(text.len());
+        }
+        Cells::Owned { text, ends }
     }
 
     /// Number of cells.
     pub fn len(&self) -> usize {
-        self.ends.len()
+        match &self.cells {
+            Cells::Owned { ends, .. } => ends.len(),
+            Cells::Raw { rows, .. } => rows.len(),
+        }
     }
 
     /// True when the column has no cells.
     pub fn is_empty(&self) -> bool {
-        self.ends.is_empty()
+        self.len() == 0
     }
 
     /// Cell `k` as written.
     pub fn get(&self, k: usize) -> &str {
-        let start = if k == 0 { 0 } else { self.ends[k - 1] };
-        &self.text[start..self.ends[k]]
+        match &self.cells {
+            Cells::Owned { text, ends } => {
+                let start = if k == 0 { 0 } else { ends[k - 1] };
+                &text[start..ends[k]]
+            }
+            Cells::Raw { rows, field } => rows.cell(k, *field),
+        }
+    }
+
+    /// The file rows and cell this column reads, when it is left in a CSV file's bytes.
+    fn raw_source(&self) -> Option<(&Arc<RawRows>, usize)> {
+        match &self.cells {
+            Cells::Raw { rows, field } => Some((rows, *field)),
+            Cells::Owned { .. } => None,
+        }
     }
 
     /// Cell `k` as a number (NaN when missing), or `None` when it is not a number.
@@ -151,6 +210,8 @@ enum Origin {
     Rows(Vec<u64>),
     /// Row `k` is the file's row `k + 1` (binary files as read).
     InOrder,
+    /// Row `k` is the file's line `k + first` (a text file without blank lines, as read).
+    LinesFrom(u64),
 }
 
 /// A table of named, equally long columns held in memory.
@@ -319,8 +380,60 @@ impl Table {
         self.headers = names;
     }
 
-    /// Reads a CSV file with a header row.
+    /// Reads a CSV file with a header row: its rows left in the file's bytes and parsed on
+    /// demand ([`crate::rawcsv`]) where that reader takes the file, else cell by cell; the
+    /// table, its messages and what it writes are the same either way.
     pub fn read_csv(path: &Path) -> Result<Self, IoError> {
+        if let Some(table) = Self::read_csv_raw(path)? {
+            return Ok(table);
+        }
+        Self::read_csv_general(path)
+    }
+
+    /// A CSV file read by [`crate::rawcsv`]; `None` when that reader hands it to the general one.
+    pub fn read_csv_raw(path: &Path) -> Result<Option<Self>, IoError> {
+        Self::read_csv_raw_parsing(path, &|_| Vec::new())
+    }
+
+    /// CSV text held in memory (standard input), named `name` in messages: left in its bytes
+    /// where [`crate::rawcsv`] takes it, else read cell by cell; the same table either way.
+    pub fn from_csv_bytes(bytes: Vec<u8>, name: impl AsRef<Path>) -> Result<Self, IoError> {
+        let path = name.as_ref();
+        let bytes = Arc::new(crate::rawcsv::Bytes::Owned(bytes));
+        match crate::rawcsv::from_bytes(Arc::clone(&bytes), path, &|_| Vec::new()) {
+            Some(csv) => Self::from_raw(path, csv),
+            None => Self::from_reader(&bytes[..], path),
+        }
+    }
+
+    /// [`Table::read_csv_raw`], parsing the columns `wanted` picks (given the header's names,
+    /// their indices) while the rows are found: later asked for as numbers, they are there.
+    pub fn read_csv_raw_parsing(
+        path: &Path,
+        wanted: crate::rawcsv::Wanted<'_>,
+    ) -> Result<Option<Self>, IoError> {
+        let Some(csv) = crate::rawcsv::read(path, wanted)? else {
+            return Ok(None);
+        };
+        Self::from_raw(path, csv).map(Some)
+    }
+
+    /// The table of a CSV file [`crate::rawcsv`] took.
+    fn from_raw(path: &Path, csv: crate::rawcsv::RawCsv) -> Result<Self, IoError> {
+        let rows = Arc::new(csv.rows);
+        let columns = (0..csv.headers.len())
+            .map(|field| Column::Text(TextColumn::raw(Arc::clone(&rows), field)))
+            .collect();
+        let mut table = Self::from_columns(path, csv.headers, columns, csv.lines.clone())?;
+        if csv.lines.is_none() {
+            // The header is line 1 and no line is blank.
+            table.origin = Origin::LinesFrom(2);
+        }
+        Ok(table)
+    }
+
+    /// Reads a CSV file cell by cell with the `csv` crate.
+    pub fn read_csv_general(path: &Path) -> Result<Self, IoError> {
         let file = std::fs::File::open(path).map_err(|source| IoError::Open {
             path: path.to_path_buf(),
             source,
@@ -406,6 +519,7 @@ impl Table {
         let listed = match &self.origin {
             Origin::Lines(numbers) | Origin::Rows(numbers) => numbers.get(k).copied(),
             Origin::InOrder => None,
+            Origin::LinesFrom(first) => Some(k as u64 + first),
         };
         listed.unwrap_or(k as u64 + 1)
     }
@@ -414,7 +528,7 @@ impl Table {
     /// (1-based) for binary ones; the file's own line or row, also after a selection.
     pub fn place_of(&self, k: usize) -> String {
         match &self.origin {
-            Origin::Lines(_) => format!("line {}", self.line_of(k)),
+            Origin::Lines(_) | Origin::LinesFrom(_) => format!("line {}", self.line_of(k)),
             Origin::Rows(_) | Origin::InOrder => format!("row {}", self.line_of(k)),
         }
     }
@@ -429,10 +543,24 @@ impl Table {
     pub fn select_rows(&self, keep: &[bool]) -> Table {
         assert_eq!(keep.len(), self.len, "select_rows needs one flag per row");
         let kept: Vec<usize> = (0..self.len).filter(|&k| keep[k]).collect();
+        // The columns left in a file's bytes share their rows, so those are selected once.
+        let mut selected: Vec<(&Arc<RawRows>, Arc<RawRows>)> = Vec::new();
         let columns = self
             .columns
             .iter()
             .map(|column| match column {
+                Column::Text(text) if text.raw_source().is_some() => {
+                    let (rows, field) = text.raw_source().expect("checked");
+                    let subset = match selected.iter().find(|(r, _)| Arc::ptr_eq(r, rows)) {
+                        Some((_, subset)) => Arc::clone(subset),
+                        None => {
+                            let subset = Arc::new(rows.select(&kept));
+                            selected.push((rows, Arc::clone(&subset)));
+                            subset
+                        }
+                    };
+                    Column::Text(TextColumn::raw(subset, field))
+                }
                 Column::Text(text) => {
                     let mut chosen = TextColumn::new(text.missing.clone());
                     for &k in &kept {
@@ -452,7 +580,7 @@ impl Table {
             columns,
             len: kept.len(),
             origin: match self.origin {
-                Origin::Lines(_) => Origin::Lines(places),
+                Origin::Lines(_) | Origin::LinesFrom(_) => Origin::Lines(places),
                 Origin::Rows(_) | Origin::InOrder => Origin::Rows(places),
             },
             metadata: self.metadata.clone(),
@@ -488,6 +616,65 @@ impl Table {
 
     /// Column number `index` as numbers; missing values are NaN.
     pub fn numeric_at(&self, index: usize) -> Result<Vec<f64>, IoError> {
+        self.numeric_many(&[index]).remove(0)
+    }
+
+    /// Columns number `indices` as numbers (missing values NaN), each with the error
+    /// [`Table::numeric_at`] gives; columns left in a file's bytes are parsed in one pass on all
+    /// cores.
+    pub fn numeric_many(&self, indices: &[usize]) -> Vec<Result<Vec<f64>, IoError>> {
+        let mut out: Vec<Option<Result<Vec<f64>, IoError>>> =
+            indices.iter().map(|_| None).collect();
+        let mut groups: Vec<(&Arc<RawRows>, Vec<usize>)> = Vec::new();
+        for (j, &index) in indices.iter().enumerate() {
+            let source = match &self.columns[index] {
+                Column::Text(text) => text.raw_source(),
+                Column::Numbers(_) => None,
+            };
+            match source {
+                Some((rows, _)) => match groups.iter_mut().find(|(r, _)| Arc::ptr_eq(r, rows)) {
+                    Some((_, members)) => members.push(j),
+                    None => groups.push((rows, vec![j])),
+                },
+                None => out[j] = Some(self.numeric_cells(indices[j])),
+            }
+        }
+        for (rows, members) in groups {
+            let fields: Vec<usize> = members
+                .iter()
+                .map(|&j| match &self.columns[indices[j]] {
+                    Column::Text(text) => text.raw_source().map_or(0, |(_, field)| field),
+                    Column::Numbers(_) => 0,
+                })
+                .collect();
+            for (&j, (values, bad)) in members.iter().zip(rows.parse(&fields)) {
+                out[j] = Some(match bad {
+                    Some(k) => Err(self.not_a_number(indices[j], k)),
+                    None => Ok(values),
+                });
+            }
+        }
+        out.into_iter()
+            .map(|r| r.expect("every column parsed"))
+            .collect()
+    }
+
+    /// The error for cell `k` of column `index`, which is not a number.
+    fn not_a_number(&self, index: usize, k: usize) -> IoError {
+        let value = match &self.columns[index] {
+            Column::Text(text) => text.get(k).to_string(),
+            Column::Numbers(v) => v[k].to_string(),
+        };
+        IoError::NotANumber {
+            path: self.path.clone(),
+            place: self.place_of(k),
+            column: self.headers[index].clone(),
+            value,
+        }
+    }
+
+    /// Column number `index` as numbers, cell by cell.
+    fn numeric_cells(&self, index: usize) -> Result<Vec<f64>, IoError> {
         match &self.columns[index] {
             Column::Numbers(v) => Ok(v.clone()),
             Column::Text(text) => (0..text.len())
@@ -507,17 +694,41 @@ impl Table {
     /// case), or the three columns of a triple `X:Y:Z`; see [`crate::schema::vector_columns`].
     /// A missing column's error suggests the fluxgate prefixes the file has.
     pub fn vector(&self, spec: &str) -> Result<VectorSeries, IoError> {
-        let [x, y, z] = crate::schema::vector_columns(spec);
-        let column = |name: &str| {
-            self.numeric(name).map_err(|e| match e {
-                IoError::MissingColumn { path, column, hint } if !spec.contains(':') => {
-                    let hint = suggest_vector(&self.headers, spec).unwrap_or(hint);
-                    IoError::MissingColumn { path, column, hint }
-                }
-                other => other,
-            })
+        self.parse_together(&[]).vector(spec)
+    }
+
+    /// The columns `names` (those the table has) parsed in one pass, to be taken one by one
+    /// with [`Parsed::numeric`] and [`Parsed::vector`], which give what [`Table::numeric`] and
+    /// [`Table::vector`] give, errors included.
+    pub fn parse_together(&self, names: &[&str]) -> Parsed<'_> {
+        let mut indices: Vec<usize> = names.iter().filter_map(|n| self.index_of(n).ok()).collect();
+        indices.sort_unstable();
+        indices.dedup();
+        let values = indices
+            .iter()
+            .copied()
+            .zip(self.numeric_many(&indices))
+            .collect();
+        Parsed {
+            table: self,
+            values,
+        }
+    }
+
+    /// The file rows behind this table when every column is, in order, the cells of a CSV file
+    /// left in its bytes ([`crate::rawcsv`]): a row can then be written by copying it.
+    fn raw_rows(&self) -> Option<&RawRows> {
+        let Some(Column::Text(first)) = self.columns.first() else {
+            return None;
         };
-        Ok(VectorSeries::new(column(&x)?, column(&y)?, column(&z)?))
+        let (rows, _) = first.raw_source()?;
+        let same = self.columns.iter().enumerate().all(|(j, c)| match c {
+            Column::Text(t) => t
+                .raw_source()
+                .is_some_and(|(r, field)| Arc::ptr_eq(r, rows) && field == j),
+            Column::Numbers(_) => false,
+        });
+        (same && rows.fields() == self.columns.len()).then_some(&**rows)
     }
 
     /// Appends cell (`column`, `row`) as CSV text: text cells as written (a format's dummy
@@ -528,6 +739,40 @@ impl Table {
             Column::Text(text) => out.push_str(text.get(row)),
             Column::Numbers(v) => format_value(v[row], out),
         }
+    }
+}
+
+/// Columns of a table parsed together ([`Table::parse_together`]).
+pub struct Parsed<'t> {
+    table: &'t Table,
+    values: Vec<(usize, Result<Vec<f64>, IoError>)>,
+}
+
+impl Parsed<'_> {
+    /// Column `name` as numbers, as [`Table::numeric`] gives it; a column not parsed together
+    /// (or taken before) is parsed now.
+    pub fn numeric(&mut self, name: &str) -> Result<Vec<f64>, IoError> {
+        let index = self.table.index_of(name)?;
+        match self.values.iter().position(|(k, _)| *k == index) {
+            Some(at) => self.values.swap_remove(at).1,
+            None => self.table.numeric_at(index),
+        }
+    }
+
+    /// The vector `spec` as numbers, as [`Table::vector`] gives it.
+    pub fn vector(&mut self, spec: &str) -> Result<VectorSeries, IoError> {
+        let [x, y, z] = crate::schema::vector_columns(spec);
+        let headers = self.table.headers();
+        let mut column = |name: &str| {
+            self.numeric(name).map_err(|e| match e {
+                IoError::MissingColumn { path, column, hint } if !spec.contains(':') => {
+                    let hint = suggest_vector(headers, spec).unwrap_or(hint);
+                    IoError::MissingColumn { path, column, hint }
+                }
+                other => other,
+            })
+        };
+        Ok(VectorSeries::new(column(&x)?, column(&y)?, column(&z)?))
     }
 }
 
@@ -580,6 +825,34 @@ pub fn find_column(path: &Path, headers: &[String], name: &str) -> Result<usize,
             column: name.to_string(),
             hint: suggest(headers, name),
         })
+}
+
+/// The indices among `headers` of the columns `names` would find ([`Table::index_of`]) once
+/// the table is renamed `(old, new)` by `renames` and given the raw-channel aliases
+/// ([`crate::schema::aliases`]): what a workflow will ask for, known before the rows are read.
+/// Names that would find nothing are left out (asking for them later gives the error).
+pub fn indices_after_renames(
+    headers: &[String],
+    renames: &[(String, String)],
+    names: &[String],
+) -> Vec<usize> {
+    let path = Path::new("");
+    let mut renamed = headers.to_vec();
+    for (old, new) in renames {
+        if rename_header(path, &mut renamed, old, new).is_err() {
+            return Vec::new();
+        }
+    }
+    let aliases = crate::schema::aliases(&renamed);
+    names
+        .iter()
+        .filter_map(|name| {
+            find_column(path, &renamed, name).ok().or_else(|| {
+                let alias = aliases.iter().find(|(a, _)| a.eq_ignore_ascii_case(name));
+                alias.map(|(_, k)| *k)
+            })
+        })
+        .collect()
 }
 
 /// `; did you mean A, B?` with the headers near `name` (case-insensitively), or the header's
@@ -783,13 +1056,11 @@ pub fn write_with_column(
     extra: &[(String, Vec<f64>)],
     out: impl std::io::Write,
 ) -> std::io::Result<()> {
-    let mut writer = csv::WriterBuilder::new().from_writer(out);
-    let mut header: Vec<&str> = table.headers().iter().map(String::as_str).collect();
-    header.extend(extra.iter().map(|(name, _)| name.as_str()));
-    writer.write_record(&header).map_err(into_io)?;
-    let extra: Vec<&[f64]> = extra.iter().map(|(_, v)| v.as_slice()).collect();
-    write_rows(table, &extra, &mut writer)?;
-    writer.flush()
+    let extra: Vec<(&str, &[f64])> = extra
+        .iter()
+        .map(|(n, v)| (n.as_str(), v.as_slice()))
+        .collect();
+    write_padded(table, &extra, table.len(), out)
 }
 
 /// Writes the rows of `table` plus the `extra` columns (no header), as [`write_with_column`]
@@ -809,21 +1080,29 @@ pub fn write_padded(
     table: &Table,
     extra: &[(&str, &[f64])],
     rows: usize,
-    out: impl std::io::Write,
+    mut out: impl std::io::Write,
 ) -> std::io::Result<()> {
-    let mut writer = csv::WriterBuilder::new().from_writer(out);
     let mut header: Vec<&str> = table.headers().iter().map(String::as_str).collect();
     header.extend(extra.iter().map(|(name, _)| *name));
-    writer.write_record(&header).map_err(into_io)?;
     let values: Vec<&[f64]> = extra.iter().map(|(_, v)| *v).collect();
     let longest = values.iter().map(|v| v.len()).max().unwrap_or(0);
-    write_padded_rows(
-        table,
-        &values,
-        rows.max(table.len()).max(longest),
-        &mut writer,
-    )?;
-    writer.flush()
+    let rows = rows.max(table.len()).max(longest);
+    match table.raw_rows() {
+        // Rows of a CSV file left in its bytes are copied ([`crate::rawcsv::write_rows`]).
+        Some(raw) if rows == table.len() && values.iter().all(|v| v.len() == rows) => {
+            let mut writer = csv::WriterBuilder::new().from_writer(Vec::new());
+            writer.write_record(&header).map_err(into_io)?;
+            out.write_all(&writer.into_inner().map_err(|e| e.into_error())?)?;
+            crate::rawcsv::write_rows(raw, &values, &mut out)?;
+            out.flush()
+        }
+        _ => {
+            let mut writer = csv::WriterBuilder::new().from_writer(out);
+            writer.write_record(&header).map_err(into_io)?;
+            write_padded_rows(table, &values, rows, &mut writer)?;
+            writer.flush()
+        }
+    }
 }
 
 fn write_padded_rows<W: std::io::Write>(

@@ -227,6 +227,20 @@ fn poor_fit(scalar: &str, fit: &tolles_core::fit::Fit) -> Option<Warning> {
     })
 }
 
+impl FitRequest {
+    /// The columns [`fit`] reads: every scalar, the fluxgates, the extra channels, the
+    /// reference and time; what a reader can parse as it reads ([`crate::read::read_parsing`]).
+    pub fn columns(&self) -> Vec<String> {
+        let mut names: Vec<String> = self
+            .scalars
+            .iter()
+            .flat_map(|s| crate::read::flight_columns(s, &self.vectors, &self.extras))
+            .collect();
+        names.extend(self.reference.clone());
+        names
+    }
+}
+
 /// What each scalar's fit explains (nT): the scalar, or the scalar minus the reference.
 fn targets(table: &Table, request: &FitRequest) -> Result<Vec<Vec<f64>>> {
     let reference = match &request.reference {

@@ -55,7 +55,23 @@ pub fn read_renamed(
     progress: &dyn Progress,
     warnings: &mut Vec<Warning>,
 ) -> Result<FlightData> {
-    let table = read_table_renamed(path, renames, progress, warnings)?;
+    read_parsing(path, selection, renames, &[], progress, warnings)
+}
+
+/// [`read_renamed`], with the columns `needed` (tolles' names, as asked for after the renames
+/// and aliases) parsed while the rows of a CSV file are found: the one pass over its text a
+/// workflow needs, instead of one to find the rows and another for the numbers.
+pub fn read_parsing(
+    path: &Path,
+    selection: &RowSelection,
+    renames: &[(String, String)],
+    needed: &[String],
+    progress: &dyn Progress,
+    warnings: &mut Vec<Warning>,
+) -> Result<FlightData> {
+    let mut table = read_raw(path, renames, needed, progress, warnings)?;
+    rename(&mut table, renames)?;
+    let table = with_aliases(table, warnings);
     let (table, selected) = select(table, selection)?;
     warnings.extend(selected.clone().map(|selection| Warning::RowsSelected {
         path: table.path().to_path_buf(),
@@ -83,7 +99,7 @@ pub fn read_table_renamed(
     progress: &dyn Progress,
     warnings: &mut Vec<Warning>,
 ) -> Result<Table> {
-    let mut table = read_raw(path, progress, warnings)?;
+    let mut table = read_raw(path, renames, &[], progress, warnings)?;
     rename(&mut table, renames)?;
     Ok(with_aliases(table, warnings))
 }
@@ -119,30 +135,23 @@ pub fn with_aliases(table: Table, warnings: &mut Vec<Warning>) -> Table {
     table.with_aliases(aliases)
 }
 
-/// Reads a flight table as the file has it.
-fn read_raw(path: &Path, progress: &dyn Progress, warnings: &mut Vec<Warning>) -> Result<Table> {
+/// Reads a flight table as the file has it; a CSV file's columns `needed` (see
+/// [`read_parsing`]) are parsed while it is read.
+fn read_raw(
+    path: &Path,
+    renames: &[(String, String)],
+    needed: &[String],
+    progress: &dyn Progress,
+    warnings: &mut Vec<Warning>,
+) -> Result<Table> {
     let format = Format::from_path(path);
     let table = match format {
         _ if tolles_io::stdin::is_stdin(path) => Table::read(path, None)?,
-        Format::Csv | Format::Xyz => {
-            let file = std::fs::File::open(path).map_err(|source| IoError::Open {
-                path: path.to_path_buf(),
-                source,
-            })?;
-            let size = file.metadata().map_or(0, |m| m.len());
-            progress.begin(Stage::Reading, Some(size));
-            let counted = CountingReader {
-                inner: file,
-                progress,
-            };
-            let reader = std::io::BufReader::new(counted);
-            let table = match format {
-                Format::Xyz => tolles_io::xyz::from_reader(reader, path),
-                _ => Table::from_reader(reader, path),
-            };
-            progress.finish();
-            table?
-        }
+        Format::Csv => match read_csv_raw(path, renames, needed, progress)? {
+            Some(table) => table,
+            None => read_text(path, format, progress)?,
+        },
+        Format::Xyz => read_text(path, format, progress)?,
         other => Table::read(path, Some(other))?,
     };
     warnings.extend(table.notes().iter().map(|note| Warning::ReaderNote {
@@ -163,6 +172,46 @@ fn read_raw(path: &Path, progress: &dyn Progress, warnings: &mut Vec<Warning>) -
     Ok(table)
 }
 
+/// A CSV file left in its bytes and parsed on demand (see [`tolles_io::rawcsv`]), or `None`
+/// when the general reader must take it. The whole file counts as read at once: the rows are
+/// found on every core together.
+fn read_csv_raw(
+    path: &Path,
+    renames: &[(String, String)],
+    needed: &[String],
+    progress: &dyn Progress,
+) -> Result<Option<Table>> {
+    let size = std::fs::metadata(path).map_or(0, |m| m.len());
+    progress.begin(Stage::Reading, Some(size));
+    let wanted =
+        |headers: &[String]| tolles_io::table::indices_after_renames(headers, renames, needed);
+    let table = Table::read_csv_raw_parsing(path, &wanted);
+    progress.advance(size);
+    progress.finish();
+    Ok(table?)
+}
+
+/// A CSV or XYZ file read cell by cell, its bytes reported to `progress` as they are read.
+fn read_text(path: &Path, format: Format, progress: &dyn Progress) -> Result<Table> {
+    let file = std::fs::File::open(path).map_err(|source| IoError::Open {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let size = file.metadata().map_or(0, |m| m.len());
+    progress.begin(Stage::Reading, Some(size));
+    let counted = CountingReader {
+        inner: file,
+        progress,
+    };
+    let reader = std::io::BufReader::new(counted);
+    let table = match format {
+        Format::Xyz => tolles_io::xyz::from_reader(reader, path),
+        _ => Table::from_reader(reader, path),
+    };
+    progress.finish();
+    Ok(table?)
+}
+
 /// The rows of `table` that `selection` keeps (all of it when the selection is empty).
 pub fn select(table: Table, selection: &RowSelection) -> Result<(Table, Option<Selection>)> {
     if selection.is_empty() {
@@ -174,6 +223,20 @@ pub fn select(table: Table, selection: &RowSelection) -> Result<(Table, Option<S
         left_out: table.len() - selected.table.len(),
     };
     Ok((selected.table, Some(summary)))
+}
+
+/// The names of the columns [`Flight::from_table`] and [`Flight::with_extras`] read for
+/// `scalar`, the fluxgates `vectors` and the extra channels `extras`, time included: what a
+/// workflow asks [`read_parsing`] to parse as it reads.
+pub fn flight_columns(scalar: &str, vectors: &[String], extras: &[ExtraChannel]) -> Vec<String> {
+    let mut names = vec![scalar.to_string(), TIME_COLUMN.to_string()];
+    names.extend(
+        vectors
+            .iter()
+            .flat_map(|v| tolles_io::schema::vector_columns(v)),
+    );
+    names.extend(extras.iter().map(|e| e.name.clone()));
+    names
 }
 
 /// The columns of a flight table that one scalar's model needs.
@@ -208,12 +271,19 @@ impl<'t> Flight<'t> {
                 });
             }
         }
-        let scalar = table.numeric(scalar)?;
+        // One pass over the file's text for every column, when it is left in the file's bytes.
+        let names = flight_columns(scalar, vectors, &[]);
+        let names: Vec<&str> = names.iter().map(String::as_str).collect();
+        let mut parsed = table.parse_together(&names);
+        let scalar = parsed.numeric(scalar)?;
         let flux = vectors
             .iter()
-            .map(|v| table.vector(v))
+            .map(|v| parsed.vector(v))
             .collect::<std::result::Result<Vec<_>, _>>()?;
-        let tt = time_column(table)?;
+        let tt = match table.has(TIME_COLUMN) {
+            true => checked_time(table, parsed.numeric(TIME_COLUMN)?)?,
+            false => None,
+        };
         Ok(Self {
             table,
             scalar,
@@ -336,7 +406,11 @@ pub fn time_column(table: &Table) -> Result<Option<Vec<f64>>> {
     if !table.has(TIME_COLUMN) {
         return Ok(None);
     }
-    let tt = table.numeric(TIME_COLUMN)?;
+    checked_time(table, table.numeric(TIME_COLUMN)?)
+}
+
+/// `tt`, the time column of `table` (s), or the error naming where it does not increase.
+fn checked_time(table: &Table, tt: Vec<f64>) -> Result<Option<Vec<f64>>> {
     if let Some(k) = first_non_increasing(&tt) {
         let before = tt[..k].iter().rev().find(|t| t.is_finite()).copied();
         return Err(Error::TimeNotIncreasing {

@@ -130,7 +130,9 @@ fn parse_on_off(text: &str) -> Result<bool, String> {
 
 pub fn run(args: Args) -> Result<()> {
     let request = request(&args)?;
-    let table = args.select.read(&args.cal, Use::Fit)?;
+    let table = args
+        .select
+        .read_parsing(&args.cal, Use::Fit, &request.columns())?;
     let out = crate::input::out_path(args.out);
     fit_and_save(&table, &request, out.as_deref())
 }

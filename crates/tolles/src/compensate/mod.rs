@@ -282,10 +282,11 @@ pub fn compensate_file(
     if reads_in_chunks(model, request) {
         return chunked::compensate_file(model, request, writer, progress, warnings);
     }
-    let data = crate::read::read_renamed(
+    let data = crate::read::read_parsing(
         &request.survey,
         &request.selection,
         &request.renames,
+        &columns_read(model),
         progress,
         warnings,
     )?;
@@ -299,6 +300,17 @@ pub fn compensate_file(
         selected: data.selected,
         rows: data.table.len(),
     })
+}
+
+/// The columns compensating with `model` reads.
+pub fn columns_read(model: &ModelFile) -> Vec<String> {
+    model
+        .fits
+        .iter()
+        .flat_map(|f| {
+            crate::read::flight_columns(&f.scalar, &f.vectors, &f.fit.settings.design.extras)
+        })
+        .collect()
 }
 
 #[cfg(test)]

@@ -1,0 +1,1300 @@
+//! CSV held as the file's own bytes: a row is a span of the file, a cell is parsed only when a
+//! command asks for its column, and a row is written back by copying its bytes.
+//!
+//! This is how a large CSV file is read whole ([`crate::table::Table::read_csv`]). The general
+//! reader (the `csv` crate, every cell copied into its column) stays the reference: a file this
+//! one cannot take exactly as the general reader would — a quote anywhere, a carriage return
+//! that does not end a line, a line with another number of cells than the header (whose error
+//! the general reader words), text that is not UTF-8 — is handed back to it, so what a command
+//! reads, writes and reports does not depend on which reader took the file.
+//!
+//! - **Lines, in parallel.** The file is memory-mapped (read, where it cannot be) and cut into
+//!   pieces at line boundaries; each core finds its pieces' rows, counts their cells and marks
+//!   the rows whose cells have white space at an edge ("untidy"), which the general reader
+//!   trims. Blank lines are skipped, as the general reader skips them.
+//! - **Numbers only on demand**, straight from the bytes, in parallel, several columns in one
+//!   pass ([`RawRows::parse`]). A plain decimal (`-50030.0342`) is converted inline — the exact
+//!   quotient of two exactly representable numbers, so the same f64 as `str::parse` gives;
+//!   anything else goes through [`crate::table::parse_cell`], the general reader's own rule.
+//! - **Rows written by copying** ([`write_rows`]): a tidy row is the same bytes as the general
+//!   writer would write (no cell needs quotes, none has white space to trim), so it is copied;
+//!   an untidy row is written cell by cell, trimmed. New cells are formatted on all cores
+//!   ([`format_number`], the same text as [`crate::table::format_value`]).
+
+use crate::error::IoError;
+use crate::table::parse_cell;
+use rayon::prelude::*;
+use std::io::Write;
+use std::ops::{Deref, Range};
+use std::path::Path;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::Arc;
+
+/// A file's bytes: mapped into memory where the file allows it, else read.
+pub(crate) enum Bytes {
+    Mapped(memmap2::Mmap),
+    Owned(Vec<u8>),
+}
+
+impl Deref for Bytes {
+    type Target = [u8];
+
+    fn deref(&self) -> &[u8] {
+        match self {
+            Bytes::Mapped(map) => map,
+            Bytes::Owned(bytes) => bytes,
+        }
+    }
+}
+
+impl Bytes {
+    /// The bytes of the regular file `path`: memory-mapped, so reading costs no copy and the
+    /// pages are shared with the page cache.
+    pub(crate) fn of_file(path: &Path) -> Result<Self, IoError> {
+        let open_error = |source| IoError::Open {
+            path: path.to_path_buf(),
+            source,
+        };
+        let file = std::fs::File::open(path).map_err(open_error)?;
+        let meta = file.metadata().map_err(open_error)?;
+        if !meta.is_file() || meta.len() == 0 {
+            let mut bytes = Vec::new();
+            std::io::Read::read_to_end(&mut &file, &mut bytes).map_err(open_error)?;
+            return Ok(Bytes::Owned(bytes));
+        }
+        // SAFETY: the map is read only. The one hazard is another process truncating the file
+        // while we read it (the access would then fault), the same as for any program that maps
+        // its input (ripgrep, the pyarrow reader); a file changed in place reads as changed.
+        match unsafe { memmap2::Mmap::map(&file) } {
+            Ok(map) => Ok(Bytes::Mapped(map)),
+            Err(_) => {
+                let mut bytes = Vec::with_capacity(meta.len() as usize);
+                std::io::Read::read_to_end(&mut &file, &mut bytes).map_err(open_error)?;
+                Ok(Bytes::Owned(bytes))
+            }
+        }
+    }
+}
+
+/// The data rows of a CSV file as spans of its bytes.
+pub struct RawRows {
+    bytes: Arc<Bytes>,
+    /// Byte offset of each row's first byte.
+    starts: Vec<u64>,
+    /// Each row's length in bytes, without its line terminator (`\n` or `\r\n`).
+    lens: Vec<u32>,
+    /// Rows (ascending) with a cell that has white space at an edge.
+    untidy: Vec<u32>,
+    /// Cells per row (the header's).
+    fields: usize,
+    /// Columns parsed while the rows were found.
+    parsed: Vec<ParsedField>,
+}
+
+impl std::fmt::Debug for RawRows {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RawRows")
+            .field("rows", &self.starts.len())
+            .field("fields", &self.fields)
+            .field("untidy", &self.untidy.len())
+            .finish()
+    }
+}
+
+/// A CSV file taken by this reader: its header names, its rows, and each row's file line when
+/// the file has blank lines (otherwise row `k` is line `k + 2`).
+pub(crate) struct RawCsv {
+    pub headers: Vec<String>,
+    pub rows: RawRows,
+    pub lines: Option<Vec<u64>>,
+}
+
+/// One column parsed while the rows were found.
+#[derive(Debug, Clone)]
+struct ParsedField {
+    field: usize,
+    values: Vec<f64>,
+    /// The first row whose cell is not a number.
+    bad: Option<usize>,
+}
+
+/// Smallest piece of a file one core scans on its own (bytes).
+const PIECE_BYTES: usize = 1 << 20;
+
+/// Rows one core parses or writes at a time.
+const BLOCK_ROWS: usize = 1 << 15;
+
+/// Which cells to parse while reading, given the header's names: their indices.
+pub type Wanted<'w> = &'w dyn Fn(&[String]) -> Vec<usize>;
+
+/// Reads the CSV file `path` as [`RawRows`], parsing the cells `wanted` names on the way; `None`
+/// when the general reader must take it (see the module documentation). Errors only when the
+/// file cannot be opened.
+pub(crate) fn read(path: &Path, wanted: Wanted<'_>) -> Result<Option<RawCsv>, IoError> {
+    let bytes = Arc::new(Bytes::of_file(path)?);
+    Ok(from_bytes(bytes, path, wanted))
+}
+
+/// [`read`] of bytes already in memory.
+pub(crate) fn from_bytes(bytes: Arc<Bytes>, path: &Path, wanted: Wanted<'_>) -> Option<RawCsv> {
+    let header_end = memchr::memchr(b'\n', &bytes)?;
+    let header_line = &bytes[..=header_end];
+    // A quote may hide a line break in a name; an overlong header is the general reader's error.
+    if header_line.contains(&b'"') || header_end > crate::table::MAX_HEADER_BYTES {
+        return None;
+    }
+    let headers = header_names(header_line)?;
+    crate::table::check_header(path, &headers).ok()?;
+    let mut fields = wanted(&headers);
+    fields.retain(|&f| f < headers.len());
+    fields.sort_unstable();
+    fields.dedup();
+    let layout = Layout::new(headers.len(), &fields);
+    let pieces = pieces(&bytes, header_end + 1..bytes.len());
+    let scanned: Vec<Piece> = pieces
+        .par_iter()
+        .map(|range| scan(&bytes, range.clone(), &layout))
+        .collect::<Option<_>>()?;
+    let rows = assemble(Arc::clone(&bytes), headers.len(), &fields, scanned)?;
+    let lines = rows.blank.then(|| line_numbers(&bytes, &rows.rows.starts));
+    Some(RawCsv {
+        headers,
+        rows: rows.rows,
+        lines,
+    })
+}
+
+/// The rows of all pieces, in order, and whether any line was blank.
+struct Assembled {
+    rows: RawRows,
+    blank: bool,
+}
+
+fn assemble(
+    bytes: Arc<Bytes>,
+    width: usize,
+    fields: &[usize],
+    pieces: Vec<Piece>,
+) -> Option<Assembled> {
+    let total: usize = pieces.iter().map(|p| p.starts.len()).sum();
+    u32::try_from(total).ok()?;
+    let mut rows = RawRows {
+        bytes,
+        starts: Vec::with_capacity(total),
+        lens: Vec::with_capacity(total),
+        untidy: Vec::new(),
+        fields: width,
+        parsed: Vec::new(),
+    };
+    let mut blank = false;
+    let mut firsts = Vec::with_capacity(pieces.len());
+    for piece in &pieces {
+        let before = rows.starts.len() as u32;
+        firsts.push(before as usize);
+        rows.untidy.extend(piece.untidy.iter().map(|k| k + before));
+        rows.starts.extend_from_slice(&piece.starts);
+        rows.lens.extend_from_slice(&piece.lens);
+        blank |= piece.blank;
+    }
+    // Each parsed column joined on a core of its own.
+    rows.parsed = (0..fields.len())
+        .into_par_iter()
+        .map(|slot| {
+            let mut values = Vec::with_capacity(total);
+            let mut bad = None;
+            for (piece, first) in pieces.iter().zip(&firsts) {
+                values.extend_from_slice(&piece.values[slot]);
+                bad = bad.or(piece.bad[slot].map(|k| k + first));
+            }
+            ParsedField {
+                field: fields[slot],
+                values,
+                bad,
+            }
+        })
+        .collect();
+    Some(Assembled { rows, blank })
+}
+
+/// The header's names as the general reader takes them (trimmed; a UTF-8 byte-order mark
+/// dropped).
+fn header_names(line: &[u8]) -> Option<Vec<String>> {
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(true)
+        .trim(csv::Trim::Headers)
+        .from_reader(line);
+    let names = reader.headers().ok()?;
+    Some(names.iter().map(str::to_string).collect())
+}
+
+/// `range` cut into pieces that start at line starts, about one per [`PIECE_BYTES`] and at
+/// least a few per core.
+fn pieces(bytes: &[u8], range: Range<usize>) -> Vec<Range<usize>> {
+    let cores = rayon::current_num_threads().max(1);
+    let count = (range.len() / PIECE_BYTES).clamp(1, 64 * cores);
+    let step = range.len().div_ceil(count).max(1);
+    let mut out = Vec::with_capacity(count);
+    let mut start = range.start;
+    while start < range.end {
+        let guess = (start + step).min(range.end);
+        let end = match memchr::memchr(b'\n', &bytes[guess..range.end]) {
+            Some(i) => guess + i + 1,
+            None => range.end,
+        };
+        out.push(start..end);
+        start = end;
+    }
+    out
+}
+
+/// Cells per row and which of them are parsed into which slot.
+struct Layout {
+    width: usize,
+    /// For each cell of a row, its slot among the parsed columns.
+    slot: Vec<Option<usize>>,
+    /// The parsed cells, ascending.
+    fields: Vec<usize>,
+}
+
+impl Layout {
+    fn new(width: usize, fields: &[usize]) -> Self {
+        let mut slot = vec![None; width];
+        for (k, &f) in fields.iter().enumerate() {
+            slot[f] = Some(k);
+        }
+        Self {
+            width,
+            slot,
+            fields: fields.to_vec(),
+        }
+    }
+}
+
+/// One piece's rows and parsed cells.
+struct Piece {
+    starts: Vec<u64>,
+    lens: Vec<u32>,
+    /// Untidy rows, counted from the piece's first row.
+    untidy: Vec<u32>,
+    blank: bool,
+    /// Per parsed column, a value per row and the first row (of the piece) that is no number.
+    values: Vec<Vec<f64>>,
+    bad: Vec<Option<usize>>,
+}
+
+impl Piece {
+    fn new(bytes: usize, layout: &Layout) -> Self {
+        let rows = bytes / 32 + 1;
+        Self {
+            starts: Vec::with_capacity(rows),
+            lens: Vec::with_capacity(rows),
+            untidy: Vec::new(),
+            blank: false,
+            values: layout
+                .fields
+                .iter()
+                .map(|_| Vec::with_capacity(rows))
+                .collect(),
+            bad: vec![None; layout.fields.len()],
+        }
+    }
+
+    /// Stores the value of parsed column `slot` for the row being read.
+    fn put(&mut self, slot: usize, value: Option<f64>) {
+        let row = self.starts.len();
+        match value {
+            Some(v) => self.values[slot].push(v),
+            None => {
+                self.values[slot].push(f64::NAN);
+                self.bad[slot].get_or_insert(row);
+            }
+        }
+    }
+}
+
+/// The rows of `range` (whole lines) with their parsed cells, or `None` if a line must go to
+/// the general reader.
+fn scan(bytes: &[u8], range: Range<usize>, layout: &Layout) -> Option<Piece> {
+    let text = &bytes[range.clone()];
+    let mut piece = Piece::new(text.len(), layout);
+    if memchr::memchr(b'"', text).is_some() {
+        return None;
+    }
+    if !text.is_ascii() {
+        return scan_slowly(text, range.start, layout, piece);
+    }
+    // Only separators, line feeds and carriage returns matter: jump between them, parsing the
+    // wanted cells as their ends are found.
+    let mut line = LineScan::default();
+    let (mut start, mut cell_start) = (0usize, 0usize);
+    for i in memchr::memchr3_iter(b',', b'\n', b'\r', text) {
+        match text[i] {
+            b',' => {
+                if let Some(&Some(slot)) = layout.slot.get(line.commas) {
+                    piece.put(slot, cell_value(&text[cell_start..i]));
+                }
+                line.comma(text, i);
+                cell_start = i + 1;
+            }
+            b'\n' => {
+                let end = if i > start && text[i - 1] == b'\r' {
+                    i - 1
+                } else {
+                    i
+                };
+                if end > start {
+                    if let Some(&Some(slot)) = layout.slot.get(line.commas) {
+                        piece.put(slot, cell_value(&text[cell_start..end]));
+                    }
+                }
+                piece.end_line(text, start, i, &line, layout.width, range.start)?;
+                line = LineScan::default();
+                start = i + 1;
+                cell_start = start;
+            }
+            _ => line.refused = true,
+        }
+    }
+    if start < text.len() {
+        let end = match text.last() {
+            Some(b'\r') => text.len() - 1,
+            _ => text.len(),
+        };
+        if end > start {
+            if let Some(&Some(slot)) = layout.slot.get(line.commas) {
+                piece.put(slot, cell_value(&text[cell_start..end]));
+            }
+        }
+        piece.end_line(text, start, text.len(), &line, layout.width, range.start)?;
+    }
+    Some(piece)
+}
+
+/// [`scan`] of a piece with multi-byte characters: every byte classified, then the wanted
+/// cells of each row parsed.
+fn scan_slowly(text: &[u8], offset: usize, layout: &Layout, mut piece: Piece) -> Option<Piece> {
+    let mut line = LineScan::default();
+    let mut start = 0usize;
+    for (i, &b) in text.iter().enumerate() {
+        match CLASS[b as usize] {
+            PLAIN => {}
+            COMMA => line.comma(text, i),
+            NEWLINE => {
+                piece.end_line(text, start, i, &line, layout.width, offset)?;
+                line = LineScan::default();
+                start = i + 1;
+            }
+            HIGH => line.high = true,
+            _ => line.refused = true,
+        }
+    }
+    if start < text.len() {
+        piece.end_line(text, start, text.len(), &line, layout.width, offset)?;
+    }
+    let order: Vec<usize> = (0..layout.fields.len()).collect();
+    for k in 0..piece.starts.len() {
+        let from = piece.starts[k] as usize - offset;
+        let row = &text[from..from + piece.lens[k] as usize];
+        for (slot, value) in parse_line(row, &layout.fields, &order) {
+            piece.values[slot].push(value.unwrap_or(f64::NAN));
+            if value.is_none() {
+                piece.bad[slot].get_or_insert(k);
+            }
+        }
+    }
+    Some(piece)
+}
+
+/// What a pass over one line found.
+#[derive(Default)]
+struct LineScan {
+    commas: usize,
+    /// A cell has white space at an edge next to a comma.
+    untidy: bool,
+    /// A byte of a multi-byte character.
+    high: bool,
+    /// A byte only the general reader may take (a quote, a carriage return inside a line).
+    refused: bool,
+}
+
+impl LineScan {
+    fn comma(&mut self, text: &[u8], i: usize) {
+        self.commas += 1;
+        let before = i > 0 && maybe_space(text[i - 1]);
+        let after = i + 1 < text.len() && maybe_space(text[i + 1]);
+        self.untidy |= before | after;
+    }
+}
+
+impl Piece {
+    /// Records the line `text[start..end]` (`end` at its `\n` or the end of the text), found
+    /// `offset` bytes into the file; `None` if the general reader must take it.
+    fn end_line(
+        &mut self,
+        text: &[u8],
+        start: usize,
+        end: usize,
+        scan: &LineScan,
+        fields: usize,
+        offset: usize,
+    ) -> Option<()> {
+        // A carriage return right before the line feed is part of the terminator.
+        let (end, refused) = if end > start && text[end - 1] == b'\r' {
+            let inside = text[start..end - 1].contains(&b'\r');
+            (end - 1, scan.refused && inside)
+        } else {
+            (end, scan.refused)
+        };
+        let line = &text[start..end];
+        if line.is_empty() {
+            self.blank = true;
+            return Some(());
+        }
+        if refused || scan.commas + 1 != fields || (scan.high && std::str::from_utf8(line).is_err())
+        {
+            return None;
+        }
+        if scan.untidy || maybe_space(line[0]) || maybe_space(line[line.len() - 1]) {
+            self.untidy.push(self.starts.len() as u32);
+        }
+        self.starts.push((offset + start) as u64);
+        self.lens.push(u32::try_from(line.len()).ok()?);
+        Some(())
+    }
+}
+
+const PLAIN: u8 = 0;
+const COMMA: u8 = 1;
+const REFUSE: u8 = 2;
+const HIGH: u8 = 3;
+const NEWLINE: u8 = 4;
+
+/// The class of every byte: a cell separator, a line feed, a byte the general reader must see
+/// (a quote; a carriage return, unless it ends a line), a byte of a multi-byte UTF-8 character,
+/// or plain.
+const CLASS: [u8; 256] = {
+    let mut class = [PLAIN; 256];
+    class[b',' as usize] = COMMA;
+    class[b'\n' as usize] = NEWLINE;
+    class[b'"' as usize] = REFUSE;
+    class[b'\r' as usize] = REFUSE;
+    let mut b = 0x80;
+    while b < 256 {
+        class[b] = HIGH;
+        b += 1;
+    }
+    class
+};
+
+/// True for a byte that may be (part of) white space `str::trim` removes: ASCII space, tab,
+/// vertical tab, form feed, or any byte of a multi-byte character (Unicode white space such as
+/// U+00A0 is one).
+fn maybe_space(b: u8) -> bool {
+    matches!(b, b' ' | b'\t' | 0x0b | 0x0c) || b >= 0x80
+}
+
+/// The file line (1-based) of each row starting at `starts`, counting every line break before
+/// it; only needed when blank lines make rows and lines differ.
+fn line_numbers(bytes: &[u8], starts: &[u64]) -> Vec<u64> {
+    let mut lines = Vec::with_capacity(starts.len());
+    let (mut line, mut from) = (1u64, 0usize);
+    for &start in starts {
+        let start = start as usize;
+        line += memchr::memchr_iter(b'\n', &bytes[from..start]).count() as u64;
+        from = start;
+        lines.push(line);
+    }
+    lines
+}
+
+/// A cell as a number: NaN when missing, `None` when it is not a number.
+fn cell_value(cell: &[u8]) -> Option<f64> {
+    plain_decimal(cell).or_else(|| general(cell))
+}
+
+/// The cells `fields` of `line` (ascending field indices), visited in `order` (indices into
+/// `fields`, ascending by field), each as `(index into fields, value)`.
+fn parse_line<'l>(
+    line: &'l [u8],
+    fields: &'l [usize],
+    order: &'l [usize],
+) -> impl Iterator<Item = (usize, Option<f64>)> + 'l {
+    let (mut field, mut pos) = (0usize, 0usize);
+    order.iter().map(move |&j| {
+        if field > fields[j] {
+            // The same field asked for twice.
+            (field, pos) = (0, 0);
+        }
+        while field < fields[j] {
+            pos = line[pos..]
+                .iter()
+                .position(|&b| b == b',')
+                .map_or(line.len(), |i| pos + i + 1);
+            field += 1;
+        }
+        let end = line[pos..]
+            .iter()
+            .position(|&b| b == b',')
+            .map_or(line.len(), |i| pos + i);
+        let value = cell_value(&line[pos..end]);
+        (field, pos) = (field + 1, (end + 1).min(line.len()));
+        (j, value)
+    })
+}
+
+impl RawRows {
+    /// Number of rows.
+    pub fn len(&self) -> usize {
+        self.starts.len()
+    }
+
+    /// True when there are no rows.
+    pub fn is_empty(&self) -> bool {
+        self.starts.is_empty()
+    }
+
+    /// Cells per row.
+    pub fn fields(&self) -> usize {
+        self.fields
+    }
+
+    fn line(&self, k: usize) -> &[u8] {
+        let start = self.starts[k] as usize;
+        &self.bytes[start..start + self.lens[k] as usize]
+    }
+
+    /// Cell `field` of row `k`, untrimmed.
+    fn raw_cell(&self, k: usize, field: usize) -> &[u8] {
+        self.line(k).split(|&b| b == b',').nth(field).unwrap_or(&[])
+    }
+
+    /// Cell `field` of row `k`, trimmed, as the general reader stores it.
+    pub fn cell(&self, k: usize, field: usize) -> &str {
+        // Lines with multi-byte characters were checked to be UTF-8 and cells split at an
+        // ASCII comma, so this never falls back.
+        std::str::from_utf8(self.raw_cell(k, field))
+            .unwrap_or_default()
+            .trim()
+    }
+
+    /// The rows `kept` (ascending indices), sharing the bytes; columns parsed already and free
+    /// of bad cells stay parsed.
+    pub fn select(&self, kept: &[usize]) -> RawRows {
+        let mut untidy = Vec::new();
+        let mut cursor = self.untidy.iter().peekable();
+        for (new, &k) in kept.iter().enumerate() {
+            while cursor.next_if(|&&u| (u as usize) < k).is_some() {}
+            if cursor.peek().is_some_and(|&&u| u as usize == k) {
+                untidy.push(new as u32);
+            }
+        }
+        let parsed = self
+            .parsed
+            .iter()
+            .filter(|p| p.bad.is_none())
+            .map(|p| ParsedField {
+                field: p.field,
+                values: kept.iter().map(|&k| p.values[k]).collect(),
+                bad: None,
+            })
+            .collect();
+        RawRows {
+            bytes: Arc::clone(&self.bytes),
+            starts: kept.iter().map(|&k| self.starts[k]).collect(),
+            lens: kept.iter().map(|&k| self.lens[k]).collect(),
+            untidy,
+            fields: self.fields,
+            parsed,
+        }
+    }
+
+    /// The cells of `fields` as numbers (NaN where missing), each with the first row whose
+    /// cell is not a number: those parsed while reading as they are, the others in one pass
+    /// over the rows on all cores.
+    pub fn parse(&self, fields: &[usize]) -> Vec<(Vec<f64>, Option<usize>)> {
+        let known = |f: usize| self.parsed.iter().find(|p| p.field == f);
+        let missing: Vec<usize> = fields
+            .iter()
+            .copied()
+            .filter(|&f| known(f).is_none())
+            .collect();
+        let mut fresh = self.parse_now(&missing).into_iter();
+        fields
+            .iter()
+            .map(|&f| match known(f) {
+                Some(p) => (p.values.clone(), p.bad),
+                None => fresh.next().unwrap_or_default(),
+            })
+            .collect()
+    }
+
+    fn parse_now(&self, fields: &[usize]) -> Vec<(Vec<f64>, Option<usize>)> {
+        if fields.is_empty() {
+            return Vec::new();
+        }
+        let n = self.len();
+        let mut values: Vec<Vec<f64>> = fields.iter().map(|_| vec![0.0; n]).collect();
+        // Visit the fields in file order.
+        let mut order: Vec<usize> = (0..fields.len()).collect();
+        order.sort_by_key(|&j| fields[j]);
+        let blocks: Vec<Vec<&mut [f64]>> = transpose_chunks(&mut values, BLOCK_ROWS);
+        let bad: Vec<Vec<Option<usize>>> = blocks
+            .into_par_iter()
+            .enumerate()
+            .map(|(b, mut out)| {
+                let first = b * BLOCK_ROWS;
+                let mut bad = vec![None; fields.len()];
+                for r in 0..out[0].len() {
+                    for (j, value) in parse_line(self.line(first + r), fields, &order) {
+                        out[j][r] = value.unwrap_or(f64::NAN);
+                        if value.is_none() {
+                            bad[j].get_or_insert(first + r);
+                        }
+                    }
+                }
+                bad
+            })
+            .collect();
+        values
+            .into_iter()
+            .enumerate()
+            .map(|(j, v)| (v, bad.iter().find_map(|b| b[j])))
+            .collect()
+    }
+}
+
+/// Every vector of `columns` cut into chunks of `rows`, regrouped chunk by chunk: element `b`
+/// holds chunk `b` of each column.
+fn transpose_chunks(columns: &mut [Vec<f64>], rows: usize) -> Vec<Vec<&mut [f64]>> {
+    let mut blocks: Vec<Vec<&mut [f64]>> = Vec::new();
+    for column in columns.iter_mut() {
+        for (b, chunk) in column.chunks_mut(rows).enumerate() {
+            if blocks.len() <= b {
+                blocks.push(Vec::new());
+            }
+            blocks[b].push(chunk);
+        }
+    }
+    blocks
+}
+
+/// Exact powers of ten as f64 (10²² is the largest that is exact).
+const POW10: [f64; 23] = [
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
+    1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+];
+
+/// A cell written as a plain decimal (`[+-]digits[.digits]`, at most 2⁵³ without its point and
+/// at most 22 decimals), else `None`. Both the digits as an integer and the power of ten are
+/// exact f64s, so their quotient is correctly rounded: the value `str::parse` gives.
+fn plain_decimal(cell: &[u8]) -> Option<f64> {
+    let (negative, digits) = match cell.first()? {
+        b'-' => (true, &cell[1..]),
+        b'+' => (false, &cell[1..]),
+        _ => (false, cell),
+    };
+    let (mut mantissa, mut count, mut decimals, mut point) = (0u64, 0u32, 0usize, false);
+    for &b in digits {
+        let d = b.wrapping_sub(b'0');
+        if d < 10 {
+            if count == 19 {
+                return None;
+            }
+            mantissa = mantissa * 10 + u64::from(d);
+            count += 1;
+            decimals += usize::from(point);
+        } else if b == b'.' && !point {
+            point = true;
+        } else {
+            return None;
+        }
+    }
+    if count == 0 || mantissa > 1 << 53 || decimals >= POW10.len() {
+        return None;
+    }
+    let value = mantissa as f64 / POW10[decimals];
+    Some(if negative { -value } else { value })
+}
+
+/// Any other cell, by the general reader's rule ([`parse_cell`]).
+fn general(cell: &[u8]) -> Option<f64> {
+    parse_cell(std::str::from_utf8(cell).ok()?)
+}
+
+/// Writes every row of `rows` followed by one cell per `extra` column (empty for NaN), as the
+/// general CSV writer would: tidy rows copied, untidy ones trimmed cell by cell. Rows are
+/// formatted on all cores and written in order as they are ready.
+pub fn write_rows(rows: &RawRows, extra: &[&[f64]], out: &mut dyn Write) -> std::io::Result<()> {
+    let n = rows.len();
+    let blocks = n.div_ceil(BLOCK_ROWS);
+    let threads = std::thread::available_parallelism().map_or(1, |t| t.get());
+    if blocks <= 1 || threads <= 1 {
+        return (0..blocks)
+            .try_for_each(|b| out.write_all(&format_block(rows, extra, block(b, n))));
+    }
+    // Formatting threads take blocks in order and the caller's thread writes them in order, so
+    // the output is written while the rest is formatted, and only blocks written out of turn
+    // wait in memory.
+    let next = AtomicUsize::new(0);
+    let stop = AtomicBool::new(false);
+    let (sender, receiver) = std::sync::mpsc::channel::<(usize, Vec<u8>)>();
+    std::thread::scope(|scope| {
+        for _ in 0..threads {
+            let (sender, next, stop) = (sender.clone(), &next, &stop);
+            scope.spawn(move || loop {
+                let b = next.fetch_add(1, Ordering::Relaxed);
+                if b >= blocks || stop.load(Ordering::Relaxed) {
+                    break;
+                }
+                if sender
+                    .send((b, format_block(rows, extra, block(b, n))))
+                    .is_err()
+                {
+                    break;
+                }
+            });
+        }
+        drop(sender);
+        let mut waiting = std::collections::BTreeMap::new();
+        let mut written = 0;
+        for (b, text) in receiver {
+            waiting.insert(b, text);
+            while let Some(text) = waiting.remove(&written) {
+                if let Err(e) = out.write_all(&text) {
+                    stop.store(true, Ordering::Relaxed);
+                    return Err(e);
+                }
+                written += 1;
+            }
+        }
+        Ok(())
+    })
+}
+
+/// The rows of block `b` of a table of `n` rows.
+fn block(b: usize, n: usize) -> Range<usize> {
+    b * BLOCK_ROWS..((b + 1) * BLOCK_ROWS).min(n)
+}
+
+/// The text of rows `range` with their extra cells.
+fn format_block(rows: &RawRows, extra: &[&[f64]], range: Range<usize>) -> Vec<u8> {
+    let width: usize = range.clone().map(|k| rows.lens[k] as usize).sum();
+    let mut text = Vec::with_capacity(width + range.len() * (1 + 20 * extra.len()));
+    let first_untidy = rows.untidy.partition_point(|&u| (u as usize) < range.start);
+    let mut untidy = rows.untidy[first_untidy..].iter().peekable();
+    let mut number = zmij::Buffer::new();
+    for k in range {
+        if untidy.next_if(|&&u| u as usize == k).is_some() {
+            for (j, cell) in rows.line(k).split(|&b| b == b',').enumerate() {
+                if j > 0 {
+                    text.push(b',');
+                }
+                let cell = std::str::from_utf8(cell).unwrap_or_default();
+                text.extend_from_slice(cell.trim().as_bytes());
+            }
+        } else {
+            text.extend_from_slice(rows.line(k));
+        }
+        for column in extra {
+            text.push(b',');
+            format_number(column[k], &mut number, &mut text);
+        }
+        text.push(b'\n');
+    }
+    text
+}
+
+/// Appends `v` as [`crate::table::format_value`] writes it — the shortest text that reads back
+/// as the same f64, with an exponent below 1e-5 and from 1e17 on; nothing for a missing value —
+/// three times faster: the shortest digits come from `zmij` and are laid out here.
+pub fn format_number(v: f64, buffer: &mut zmij::Buffer, out: &mut Vec<u8>) {
+    if !v.is_finite() {
+        return;
+    }
+    let magnitude = v.abs();
+    if magnitude >= 1e16 {
+        return general_format(v, out);
+    }
+    let shortest = buffer.format_finite(v).as_bytes();
+    let (negative, digits, exponent) = decompose(shortest);
+    let decimals = (digits.len() as i32 - exponent).max(0);
+    if fraction_bits(v) == decimals + 1 {
+        // Exactly halfway between two shortest candidates: `zmij` rounds the tie to even,
+        // the standard library away from zero; its text is the reference.
+        return general_format(v, out);
+    }
+    if negative {
+        out.push(b'-');
+    }
+    if magnitude != 0.0 && !(1e-5..1e17).contains(&magnitude) {
+        // d.ddde±x
+        out.push(digits[0]);
+        if digits.len() > 1 {
+            out.push(b'.');
+            out.extend_from_slice(&digits[1..]);
+        }
+        out.push(b'e');
+        let _ = write!(out, "{}", exponent - 1);
+        return;
+    }
+    // `exponent` is where the point goes: value = 0.digits × 10^exponent.
+    let len = digits.len() as i32;
+    if exponent <= 0 {
+        out.extend_from_slice(b"0.");
+        out.extend(std::iter::repeat_n(b'0', (-exponent) as usize));
+        out.extend_from_slice(&digits);
+    } else if exponent >= len {
+        out.extend_from_slice(&digits);
+        out.extend(std::iter::repeat_n(b'0', (exponent - len) as usize));
+    } else {
+        let point = exponent as usize;
+        out.extend_from_slice(&digits[..point]);
+        out.push(b'.');
+        out.extend_from_slice(&digits[point..]);
+    }
+}
+
+/// [`crate::table::format_value`]'s text of `v`, appended.
+fn general_format(v: f64, out: &mut Vec<u8>) {
+    let mut text = String::new();
+    crate::table::format_value(v, &mut text);
+    out.extend_from_slice(text.as_bytes());
+}
+
+/// How many binary digits `v` has after its point: its exact decimal expansion has as many
+/// decimals.
+fn fraction_bits(v: f64) -> i32 {
+    let bits = v.to_bits();
+    let biased = ((bits >> 52) & 0x7ff) as i32;
+    let fraction = bits & ((1 << 52) - 1);
+    let (significand, exponent) = match biased {
+        0 => (fraction, -1074),
+        _ => (fraction | 1 << 52, biased - 1075),
+    };
+    if significand == 0 {
+        return 0;
+    }
+    (-exponent - significand.trailing_zeros() as i32).max(0)
+}
+
+/// The sign, significant digits (no leading or trailing zeros; `0` for zero) and point
+/// position (value = 0.digits × 10^position) of a number zmij wrote (`-1.25e-7`, `1e+16`,
+/// `50000.0`).
+fn decompose(text: &[u8]) -> (bool, smallvec_digits::Digits, i32) {
+    let (negative, text) = match text.split_first() {
+        Some((b'-', rest)) => (true, rest),
+        _ => (false, text),
+    };
+    let (mantissa, exponent) = match text.iter().position(|&b| b == b'e' || b == b'E') {
+        Some(e) => (
+            &text[..e],
+            std::str::from_utf8(&text[e + 1..])
+                .ok()
+                .and_then(|s| s.parse::<i32>().ok())
+                .unwrap_or(0),
+        ),
+        None => (text, 0),
+    };
+    let mut digits = smallvec_digits::Digits::default();
+    let mut before_point = 0i32;
+    let mut seen_point = false;
+    for &b in mantissa {
+        if b == b'.' {
+            seen_point = true;
+        } else {
+            if digits.is_empty() && b == b'0' {
+                // A leading zero moves the point, it is no digit.
+                if seen_point {
+                    before_point -= 1;
+                }
+                continue;
+            }
+            digits.push(b);
+            if !seen_point {
+                before_point += 1;
+            }
+        }
+    }
+    while digits.len() > 1 && digits.last() == Some(b'0') {
+        digits.pop();
+    }
+    if digits.is_empty() {
+        digits.push(b'0');
+        return (negative, digits, 1);
+    }
+    (negative, digits, before_point + exponent)
+}
+
+/// A short digit string on the stack (an f64 has at most 17 significant digits).
+mod smallvec_digits {
+    #[derive(Default)]
+    pub struct Digits {
+        bytes: [u8; 24],
+        len: usize,
+    }
+
+    impl Digits {
+        pub fn push(&mut self, b: u8) {
+            if self.len < self.bytes.len() {
+                self.bytes[self.len] = b;
+                self.len += 1;
+            }
+        }
+
+        pub fn pop(&mut self) {
+            self.len = self.len.saturating_sub(1);
+        }
+
+        pub fn last(&self) -> Option<u8> {
+            self.len.checked_sub(1).map(|k| self.bytes[k])
+        }
+
+        pub fn is_empty(&self) -> bool {
+            self.len == 0
+        }
+
+        pub fn len(&self) -> usize {
+            self.len
+        }
+    }
+
+    impl std::ops::Deref for Digits {
+        type Target = [u8];
+
+        fn deref(&self) -> &[u8] {
+            &self.bytes[..self.len]
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::error::IoError;
+    use crate::table::{format_value, write_with_column, Column, Table};
+    use proptest::prelude::*;
+    use proptest::strategy::ValueTree;
+
+    fn formatted(v: f64) -> String {
+        let mut out = Vec::new();
+        format_number(v, &mut zmij::Buffer::new(), &mut out);
+        String::from_utf8(out).unwrap()
+    }
+
+    fn general_format(v: f64) -> String {
+        let mut s = String::new();
+        format_value(v, &mut s);
+        s
+    }
+
+    #[test]
+    fn ties_between_shortest_texts_go_the_general_way() {
+        for v in [
+            f64::from_bits(4_831_456_087_091_820_650),
+            581_340_081_208_420.0 + 0.25,
+            -2_132_163_508_601_201.0 - 0.25,
+        ] {
+            assert_eq!(formatted(v), general_format(v), "{v:e}");
+        }
+    }
+
+    #[test]
+    fn numbers_are_formatted_as_the_general_writer_formats_them() {
+        for v in [
+            0.0,
+            -0.0,
+            1.0,
+            -3.0,
+            0.1,
+            50_000.0,
+            50_030.034_2,
+            1e-5,
+            9.999_999e-6,
+            1e17,
+            9.999_999_999_999_998e16,
+            1e16,
+            123_456_789_012_345_680.0,
+            3.334_722e-11,
+            1e300,
+            -2e300,
+            5e-324,
+            f64::MAX,
+            f64::MIN_POSITIVE,
+            0.000_123,
+            1e21,
+            1e22,
+            f64::NAN,
+            f64::INFINITY,
+        ] {
+            assert_eq!(formatted(v), general_format(v), "{v:e}");
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(20_000))]
+        #[test]
+        fn any_f64_is_formatted_as_the_general_writer_does(bits in any::<u64>()) {
+            let v = f64::from_bits(bits);
+            prop_assert_eq!(formatted(v), general_format(v));
+        }
+
+        #[test]
+        fn short_binary_fractions_are_formatted_as_the_general_writer_does(
+            int in -(1i64 << 53)..(1i64 << 53), shift in 0i32..70,
+        ) {
+            // Few bits after the point: where two shortest texts can tie.
+            let v = int as f64 * 2f64.powi(-shift);
+            prop_assert_eq!(formatted(v), general_format(v));
+        }
+
+        #[test]
+        fn plain_decimals_parse_as_str_parse_does(
+            int in 0u64..100_000_000_000, frac in 0u64..100_000_000, width in 0usize..9,
+            negative in any::<bool>(),
+        ) {
+            let frac = frac % 10u64.pow(width as u32);
+            let text = if width == 0 {
+                format!("{}{int}", if negative { "-" } else { "" })
+            } else {
+                format!("{}{int}.{frac:0width$}", if negative { "-" } else { "" })
+            };
+            let want: f64 = text.parse().unwrap();
+            let got = plain_decimal(text.as_bytes());
+            // Digits beyond 2⁵³ go the general way; every other cell takes the fast one.
+            let fast = text.len() - usize::from(negative) - usize::from(width > 0) <= 15;
+            prop_assert!(got.is_some() || !fast, "{text}");
+            prop_assert!(got.is_none_or(|v| v.to_bits() == want.to_bits()), "{text}");
+        }
+    }
+
+    #[test]
+    fn only_plain_decimals_take_the_fast_path() {
+        for cell in [
+            "", "-", ".", "1e5", " 1", "1 ", "1.2.3", "nan", "inf", "0x10", "--1",
+        ] {
+            assert_eq!(plain_decimal(cell.as_bytes()), None, "{cell:?}");
+        }
+        assert_eq!(plain_decimal(b"1."), Some(1.0));
+        assert_eq!(plain_decimal(b".5"), Some(0.5));
+        assert_eq!(plain_decimal(b"+2.50"), Some(2.5));
+        assert_eq!(
+            plain_decimal(b"-0").map(f64::to_bits),
+            Some((-0.0f64).to_bits())
+        );
+        assert_eq!(plain_decimal(b"12345678901234567890"), None);
+        assert_eq!(plain_decimal(b"9007199254740993"), None);
+    }
+
+    fn raw(text: &str) -> Option<RawCsv> {
+        let all = |headers: &[String]| (0..headers.len()).collect();
+        from_bytes(
+            Arc::new(Bytes::Owned(text.as_bytes().to_vec())),
+            Path::new("t.csv"),
+            &all,
+        )
+    }
+
+    #[test]
+    fn what_the_general_reader_must_see_is_refused() {
+        for text in [
+            "a,b\n1,\"2\"\n",
+            "\"a\",b\n1,2\n",
+            "a,b\n1,2\r3,4\n",
+            "a,b\n1,2\n3\n",
+            "a,b\n1,2,3\n",
+            "a,b\n1,\u{fffd}\n",
+            "a,b",
+            "",
+            "\na,b\n1,2\n",
+        ] {
+            let refused = match text {
+                "a,b\n1,\u{fffd}\n" => raw(text).is_some(),
+                _ => raw(text).is_none(),
+            };
+            assert!(refused, "{text:?}");
+        }
+        let mut invalid = b"a,b\n1,".to_vec();
+        invalid.extend_from_slice(&[0xff, b'\n']);
+        let none = |_: &[String]| Vec::new();
+        assert!(from_bytes(Arc::new(Bytes::Owned(invalid)), Path::new("t.csv"), &none).is_none());
+    }
+
+    #[test]
+    fn rows_lines_and_untidy_cells_are_found() {
+        let csv = raw("a,b\r\n1,2\r\n\r\n 3 ,4\n\n5,6").unwrap();
+        assert_eq!(csv.headers, ["a", "b"]);
+        assert_eq!(csv.rows.len(), 3);
+        assert_eq!(csv.rows.cell(1, 0), "3");
+        assert_eq!(csv.rows.cell(2, 1), "6");
+        assert_eq!(csv.rows.untidy, [1]);
+        assert_eq!(csv.lines, Some(vec![2, 4, 6]));
+        let mut out = Vec::new();
+        write_rows(&csv.rows, &[&[0.5, f64::NAN, 7.0]], &mut out).unwrap();
+        assert_eq!(String::from_utf8(out).unwrap(), "1,2,0.5\n3,4,\n5,6,7\n");
+        let parsed = csv.rows.parse(&[1, 0]);
+        assert_eq!(parsed[0].0, [2.0, 4.0, 6.0]);
+        assert_eq!(parsed[1].0, [1.0, 3.0, 5.0]);
+        let selected = csv.rows.select(&[1, 2]);
+        assert_eq!(selected.untidy, [0]);
+        assert_eq!(selected.cell(1, 0), "5");
+    }
+
+    /// A CSV text of a few columns whose cells, line ends and blank lines are drawn from what
+    /// real files hold and what the general reader must handle itself.
+    fn csv_text() -> impl Strategy<Value = String> {
+        let cell = prop::sample::select(vec![
+            "123",
+            "-4.5",
+            "50030.0342",
+            "1e3",
+            ".5",
+            "7.",
+            "+2",
+            "",
+            "nan",
+            "NaN",
+            " 12 ",
+            "\t3",
+            "x7",
+            "é",
+            "\u{a0}5",
+            "5\u{3000}",
+            "1,5",
+            "\"q\"",
+            "0",
+            "-0",
+            "9007199254740993",
+            "1.23456789012345678901",
+            "inf",
+        ]);
+        let row = prop::collection::vec(cell, 1..5);
+        let end = prop::sample::select(vec!["\n", "\n", "\r\n", "\n\n", "\r\n\r\n", "\r", "\n \n"]);
+        (
+            1usize..4,
+            prop::collection::vec((row, end), 1..12),
+            any::<bool>(),
+        )
+            .prop_map(|(width, rows, last_newline)| {
+                let header: Vec<String> = (0..width).map(|j| format!("c{j}")).collect();
+                let mut text = header.join(",") + "\n";
+                let count = rows.len();
+                for (k, (cells, end)) in rows.into_iter().enumerate() {
+                    // Mostly as wide as the header, sometimes not (a ragged line).
+                    let cells: Vec<&str> = cells.iter().cycle().take(width).copied().collect();
+                    text += &cells.join(",");
+                    if k + 1 < count || last_newline {
+                        text += end;
+                    }
+                }
+                text
+            })
+    }
+
+    /// `text` with the digits of every `line N` hidden.
+    fn without_line_numbers(text: &str) -> String {
+        let mut out = String::new();
+        let mut rest = text;
+        while let Some(at) = rest.find("line ") {
+            out += &rest[..at + 5];
+            rest = rest[at + 5..].trim_start_matches(|c: char| c.is_ascii_digit());
+            out += "N";
+        }
+        out + rest
+    }
+
+    /// Whether two tables read from the same text are the same. With `lines_comparable` false
+    /// their rows' file lines are not compared: the general reader (the `csv` crate's count)
+    /// dates rows after a `\r\n` one line early, and a last row without a line break after
+    /// blank lines too; this reader counts the line breaks themselves.
+    fn assert_same_table(a: &Table, b: &Table, extra: &[f64], lines_comparable: bool) {
+        assert_eq!(a.headers(), b.headers());
+        assert_eq!(a.len(), b.len());
+        if lines_comparable {
+            for k in 0..a.len() {
+                assert_eq!(a.place_of(k), b.place_of(k), "row {k}");
+            }
+        }
+        let message = |e: IoError| match lines_comparable {
+            true => e.to_string(),
+            false => without_line_numbers(&e.to_string()),
+        };
+        for j in 0..a.headers().len() {
+            match (&a.columns()[j], &b.columns()[j]) {
+                (Column::Text(x), Column::Text(y)) => {
+                    for k in 0..a.len() {
+                        assert_eq!(x.get(k), y.get(k), "cell {j} {k}");
+                    }
+                }
+                _ => panic!("text columns"),
+            }
+            let (x, y) = (a.numeric_at(j), b.numeric_at(j));
+            match (x, y) {
+                (Ok(x), Ok(y)) => {
+                    let bits = |v: &[f64]| v.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                    assert_eq!(bits(&x), bits(&y));
+                }
+                (Err(x), Err(y)) => assert_eq!(message(x), message(y)),
+                (x, y) => panic!("{x:?} vs {y:?}"),
+            }
+        }
+        let extra = vec![("new".to_string(), extra[..a.len()].to_vec())];
+        let (mut x, mut y) = (Vec::new(), Vec::new());
+        write_with_column(a, &extra, &mut x).unwrap();
+        write_with_column(b, &extra, &mut y).unwrap();
+        assert_eq!(String::from_utf8(x).unwrap(), String::from_utf8(y).unwrap());
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(3000))]
+        #[test]
+        fn both_readers_give_the_same_table(
+            text in csv_text(),
+            extra in prop::collection::vec(prop::num::f64::ANY, 24),
+            keep in prop::collection::vec(any::<bool>(), 24),
+        ) {
+            let raw = Table::from_csv_bytes(text.as_bytes().to_vec(), "t.csv");
+            let general = Table::from_reader(text.as_bytes(), "t.csv");
+            let comparable = !text.contains('\r') && text.ends_with('\n');
+            match (raw, general) {
+                (Ok(a), Ok(b)) => {
+                    assert_same_table(&a, &b, &extra, comparable);
+                    let keep = &keep[..a.len()];
+                    let (a, b) = (a.select_rows(keep), b.select_rows(keep));
+                    if !a.is_empty() {
+                        assert_same_table(&a, &b, &extra, comparable);
+                    }
+                }
+                (Err(a), Err(b)) if comparable => prop_assert_eq!(a.to_string(), b.to_string()),
+                (Err(a), Err(b)) => prop_assert_eq!(
+                    without_line_numbers(&a.to_string()),
+                    without_line_numbers(&b.to_string())
+                ),
+                (a, b) => prop_assert!(false, "{:?} vs {:?}", a.map(|t| t.len()), b.map(|t| t.len())),
+            }
+        }
+    }
+
+    #[test]
+    fn most_generated_files_are_taken_by_this_reader() {
+        // The property above means little if every file went the general way.
+        let mut runner = proptest::test_runner::TestRunner::deterministic();
+        let (mut taken, mut total) = (0, 0);
+        for _ in 0..500 {
+            let text = csv_text().new_tree(&mut runner).unwrap().current();
+            let none = |_: &[String]| Vec::new();
+            let bytes = Arc::new(Bytes::Owned(text.into_bytes()));
+            taken += usize::from(from_bytes(bytes, Path::new("t.csv"), &none).is_some());
+            total += 1;
+        }
+        assert!(taken * 5 > total, "{taken} of {total}");
+    }
+
+    #[test]
+    fn bad_cells_are_reported_at_their_first_row() {
+        let csv = raw("a,b\n1,x\n2,3\nq,y\n").unwrap();
+        let parsed = csv.rows.parse(&[0, 1]);
+        assert_eq!(parsed[0].1, Some(2));
+        assert_eq!(parsed[1].1, Some(0));
+        assert!(parsed[1].0[0].is_nan());
+    }
+}
