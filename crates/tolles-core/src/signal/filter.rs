@@ -42,6 +42,8 @@ use std::ops::{Add, Div, Mul, Sub};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
+mod lanes;
+
 /// Pass band (Hz) of a zero-phase Butterworth filter, MagNav's `pass1`/`pass2`.
 ///
 /// An edge ≤ 0 or ≥ fs/2 is switched off (see [`magnav_bandpass`]): band-pass becomes low-pass
@@ -305,6 +307,10 @@ pub fn filtfilt_unless_constant(filter: &Butterworth, x: &[f64]) -> Result<Vec<f
 /// [`filtfilt_unless_constant`] on several equally long signals, in place, shared among the
 /// available cores; the result is bit-for-bit the same as filtering each on its own.
 ///
+/// The signals are filtered side by side, up to eight per pass, in the lanes of SIMD
+/// registers: one signal's recursion is latency-bound, so this runs about twice as fast
+/// (four times with one or two sections), and it needs no buffer of the signals' length.
+///
 /// # Panics
 /// If the signals differ in length: that is a programming error, not bad input.
 pub fn filtfilt_many_unless_constant(
@@ -330,20 +336,16 @@ pub fn filtfilt_many_unless_constant(
         .map_or(1, |t| t.get())
         .min(varying.len())
         .min(1 + n * varying.len() / PARALLEL_SAMPLES);
-    let filter_all = |share: &mut [&mut [f64]]| {
-        for x in share.iter_mut() {
-            let filtered = filter.filtfilt(x).expect("longer than padlen");
-            x.copy_from_slice(&filtered);
-        }
-    };
     if threads <= 1 {
-        filter_all(&mut varying);
+        lanes::filtfilt_all(filter, &mut varying);
         return Ok(());
     }
+    // Equal shares of signals rather than of whole blocks keep the threads finishing
+    // together: 20 signals on two cores as 10 + 10 (8 + 2 each), not 16 + 4.
     let per_thread = varying.len().div_ceil(threads);
     std::thread::scope(|scope| {
         for share in varying.chunks_mut(per_thread) {
-            scope.spawn(move || filter_all(share));
+            scope.spawn(move || lanes::filtfilt_all(filter, share));
         }
     });
     Ok(())
