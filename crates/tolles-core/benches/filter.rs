@@ -1,16 +1,19 @@
 //! Zero-phase band-pass of a fit's columns: 20 signals of 10⁶ samples (a design matrix of 19
 //! columns and the scalar) through MagNav's 4th-order 0.1–0.9 Hz Butterworth at 10 Hz.
 //!
-//! `per_column` is the old way, one `Butterworth::filtfilt` per signal copied back, on one
-//! thread and (`per_column_threads`) shared among the cores as `filtfilt_many_unless_constant`
-//! used to; `blocks` is `filtfilt_many_unless_constant` now, eight signals per pass.
+//! `per_column` is the old way, `filtfilt_unless_constant` (the constancy test, then
+//! `Butterworth::filtfilt`) per signal copied back, on one thread and (`per_column_threads`)
+//! shared among the cores as `filtfilt_many_unless_constant` used to; `blocks` is
+//! `filtfilt_many_unless_constant` now, eight signals per pass.
 //!
 //! `cargo bench -p tolles-core --bench filter`; under `taskset -c 0` the threaded variants
 //! use one core, which compares the single-thread speed of the kernels.
 
 use criterion::{criterion_group, BatchSize, Criterion, SamplingMode, Throughput};
 use std::hint::black_box;
-use tolles_core::signal::filter::{filtfilt_many_unless_constant, magnav_bandpass, Butterworth};
+use tolles_core::signal::filter::{
+    filtfilt_many_unless_constant, filtfilt_unless_constant, magnav_bandpass, Butterworth,
+};
 
 const FS_HZ: f64 = 10.0;
 const SAMPLES: usize = 1_000_000;
@@ -36,7 +39,7 @@ fn signals() -> Vec<Vec<f64>> {
 /// One signal at a time, as `filtfilt_many_unless_constant` did before blocks.
 fn per_column(filter: &Butterworth, signals: &mut [Vec<f64>]) {
     for x in signals.iter_mut() {
-        let filtered = filter.filtfilt(x).unwrap();
+        let filtered = filtfilt_unless_constant(filter, x).unwrap();
         x.copy_from_slice(&filtered);
     }
 }
