@@ -309,8 +309,8 @@ pub fn filtfilt_unless_constant(filter: &Butterworth, x: &[f64]) -> Result<Vec<f
 ///
 /// The signals are tested for constancy and filtered side by side, up to eight per pass,
 /// in the lanes of SIMD registers: one signal's sums and recursions are latency-bound, so
-/// this runs about twice as fast (four times with one or two sections), and it needs no
-/// buffer of the signals' length.
+/// this runs about twice as fast with MagNav's band-pass (four sections) and up to four
+/// times with a single section, and it needs no buffer of the signals' length.
 ///
 /// # Panics
 /// If the signals differ in length: that is a programming error, not bad input.
