@@ -76,7 +76,7 @@ fn sample_std_block<const L: usize>(signals: &[&mut [f64]], tile: &mut [[f64; L]
     for (l, x) in signals.iter().enumerate() {
         x0[l] = x[0];
     }
-    // `Iterator::sum` of f64 folds from -0.0.
+    // Starting where `Iterator::sum` of f64 starts (-0.0) keeps even a zero sum identical.
     let mut sum = [-0.0; L];
     for start in (0..n).step_by(TILE) {
         let tile = &mut tile[..TILE.min(n - start)];
