@@ -1,0 +1,96 @@
+//! Zero-phase band-pass of a fit's columns: 20 signals of 10⁶ samples (a design matrix of 19
+//! columns and the scalar) through MagNav's 4th-order 0.1–0.9 Hz Butterworth at 10 Hz.
+//!
+//! `per_column` is the old way, `filtfilt_unless_constant` (the constancy test, then
+//! `Butterworth::filtfilt`) per signal copied back, on one thread and (`per_column_threads`)
+//! shared among the cores as `filtfilt_many_unless_constant` used to; `blocks` is
+//! `filtfilt_many_unless_constant` now, eight signals per pass.
+//!
+//! `cargo bench -p tolles-core --bench filter`; under `taskset -c 0` the threaded variants
+//! use one core, which compares the single-thread speed of the kernels.
+
+use criterion::{criterion_group, BatchSize, Criterion, SamplingMode, Throughput};
+use std::hint::black_box;
+use tolles_core::signal::filter::{
+    filtfilt_many_unless_constant, filtfilt_unless_constant, magnav_bandpass, Butterworth,
+};
+
+const FS_HZ: f64 = 10.0;
+const SAMPLES: usize = 1_000_000;
+const SIGNALS: usize = 20;
+
+/// Slow manoeuvre-like sines on large offsets plus broadband wiggle, different per signal
+/// (the values do not change the work, but keep it realistic: no subnormals).
+fn signals() -> Vec<Vec<f64>> {
+    (0..SIGNALS)
+        .map(|j| {
+            let (f1, f2) = (0.05 + 0.01 * j as f64, 1.3 + 0.1 * j as f64);
+            (0..SAMPLES)
+                .map(|k| {
+                    let t = k as f64 / FS_HZ;
+                    let w = std::f64::consts::TAU * t;
+                    1_000.0 * j as f64 + 300.0 * (f1 * w).sin() + 2.0 * (f2 * w).cos()
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// One signal at a time, as `filtfilt_many_unless_constant` did before blocks.
+fn per_column(filter: &Butterworth, signals: &mut [Vec<f64>]) {
+    for x in signals.iter_mut() {
+        let filtered = filtfilt_unless_constant(filter, x).unwrap();
+        x.copy_from_slice(&filtered);
+    }
+}
+
+/// [`per_column`] shared among the cores by whole signals, the old threading.
+fn per_column_threads(filter: &Butterworth, signals: &mut [Vec<f64>]) {
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |t| t.get())
+        .min(signals.len());
+    let per_thread = signals.len().div_ceil(threads);
+    std::thread::scope(|scope| {
+        for share in signals.chunks_mut(per_thread) {
+            scope.spawn(move || per_column(filter, share));
+        }
+    });
+}
+
+/// A way of filtering every signal in place.
+type Variant = fn(&Butterworth, &mut [Vec<f64>]);
+
+fn blocks(filter: &Butterworth, signals: &mut [Vec<f64>]) {
+    let mut views: Vec<&mut [f64]> = signals.iter_mut().map(|x| x.as_mut_slice()).collect();
+    filtfilt_many_unless_constant(filter, &mut views).unwrap();
+}
+
+fn bandpass(c: &mut Criterion) {
+    let filter = magnav_bandpass(0.1, 0.9, 4, FS_HZ).unwrap().unwrap();
+    let input = signals();
+    let mut group = c.benchmark_group("filtfilt_20x1e6");
+    group.sample_size(10).sampling_mode(SamplingMode::Flat);
+    group.throughput(Throughput::Elements((SIGNALS * SAMPLES) as u64));
+    let variants: [(&str, Variant); 3] = [
+        ("per_column", per_column),
+        ("per_column_threads", per_column_threads),
+        ("blocks", blocks),
+    ];
+    for (name, run) in variants {
+        group.bench_function(name, |b| {
+            b.iter_batched_ref(
+                || input.clone(),
+                |x| run(&filter, black_box(x)),
+                BatchSize::LargeInput,
+            )
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bandpass);
+
+fn main() {
+    benches();
+    Criterion::default().configure_from_args().final_summary();
+}
