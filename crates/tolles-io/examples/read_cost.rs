@@ -45,7 +45,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     let start = Instant::now();
     if let Some(out) = &write {
-        let extra = vec![("copy".to_string(), first)];
+        let extra = [("copy", first.as_slice())];
         write_table(&table, &extra, out, Format::for_output(out)?)?;
     }
     let write_s = start.elapsed().as_secs_f64();

@@ -152,15 +152,11 @@ fn read_hdf5_or_mat(path: &Path) -> Result<Table, IoError> {
 /// the input.
 pub fn write_table(
     table: &Table,
-    extra: &[(String, Vec<f64>)],
+    extra: &[(&str, &[f64])],
     path: &Path,
     format: Format,
 ) -> Result<Written, IoError> {
-    let extra: Vec<(&str, &[f64])> = extra
-        .iter()
-        .map(|(name, values)| (name.as_str(), values.as_slice()))
-        .collect();
-    write_parts(table, &extra, &[], path, format, Text::Refuse)
+    write_parts(table, extra, &[], path, format, Text::Refuse)
 }
 
 /// What a table was written as.

@@ -109,13 +109,25 @@ pub(crate) struct RawCsv {
     pub lines: Option<Vec<u64>>,
 }
 
-/// One column parsed while the rows were found.
+/// One column parsed while the rows were found, in the pieces the cores read: joined only
+/// when asked for, so the values are copied once.
 #[derive(Debug, Clone)]
 struct ParsedField {
     field: usize,
-    values: Vec<f64>,
+    pieces: Vec<Vec<f64>>,
     /// The first row whose cell is not a number.
     bad: Option<usize>,
+}
+
+impl ParsedField {
+    /// The values of every row, in order.
+    fn values(&self) -> Vec<f64> {
+        let mut values = Vec::with_capacity(self.pieces.iter().map(|p| p.len()).sum());
+        for piece in &self.pieces {
+            values.extend_from_slice(piece);
+        }
+        values
+    }
 }
 
 /// Smallest piece of a file one core scans on its own (bytes).
@@ -196,21 +208,18 @@ fn assemble(
         rows.lens.extend_from_slice(&piece.lens);
         blank |= piece.blank;
     }
-    // Each parsed column joined on a core of its own.
+    let mut pieces = pieces;
     rows.parsed = (0..fields.len())
-        .into_par_iter()
-        .map(|slot| {
-            let mut values = Vec::with_capacity(total);
-            let mut bad = None;
-            for (piece, first) in pieces.iter().zip(&firsts) {
-                values.extend_from_slice(&piece.values[slot]);
-                bad = bad.or(piece.bad[slot].map(|k| k + first));
-            }
-            ParsedField {
-                field: fields[slot],
-                values,
-                bad,
-            }
+        .map(|slot| ParsedField {
+            field: fields[slot],
+            pieces: pieces
+                .iter_mut()
+                .map(|p| std::mem::take(&mut p.values[slot]))
+                .collect(),
+            bad: pieces
+                .iter()
+                .zip(&firsts)
+                .find_map(|(p, first)| p.bad[slot].map(|k| k + first)),
         })
         .collect();
     Some(Assembled { rows, blank })
@@ -592,10 +601,13 @@ impl RawRows {
             .parsed
             .iter()
             .filter(|p| p.bad.is_none())
-            .map(|p| ParsedField {
-                field: p.field,
-                values: kept.iter().map(|&k| p.values[k]).collect(),
-                bad: None,
+            .map(|p| {
+                let values = p.values();
+                ParsedField {
+                    field: p.field,
+                    pieces: vec![kept.iter().map(|&k| values[k]).collect()],
+                    bad: None,
+                }
             })
             .collect();
         RawRows {
@@ -622,7 +634,7 @@ impl RawRows {
         fields
             .iter()
             .map(|&f| match known(f) {
-                Some(p) => (p.values.clone(), p.bad),
+                Some(p) => (p.values(), p.bad),
                 None => fresh.next().unwrap_or_default(),
             })
             .collect()
@@ -729,27 +741,32 @@ pub fn write_rows(rows: &RawRows, extra: &[&[f64]], out: &mut dyn Write) -> std:
     let blocks = n.div_ceil(BLOCK_ROWS);
     let threads = std::thread::available_parallelism().map_or(1, |t| t.get());
     if blocks <= 1 || threads <= 1 {
-        return (0..blocks)
-            .try_for_each(|b| out.write_all(&format_block(rows, extra, block(b, n))));
+        let mut text = Vec::new();
+        return (0..blocks).try_for_each(|b| {
+            format_block(rows, extra, block(b, n), &mut text);
+            out.write_all(&text)
+        });
     }
     // Formatting threads take blocks in order and the caller's thread writes them in order, so
-    // the output is written while the rest is formatted, and only blocks written out of turn
-    // wait in memory.
+    // the output is written while the rest is formatted; written buffers go back to the
+    // formatters, so memory stays a few blocks and their pages are touched once.
     let next = AtomicUsize::new(0);
     let stop = AtomicBool::new(false);
     let (sender, receiver) = std::sync::mpsc::channel::<(usize, Vec<u8>)>();
+    let (give_back, spare) = std::sync::mpsc::channel::<Vec<u8>>();
+    let spare = std::sync::Mutex::new(spare);
     std::thread::scope(|scope| {
         for _ in 0..threads {
-            let (sender, next, stop) = (sender.clone(), &next, &stop);
+            let (sender, next, stop, spare) = (sender.clone(), &next, &stop, &spare);
             scope.spawn(move || loop {
                 let b = next.fetch_add(1, Ordering::Relaxed);
                 if b >= blocks || stop.load(Ordering::Relaxed) {
                     break;
                 }
-                if sender
-                    .send((b, format_block(rows, extra, block(b, n))))
-                    .is_err()
-                {
+                let reused = spare.lock().ok().and_then(|s| s.try_recv().ok());
+                let mut text = reused.unwrap_or_default();
+                format_block(rows, extra, block(b, n), &mut text);
+                if sender.send((b, text)).is_err() {
                     break;
                 }
             });
@@ -764,6 +781,7 @@ pub fn write_rows(rows: &RawRows, extra: &[&[f64]], out: &mut dyn Write) -> std:
                     stop.store(true, Ordering::Relaxed);
                     return Err(e);
                 }
+                let _ = give_back.send(text);
                 written += 1;
             }
         }
@@ -777,9 +795,10 @@ fn block(b: usize, n: usize) -> Range<usize> {
 }
 
 /// The text of rows `range` with their extra cells.
-fn format_block(rows: &RawRows, extra: &[&[f64]], range: Range<usize>) -> Vec<u8> {
+fn format_block(rows: &RawRows, extra: &[&[f64]], range: Range<usize>, text: &mut Vec<u8>) {
     let width: usize = range.clone().map(|k| rows.lens[k] as usize).sum();
-    let mut text = Vec::with_capacity(width + range.len() * (1 + 20 * extra.len()));
+    text.clear();
+    text.reserve(width + range.len() * (1 + 25 * extra.len()));
     let first_untidy = rows.untidy.partition_point(|&u| (u as usize) < range.start);
     let mut untidy = rows.untidy[first_untidy..].iter().peekable();
     let mut number = zmij::Buffer::new();
@@ -797,11 +816,10 @@ fn format_block(rows: &RawRows, extra: &[&[f64]], range: Range<usize>) -> Vec<u8
         }
         for column in extra {
             text.push(b',');
-            format_number(column[k], &mut number, &mut text);
+            format_number(column[k], &mut number, text);
         }
         text.push(b'\n');
     }
-    text
 }
 
 /// Appends `v` as [`crate::table::format_value`] writes it — the shortest text that reads back

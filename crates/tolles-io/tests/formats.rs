@@ -157,6 +157,10 @@ fn round_trip(format: Format, ext: &str) {
         ],
     )];
     let path = dir.join(format!("out.{ext}"));
+    let extra: Vec<(&str, &[f64])> = extra
+        .iter()
+        .map(|(n, v)| (n.as_str(), v.as_slice()))
+        .collect();
     write_table(&source, &extra, &path, format).unwrap();
     let back = Table::read(&path, None).unwrap();
     let mut names: Vec<String> = source.headers().to_vec();
@@ -297,7 +301,7 @@ mod round_trips {
             std::fs::create_dir_all(&dir).unwrap();
             for (format, ext) in [(Format::Csv, "csv"), (Format::Hdf5, "h5"), (Format::Parquet, "parquet")] {
                 let path = dir.join(format!("p.{ext}"));
-                write_table(&source, &[("b".into(), b.clone())], &path, format).unwrap();
+                write_table(&source, &[("b", b.as_slice())], &path, format).unwrap();
                 let back = Table::read(&path, None).unwrap();
                 assert_same(&a, &back.numeric("a").unwrap(), ext);
                 assert_same(&b, &back.numeric("b").unwrap(), ext);

@@ -14,11 +14,12 @@ use std::path::{Path, PathBuf};
 use std::str::FromStr;
 use tolles_core::compensate::{compensate_model, Compensation, Level, Model};
 use tolles_core::fit::check_flux_magnitude;
+use tolles_core::model::vector::Fluxgates;
 use tolles_io::format::{write_table, Format};
 use tolles_io::model::{ModelFile, ScalarModel};
 use tolles_io::schema::output_names;
 use tolles_io::select::RowSelection;
-use tolles_io::table::{write_with_column, Table};
+use tolles_io::table::{write_padded, Table};
 
 /// Which constant level of the aircraft's field is subtracted.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -144,11 +145,18 @@ pub fn compensate_flight(
         coefficients: &fit.fit.coefficients,
         magnitude: fit.fit.magnitude,
     };
-    // A fluxgate that samples late is read that much later, as the fit did.
-    let inputs = flight.lagged_inputs(fit.fit.lag_s, fs_hz);
+    // A fluxgate that samples late is read that much later, as the fit did; without a lag or
+    // extra channels to condition, the flight's own columns are the inputs (no copy).
+    let lagged;
+    let inputs: Fluxgates = if fit.fit.lag_s == 0.0 && flight.extras.is_empty() {
+        flight.flux.as_slice().into()
+    } else {
+        lagged = flight.lagged_inputs(fit.fit.lag_s, fs_hz);
+        (&lagged).into()
+    };
     Ok(compensate_model(
         &flight.scalar,
-        &inputs,
+        inputs,
         flight.tt.as_deref(),
         model,
         fs_hz / fit.fit.fs_hz,
@@ -178,16 +186,16 @@ pub fn write_compensated(
     columns: &[CompensatedColumn],
     destination: Destination<'_>,
 ) -> Result<()> {
-    let extra: Vec<(String, Vec<f64>)> = columns
+    let extra: Vec<(&str, &[f64])> = columns
         .iter()
-        .map(|c| (c.name.clone(), c.values.clone()))
+        .map(|c| (c.name.as_str(), c.values.as_slice()))
         .collect();
     match destination {
         Destination::File(path) => {
             write_table(table, &extra, &path, Format::for_output(&path)?)?;
             Ok(())
         }
-        Destination::Csv(out) => write_with_column(table, &extra, &mut *out)
+        Destination::Csv(out) => write_padded(table, &extra, table.len(), &mut *out)
             .and_then(|_| out.flush())
             .map_err(|source| Error::Write {
                 what: "writing the compensated data".to_string(),
