@@ -143,24 +143,18 @@ fn round_trip(format: Format, ext: &str) {
     let dir = std::env::temp_dir().join(format!("tolles-formats-{}-{ext}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let source = read("geosoft.xyz");
-    let extra = vec![(
-        "mag_1_c".to_string(),
-        vec![
-            1.5,
-            f64::NAN,
-            -2.25e-7,
-            1e300,
-            0.1,
-            0.2,
-            0.3,
-            49_999.123_456_789,
-        ],
-    )];
+    let values = [
+        1.5,
+        f64::NAN,
+        -2.25e-7,
+        1e300,
+        0.1,
+        0.2,
+        0.3,
+        49_999.123_456_789,
+    ];
+    let extra = [("mag_1_c", values.as_slice())];
     let path = dir.join(format!("out.{ext}"));
-    let extra: Vec<(&str, &[f64])> = extra
-        .iter()
-        .map(|(n, v)| (n.as_str(), v.as_slice()))
-        .collect();
     write_table(&source, &extra, &path, format).unwrap();
     let back = Table::read(&path, None).unwrap();
     let mut names: Vec<String> = source.headers().to_vec();
@@ -170,7 +164,7 @@ fn round_trip(format: Format, ext: &str) {
         let (a, b) = (source.numeric_at(k).unwrap(), back.numeric(name).unwrap());
         assert_same(&a, &b, name);
     }
-    assert_same(&extra[0].1, &back.numeric("mag_1_c").unwrap(), "mag_1_c");
+    assert_same(&values, &back.numeric("mag_1_c").unwrap(), "mag_1_c");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
