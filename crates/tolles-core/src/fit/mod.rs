@@ -54,6 +54,7 @@ pub mod crossval;
 pub mod lag;
 pub mod levels;
 mod problem;
+mod qr;
 pub mod ridge;
 
 use crate::fit::choice::{choose_design, pick_magnitude, union_of_terms};
