@@ -104,13 +104,6 @@ impl Ridge {
         }
     }
 
-    /// The triangular factor of `[A | y]` for the rows pushed so far, `(p+1)` columns.
-    pub(crate) fn factor(&self) -> DMatrix<f64> {
-        let mut me = self.clone();
-        me.flush();
-        me.r
-    }
-
     /// Adds `rows` rows given by the triangular factor `r` of their `[A | y]`.
     pub(crate) fn push_factor(&mut self, r: &DMatrix<f64>, rows: usize) {
         assert_eq!(r.ncols(), self.p + 1, "design width");

@@ -203,10 +203,22 @@ impl Design {
     /// If `terms` names a fluxgate that `flux` does not have: a programming error.
     pub fn matrix_of<'a>(&self, flux: impl Into<Fluxgates<'a>>, terms: &[Term]) -> DMatrix<f64> {
         let flux = flux.into();
-        let components: Vec<Components> = flux.series().iter().map(|s| Components::of(s)).collect();
         let mut a = DMatrix::zeros(flux.len(), terms.len());
-        for (mut out, term) in a.column_iter_mut().zip(terms) {
-            let out = out.as_mut_slice();
+        self.matrix_into(flux, terms, a.as_mut_slice());
+        a
+    }
+
+    /// [`Design::matrix_of`] written column after column into `out` (`terms.len()` columns of
+    /// one value per sample), so a caller can build it where it will be filtered.
+    ///
+    /// # Panics
+    /// If `out` is shorter than the matrix, or `terms` names a fluxgate that `flux` does not
+    /// have: programming errors.
+    pub fn matrix_into<'a>(&self, flux: impl Into<Fluxgates<'a>>, terms: &[Term], out: &mut [f64]) {
+        let flux = flux.into();
+        let n = flux.len();
+        let components: Vec<Components> = flux.series().iter().map(|s| Components::of(s)).collect();
+        for (out, term) in out.chunks_exact_mut(n.max(1)).zip(terms) {
             let c = &components[term.fluxgate];
             let scaled = |out: &mut [f64], u: &[f64], v: &[f64]| {
                 for ((o, u), v) in out.iter_mut().zip(u).zip(v) {
@@ -229,7 +241,6 @@ impl Design {
                 Column::Bias => out.fill(1.0),
             }
         }
-        a
     }
 
     /// The design matrix of one contiguous series (rows = samples), all columns.

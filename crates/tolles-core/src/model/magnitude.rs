@@ -147,22 +147,46 @@ pub fn exact_jacobian(
     coefficients: &[f64],
     terms: &[Term],
 ) -> (Vec<f64>, DMatrix<f64>) {
+    let mut jacobian = DMatrix::zeros(flux.len(), terms.len());
+    let mut delta = vec![0.0; flux.len()];
+    exact_jacobian_into(
+        design,
+        flux,
+        coefficients,
+        terms,
+        jacobian.as_mut_slice(),
+        &mut delta,
+    );
+    (delta, jacobian)
+}
+
+/// [`exact_jacobian`] written into `jacobian` (column-major, one value per sample per term)
+/// and `delta` (one per sample), so the caller decides where the rows live.
+///
+/// # Panics
+/// If `jacobian` or `delta` is shorter than the series needs: programming errors.
+pub fn exact_jacobian_into(
+    design: &Design,
+    flux: &VectorSeries,
+    coefficients: &[f64],
+    terms: &[Term],
+    jacobian: &mut [f64],
+    delta: &mut [f64],
+) {
     let columns = design.columns();
     let db = derivatives(flux);
-    let mut jacobian = DMatrix::zeros(flux.len(), terms.len());
-    let mut delta = Vec::with_capacity(flux.len());
-    for k in 0..flux.len() {
+    let n = flux.len();
+    for k in 0..n {
         let (b, d) = (sample(flux, k), at(&db, k));
         let (value, direction) = exact_at(design, &columns, coefficients, b, d);
-        delta.push(value);
+        delta[k] = value;
         for (c, term) in terms.iter().enumerate() {
-            jacobian[(k, c)] = match field_per_unit(term.column, b, d, design.bt_scale) {
+            jacobian[c * n + k] = match field_per_unit(term.column, b, d, design.bt_scale) {
                 Some(v) => direction[0] * v[0] + direction[1] * v[1] + direction[2] * v[2],
                 None => 1.0,
             };
         }
     }
-    (delta, jacobian)
 }
 
 fn derivatives(flux: &VectorSeries) -> [Vec<f64>; 3] {
