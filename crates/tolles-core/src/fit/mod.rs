@@ -492,6 +492,7 @@ pub fn fit<'a>(
         &linear,
         levels.as_ref(),
         problem.above.as_ref(),
+        Vec::new(),
     )?;
     let count = fold_count(settings.lambda);
     // The band rows are factored once, cut where the folds of either plan start: the folds

@@ -164,6 +164,11 @@ fn merged_kinds(band: usize, trim: usize, level_at: &[usize], above: usize) -> V
 }
 
 impl Prepared {
+    /// The buffers of the runs, for another preparation to reuse.
+    pub(super) fn into_buffers(self) -> Vec<Vec<f64>> {
+        self.runs.into_iter().map(|r| r.data).collect()
+    }
+
     /// Band rows of run `run`.
     fn band_rows(&self, run: usize) -> usize {
         self.runs[run].len - 2 * self.trim
@@ -403,6 +408,7 @@ impl Problem<'_, '_> {
         fill: &FillRun<'_>,
         levels: Option<&LevelSetup>,
         above_band: Option<&AboveBand>,
+        mut recycle: Vec<Vec<f64>>,
     ) -> Result<Prepared, FitError> {
         let trim = if self.filter.is_some() {
             self.settings.trim
@@ -426,7 +432,11 @@ impl Problem<'_, '_> {
                 short += n;
                 continue;
             }
-            let mut data = vec![0.0; n * (width + 1)];
+            // A buffer of an earlier preparation has its pages already: reusing it saves
+            // faulting in a fresh gigabyte on a long flight.
+            let mut data = recycle.pop().unwrap_or_default();
+            data.clear();
+            data.resize(n * (width + 1), 0.0);
             fill(run.clone(), &mut data);
             let above = match above_band {
                 Some(above) => Some(above.rows(&data, n, trim)?),
@@ -536,6 +546,7 @@ impl Problem<'_, '_> {
         let count = fold_count(self.settings.lambda);
         let mut beta = linear.solution.coefficients.clone();
         let mut best: Option<Chosen> = None;
+        let mut recycle = Vec::new();
         for iteration in 1..=EXACT_ITERATIONS {
             let current = beta.clone();
             let fill = |run: Range<usize>, out: &mut [f64]| {
@@ -548,15 +559,22 @@ impl Problem<'_, '_> {
                     *v = self.scalar[run.start + k] - *v + linearised;
                 }
             };
-            let prepared = self.prepare(terms.len(), &fill, levels.as_deref(), above.as_ref())?;
+            let mut prepared = self.prepare(
+                terms.len(),
+                &fill,
+                levels.as_deref(),
+                above.as_ref(),
+                std::mem::take(&mut recycle),
+            )?;
             let weight = levels.as_deref().map_or(0.0, LevelSetup::weight);
             let plan = prepared.plan(levels.is_some(), count);
             let band = prepared.band_factors(&[&plan]);
             let folds = prepared.fold_factors(&plan, weight, &band);
             let chosen = choose_design(&folds, &designs, &terms, self.settings.lambda, weight)?;
             if let Some(setup) = levels.as_deref_mut() {
-                setup.rows = prepared.levels;
+                setup.rows = std::mem::take(&mut prepared.levels);
             }
+            recycle = prepared.into_buffers();
             let step = relative_change(&beta, &chosen.solution.coefficients);
             beta = chosen.solution.coefficients.clone();
             best = Some(chosen);

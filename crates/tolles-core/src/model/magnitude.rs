@@ -111,6 +111,28 @@ pub fn exact_at(
             None => bias += beta,
         }
     }
+    change_of_magnitude(b, h, bias)
+}
+
+/// [`exact_at`] from each column's field per unit coefficient (`None` for the bias).
+fn exact_from_fields(
+    fields: &[Option<[f64; 3]>],
+    coefficients: &[f64],
+    b: [f64; 3],
+) -> (f64, [f64; 3]) {
+    let mut h = [0.0; 3];
+    let mut bias = 0.0;
+    for (field, beta) in fields.iter().zip(coefficients) {
+        match field {
+            Some(v) => (0..3).for_each(|i| h[i] += beta * v[i]),
+            None => bias += beta,
+        }
+    }
+    change_of_magnitude(b, h, bias)
+}
+
+/// `|B + H| − |B| + bias` (nT) as `(2B·H + H·H)/(|B + H| + |B|)`, and the direction of `B + H`.
+fn change_of_magnitude(b: [f64; 3], h: [f64; 3], bias: f64) -> (f64, [f64; 3]) {
     let total = [b[0] + h[0], b[1] + h[1], b[2] + h[2]];
     let (nb, nt) = (norm(b), norm(total));
     let dot =
@@ -176,16 +198,40 @@ pub fn exact_jacobian_into(
     let columns = design.columns();
     let db = derivatives(flux);
     let n = flux.len();
+    // Each column's field is needed for H and again for its derivative: when the terms are the
+    // design's own columns (one fluxgate, the usual case) it is computed once per sample.
+    let same =
+        terms.len() == columns.len() && terms.iter().zip(&columns).all(|(t, c)| t.column == *c);
+    let mut fields: Vec<Option<[f64; 3]>> = vec![None; columns.len()];
     for k in 0..n {
         let (b, d) = (sample(flux, k), at(&db, k));
-        let (value, direction) = exact_at(design, &columns, coefficients, b, d);
-        delta[k] = value;
-        for (c, term) in terms.iter().enumerate() {
-            jacobian[c * n + k] = match field_per_unit(term.column, b, d, design.bt_scale) {
-                Some(v) => direction[0] * v[0] + direction[1] * v[1] + direction[2] * v[2],
-                None => 1.0,
-            };
+        if !same {
+            let (value, direction) = exact_at(design, &columns, coefficients, b, d);
+            delta[k] = value;
+            for (c, term) in terms.iter().enumerate() {
+                jacobian[c * n + k] = derivative(
+                    field_per_unit(term.column, b, d, design.bt_scale),
+                    direction,
+                );
+            }
+            continue;
         }
+        for (field, column) in fields.iter_mut().zip(&columns) {
+            *field = field_per_unit(*column, b, d, design.bt_scale);
+        }
+        let (value, direction) = exact_from_fields(&fields, coefficients, b);
+        delta[k] = value;
+        for (c, field) in fields.iter().enumerate() {
+            jacobian[c * n + k] = derivative(*field, direction);
+        }
+    }
+}
+
+/// `∂|B + H|/∂β` of a column with field `field` (1 for the bias).
+fn derivative(field: Option<[f64; 3]>, direction: [f64; 3]) -> f64 {
+    match field {
+        Some(v) => direction[0] * v[0] + direction[1] * v[1] + direction[2] * v[2],
+        None => 1.0,
     }
 }
 
