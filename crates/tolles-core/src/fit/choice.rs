@@ -264,3 +264,55 @@ pub(super) fn solve(
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fit::qr::triangular_factor;
+    use proptest::prelude::*;
+
+    /// Columns of made-up values.
+    fn columns(m: usize, k: usize, seed: f64) -> Vec<Vec<f64>> {
+        (0..k)
+            .map(|j| {
+                (0..m)
+                    .map(|i| ((i * (j + 3)) as f64 * 0.29 + seed).sin() + 0.1 * j as f64)
+                    .collect()
+            })
+            .collect()
+    }
+
+    proptest! {
+        /// The factor of some columns derived from the factor of all of them gives the same
+        /// problem as pushing those columns directly.
+        #[test]
+        fn a_candidate_factor_derived_from_the_union_equals_a_direct_qr(
+            m in 6usize..400,
+            seed in -2.0f64..2.0,
+            picks in proptest::sample::subsequence(vec![0usize, 1, 2, 3, 4], 1..5),
+        ) {
+            let all = columns(m, 6, seed);
+            let refs: Vec<&[f64]> = all.iter().map(Vec::as_slice).collect();
+            let fold = FoldFactor {
+                r: triangular_factor(&refs),
+                rows: m,
+                level_r: DMatrix::zeros(0, 6),
+                level_rows: 0,
+            };
+            let (derived, _) = fold_problems(std::slice::from_ref(&fold), &picks);
+            let mut direct = Ridge::new(picks.len());
+            let chosen: Vec<&[f64]> = picks.iter().map(|&c| refs[c]).collect();
+            direct.push_columns(&chosen, refs[5]);
+            let names: Vec<String> = picks.iter().map(|c| c.to_string()).collect();
+            let (u, v) = (
+                derived[0].solve(1e-3, &names).unwrap(),
+                direct.solve(1e-3, &names).unwrap(),
+            );
+            for (x, y) in u.coefficients.iter().zip(&v.coefficients) {
+                prop_assert!((x - y).abs() <= 1e-9 * y.abs().max(1.0), "{} vs {}", x, y);
+            }
+            prop_assert!((u.rss - v.rss).abs() <= 1e-9 * v.rss.max(1e-9));
+            prop_assert_eq!(derived[0].rows(), m);
+        }
+    }
+}

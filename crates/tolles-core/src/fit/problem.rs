@@ -220,7 +220,7 @@ impl Prepared {
         let total: usize = (0..self.runs.len()).map(length).sum();
         let mut plan: Plan = vec![Vec::new(); count];
         let mut r = 0;
-        for run in 0..self.runs.len() {
+        for (run, kind) in kinds.iter().enumerate() {
             let n = length(run);
             let mut counts = [0usize; 3];
             let mut start = 0;
@@ -229,7 +229,7 @@ impl Prepared {
                 let fold_end = ((fold + 1) * total).div_ceil(count);
                 let end = (fold_end - r).min(n);
                 let before = counts;
-                match &kinds[run] {
+                match kind {
                     Some(k) => k[start..end].iter().for_each(|&k| counts[k as usize] += 1),
                     None => counts[BAND as usize] += end - start,
                 }
@@ -551,13 +551,19 @@ impl Problem<'_, '_> {
             let current = beta.clone();
             let fill = |run: Range<usize>, out: &mut [f64]| {
                 let n = run.len();
-                let (j, y) = out.split_at_mut(n * terms.len());
-                exact_jacobian_into(design, &series.slice(run.clone()), &current, &terms, j, y);
-                // `y` holds the correction Δ; the target is the scalar − Δ + J·β.
-                for (k, v) in y.iter_mut().enumerate() {
-                    let linearised: f64 = (0..terms.len()).map(|c| j[c * n + k] * current[c]).sum();
-                    *v = self.scalar[run.start + k] - *v + linearised;
-                }
+                let series = series.slice(run.clone());
+                let scalar = &self.scalar[run];
+                let mut columns: Vec<&mut [f64]> = out.chunks_mut(n).collect();
+                split_rows(n, &mut columns, |rows, parts| {
+                    let (j, y) = parts.split_at_mut(terms.len());
+                    let y = &mut *y[0];
+                    exact_jacobian_into(design, &series, &current, &terms, rows.clone(), j, y);
+                    // `y` holds the correction Δ; the target is the scalar − Δ + J·β.
+                    for (r, v) in y.iter_mut().enumerate() {
+                        let linearised: f64 = j.iter().zip(&current).map(|(c, b)| c[r] * b).sum();
+                        *v = scalar[rows.start + r] - *v + linearised;
+                    }
+                });
             };
             let mut prepared = self.prepare(
                 terms.len(),
@@ -586,6 +592,38 @@ impl Problem<'_, '_> {
     }
 }
 
+/// Calls `f` on parts of the rows `0..n` of `columns` (each `n` long) from as many threads as
+/// there are cores, each with its rows of every column.
+fn split_rows(
+    n: usize,
+    columns: &mut [&mut [f64]],
+    f: impl Fn(Range<usize>, &mut [&mut [f64]]) + Sync,
+) {
+    // Below this many samples a thread costs more than it saves.
+    const PARALLEL_ROWS: usize = 100_000;
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |t| t.get())
+        .min(n.div_ceil(PARALLEL_ROWS))
+        .max(1);
+    if threads == 1 {
+        f(0..n, columns);
+        return;
+    }
+    let share = n.div_ceil(threads);
+    let mut parts: Vec<Vec<&mut [f64]>> = (0..threads).map(|_| Vec::new()).collect();
+    for column in columns.iter_mut() {
+        for (part, piece) in parts.iter_mut().zip(column.chunks_mut(share)) {
+            part.push(piece);
+        }
+    }
+    std::thread::scope(|scope| {
+        for (t, mut part) in parts.into_iter().enumerate().filter(|(_, p)| !p.is_empty()) {
+            let f = &f;
+            scope.spawn(move || f(t * share..((t + 1) * share).min(n), &mut part));
+        }
+    });
+}
+
 /// Subtracts the mean: a run's intercept, for a target that has no filter to remove it.
 fn remove_mean(x: &mut [f64]) {
     let mean = x.iter().sum::<f64>() / x.len().max(1) as f64;
@@ -602,6 +640,7 @@ fn relative_change(a: &[f64], b: &[f64]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fit::ridge::Ridge;
 
     #[test]
     fn level_rows_follow_the_band_row_of_their_sample() {
@@ -618,6 +657,112 @@ mod tests {
             merged_kinds(3, 0, &[0], 2),
             [BAND, ABOVE, LEVEL, BAND, ABOVE, BAND]
         );
+    }
+
+    /// Runs of `lengths` samples, two columns and a target of made-up values, trim 2, with a
+    /// level row every 3 samples and, if `above`, rows above the band.
+    fn prepared(lengths: &[usize], above: bool) -> Prepared {
+        let (width, trim) = (3, 2);
+        let value =
+            |run: usize, k: usize, c: usize| ((run * 31 + k * 7 + c * 3) as f64 * 0.41).sin();
+        let runs = lengths
+            .iter()
+            .enumerate()
+            .map(|(run, &n)| RunRows {
+                data: (0..width)
+                    .flat_map(|c| (0..n).map(move |k| value(run, k, c)))
+                    .collect(),
+                len: n,
+                above: above
+                    .then(|| DMatrix::from_fn(n - 2 * trim, width, |k, c| value(run + 9, k, c))),
+            })
+            .collect();
+        let levels = lengths
+            .iter()
+            .enumerate()
+            .map(|(run, &n)| {
+                let at: Vec<usize> = (trim..n - trim).step_by(3).collect();
+                LevelRows {
+                    a: DMatrix::from_fn(at.len(), width - 1, |k, c| value(run + 5, k, c)),
+                    y: (0..at.len()).map(|k| value(run + 5, k, 2)).collect(),
+                    at,
+                }
+            })
+            .collect();
+        Prepared {
+            width,
+            trim,
+            runs,
+            levels,
+            short: 0,
+        }
+    }
+
+    /// The rows of every fold the slow way: each run's rows materialised in time order and
+    /// dealt out row by row, as the folds were made before they were factored in place.
+    fn folds_row_by_row(p: &Prepared, with_levels: bool, count: usize, weight: f64) -> Vec<Ridge> {
+        let mut rows: Vec<(Vec<f64>, f64)> = Vec::new();
+        for run in 0..p.runs.len() {
+            let level = &p.levels[run];
+            let at: &[usize] = if with_levels { &level.at } else { &[] };
+            let above = p.runs[run].above.as_ref();
+            let kinds = merged_kinds(p.band_rows(run), p.trim, at, above.map_or(0, |a| a.nrows()));
+            let mut next = [0usize; 3];
+            for kind in kinds {
+                let k = next[kind as usize];
+                next[kind as usize] += 1;
+                let all = 0..p.band_rows(run);
+                rows.push(match kind {
+                    BAND => (
+                        (0..2).map(|c| p.band_column(run, c, &all)[k]).collect(),
+                        p.band_column(run, 2, &all)[k],
+                    ),
+                    LEVEL => (
+                        (0..2).map(|c| weight * level.a[(k, c)]).collect(),
+                        weight * level.y[k],
+                    ),
+                    _ => {
+                        let a = above.unwrap();
+                        ((0..2).map(|c| a[(k, c)]).collect(), a[(k, 2)])
+                    }
+                });
+            }
+        }
+        let total = rows.len();
+        let mut folds = vec![Ridge::new(2); count];
+        for (g, (a, y)) in rows.into_iter().enumerate() {
+            folds[g * count / total].push_row(a, y);
+        }
+        folds
+    }
+
+    #[test]
+    fn fold_factors_from_the_filtered_runs_equal_the_folds_dealt_row_by_row() {
+        for (lengths, above) in [(vec![40, 23, 61], false), (vec![30, 57], true)] {
+            let p = prepared(&lengths, above);
+            let band_plan = p.plan(false, 5);
+            let level_plan = p.plan(true, 5);
+            let band = p.band_factors(&[&band_plan, &level_plan]);
+            for (plan, with_levels, weight) in [(&band_plan, false, 0.0), (&level_plan, true, 0.7)]
+            {
+                let factors = p.fold_factors(plan, weight, &band);
+                let (fast, _) = super::super::choice::fold_problems(&factors, &[0, 1]);
+                let slow = folds_row_by_row(&p, with_levels, 5, weight);
+                for (f, s) in fast.iter().zip(&slow) {
+                    assert_eq!(f.rows(), s.rows());
+                    let beta = [0.3, -1.2];
+                    let (u, v) = (
+                        f.residual_sum_of_squares(&beta),
+                        s.residual_sum_of_squares(&beta),
+                    );
+                    assert!((u - v).abs() <= 1e-12 * v.max(1.0), "{u} vs {v}");
+                    let (u, v) = (f.column_sums_of_squares(), s.column_sums_of_squares());
+                    for (x, y) in u.iter().zip(&v) {
+                        assert!((x - y).abs() <= 1e-12 * y.max(1.0), "{x} vs {y}");
+                    }
+                }
+            }
+        }
     }
 
     #[test]

@@ -169,47 +169,51 @@ pub fn exact_jacobian(
     coefficients: &[f64],
     terms: &[Term],
 ) -> (Vec<f64>, DMatrix<f64>) {
-    let mut jacobian = DMatrix::zeros(flux.len(), terms.len());
-    let mut delta = vec![0.0; flux.len()];
+    let n = flux.len();
+    let mut jacobian = DMatrix::zeros(n, terms.len());
+    let mut delta = vec![0.0; n];
+    let mut columns: Vec<&mut [f64]> = jacobian.as_mut_slice().chunks_mut(n.max(1)).collect();
     exact_jacobian_into(
         design,
         flux,
         coefficients,
         terms,
-        jacobian.as_mut_slice(),
+        0..n,
+        &mut columns,
         &mut delta,
     );
     (delta, jacobian)
 }
 
-/// [`exact_jacobian`] written into `jacobian` (column-major, one value per sample per term)
-/// and `delta` (one per sample), so the caller decides where the rows live.
+/// [`exact_jacobian`] for the samples `rows` of `flux`, written into `jacobian` (one slice per
+/// term, `rows.len()` long) and `delta`, so callers can share a series' samples between threads
+/// and decide where the rows live. The changes per sample are those of the whole series.
 ///
 /// # Panics
-/// If `jacobian` or `delta` is shorter than the series needs: programming errors.
+/// If `rows` is not within the series or a slice is shorter than `rows`: programming errors.
 pub fn exact_jacobian_into(
     design: &Design,
     flux: &VectorSeries,
     coefficients: &[f64],
     terms: &[Term],
-    jacobian: &mut [f64],
+    rows: std::ops::Range<usize>,
+    jacobian: &mut [&mut [f64]],
     delta: &mut [f64],
 ) {
     let columns = design.columns();
     let db = derivatives(flux);
-    let n = flux.len();
     // Each column's field is needed for H and again for its derivative: when the terms are the
     // design's own columns (one fluxgate, the usual case) it is computed once per sample.
     let same =
         terms.len() == columns.len() && terms.iter().zip(&columns).all(|(t, c)| t.column == *c);
     let mut fields: Vec<Option<[f64; 3]>> = vec![None; columns.len()];
-    for k in 0..n {
+    for (r, k) in rows.enumerate() {
         let (b, d) = (sample(flux, k), at(&db, k));
         if !same {
             let (value, direction) = exact_at(design, &columns, coefficients, b, d);
-            delta[k] = value;
-            for (c, term) in terms.iter().enumerate() {
-                jacobian[c * n + k] = derivative(
+            delta[r] = value;
+            for (out, term) in jacobian.iter_mut().zip(terms) {
+                out[r] = derivative(
                     field_per_unit(term.column, b, d, design.bt_scale),
                     direction,
                 );
@@ -220,9 +224,9 @@ pub fn exact_jacobian_into(
             *field = field_per_unit(*column, b, d, design.bt_scale);
         }
         let (value, direction) = exact_from_fields(&fields, coefficients, b);
-        delta[k] = value;
-        for (c, field) in fields.iter().enumerate() {
-            jacobian[c * n + k] = derivative(*field, direction);
+        delta[r] = value;
+        for (out, field) in jacobian.iter_mut().zip(&fields) {
+            out[r] = derivative(*field, direction);
         }
     }
 }
