@@ -129,8 +129,10 @@ impl Ridge {
         if self.pending_rows == 0 {
             return;
         }
+        // Column-major, the block's factor comes from the vectorised kernel.
         let block = DMatrix::from_row_slice(self.pending_rows, self.p + 1, &self.pending);
-        self.r = upper_factor(stack(&self.r, &block));
+        let columns: Vec<&[f64]> = block.as_slice().chunks_exact(self.pending_rows).collect();
+        self.r = upper_factor(stack(&self.r, &triangular_factor(&columns)));
         self.pending.clear();
         self.pending_rows = 0;
     }
