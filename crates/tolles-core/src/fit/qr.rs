@@ -90,26 +90,44 @@ fn trimmed(r: DMatrix<f64>, m: usize) -> DMatrix<f64> {
 /// The `k×k` factor of `rows` of the columns, absorbed chunk by chunk.
 fn factor_rows(columns: &[&[f64]], rows: Range<usize>) -> DMatrix<f64> {
     let k = columns.len();
-    let mut r = vec![0.0; k * k];
     let mut chunk = Vec::with_capacity(CHUNK_ROWS * k);
     let arch = Arch::new();
+    let mut groups = Vec::new();
     let mut start = rows.start;
     while start < rows.end {
-        let end = (start + CHUNK_ROWS).min(rows.end);
-        chunk.clear();
-        for column in columns {
-            chunk.extend_from_slice(&column[start..end]);
+        // A factor absorbs at most GROUP_CHUNKS chunks before the groups' factors are stacked:
+        // a long chain of updates would accumulate rounding like a long sum does.
+        let group_end = (start + GROUP_CHUNKS * CHUNK_ROWS).min(rows.end);
+        let mut r = vec![0.0; k * k];
+        while start < group_end {
+            let end = (start + CHUNK_ROWS).min(group_end);
+            chunk.clear();
+            for column in columns {
+                chunk.extend_from_slice(&column[start..end]);
+            }
+            arch.dispatch(Absorb {
+                r: &mut r,
+                chunk: &mut chunk,
+                rows: end - start,
+                k,
+            });
+            start = end;
         }
-        arch.dispatch(Absorb {
-            r: &mut r,
-            chunk: &mut chunk,
-            rows: end - start,
-            k,
-        });
-        start = end;
+        groups.push(DMatrix::from_row_slice(k, k, &r));
+        if groups.len() == GROUP_CHUNKS {
+            let merged = stacked_factor(&groups);
+            groups = vec![merged];
+        }
     }
-    DMatrix::from_row_slice(k, k, &r)
+    match groups.len() {
+        0 => DMatrix::zeros(k, k),
+        1 => groups.pop().expect("one group"),
+        _ => stacked_factor(&groups),
+    }
 }
+
+/// Chunks one factor absorbs, and factors stacked at once, at most.
+const GROUP_CHUNKS: usize = 64;
 
 /// Absorbs a column-major chunk of `rows × k` into the row-major `k×k` upper triangular `r`.
 struct Absorb<'a> {
