@@ -187,54 +187,36 @@ pub fn exact_jacobian_into(
     let columns = design.columns();
     let db = derivatives(flux);
     let s = design.bt_scale;
-    let (b, d) = ([&flux.x, &flux.y, &flux.z], &db);
-    // Column by column over a block of samples, each column's field per sample a
-    // loop-invariant formula the compiler specialises; every value is what `exact_at` gives
-    // sample by sample, the terms of each sum added in the same order. Blocks keep the
-    // intermediate H and directions in cache instead of series-long vectors.
-    let mut bias = 0.0;
-    let mut fields = Vec::new();
-    for (column, beta) in columns.iter().zip(coefficients) {
-        if field_per_unit(*column, [1.0; 3], [1.0; 3], s).is_none() {
-            bias += beta;
-        } else {
-            fields.push((*column, *beta));
+    // Each column's field is needed for H and again for its derivative: when the terms are the
+    // design's own columns (one fluxgate, the usual case) it is computed once per sample. H is
+    // summed in column order as `exact_at` sums it, so the values are the same.
+    let same =
+        terms.len() == columns.len() && terms.iter().zip(&columns).all(|(t, c)| t.column == *c);
+    let mut fields: Vec<Option<[f64; 3]>> = vec![None; columns.len()];
+    for (r, k) in rows.enumerate() {
+        let (b, d) = (sample(flux, k), at(&db, k));
+        for (field, column) in fields.iter_mut().zip(&columns) {
+            *field = field_per_unit(*column, b, d, s);
         }
-    }
-    let mut h = [[0.0; BLOCK]; 3];
-    let mut direction = [[0.0; BLOCK]; 3];
-    let mut start = rows.start;
-    while start < rows.end {
-        let block = start..(start + BLOCK).min(rows.end);
-        let offset = start - rows.start;
-        h.iter_mut().for_each(|h| h.fill(0.0));
-        for &(column, beta) in &fields {
-            for (r, k) in block.clone().enumerate() {
-                let v = field_per_unit(column, at3(b, k), at(d, k), s).unwrap_or_default();
-                (0..3).for_each(|i| h[i][r] += beta * v[i]);
+        let mut h = [0.0; 3];
+        let mut bias = 0.0;
+        for (field, beta) in fields.iter().zip(coefficients) {
+            match field {
+                Some(v) => (0..3).for_each(|i| h[i] += beta * v[i]),
+                None => bias += beta,
             }
         }
-        for (r, k) in block.clone().enumerate() {
-            let (value, unit) = change_of_magnitude(at3(b, k), [h[0][r], h[1][r], h[2][r]], bias);
-            delta[offset + r] = value;
-            (0..3).for_each(|i| direction[i][r] = unit[i]);
+        let (value, direction) = change_of_magnitude(b, h, bias);
+        delta[r] = value;
+        for (c, (out, term)) in jacobian.iter_mut().zip(terms).enumerate() {
+            let field = if same {
+                fields[c]
+            } else {
+                field_per_unit(term.column, b, d, s)
+            };
+            out[r] = derivative(field, direction);
         }
-        for (out, term) in jacobian.iter_mut().zip(terms) {
-            for (r, k) in block.clone().enumerate() {
-                let unit = [direction[0][r], direction[1][r], direction[2][r]];
-                out[offset + r] =
-                    derivative(field_per_unit(term.column, at3(b, k), at(d, k), s), unit);
-            }
-        }
-        start = block.end;
     }
-}
-
-/// Samples per block of [`exact_jacobian_into`]: six blocks of 8 KiB stay in L1.
-const BLOCK: usize = 1024;
-
-fn at3(series: [&Vec<f64>; 3], k: usize) -> [f64; 3] {
-    [series[0][k], series[1][k], series[2][k]]
 }
 
 /// `∂|B + H|/∂β` of a column with field `field` (1 for the bias).
