@@ -4,12 +4,14 @@
 use super::crossval::{
     cross_validate, heldout_sum_of_squares_on, penalty, CrossValidation, LAMBDA_GRID,
 };
-use super::problem::Prepared;
+use super::problem::FoldFactor;
+use super::qr::upper_factor;
 use super::ridge::{Ridge, RidgeSolution};
 use super::{FitError, Lambda, MagnitudeChoice, TermScore, LAMBDA_MAX_RATIO, TERM_CHOICE_MARGIN};
 use crate::model::design::{Design, Term};
 use crate::model::magnitude::Magnitude;
 use crate::model::terms::TermSet;
+use nalgebra::DMatrix;
 
 /// The linear or the exact fit, as `choice` says; with `Auto`, the exact one when it predicts
 /// held-out data at least as well. The exact fit's score joins the term scores.
@@ -101,10 +103,11 @@ impl Chosen {
 /// predicts held-out data [`TERM_CHOICE_MARGIN`] better. The first design's failure is the
 /// fit's failure; an alternative that fails is only scored as such.
 pub(super) fn choose_design(
-    prepared: &Prepared,
+    folds: &[FoldFactor],
     designs: &[Design],
     union: &[Term],
     lambda: Lambda,
+    weight: f64,
 ) -> Result<Chosen, FitError> {
     let mut solved: Vec<Chosen> = Vec::new();
     for (index, design) in designs.iter().enumerate() {
@@ -118,7 +121,7 @@ pub(super) fn choose_design(
                     .expect("union holds every term")
             })
             .collect();
-        let (folds, level_folds) = fold_problems(prepared, &picks, lambda);
+        let (folds, level_folds) = fold_problems(folds, &picks);
         let rows: usize = folds.iter().map(Ridge::rows).sum();
         let columns = design.column_names(&[]);
         let outcome = if rows < picks.len() {
@@ -132,13 +135,7 @@ pub(super) fn choose_design(
         match outcome {
             Ok((solution, cross_validation)) => {
                 let heldout_low_nt = cross_validation.as_ref().and_then(|cv| {
-                    heldout_low(
-                        &folds,
-                        &level_folds,
-                        cv.chosen_lambda_rel,
-                        &columns,
-                        prepared.weight,
-                    )
+                    heldout_low(&folds, &level_folds, cv.chosen_lambda_rel, &columns, weight)
                 });
                 solved.push(Chosen {
                     index,
@@ -220,46 +217,25 @@ pub(super) fn heldout_low(
     Some((rss / rows as f64).sqrt() / weight)
 }
 
-/// Splits the prepared rows, in time order, into contiguous folds (one fold for a fixed λ),
-/// keeping the columns `picks` of the prepared matrices. Also returns each fold's level rows
-/// on their own (empty problems without levels).
-pub(super) fn fold_problems(
-    prepared: &Prepared,
-    picks: &[usize],
-    lambda: Lambda,
-) -> (Vec<Ridge>, Vec<Ridge>) {
-    let count = match lambda {
-        Lambda::Fixed(_) => 1,
-        Lambda::CrossValidated { folds } => folds,
+/// Each fold's problem in the columns `picks` of the fold factors (and the target, their last
+/// column), and its level rows' problem on their own.
+///
+/// The factor of some columns of a matrix is the factor of those columns of its factor: with
+/// `[A | y] = Q·R`, `[A·S | y] = Q·(R·S')`, so re-triangularising the small `R·S'` gives it
+/// without touching the rows again.
+pub(super) fn fold_problems(folds: &[FoldFactor], picks: &[usize]) -> (Vec<Ridge>, Vec<Ridge>) {
+    let derive = |r: &DMatrix<f64>, rows: usize| {
+        let target = r.ncols() - 1;
+        let columns: Vec<usize> = picks.iter().copied().chain([target]).collect();
+        let selected = r.select_columns(&columns);
+        let factor = upper_factor(selected);
+        let keep = factor.nrows().min(rows);
+        Ridge::from_factor(picks.len(), factor.rows(0, keep).into_owned(), rows)
     };
-    let total: usize = prepared.rows.iter().map(|(_, y)| y.len()).sum();
-    let mut folds = vec![Ridge::new(picks.len()); count];
-    let mut level_folds = vec![Ridge::new(picks.len()); count];
-    // Row r (counted over all runs) goes to fold ⌊r·count/total⌋; fold f ends before row
-    // ⌈(f+1)·total/count⌉. Each run is pushed in the pieces that fall in one fold.
-    let mut r = 0;
-    for (run, (a, y)) in prepared.rows.iter().enumerate() {
-        let n = y.len();
-        let mut start = 0;
-        while start < n {
-            let fold = (r + start) * count / total;
-            let fold_end = ((fold + 1) * total).div_ceil(count);
-            let end = (fold_end - r).min(n);
-            let columns: Vec<&[f64]> = picks
-                .iter()
-                .map(|&c| &a.as_slice()[c * n + start..c * n + end])
-                .collect();
-            folds[fold].push_columns(&columns, &y[start..end]);
-            if let Some(mask) = prepared.masks.get(run) {
-                for row in (start..end).filter(|&k| mask[k]) {
-                    level_folds[fold].push_row(picks.iter().map(|&c| a[(row, c)]), y[row]);
-                }
-            }
-            start = end;
-        }
-        r += n;
-    }
-    (folds, level_folds)
+    folds
+        .iter()
+        .map(|f| (derive(&f.r, f.rows), derive(&f.level_r, f.level_rows)))
+        .unzip()
 }
 
 /// The final solve on all rows, with λ fixed or cross-validated.
@@ -292,28 +268,51 @@ pub(super) fn solve(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use nalgebra::DMatrix;
+    use crate::fit::qr::triangular_factor;
+    use proptest::prelude::*;
 
-    #[test]
-    fn folds_are_contiguous_and_cover_every_row() {
-        let a = DMatrix::from_fn(10, 1, |i, _| i as f64);
-        let y: Vec<f64> = (0..10).map(|i| i as f64).collect();
-        let prepared = Prepared {
-            rows: vec![(a.clone(), y.clone()), (a, y)],
-            masks: vec![vec![false; 10], (0..10).map(|k| k % 3 == 0).collect()],
-            weight: 1.0,
-            levels: Vec::new(),
-            short: 0,
-        };
-        let (folds, level_folds) = fold_problems(&prepared, &[0], Lambda::auto());
-        assert_eq!(
-            folds.iter().map(Ridge::rows).collect::<Vec<_>>(),
-            [4, 4, 4, 4, 4]
-        );
-        // The second run's rows 0, 3, 6, 9 are rows 10, 13, 16, 19 overall: folds 2, 3, 4, 4.
-        assert_eq!(
-            level_folds.iter().map(Ridge::rows).collect::<Vec<_>>(),
-            [0, 0, 1, 1, 2]
-        );
+    /// Columns of made-up values.
+    fn columns(m: usize, k: usize, seed: f64) -> Vec<Vec<f64>> {
+        (0..k)
+            .map(|j| {
+                (0..m)
+                    .map(|i| ((i * (j + 3)) as f64 * 0.29 + seed).sin() + 0.1 * j as f64)
+                    .collect()
+            })
+            .collect()
+    }
+
+    proptest! {
+        /// The factor of some columns derived from the factor of all of them gives the same
+        /// problem as pushing those columns directly.
+        #[test]
+        fn a_candidate_factor_derived_from_the_union_equals_a_direct_qr(
+            m in 6usize..400,
+            seed in -2.0f64..2.0,
+            picks in proptest::sample::subsequence(vec![0usize, 1, 2, 3, 4], 1..5),
+        ) {
+            let all = columns(m, 6, seed);
+            let refs: Vec<&[f64]> = all.iter().map(Vec::as_slice).collect();
+            let fold = FoldFactor {
+                r: triangular_factor(&refs),
+                rows: m,
+                level_r: DMatrix::zeros(0, 6),
+                level_rows: 0,
+            };
+            let (derived, _) = fold_problems(std::slice::from_ref(&fold), &picks);
+            let mut direct = Ridge::new(picks.len());
+            let chosen: Vec<&[f64]> = picks.iter().map(|&c| refs[c]).collect();
+            direct.push_columns(&chosen, refs[5]);
+            let names: Vec<String> = picks.iter().map(|c| c.to_string()).collect();
+            let (u, v) = (
+                derived[0].solve(1e-3, &names).unwrap(),
+                direct.solve(1e-3, &names).unwrap(),
+            );
+            for (x, y) in u.coefficients.iter().zip(&v.coefficients) {
+                prop_assert!((x - y).abs() <= 1e-9 * y.abs().max(1.0), "{} vs {}", x, y);
+            }
+            prop_assert!((u.rss - v.rss).abs() <= 1e-9 * v.rss.max(1e-9));
+            prop_assert_eq!(derived[0].rows(), m);
+        }
     }
 }

@@ -178,23 +178,54 @@ impl LowFrequency {
 
     /// Low-passes the columns of `a` and the target `y` of one run (unfiltered, `a` has one row
     /// per sample) and keeps every `step`-th row after trimming; no rows if the run is too short.
-    pub fn rows(&self, mut a: DMatrix<f64>, mut y: Vec<f64>) -> Result<LevelRows, FilterError> {
+    pub fn rows(&self, a: DMatrix<f64>, y: Vec<f64>) -> Result<LevelRows, FilterError> {
+        let n = y.len();
+        let columns: Vec<&[f64]> = a.as_slice().chunks_exact(n.max(1)).collect();
+        self.rows_of(&columns[..a.ncols().min(columns.len())], &y)
+    }
+
+    /// [`LowFrequency::rows`] of columns given one by one (each as long as `y`), left as they
+    /// are: they are filtered a few at a time in a copy, so a run's whole matrix is never
+    /// copied.
+    pub fn rows_of(&self, columns: &[&[f64]], y: &[f64]) -> Result<LevelRows, FilterError> {
         let n = y.len();
         if n <= self.filter.padlen() + 1 || n <= 2 * self.trim + self.step {
             return Ok(LevelRows {
-                a: DMatrix::zeros(0, a.ncols()),
+                a: DMatrix::zeros(0, columns.len()),
                 y: Vec::new(),
                 at: Vec::new(),
             });
         }
-        let mut signals: Vec<&mut [f64]> = a.as_mut_slice().chunks_mut(n).collect();
-        signals.push(&mut y);
-        filtfilt_many_unless_constant(&self.filter, &mut signals)?;
         let keep: Vec<usize> = (self.trim..n - self.trim).step_by(self.step).collect();
-        let rows = DMatrix::from_fn(keep.len(), a.ncols(), |r, c| a[(keep[r], c)]);
-        let target = keep.iter().map(|&k| y[k]).collect();
+        let mut a = DMatrix::zeros(keep.len(), columns.len());
+        // Eight signals at a time keep the filter's threads busy with a bounded copy.
+        let mut scratch: Vec<Vec<f64>> = Vec::new();
+        let signals: Vec<&[f64]> = columns.iter().copied().chain([y]).collect();
+        let mut target = Vec::new();
+        for (group, chunk) in signals.chunks(8).enumerate() {
+            scratch.resize_with(chunk.len(), Vec::new);
+            for (s, x) in scratch.iter_mut().zip(chunk) {
+                s.clear();
+                s.extend_from_slice(x);
+            }
+            let mut views: Vec<&mut [f64]> = scratch[..chunk.len()]
+                .iter_mut()
+                .map(|s| s.as_mut_slice())
+                .collect();
+            filtfilt_many_unless_constant(&self.filter, &mut views)?;
+            for (i, s) in scratch[..chunk.len()].iter().enumerate() {
+                let c = group * 8 + i;
+                if c < columns.len() {
+                    for (r, &k) in keep.iter().enumerate() {
+                        a[(r, c)] = s[k];
+                    }
+                } else {
+                    target = keep.iter().map(|&k| s[k]).collect();
+                }
+            }
+        }
         Ok(LevelRows {
-            a: rows,
+            a,
             y: target,
             at: keep,
         })
@@ -250,40 +281,6 @@ pub fn rms_misfit(rows: &[LevelRows], beta: &[f64]) -> f64 {
     (sum / count as f64).sqrt()
 }
 
-/// Interleaves the band rows (`band`, trimmed by `trim` at the start) and the weighted level
-/// rows of one run in time order, so contiguous cross-validation folds hold both. Also returns
-/// which rows are level rows.
-pub fn interleave(
-    band: (DMatrix<f64>, Vec<f64>),
-    trim: usize,
-    level: &LevelRows,
-    weight: f64,
-) -> (DMatrix<f64>, Vec<f64>, Vec<bool>) {
-    let (a, y) = band;
-    let p = a.ncols();
-    let total = y.len() + level.y.len();
-    let mut order: Vec<(usize, bool, usize)> = (0..y.len()).map(|r| (r + trim, false, r)).collect();
-    order.extend(level.at.iter().enumerate().map(|(r, &at)| (at, true, r)));
-    order.sort_by_key(|&(at, is_level, _)| (at, is_level));
-    let mut out = DMatrix::zeros(total, p);
-    let mut target = Vec::with_capacity(total);
-    let mask = order.iter().map(|&(_, is_level, _)| is_level).collect();
-    for (row, &(_, is_level, r)) in order.iter().enumerate() {
-        if is_level {
-            for c in 0..p {
-                out[(row, c)] = weight * level.a[(r, c)];
-            }
-            target.push(weight * level.y[r]);
-        } else {
-            for c in 0..p {
-                out[(row, c)] = a[(r, c)];
-            }
-            target.push(y[r]);
-        }
-    }
-    (out, target, mask)
-}
-
 /// The reference's values over `run`.
 pub fn reference_over(reference: &Reference, run: Range<usize>) -> &[f64] {
     &reference.values[run]
@@ -311,23 +308,5 @@ mod tests {
         assert_eq!(rows[0].a.as_slice(), [-2.0, 0.0]);
         assert_eq!(rows[1].y, [2.0]);
         assert!((rms_misfit(&rows, &[1.0]) - 0.0).abs() < 1e-12);
-    }
-
-    #[test]
-    fn level_rows_are_interleaved_in_time_with_their_weight() {
-        let band = (
-            DMatrix::from_row_slice(3, 1, &[1.0, 2.0, 3.0]),
-            vec![1.0, 2.0, 3.0],
-        );
-        let level = LevelRows {
-            a: DMatrix::from_row_slice(1, 1, &[7.0]),
-            y: vec![70.0],
-            at: vec![3],
-        };
-        // Band rows are samples 2, 3, 4 (trim 2); the level row at sample 3 follows band row 3.
-        let (a, y, mask) = interleave(band, 2, &level, 0.5);
-        assert_eq!(a.as_slice(), [1.0, 2.0, 3.5, 3.0]);
-        assert_eq!(y, [1.0, 2.0, 35.0, 3.0]);
-        assert_eq!(mask, [false, false, true, false]);
     }
 }

@@ -54,12 +54,13 @@ pub mod crossval;
 pub mod lag;
 pub mod levels;
 mod problem;
+mod qr;
 pub mod ridge;
 
 use crate::fit::choice::{choose_design, pick_magnitude, union_of_terms};
 use crate::fit::crossval::{CrossValidation, DEFAULT_FOLDS};
 use crate::fit::levels::LevelDiagnostics;
-use crate::fit::problem::{difference, AboveBand, Problem, Rows};
+use crate::fit::problem::{fold_count, AboveBand, Problem};
 use crate::fit::ridge::{RidgeError, RidgeSolution};
 use crate::model::design::{Design, Term};
 use crate::model::magnitude::{correction, Magnitude};
@@ -478,21 +479,36 @@ pub fn fit<'a>(
         above: settings.above_band(fs_hz, &union)?,
         settings,
     };
-    let linear = |run: Range<usize>, reference: Option<&[f64]>| {
-        let a = settings.design.matrix_of(&flux.slice(run.clone()), &union);
-        let y = scalar[run].to_vec();
-        let level = reference.map_or_else(Vec::new, |r| difference(&y, r));
-        (a, y, level)
-    };
-    let band_only = problem.rows(&linear, None)?;
-    let mut chosen = choose_design(&band_only, &designs, &union, settings.lambda)?;
     let mut levels = problem.level_setup(&usable, fs_hz, tt)?;
-    if let Some(setup) = levels.as_mut() {
+    let linear = |run: Range<usize>, out: &mut [f64]| {
+        let (a, y) = out.split_at_mut(run.len() * union.len());
+        settings
+            .design
+            .matrix_into(&flux.slice(run.clone()), &union, a);
+        y.copy_from_slice(&scalar[run]);
+    };
+    let prepared = problem.prepare(
+        union.len(),
+        &linear,
+        levels.as_ref(),
+        problem.above.as_ref(),
+        Vec::new(),
+    )?;
+    let count = fold_count(settings.lambda);
+    // The band rows are factored once, cut where the folds of either plan start: the folds
+    // move when the level rows join.
+    let band_plan = prepared.plan(false, count);
+    let level_plan = levels.as_ref().map(|_| prepared.plan(true, count));
+    let plans: Vec<&problem::Plan> = std::iter::once(&band_plan).chain(&level_plan).collect();
+    let band = prepared.band_factors(&plans);
+    let band_folds = prepared.fold_factors(&band_plan, 0.0, &band);
+    let mut chosen = choose_design(&band_folds, &designs, &union, settings.lambda, 0.0)?;
+    if let (Some(setup), Some(plan)) = (levels.as_mut(), &level_plan) {
         chosen = problem.choose_with_levels(setup, &chosen, |setup| {
-            let prepared = problem.rows(&linear, Some(setup))?;
+            let folds = prepared.fold_factors(plan, setup.weight(), &band);
             Ok((
-                choose_design(&prepared, &designs, &union, settings.lambda)?,
-                prepared.levels,
+                choose_design(&folds, &designs, &union, settings.lambda, setup.weight())?,
+                prepared.levels.clone(),
             ))
         })?;
     }
@@ -502,7 +518,7 @@ pub fn fit<'a>(
         Some((exact, iterations)) => pick_magnitude(chosen, exact, iterations, settings.magnitude),
         None => (Magnitude::Linear, chosen, 0),
     };
-    let before = band_std(&band_only.rows);
+    let before = prepared.band_std();
     let level_nt = mean_correction(
         &flux,
         &usable,
@@ -520,8 +536,8 @@ pub fn fit<'a>(
                 .map_or(0.0, |l| l.weighted_rss(&chosen.solution.coefficients)),
             total: scalar.len(),
             nonfinite: usable.iter().filter(|u| !**u).count(),
-            short: band_only.short,
-            runs_used: band_only.rows.len(),
+            short: prepared.short,
+            runs_used: prepared.runs_used(),
             before_std: before,
             fraction: match settings.target {
                 Target::Band => passband_fraction(settings.band, fs_hz),
@@ -547,15 +563,6 @@ pub fn fit<'a>(
         level_nt,
         diagnostics,
     })
-}
-
-/// Standard deviation of all band-passed targets (nT).
-fn band_std(rows: &[Rows]) -> f64 {
-    let mut before = RunningStd::default();
-    rows.iter()
-        .flat_map(|(_, y)| y)
-        .for_each(|v| before.push(*v));
-    before.std()
 }
 
 fn is_zero(v: &f64) -> bool {

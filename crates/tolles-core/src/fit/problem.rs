@@ -3,27 +3,25 @@
 
 use super::choice::{choose_design, Chosen};
 use super::levels::{self, LevelDiagnostics, LevelRows, LowFrequency, Reference};
-use super::{FitError, FitSettings, MagnitudeChoice, Target, EXACT_ITERATIONS, EXACT_TOLERANCE};
+use super::qr::{stacked_factor, triangular_factor};
+use super::{
+    FitError, FitSettings, Lambda, MagnitudeChoice, Target, EXACT_ITERATIONS, EXACT_TOLERANCE,
+};
 use crate::model::design::Design;
-use crate::model::magnitude::exact_jacobian;
+use crate::model::magnitude::exact_jacobian_into;
 use crate::model::vector::Fluxgates;
-use crate::signal::filter::Butterworth;
+use crate::signal::filter::{filtfilt_many_unless_constant, Butterworth};
 use nalgebra::DMatrix;
 use std::ops::Range;
-
-/// Filtered, trimmed design rows and their scalar targets.
-pub(super) type Rows = (DMatrix<f64>, Vec<f64>);
 
 /// `a − b`, element by element.
 pub(super) fn difference(a: &[f64], b: &[f64]) -> Vec<f64> {
     a.iter().zip(b).map(|(x, y)| x - y).collect()
 }
 
-/// Unfiltered design columns, band target and level target of one run.
-pub(super) type RunInputs = (DMatrix<f64>, Vec<f64>, Vec<f64>);
-
-/// Makes a run's [`RunInputs`] from its sample range and its stretch of the reference.
-pub(super) type MakeRun<'m> = dyn Fn(Range<usize>, Option<&[f64]>) -> RunInputs + 'm;
+/// Writes a run's unfiltered columns and, after them, its target into the slice given
+/// (column-major, one value per sample of the run each).
+pub(super) type FillRun<'m> = dyn Fn(Range<usize>, &mut [f64]) + Sync + 'm;
 
 /// One calibration flight, cut into runs, and how to fit it.
 pub(super) struct Problem<'p, 'a> {
@@ -60,63 +58,300 @@ impl AboveBand {
         }
     }
 
-    /// A run's rows above the band from its unfiltered columns and target, trimmed.
-    fn rows(&self, a: &DMatrix<f64>, y: &[f64], trim: usize) -> Result<Rows, FitError> {
-        let n = y.len();
-        let mut a = a.clone();
-        let mut y = y.to_vec();
+    /// A run's rows above the band from its unfiltered columns and target (`data`, as
+    /// [`FillRun`] writes them), trimmed; the target is the last column.
+    fn rows(&self, data: &[f64], n: usize, trim: usize) -> Result<DMatrix<f64>, FitError> {
+        let width = data.len() / n;
+        let mut a = DMatrix::from_column_slice(n, width, data);
         for (c, keep) in self.extra.iter().enumerate() {
             if !keep {
                 a.column_mut(c).fill(0.0);
             }
         }
         let mut signals: Vec<&mut [f64]> = a.as_mut_slice().chunks_mut(n).collect();
-        signals.push(&mut y);
-        crate::signal::filter::filtfilt_many_unless_constant(&self.filter, &mut signals)?;
-        Ok((
-            a.rows(trim, n - 2 * trim).into_owned(),
-            y[trim..n - trim].to_vec(),
-        ))
+        filtfilt_many_unless_constant(&self.filter, &mut signals)?;
+        Ok(a.rows(trim, n - 2 * trim).into_owned())
     }
 }
 
-/// Merges a run's rows (with their level mask) and its rows above the band by their
-/// position in the run, so contiguous cross-validation folds take both from the same
-/// stretch of time. Rows above the band are not level rows.
-fn merge_by_position(
-    (a, y, mask): (DMatrix<f64>, Vec<f64>, Vec<bool>),
-    (above_a, above_y): Rows,
-) -> (DMatrix<f64>, Vec<f64>, Vec<bool>) {
-    let (n1, n2) = (y.len(), above_y.len());
-    let position = |k: usize, n: usize| (2 * k + 1) as f64 / (2 * n) as f64;
-    let mut order: Vec<(f64, bool, usize)> = (0..n1).map(|k| (position(k, n1), false, k)).collect();
-    order.extend((0..n2).map(|k| (position(k, n2), true, k)));
-    order.sort_by(|p, q| p.0.total_cmp(&q.0).then(p.1.cmp(&q.1)));
-    let mut out = DMatrix::zeros(n1 + n2, a.ncols());
-    let mut target = Vec::with_capacity(n1 + n2);
-    let mut merged_mask = Vec::with_capacity(n1 + n2);
-    for (row, &(_, is_above, k)) in order.iter().enumerate() {
-        let (source, value, level) = if is_above {
-            (&above_a, above_y[k], false)
-        } else {
-            (&a, y[k], mask.get(k).copied().unwrap_or(false))
-        };
-        out.row_mut(row).copy_from(&source.row(k));
-        target.push(value);
-        merged_mask.push(level);
-    }
-    (out, target, merged_mask)
+/// The filtered rows of one run.
+struct RunRows {
+    /// The columns and the target, column-major, `len` samples each, filtered but not trimmed.
+    data: Vec<f64>,
+    len: usize,
+    /// Rows above the band (trimmed), the target last; with extra channels only.
+    above: Option<DMatrix<f64>>,
 }
 
-/// Rows of every run ready for the folds, and the level rows they hold.
+/// Rows of every run ready for the folds: band rows (the filtered runs, read from `trim` on),
+/// level rows and rows above the band.
 pub(super) struct Prepared {
-    pub(super) rows: Vec<Rows>,
-    /// Per run, which rows are (weighted) level rows; empty without levels.
-    pub(super) masks: Vec<Vec<bool>>,
-    /// The level rows' weight (0 without levels).
-    pub(super) weight: f64,
+    /// Columns, the target included.
+    width: usize,
+    trim: usize,
+    runs: Vec<RunRows>,
+    /// Per run, the centred, unweighted level rows; empty without levels.
     pub(super) levels: Vec<LevelRows>,
     pub(super) short: usize,
+}
+
+/// Which rows of a run a fold holds: contiguous ranges of its band, level and above-band rows.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct Piece {
+    run: usize,
+    band: Range<usize>,
+    level: Range<usize>,
+    above: Range<usize>,
+}
+
+/// Per fold, the pieces of runs it holds.
+pub(super) type Plan = Vec<Vec<Piece>>;
+
+/// The factors of the band rows of each run, cut where any fold of any plan starts.
+pub(super) struct BandFactors {
+    /// Per run, consecutive ranges of band rows and their factors.
+    runs: Vec<Vec<(Range<usize>, DMatrix<f64>)>>,
+}
+
+/// One fold's rows reduced to triangular factors of all the columns and the target.
+pub(super) struct FoldFactor {
+    /// Factor of every row of the fold.
+    pub(super) r: DMatrix<f64>,
+    pub(super) rows: usize,
+    /// Factor of its (weighted) level rows alone.
+    pub(super) level_r: DMatrix<f64>,
+    pub(super) level_rows: usize,
+}
+
+/// Kinds of rows, in the order the folds take them.
+const BAND: u8 = 0;
+const LEVEL: u8 = 1;
+const ABOVE: u8 = 2;
+
+/// A run's rows in time order: `band` band rows (sample `trim + r` for row r) interleaved with
+/// the level rows at samples `level_at` (a band row first at the same sample), then merged
+/// with `above` rows above the band by their relative position in the run (the others first
+/// at the same position).
+fn merged_kinds(band: usize, trim: usize, level_at: &[usize], above: usize) -> Vec<u8> {
+    let mut first = Vec::with_capacity(band + level_at.len());
+    let (mut b, mut l) = (0, 0);
+    while b < band || l < level_at.len() {
+        if l == level_at.len() || (b < band && b + trim <= level_at[l]) {
+            first.push(BAND);
+            b += 1;
+        } else {
+            first.push(LEVEL);
+            l += 1;
+        }
+    }
+    if above == 0 {
+        return first;
+    }
+    let position = |k: usize, n: usize| (2 * k + 1) as f64 / (2 * n) as f64;
+    let n1 = first.len();
+    let mut out = Vec::with_capacity(n1 + above);
+    let (mut i, mut a) = (0, 0);
+    while i < n1 || a < above {
+        if a == above || (i < n1 && position(i, n1) <= position(a, above)) {
+            out.push(first[i]);
+            i += 1;
+        } else {
+            out.push(ABOVE);
+            a += 1;
+        }
+    }
+    out
+}
+
+impl Prepared {
+    /// The buffers of the runs, for another preparation to reuse.
+    pub(super) fn into_buffers(self) -> Vec<Vec<f64>> {
+        self.runs.into_iter().map(|r| r.data).collect()
+    }
+
+    /// Band rows of run `run`.
+    fn band_rows(&self, run: usize) -> usize {
+        self.runs[run].len - 2 * self.trim
+    }
+
+    /// Column `c` of run `run`'s band rows `rows`.
+    fn band_column(&self, run: usize, c: usize, rows: &Range<usize>) -> &[f64] {
+        let r = &self.runs[run];
+        let start = c * r.len + self.trim;
+        &r.data[start + rows.start..start + rows.end]
+    }
+
+    /// Runs that gave rows.
+    pub(super) fn runs_used(&self) -> usize {
+        self.runs.len()
+    }
+
+    /// Standard deviation of the filtered targets of the band rows and the rows above it (nT).
+    pub(super) fn band_std(&self) -> f64 {
+        let mut before = super::RunningStd::default();
+        let target = self.width - 1;
+        for run in 0..self.runs.len() {
+            let all = 0..self.band_rows(run);
+            self.band_column(run, target, &all)
+                .iter()
+                .for_each(|v| before.push(*v));
+            if let Some(above) = &self.runs[run].above {
+                above.column(target).iter().for_each(|v| before.push(*v));
+            }
+        }
+        before.std()
+    }
+
+    /// Cuts the rows, in time order over all runs, into `count` contiguous folds: row r of
+    /// `total` goes to fold ⌊r·count/total⌋. Level rows count only `with_levels`.
+    pub(super) fn plan(&self, with_levels: bool, count: usize) -> Plan {
+        let kinds: Vec<Option<Vec<u8>>> = (0..self.runs.len())
+            .map(|run| {
+                let level_at = match self.levels.get(run) {
+                    Some(l) if with_levels => l.at.as_slice(),
+                    _ => &[],
+                };
+                let above = self.runs[run].above.as_ref().map_or(0, |a| a.nrows());
+                (!level_at.is_empty() || above > 0)
+                    .then(|| merged_kinds(self.band_rows(run), self.trim, level_at, above))
+            })
+            .collect();
+        let length = |run: usize| kinds[run].as_ref().map_or(self.band_rows(run), Vec::len);
+        let total: usize = (0..self.runs.len()).map(length).sum();
+        let mut plan: Plan = vec![Vec::new(); count];
+        let mut r = 0;
+        for (run, kind) in kinds.iter().enumerate() {
+            let n = length(run);
+            let mut counts = [0usize; 3];
+            let mut start = 0;
+            while start < n {
+                let fold = (r + start) * count / total;
+                let fold_end = ((fold + 1) * total).div_ceil(count);
+                let end = (fold_end - r).min(n);
+                let before = counts;
+                match kind {
+                    Some(k) => k[start..end].iter().for_each(|&k| counts[k as usize] += 1),
+                    None => counts[BAND as usize] += end - start,
+                }
+                plan[fold].push(Piece {
+                    run,
+                    band: before[0]..counts[0],
+                    level: before[1]..counts[1],
+                    above: before[2]..counts[2],
+                });
+                start = end;
+            }
+            r += n;
+        }
+        plan
+    }
+
+    /// Factors the band rows of every run, cut where a fold of any of `plans` starts.
+    pub(super) fn band_factors(&self, plans: &[&Plan]) -> BandFactors {
+        let mut cuts: Vec<Vec<usize>> = (0..self.runs.len())
+            .map(|run| vec![0, self.band_rows(run)])
+            .collect();
+        for piece in plans.iter().flat_map(|p| p.iter().flatten()) {
+            cuts[piece.run].extend([piece.band.start, piece.band.end]);
+        }
+        let runs = cuts
+            .into_iter()
+            .enumerate()
+            .map(|(run, mut cuts)| {
+                cuts.sort_unstable();
+                cuts.dedup();
+                cuts.windows(2)
+                    .map(|w| {
+                        let rows = w[0]..w[1];
+                        let columns: Vec<&[f64]> = (0..self.width)
+                            .map(|c| self.band_column(run, c, &rows))
+                            .collect();
+                        (rows, triangular_factor(&columns))
+                    })
+                    .collect()
+            })
+            .collect();
+        BandFactors { runs }
+    }
+
+    /// Each fold's factor for the plan `plan` (made with level rows when `weight > 0`), its band
+    /// rows taken from `band`, its level rows weighted by `weight`.
+    pub(super) fn fold_factors(
+        &self,
+        plan: &Plan,
+        weight: f64,
+        band: &BandFactors,
+    ) -> Vec<FoldFactor> {
+        plan.iter()
+            .map(|pieces| {
+                let mut blocks = Vec::new();
+                let mut level_blocks = Vec::new();
+                let (mut rows, mut level_rows) = (0, 0);
+                for piece in pieces {
+                    for (range, factor) in &band.runs[piece.run] {
+                        if range.start >= piece.band.start && range.end <= piece.band.end {
+                            blocks.push(factor.clone());
+                        }
+                    }
+                    rows += piece.band.len() + piece.level.len() + piece.above.len();
+                    if !piece.level.is_empty() {
+                        let level = &self.levels[piece.run];
+                        let weighted: Vec<Vec<f64>> = (0..self.width)
+                            .map(|c| {
+                                piece
+                                    .level
+                                    .clone()
+                                    .map(|k| {
+                                        let v = if c + 1 == self.width {
+                                            level.y[k]
+                                        } else {
+                                            level.a[(k, c)]
+                                        };
+                                        weight * v
+                                    })
+                                    .collect()
+                            })
+                            .collect();
+                        let columns: Vec<&[f64]> = weighted.iter().map(Vec::as_slice).collect();
+                        level_blocks.push(triangular_factor(&columns));
+                        level_rows += piece.level.len();
+                    }
+                    if let Some(above) = &self.runs[piece.run].above {
+                        if !piece.above.is_empty() {
+                            let rows = above.nrows();
+                            let columns: Vec<&[f64]> = above
+                                .as_slice()
+                                .chunks_exact(rows)
+                                .map(|c| &c[piece.above.clone()])
+                                .collect();
+                            blocks.push(triangular_factor(&columns));
+                        }
+                    }
+                }
+                let empty = || DMatrix::zeros(0, self.width);
+                let level_r = if level_blocks.is_empty() {
+                    empty()
+                } else {
+                    stacked_factor(&level_blocks)
+                };
+                blocks.push(level_r.clone());
+                FoldFactor {
+                    r: stacked_factor(&blocks),
+                    rows,
+                    level_r,
+                    level_rows,
+                }
+            })
+            .collect()
+    }
+}
+
+/// The number of folds `lambda` asks for: one for a fixed λ.
+pub(super) fn fold_count(lambda: Lambda) -> usize {
+    match lambda {
+        Lambda::Fixed(_) => 1,
+        Lambda::CrossValidated { folds } => folds,
+    }
 }
 
 /// What the heading levels need: the reference, the low-pass, and the weight of their rows.
@@ -165,21 +400,15 @@ impl LevelSetup {
 }
 
 impl Problem<'_, '_> {
-    /// Band rows (and, with `levels`, interleaved level rows; with extra channels, rows
-    /// above the band) of every run long enough.
-    pub(super) fn rows(
+    /// Band rows (and, with `levels`, level rows; with `above_band`, rows above the band) of
+    /// every run long enough, from the `width` columns and the target that `fill` writes.
+    pub(super) fn prepare(
         &self,
-        make: &MakeRun<'_>,
-        levels: Option<&LevelSetup>,
-    ) -> Result<Prepared, FitError> {
-        self.rows_with(make, levels, self.above.as_ref())
-    }
-
-    fn rows_with(
-        &self,
-        make: &MakeRun<'_>,
+        width: usize,
+        fill: &FillRun<'_>,
         levels: Option<&LevelSetup>,
         above_band: Option<&AboveBand>,
+        mut recycle: Vec<Vec<f64>>,
     ) -> Result<Prepared, FitError> {
         let trim = if self.filter.is_some() {
             self.settings.trim
@@ -194,58 +423,49 @@ impl Problem<'_, '_> {
             .max()
             .unwrap_or(0)
             .max(2 * trim + 1);
-        let mut band = Vec::new();
+        let mut runs = Vec::new();
         let mut level_rows = Vec::new();
-        let mut above_rows = Vec::new();
         let mut short = 0;
         for run in &self.runs {
-            if run.len() < needed {
-                short += run.len();
+            let n = run.len();
+            if n < needed {
+                short += n;
                 continue;
             }
-            let reference = levels.map(|l| levels::reference_over(&l.reference, run.clone()));
-            let (mut a, mut y, level_target) = make(run.clone(), reference);
-            if let Some(above) = above_band {
-                above_rows.push(above.rows(&a, &y, trim)?);
-            }
+            // A buffer of an earlier preparation has its pages already: reusing it saves
+            // faulting in a fresh gigabyte on a long flight.
+            let mut data = recycle.pop().unwrap_or_default();
+            data.clear();
+            data.resize(n * (width + 1), 0.0);
+            fill(run.clone(), &mut data);
+            let above = match above_band {
+                Some(above) => Some(above.rows(&data, n, trim)?),
+                None => None,
+            };
             if let Some(setup) = levels {
-                level_rows.push(setup.low.rows(a.clone(), level_target)?);
+                let reference = levels::reference_over(&setup.reference, run.clone());
+                let (columns, y) = data.split_at(n * width);
+                let target = difference(y, reference);
+                let columns: Vec<&[f64]> = columns.chunks_exact(n).collect();
+                level_rows.push(setup.low.rows_of(&columns, &target)?);
             }
-            let n = y.len();
-            let mut signals: Vec<&mut [f64]> = a.as_mut_slice().chunks_mut(n).collect();
-            signals.push(&mut y);
+            let mut signals: Vec<&mut [f64]> = data.chunks_mut(n).collect();
             if let Some(f) = &self.filter {
-                crate::signal::filter::filtfilt_many_unless_constant(f, &mut signals)?;
+                filtfilt_many_unless_constant(f, &mut signals)?;
             } else if self.settings.target == Target::Interference {
                 signals.iter_mut().for_each(|s| remove_mean(s));
             }
-            band.push((
-                a.rows(trim, n - 2 * trim).into_owned(),
-                y[trim..n - trim].to_vec(),
-            ));
-        }
-        let Some(setup) = levels else {
-            let (rows, _) = with_above(band_without_levels(band), above_rows);
-            return Ok(Prepared {
-                rows,
-                masks: Vec::new(),
-                weight: 0.0,
-                levels: Vec::new(),
-                short,
+            runs.push(RunRows {
+                data,
+                len: n,
+                above,
             });
-        };
+        }
         levels::centre(&mut level_rows);
-        let weight = setup.weight();
-        let interleaved = band
-            .into_iter()
-            .zip(&level_rows)
-            .map(|(b, l)| levels::interleave(b, trim, l, weight))
-            .collect();
-        let (rows, masks) = with_above(interleaved, above_rows);
         Ok(Prepared {
-            rows,
-            masks,
-            weight,
+            width: width + 1,
+            trim,
+            runs,
             levels: level_rows,
             short,
         })
@@ -323,25 +543,44 @@ impl Problem<'_, '_> {
         let above = self.above.as_ref().map(|a| a.without_extras(terms.len()));
         let designs = [design.clone()];
         let series = self.flux.series()[0];
+        let count = fold_count(self.settings.lambda);
         let mut beta = linear.solution.coefficients.clone();
         let mut best: Option<Chosen> = None;
+        let mut recycle = Vec::new();
         for iteration in 1..=EXACT_ITERATIONS {
             let current = beta.clone();
-            let make = |run: Range<usize>, reference: Option<&[f64]>| {
-                let (delta, j) =
-                    exact_jacobian(design, &series.slice(run.clone()), &current, &terms);
-                let linearised = &j * nalgebra::DVector::from_column_slice(&current);
-                let y: Vec<f64> = (0..run.len())
-                    .map(|k| self.scalar[run.start + k] - delta[k] + linearised[k])
-                    .collect();
-                let level = reference.map_or_else(Vec::new, |r| difference(&y, r));
-                (j, y, level)
+            let fill = |run: Range<usize>, out: &mut [f64]| {
+                let n = run.len();
+                let series = series.slice(run.clone());
+                let scalar = &self.scalar[run];
+                let mut columns: Vec<&mut [f64]> = out.chunks_mut(n).collect();
+                split_rows(n, &mut columns, |rows, parts| {
+                    let (j, y) = parts.split_at_mut(terms.len());
+                    let y = &mut *y[0];
+                    exact_jacobian_into(design, &series, &current, &terms, rows.clone(), j, y);
+                    // `y` holds the correction Δ; the target is the scalar − Δ + J·β.
+                    for (r, v) in y.iter_mut().enumerate() {
+                        let linearised: f64 = j.iter().zip(&current).map(|(c, b)| c[r] * b).sum();
+                        *v = scalar[rows.start + r] - *v + linearised;
+                    }
+                });
             };
-            let prepared = self.rows_with(&make, levels.as_deref(), above.as_ref())?;
-            let chosen = choose_design(&prepared, &designs, &terms, self.settings.lambda)?;
+            let mut prepared = self.prepare(
+                terms.len(),
+                &fill,
+                levels.as_deref(),
+                above.as_ref(),
+                std::mem::take(&mut recycle),
+            )?;
+            let weight = levels.as_deref().map_or(0.0, LevelSetup::weight);
+            let plan = prepared.plan(levels.is_some(), count);
+            let band = prepared.band_factors(&[&plan]);
+            let folds = prepared.fold_factors(&plan, weight, &band);
+            let chosen = choose_design(&folds, &designs, &terms, self.settings.lambda, weight)?;
             if let Some(setup) = levels.as_deref_mut() {
-                setup.rows = prepared.levels;
+                setup.rows = std::mem::take(&mut prepared.levels);
             }
+            recycle = prepared.into_buffers();
             let step = relative_change(&beta, &chosen.solution.coefficients);
             beta = chosen.solution.coefficients.clone();
             best = Some(chosen);
@@ -353,25 +592,36 @@ impl Problem<'_, '_> {
     }
 }
 
-/// Band rows with an empty level mask.
-fn band_without_levels(band: Vec<Rows>) -> Vec<(DMatrix<f64>, Vec<f64>, Vec<bool>)> {
-    band.into_iter().map(|(a, y)| (a, y, Vec::new())).collect()
-}
-
-/// Each run's rows with its rows above the band merged in (none without extra channels),
-/// split into rows and level masks.
-fn with_above(
-    runs: Vec<(DMatrix<f64>, Vec<f64>, Vec<bool>)>,
-    above: Vec<Rows>,
-) -> (Vec<Rows>, Vec<Vec<bool>>) {
-    let mut above = above.into_iter();
-    runs.into_iter()
-        .map(|run| match above.next() {
-            Some(extra) => merge_by_position(run, extra),
-            None => run,
-        })
-        .map(|(a, y, mask)| ((a, y), mask))
-        .unzip()
+/// Calls `f` on parts of the rows `0..n` of `columns` (each `n` long) from as many threads as
+/// there are cores, each with its rows of every column.
+fn split_rows(
+    n: usize,
+    columns: &mut [&mut [f64]],
+    f: impl Fn(Range<usize>, &mut [&mut [f64]]) + Sync,
+) {
+    // Below this many samples a thread costs more than it saves.
+    const PARALLEL_ROWS: usize = 100_000;
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |t| t.get())
+        .min(n.div_ceil(PARALLEL_ROWS))
+        .max(1);
+    if threads == 1 {
+        f(0..n, columns);
+        return;
+    }
+    let share = n.div_ceil(threads);
+    let mut parts: Vec<Vec<&mut [f64]>> = (0..threads).map(|_| Vec::new()).collect();
+    for column in columns.iter_mut() {
+        for (part, piece) in parts.iter_mut().zip(column.chunks_mut(share)) {
+            part.push(piece);
+        }
+    }
+    std::thread::scope(|scope| {
+        for (t, mut part) in parts.into_iter().enumerate().filter(|(_, p)| !p.is_empty()) {
+            let f = &f;
+            scope.spawn(move || f(t * share..((t + 1) * share).min(n), &mut part));
+        }
+    });
 }
 
 /// Subtracts the mean: a run's intercept, for a target that has no filter to remove it.
@@ -390,24 +640,129 @@ fn relative_change(a: &[f64], b: &[f64]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fit::ridge::Ridge;
 
     #[test]
-    fn rows_above_the_band_are_merged_in_time_order_and_are_not_level_rows() {
-        // Four band rows (the second a level row) and two rows above the band.
-        let band = (
-            DMatrix::from_column_slice(4, 1, &[1.0, 2.0, 3.0, 4.0]),
-            vec![10.0, 20.0, 30.0, 40.0],
-            vec![false, true, false, false],
+    fn level_rows_follow_the_band_row_of_their_sample() {
+        // Band rows are samples 2, 3, 4 (trim 2); the level row at sample 3 follows band row 3.
+        assert_eq!(merged_kinds(3, 2, &[3], 0), [BAND, BAND, LEVEL, BAND]);
+        assert_eq!(merged_kinds(2, 0, &[0, 5], 0), [BAND, LEVEL, BAND, LEVEL]);
+    }
+
+    #[test]
+    fn rows_above_the_band_are_merged_by_position() {
+        // Four rows (the second a level row) and two above: positions 1/8, 3/8, 5/8, 7/8 and
+        // 1/4, 3/4.
+        assert_eq!(
+            merged_kinds(3, 0, &[0], 2),
+            [BAND, ABOVE, LEVEL, BAND, ABOVE, BAND]
         );
-        let above = (
-            DMatrix::from_column_slice(2, 1, &[-1.0, -2.0]),
-            vec![-10.0, -20.0],
-        );
-        let (a, y, mask) = merge_by_position(band, above);
-        // Positions in the run: band 1/8, 3/8, 5/8, 7/8; above 1/4, 3/4.
-        assert_eq!(y, [10.0, -10.0, 20.0, 30.0, -20.0, 40.0]);
-        assert_eq!(a.column(0).as_slice(), [1.0, -1.0, 2.0, 3.0, -2.0, 4.0]);
-        assert_eq!(mask, [false, false, true, false, false, false]);
+    }
+
+    /// Runs of `lengths` samples, two columns and a target of made-up values, trim 2, with a
+    /// level row every 3 samples and, if `above`, rows above the band.
+    fn prepared(lengths: &[usize], above: bool) -> Prepared {
+        let (width, trim) = (3, 2);
+        let value =
+            |run: usize, k: usize, c: usize| ((run * 31 + k * 7 + c * 3) as f64 * 0.41).sin();
+        let runs = lengths
+            .iter()
+            .enumerate()
+            .map(|(run, &n)| RunRows {
+                data: (0..width)
+                    .flat_map(|c| (0..n).map(move |k| value(run, k, c)))
+                    .collect(),
+                len: n,
+                above: above
+                    .then(|| DMatrix::from_fn(n - 2 * trim, width, |k, c| value(run + 9, k, c))),
+            })
+            .collect();
+        let levels = lengths
+            .iter()
+            .enumerate()
+            .map(|(run, &n)| {
+                let at: Vec<usize> = (trim..n - trim).step_by(3).collect();
+                LevelRows {
+                    a: DMatrix::from_fn(at.len(), width - 1, |k, c| value(run + 5, k, c)),
+                    y: (0..at.len()).map(|k| value(run + 5, k, 2)).collect(),
+                    at,
+                }
+            })
+            .collect();
+        Prepared {
+            width,
+            trim,
+            runs,
+            levels,
+            short: 0,
+        }
+    }
+
+    /// The rows of every fold the slow way: each run's rows materialised in time order and
+    /// dealt out row by row, as the folds were made before they were factored in place.
+    fn folds_row_by_row(p: &Prepared, with_levels: bool, count: usize, weight: f64) -> Vec<Ridge> {
+        let mut rows: Vec<(Vec<f64>, f64)> = Vec::new();
+        for run in 0..p.runs.len() {
+            let level = &p.levels[run];
+            let at: &[usize] = if with_levels { &level.at } else { &[] };
+            let above = p.runs[run].above.as_ref();
+            let kinds = merged_kinds(p.band_rows(run), p.trim, at, above.map_or(0, |a| a.nrows()));
+            let mut next = [0usize; 3];
+            for kind in kinds {
+                let k = next[kind as usize];
+                next[kind as usize] += 1;
+                let all = 0..p.band_rows(run);
+                rows.push(match kind {
+                    BAND => (
+                        (0..2).map(|c| p.band_column(run, c, &all)[k]).collect(),
+                        p.band_column(run, 2, &all)[k],
+                    ),
+                    LEVEL => (
+                        (0..2).map(|c| weight * level.a[(k, c)]).collect(),
+                        weight * level.y[k],
+                    ),
+                    _ => {
+                        let a = above.unwrap();
+                        ((0..2).map(|c| a[(k, c)]).collect(), a[(k, 2)])
+                    }
+                });
+            }
+        }
+        let total = rows.len();
+        let mut folds = vec![Ridge::new(2); count];
+        for (g, (a, y)) in rows.into_iter().enumerate() {
+            folds[g * count / total].push_row(a, y);
+        }
+        folds
+    }
+
+    #[test]
+    fn fold_factors_from_the_filtered_runs_equal_the_folds_dealt_row_by_row() {
+        for (lengths, above) in [(vec![40, 23, 61], false), (vec![30, 57], true)] {
+            let p = prepared(&lengths, above);
+            let band_plan = p.plan(false, 5);
+            let level_plan = p.plan(true, 5);
+            let band = p.band_factors(&[&band_plan, &level_plan]);
+            for (plan, with_levels, weight) in [(&band_plan, false, 0.0), (&level_plan, true, 0.7)]
+            {
+                let factors = p.fold_factors(plan, weight, &band);
+                let (fast, _) = super::super::choice::fold_problems(&factors, &[0, 1]);
+                let slow = folds_row_by_row(&p, with_levels, 5, weight);
+                for (f, s) in fast.iter().zip(&slow) {
+                    assert_eq!(f.rows(), s.rows());
+                    let beta = [0.3, -1.2];
+                    let (u, v) = (
+                        f.residual_sum_of_squares(&beta),
+                        s.residual_sum_of_squares(&beta),
+                    );
+                    assert!((u - v).abs() <= 1e-12 * v.max(1.0), "{u} vs {v}");
+                    let (u, v) = (f.column_sums_of_squares(), s.column_sums_of_squares());
+                    for (x, y) in u.iter().zip(&v) {
+                        assert!((x - y).abs() <= 1e-12 * y.max(1.0), "{x} vs {y}");
+                    }
+                }
+            }
+        }
     }
 
     #[test]

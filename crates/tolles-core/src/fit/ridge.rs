@@ -16,6 +16,7 @@
 //! Since `[A | y] = Q·R0`, the residual of any β on these rows is `‖R0·[β; −1]‖`, which is what
 //! makes cross-validation over folds cheap (see [`crate::fit::crossval`]).
 
+use crate::fit::qr::{stacked_factor, triangular_factor, upper_factor};
 use nalgebra::{DMatrix, DVector};
 use thiserror::Error;
 
@@ -85,19 +86,33 @@ impl Ridge {
             columns.iter().all(|c| c.len() == y.len()),
             "one target per row"
         );
-        self.flush();
-        let mut start = 0;
-        while start < y.len() {
-            let end = (start + BLOCK_ROWS).min(y.len());
-            let mut block = DMatrix::zeros(end - start, self.p + 1);
-            for (j, column) in columns.iter().enumerate() {
-                block.column_mut(j).copy_from_slice(&column[start..end]);
-            }
-            block.column_mut(self.p).copy_from_slice(&y[start..end]);
-            self.r = upper_factor(stack(&self.r, &block));
-            self.rows += end - start;
-            start = end;
+        let mut all = columns.to_vec();
+        all.push(y);
+        self.push_factor(&triangular_factor(&all), y.len());
+    }
+
+    /// A problem of `p` unknowns holding `rows` rows whose `[A | y]` has the triangular factor
+    /// `r` (`(p+1)` columns, at most `p+1` rows).
+    pub(crate) fn from_factor(p: usize, r: DMatrix<f64>, rows: usize) -> Self {
+        assert_eq!(r.ncols(), p + 1, "design width");
+        Self {
+            p,
+            r,
+            pending: Vec::new(),
+            pending_rows: 0,
+            rows,
         }
+    }
+
+    /// Adds `rows` rows given by the triangular factor `r` of their `[A | y]`.
+    pub(crate) fn push_factor(&mut self, r: &DMatrix<f64>, rows: usize) {
+        assert_eq!(r.ncols(), self.p + 1, "design width");
+        self.flush();
+        self.r = stacked_factor(&[
+            std::mem::replace(&mut self.r, DMatrix::zeros(0, 0)),
+            r.clone(),
+        ]);
+        self.rows += rows;
     }
 
     /// Adds all rows of another problem of the same width.
@@ -114,8 +129,10 @@ impl Ridge {
         if self.pending_rows == 0 {
             return;
         }
+        // Column-major, the block's factor comes from the vectorised kernel.
         let block = DMatrix::from_row_slice(self.pending_rows, self.p + 1, &self.pending);
-        self.r = upper_factor(stack(&self.r, &block));
+        let columns: Vec<&[f64]> = block.as_slice().chunks_exact(self.pending_rows).collect();
+        self.r = upper_factor(stack(&self.r, &triangular_factor(&columns)));
         self.pending.clear();
         self.pending_rows = 0;
     }
@@ -180,11 +197,6 @@ fn stack(top: &DMatrix<f64>, bottom: &DMatrix<f64>) -> DMatrix<f64> {
     m.rows_mut(0, top.nrows()).copy_from(top);
     m.rows_mut(top.nrows(), bottom.nrows()).copy_from(bottom);
     m
-}
-
-/// The triangular factor R of a QR decomposition, `min(rows, cols) × cols`.
-fn upper_factor(m: DMatrix<f64>) -> DMatrix<f64> {
-    m.qr().r()
 }
 
 fn check_rank(r_a: &DMatrix<f64>, columns: &[String]) -> Result<(), RidgeError> {

@@ -28,6 +28,9 @@ use crate::model::vector::{Fluxgates, VectorSeries};
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 
+/// Matrix entries above which [`Design::matrix_into`] shares the columns between two cores.
+const PARALLEL_ENTRIES: usize = 1 << 21;
+
 /// MagNav.jl's scale for the induced and eddy columns (nT), so they are of order one.
 pub const MAGNAV_BT_SCALE: f64 = 50_000.0;
 
@@ -203,10 +206,22 @@ impl Design {
     /// If `terms` names a fluxgate that `flux` does not have: a programming error.
     pub fn matrix_of<'a>(&self, flux: impl Into<Fluxgates<'a>>, terms: &[Term]) -> DMatrix<f64> {
         let flux = flux.into();
-        let components: Vec<Components> = flux.series().iter().map(|s| Components::of(s)).collect();
         let mut a = DMatrix::zeros(flux.len(), terms.len());
-        for (mut out, term) in a.column_iter_mut().zip(terms) {
-            let out = out.as_mut_slice();
+        self.matrix_into(flux, terms, a.as_mut_slice());
+        a
+    }
+
+    /// [`Design::matrix_of`] written column after column into `out` (`terms.len()` columns of
+    /// one value per sample), so a caller can build it where it will be filtered.
+    ///
+    /// # Panics
+    /// If `out` is shorter than the matrix, or `terms` names a fluxgate that `flux` does not
+    /// have: programming errors.
+    pub fn matrix_into<'a>(&self, flux: impl Into<Fluxgates<'a>>, terms: &[Term], out: &mut [f64]) {
+        let flux = flux.into();
+        let n = flux.len();
+        let components: Vec<Components> = flux.series().iter().map(|s| Components::of(s)).collect();
+        let write = |out: &mut [f64], term: &Term| {
             let c = &components[term.fluxgate];
             let scaled = |out: &mut [f64], u: &[f64], v: &[f64]| {
                 for ((o, u), v) in out.iter_mut().zip(u).zip(v) {
@@ -228,8 +243,22 @@ impl Design {
                 }
                 Column::Bias => out.fill(1.0),
             }
+        };
+        let mut jobs: Vec<(&mut [f64], &Term)> =
+            out.chunks_exact_mut(n.max(1)).zip(terms).collect();
+        // Long series: half the columns on another core (each column is written on its own).
+        if n * terms.len() >= PARALLEL_ENTRIES
+            && std::thread::available_parallelism().map_or(1, |t| t.get()) > 1
+        {
+            let half = jobs.len() / 2;
+            let (first, second) = jobs.split_at_mut(half);
+            std::thread::scope(|scope| {
+                scope.spawn(|| first.iter_mut().for_each(|(o, t)| write(o, t)));
+                second.iter_mut().for_each(|(o, t)| write(o, t));
+            });
+        } else {
+            jobs.iter_mut().for_each(|(o, t)| write(o, t));
         }
-        a
     }
 
     /// The design matrix of one contiguous series (rows = samples), all columns.
@@ -309,18 +338,26 @@ struct Components<'a> {
 impl<'a> Components<'a> {
     /// Writes the traceless column `(B̂·v/3 − B̂a·va) / s` with v = B, or Ḃ when `eddy`.
     fn traceless(&self, out: &mut [f64], eddy: bool, a: usize, s: f64) {
-        for (k, o) in out.iter_mut().enumerate() {
-            let v = |i: usize| if eddy { self.db[i][k] } else { self.b[i][k] };
-            let unit = [0, 1, 2].map(|i| self.unit[i][k]);
-            *o = traceless(unit, [v(0), v(1), v(2)], a) / s;
-        }
+        let v: [&[f64]; 3] = if eddy {
+            [&self.db[0], &self.db[1], &self.db[2]]
+        } else {
+            self.b
+        };
+        self.each_sample(out, v, |unit, v| traceless(unit, v, a) / s);
     }
 
     /// Writes the trace column `B̂·B / (3s)`.
     fn trace(&self, out: &mut [f64], s: f64) {
-        for (k, o) in out.iter_mut().enumerate() {
-            let unit = [0, 1, 2].map(|i| self.unit[i][k]);
-            *o = trace(unit, [0, 1, 2].map(|i| self.b[i][k])) / s;
+        self.each_sample(out, self.b, |unit, v| trace(unit, v) / s);
+    }
+
+    /// Writes `f(B̂, v)` for every sample, by iterators rather than indices so the loop carries
+    /// no bounds checks.
+    fn each_sample(&self, out: &mut [f64], v: [&[f64]; 3], f: impl Fn([f64; 3], [f64; 3]) -> f64) {
+        let units = self.unit[0].iter().zip(&self.unit[1]).zip(&self.unit[2]);
+        let values = v[0].iter().zip(v[1]).zip(v[2]);
+        for ((o, ((u0, u1), u2)), ((v0, v1), v2)) in out.iter_mut().zip(units).zip(values) {
+            *o = f([*u0, *u1, *u2], [*v0, *v1, *v2]);
         }
     }
 

@@ -57,6 +57,7 @@ impl std::fmt::Display for Magnitude {
 
 /// The field vector (nT) that one unit of `column`'s coefficient adds, for the fluxgate reading
 /// `b` (nT) and its change per sample `db` (nT/sample); `None` for the bias, which is no field.
+#[inline]
 pub fn field_per_unit(
     column: Column,
     b: [f64; 3],
@@ -111,6 +112,11 @@ pub fn exact_at(
             None => bias += beta,
         }
     }
+    change_of_magnitude(b, h, bias)
+}
+
+/// `|B + H| − |B| + bias` (nT) as `(2B·H + H·H)/(|B + H| + |B|)`, and the direction of `B + H`.
+fn change_of_magnitude(b: [f64; 3], h: [f64; 3], bias: f64) -> (f64, [f64; 3]) {
     let total = [b[0] + h[0], b[1] + h[1], b[2] + h[2]];
     let (nb, nt) = (norm(b), norm(total));
     let dot =
@@ -147,22 +153,78 @@ pub fn exact_jacobian(
     coefficients: &[f64],
     terms: &[Term],
 ) -> (Vec<f64>, DMatrix<f64>) {
+    let n = flux.len();
+    let mut jacobian = DMatrix::zeros(n, terms.len());
+    let mut delta = vec![0.0; n];
+    let mut columns: Vec<&mut [f64]> = jacobian.as_mut_slice().chunks_mut(n.max(1)).collect();
+    exact_jacobian_into(
+        design,
+        flux,
+        coefficients,
+        terms,
+        0..n,
+        &mut columns,
+        &mut delta,
+    );
+    (delta, jacobian)
+}
+
+/// [`exact_jacobian`] for the samples `rows` of `flux`, written into `jacobian` (one slice per
+/// term, `rows.len()` long) and `delta`, so callers can share a series' samples between threads
+/// and decide where the rows live. The changes per sample are those of the whole series.
+///
+/// # Panics
+/// If `rows` is not within the series or a slice is shorter than `rows`: programming errors.
+pub fn exact_jacobian_into(
+    design: &Design,
+    flux: &VectorSeries,
+    coefficients: &[f64],
+    terms: &[Term],
+    rows: std::ops::Range<usize>,
+    jacobian: &mut [&mut [f64]],
+    delta: &mut [f64],
+) {
     let columns = design.columns();
     let db = derivatives(flux);
-    let mut jacobian = DMatrix::zeros(flux.len(), terms.len());
-    let mut delta = Vec::with_capacity(flux.len());
-    for k in 0..flux.len() {
+    let s = design.bt_scale;
+    // Each column's field is needed for H and again for its derivative: when the terms are the
+    // design's own columns (one fluxgate, the usual case) it is computed once per sample. H is
+    // summed in column order as `exact_at` sums it, so the values are the same.
+    let same =
+        terms.len() == columns.len() && terms.iter().zip(&columns).all(|(t, c)| t.column == *c);
+    let mut fields: Vec<Option<[f64; 3]>> = vec![None; columns.len()];
+    for (r, k) in rows.enumerate() {
         let (b, d) = (sample(flux, k), at(&db, k));
-        let (value, direction) = exact_at(design, &columns, coefficients, b, d);
-        delta.push(value);
-        for (c, term) in terms.iter().enumerate() {
-            jacobian[(k, c)] = match field_per_unit(term.column, b, d, design.bt_scale) {
-                Some(v) => direction[0] * v[0] + direction[1] * v[1] + direction[2] * v[2],
-                None => 1.0,
+        for (field, column) in fields.iter_mut().zip(&columns) {
+            *field = field_per_unit(*column, b, d, s);
+        }
+        let mut h = [0.0; 3];
+        let mut bias = 0.0;
+        for (field, beta) in fields.iter().zip(coefficients) {
+            match field {
+                Some(v) => (0..3).for_each(|i| h[i] += beta * v[i]),
+                None => bias += beta,
+            }
+        }
+        let (value, direction) = change_of_magnitude(b, h, bias);
+        delta[r] = value;
+        for (c, (out, term)) in jacobian.iter_mut().zip(terms).enumerate() {
+            let field = if same {
+                fields[c]
+            } else {
+                field_per_unit(term.column, b, d, s)
             };
+            out[r] = derivative(field, direction);
         }
     }
-    (delta, jacobian)
+}
+
+/// `∂|B + H|/∂β` of a column with field `field` (1 for the bias).
+fn derivative(field: Option<[f64; 3]>, direction: [f64; 3]) -> f64 {
+    match field {
+        Some(v) => direction[0] * v[0] + direction[1] * v[1] + direction[2] * v[2],
+        None => 1.0,
+    }
 }
 
 fn derivatives(flux: &VectorSeries) -> [Vec<f64>; 3] {
