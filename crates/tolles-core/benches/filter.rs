@@ -4,7 +4,9 @@
 //! `per_column` is the old way, `filtfilt_unless_constant` (the constancy test, then
 //! `Butterworth::filtfilt`) per signal copied back, on one thread and (`per_column_threads`)
 //! shared among the cores as `filtfilt_many_unless_constant` used to; `blocks` is
-//! `filtfilt_many_unless_constant` now, eight signals per pass.
+//! `filtfilt_many_unless_constant` now, eight signals per pass, with the widest kernels the
+//! processor has, and `blocks_<simd>` the same with the kernels of each instruction set it
+//! has (`blocks_portable` being the x86-64 baseline, SSE2).
 //!
 //! `cargo bench -p tolles-core --bench filter`; under `taskset -c 0` the threaded variants
 //! use one core, which compares the single-thread speed of the kernels.
@@ -12,7 +14,8 @@
 use criterion::{criterion_group, BatchSize, Criterion, SamplingMode, Throughput};
 use std::hint::black_box;
 use tolles_core::signal::filter::{
-    filtfilt_many_unless_constant, filtfilt_unless_constant, magnav_bandpass, Butterworth,
+    filtfilt_many_unless_constant, filtfilt_many_unless_constant_with, filtfilt_unless_constant,
+    magnav_bandpass, Butterworth, Simd,
 };
 
 const FS_HZ: f64 = 10.0;
@@ -81,6 +84,19 @@ fn bandpass(c: &mut Criterion) {
             b.iter_batched_ref(
                 || input.clone(),
                 |x| run(&filter, black_box(x)),
+                BatchSize::LargeInput,
+            )
+        });
+    }
+    for simd in Simd::available() {
+        group.bench_function(format!("blocks_{}", simd.name()), |b| {
+            b.iter_batched_ref(
+                || input.clone(),
+                |x| {
+                    let mut views: Vec<&mut [f64]> =
+                        black_box(x).iter_mut().map(|x| x.as_mut_slice()).collect();
+                    filtfilt_many_unless_constant_with(simd, &filter, &mut views).unwrap();
+                },
                 BatchSize::LargeInput,
             )
         });

@@ -312,18 +312,35 @@ pub fn filtfilt_unless_constant(filter: &Butterworth, x: &[f64]) -> Result<Vec<f
 /// this runs about twice as fast with MagNav's band-pass (four sections) and up to four
 /// times with a single section, and it needs no buffer of the signals' length.
 ///
+/// The kernels are compiled for AVX2 and AVX-512 as well as for the baseline, and the widest
+/// the processor has is used ([`Simd::best`]); all give the same bits.
+///
 /// # Panics
 /// If the signals differ in length: that is a programming error, not bad input.
 pub fn filtfilt_many_unless_constant(
     filter: &Butterworth,
     signals: &mut [&mut [f64]],
 ) -> Result<(), FilterError> {
+    filtfilt_many_unless_constant_with(Simd::best(), filter, signals)
+}
+
+/// [`filtfilt_many_unless_constant`] with the kernels compiled for `simd` rather than the
+/// best ones, to compare their speed; the result is the same.
+///
+/// # Panics
+/// If the signals differ in length.
+pub fn filtfilt_many_unless_constant_with(
+    simd: Simd,
+    filter: &Butterworth,
+    signals: &mut [&mut [f64]],
+) -> Result<(), FilterError> {
+    let kernels = simd.0;
     let n = signals.first().map_or(0, |s| s.len());
     assert!(
         signals.iter().all(|s| s.len() == n),
         "signals must have equal lengths"
     );
-    let constant: Vec<bool> = in_shares(signals, n, |share| lanes::constant(share))
+    let constant: Vec<bool> = in_shares(signals, n, |share| (kernels.constant)(share))
         .into_iter()
         .flatten()
         .collect();
@@ -337,8 +354,39 @@ pub fn filtfilt_many_unless_constant(
     if !varying.is_empty() && n <= padlen {
         return Err(FilterError::TooShort { len: n, padlen });
     }
-    in_shares(&mut varying, n, |share| lanes::filtfilt_all(filter, share));
+    in_shares(&mut varying, n, |share| {
+        (kernels.filtfilt_all)(filter, share)
+    });
     Ok(())
+}
+
+/// An instruction set that [`filtfilt_many_unless_constant`]'s kernels are compiled for and
+/// the running processor has: the baseline of the target ("portable"), "AVX2" or "AVX-512".
+#[derive(Clone, Copy)]
+pub struct Simd(lanes::Kernels);
+
+impl Simd {
+    /// The widest the processor has, the one [`filtfilt_many_unless_constant`] uses (chosen
+    /// once per process).
+    pub fn best() -> Self {
+        Self(lanes::best())
+    }
+
+    /// Every one the processor has, portable first.
+    pub fn available() -> Vec<Self> {
+        lanes::available().into_iter().map(Self).collect()
+    }
+
+    /// "portable", "AVX2" or "AVX-512".
+    pub fn name(self) -> &'static str {
+        self.0.name
+    }
+}
+
+impl std::fmt::Debug for Simd {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
 }
 
 /// `work` on `signals` (each of `n` samples) in near-equal shares on the available cores,

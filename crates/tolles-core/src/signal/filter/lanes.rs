@@ -7,13 +7,90 @@
 //! SSE2 register, the x86-64 baseline) and fill the pipeline. Each lane performs exactly
 //! the operations of [`Butterworth::filtfilt`] in the same order, so the results are
 //! bit-for-bit the same.
+//!
+//! The kernels are compiled three times: for the baseline, for AVX2 (four lanes per
+//! register) and for AVX-512 (eight), and [`best`] picks the widest the processor has.
+//! Neither extension enables fused multiply-add (Rust never contracts `a * b + c` on its
+//! own anyway), so every path gives the same bits.
 
 use super::Butterworth;
+use multiversion::{inherit_target, multiversion, target::match_target};
+use std::sync::OnceLock;
+
+/// The lane kernels compiled for one instruction set.
+#[derive(Clone, Copy)]
+pub(super) struct Kernels {
+    /// The instruction set, for people: "portable", "AVX2" or "AVX-512".
+    pub name: &'static str,
+    /// [`filtfilt_all`].
+    pub filtfilt_all: fn(&Butterworth, &mut [&mut [f64]]),
+    /// [`constant`].
+    pub constant: fn(&[&mut [f64]]) -> Vec<bool>,
+}
+
+/// The kernels for the target the crate is compiled for (SSE2 on plain x86-64).
+const PORTABLE: Kernels = Kernels {
+    name: "portable",
+    filtfilt_all,
+    constant,
+};
+
+/// Defines `$name() -> Option<Kernels>`: the kernels compiled for `$target` (a
+/// `multiversion` target string) if the running processor has it, else `None`.
+///
+/// The kernels' helpers are all `#[inline(always)]`, so they are compiled into these
+/// copies with the target's instructions rather than called at the baseline.
+macro_rules! compiled_for {
+    ($name:ident, $target:tt, $label:literal) => {
+        #[multiversion(targets($target))]
+        fn $name() -> Option<Kernels> {
+            match_target! {
+                $target => {
+                    #[inherit_target]
+                    fn filtfilt_all_here(filter: &Butterworth, signals: &mut [&mut [f64]]) {
+                        filtfilt_all(filter, signals)
+                    }
+                    #[inherit_target]
+                    fn constant_here(signals: &[&mut [f64]]) -> Vec<bool> {
+                        constant(signals)
+                    }
+                    Some(Kernels {
+                        name: $label,
+                        filtfilt_all: filtfilt_all_here,
+                        constant: constant_here,
+                    })
+                }
+                _ => None,
+            }
+        }
+    };
+}
+
+compiled_for!(avx2, "x86_64+avx2", "AVX2");
+// `multiversion` requires Ice Lake's AVX-512 extensions on top, so that processors which
+// slow their clock down for AVX-512 (Skylake-SP and its kin) run the AVX2 copy instead.
+compiled_for!(avx512, "x86_64+avx512f", "AVX-512");
+
+/// Every copy of the kernels the running processor can execute, portable first.
+pub(super) fn available() -> Vec<Kernels> {
+    [Some(PORTABLE), avx2(), avx512()]
+        .into_iter()
+        .flatten()
+        .collect()
+}
+
+/// The widest copy of the kernels the running processor can execute, chosen on the
+/// first call.
+pub(super) fn best() -> Kernels {
+    static BEST: OnceLock<Kernels> = OnceLock::new();
+    *BEST.get_or_init(|| avx512().or_else(avx2).unwrap_or(PORTABLE))
+}
 
 /// Signals per block. Fewer lanes leave the recursion latency-bound on filters with one
 /// or two sections; more only add register pressure once the arithmetic units are busy
 /// (measured at 10⁶ samples: 8 lanes about 4× faster than one signal at a time with one
-/// section, 2× with four or eight).
+/// section, 2× with four or eight). The AVX-512 copy too: 16 lanes (two registers) were
+/// about 10 % slower than 8 with MagNav's band-pass.
 const LANES: usize = 8;
 
 /// Samples per tile that the signals are interleaved into and out of. Short tiles
@@ -25,6 +102,7 @@ const TILE: usize = 32;
 ///
 /// The last, partial block uses a narrower kernel, since idle lanes cost as much as busy
 /// ones once the arithmetic units are saturated.
+#[inline(always)]
 pub(super) fn filtfilt_all(filter: &Butterworth, signals: &mut [&mut [f64]]) {
     let mut blocks = signals.chunks_exact_mut(LANES);
     if blocks.len() > 0 {
@@ -49,24 +127,29 @@ pub(super) fn filtfilt_all(filter: &Butterworth, signals: &mut [&mut [f64]]) {
 /// The two sums of `sample_std` are sequential chains of additions, which the processor
 /// waits on for one signal; eight signals side by side overlap them. Per lane the
 /// operations and their order are `sample_std`'s, so the decision is the same.
+#[inline(always)]
 pub(super) fn constant(signals: &[&mut [f64]]) -> Vec<bool> {
     let n = signals.first().map_or(0, |x| x.len());
     if n < 2 {
         return vec![false; signals.len()];
     }
     let mut tile = vec![[0.0; LANES]; TILE];
-    signals
-        .chunks(LANES)
-        .flat_map(|block| {
-            let std = sample_std_block(block, &mut tile);
-            std.into_iter().take(block.len()).map(|s| s <= f64::EPSILON)
-        })
-        .collect()
+    // A plain loop rather than iterator adapters: their closures would be compiled
+    // separately, at the baseline, instead of into the AVX copies of this function.
+    let mut out = Vec::with_capacity(signals.len());
+    for block in signals.chunks(LANES) {
+        let std = sample_std_block(block, &mut tile);
+        for &s in &std[..block.len()] {
+            out.push(s <= f64::EPSILON);
+        }
+    }
+    out
 }
 
 /// [`super::sample_std`] of each of `signals` (at most `L`, equally long, at least 2
 /// samples) in its lane; unused lanes hold 0.
 #[allow(clippy::needless_range_loop)] // as in `step`: the per-lane formula stays visible
+#[inline(always)]
 fn sample_std_block<const L: usize>(signals: &[&mut [f64]], tile: &mut [[f64; L]]) -> [f64; L] {
     let n = signals[0].len();
     if signals.len() < L {
@@ -117,6 +200,7 @@ struct Workspace<const L: usize> {
 }
 
 impl<const L: usize> Workspace<L> {
+    #[inline(always)]
     fn new(filter: &Butterworth) -> Self {
         Self {
             sections: filter.sections.iter().map(Section::new).collect(),
@@ -128,6 +212,7 @@ impl<const L: usize> Workspace<L> {
 
     /// Delays as if each lane's input had always been its sample in `x0`, as
     /// [`super::SosState::steady`] does for one signal.
+    #[inline(always)]
     fn steady(&mut self, x0: [f64; L]) {
         for (s, [zi0, zi1]) in self.sections.iter_mut().zip(&self.zi) {
             for (l, &x) in x0.iter().enumerate() {
@@ -146,6 +231,7 @@ impl<const L: usize> Workspace<L> {
 /// not at all. Only the trailing extension's forward output is stored (in `pad`), as the
 /// backward pass starts from it. The signals themselves hold the forward output in
 /// between, so there is no buffer of the signals' length.
+#[inline(always)]
 fn filtfilt_block<const L: usize>(signals: &mut [&mut [f64]], ws: &mut Workspace<L>) {
     assert!(signals.len() <= L, "at most {L} signals per block");
     let Some(n) = signals.first().map(|s| s.len()) else {
@@ -198,6 +284,7 @@ fn filtfilt_block<const L: usize>(signals: &mut [&mut [f64]], ws: &mut Workspace
 
 /// Interleaves samples `start..start + tile.len()` of `signals` into `tile`, one signal
 /// per lane.
+#[inline(always)]
 fn gather<const L: usize>(signals: &[&mut [f64]], start: usize, tile: &mut [[f64; L]]) {
     for (l, x) in signals.iter().enumerate() {
         for (t, v) in tile.iter_mut().zip(&x[start..]) {
@@ -207,6 +294,7 @@ fn gather<const L: usize>(signals: &[&mut [f64]], start: usize, tile: &mut [[f64
 }
 
 /// The inverse of [`gather`].
+#[inline(always)]
 fn scatter<const L: usize>(tile: &[[f64; L]], start: usize, signals: &mut [&mut [f64]]) {
     for (l, x) in signals.iter_mut().enumerate() {
         for (t, v) in tile.iter().zip(&mut x[start..]) {
@@ -217,15 +305,49 @@ fn scatter<const L: usize>(tile: &[[f64; L]], start: usize, signals: &mut [&mut 
 
 /// Runs `data` (time-major, oldest sample first) through all sections in place, forward
 /// in time or, if `backward`, from the last sample to the first, carrying the delays on.
+#[inline(always)]
 fn run<const L: usize>(sections: &mut [Section<L>], data: &mut [[f64; L]], backward: bool) {
+    // A fixed number of sections copied into locals keeps the delays in registers for
+    // the tile; through the slice they go to memory and back every sample, which lengthens
+    // each section's chain of dependent operations by the store-to-load latency.
+    match sections {
+        [a] => run_fixed(&mut [a], data, backward),
+        [a, b] => run_fixed(&mut [a, b], data, backward),
+        [a, b, c] => run_fixed(&mut [a, b, c], data, backward),
+        [a, b, c, d] => run_fixed(&mut [a, b, c, d], data, backward),
+        _ => {
+            if backward {
+                for v in data.iter_mut().rev() {
+                    step(sections.iter_mut(), v);
+                }
+            } else {
+                for v in data.iter_mut() {
+                    step(sections.iter_mut(), v);
+                }
+            }
+        }
+    }
+}
+
+/// [`run`] with `S` sections, copied in and back out.
+#[inline(always)]
+fn run_fixed<const L: usize, const S: usize>(
+    sections: &mut [&mut Section<L>; S],
+    data: &mut [[f64; L]],
+    backward: bool,
+) {
+    let mut local: [Section<L>; S] = std::array::from_fn(|k| *sections[k]);
     if backward {
         for v in data.iter_mut().rev() {
-            step(sections, v);
+            step(local.iter_mut(), v);
         }
     } else {
         for v in data.iter_mut() {
-            step(sections, v);
+            step(local.iter_mut(), v);
         }
+    }
+    for (s, l) in sections.iter_mut().zip(local) {
+        **s = l;
     }
 }
 
@@ -240,8 +362,8 @@ fn run<const L: usize>(sections: &mut [Section<L>], data: &mut [[f64; L]], backw
 // Indexing every array by lane keeps the line-for-line match with the scalar recursion
 // visible; the compiler turns the fixed-length loop into vector instructions either way.
 #[allow(clippy::needless_range_loop)]
-fn step<const L: usize>(sections: &mut [Section<L>], v: &mut [f64; L]) {
-    for s in sections.iter_mut() {
+fn step<'a, const L: usize>(sections: impl Iterator<Item = &'a mut Section<L>>, v: &mut [f64; L]) {
+    for s in sections {
         for l in 0..L {
             let x = v[l];
             let y = s.b0[l] * x + s.z0[l];
@@ -286,7 +408,7 @@ mod tests {
     use super::super::{
         filtfilt_many_unless_constant, filtfilt_unless_constant, sample_std, Butterworth, Response,
     };
-    use super::{constant, filtfilt_all};
+    use super::{available, best};
     use proptest::prelude::*;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
@@ -372,7 +494,7 @@ mod tests {
     proptest! {
         /// Every block width and partial blocks: 1–23 signals, from `padlen + 1` samples
         /// up, bit for bit as one signal at a time, constant signals untouched and judged
-        /// constant exactly as one at a time.
+        /// constant exactly as one at a time, with the kernels this processor is given.
         #[test]
         fn blocks_equal_one_signal_at_a_time(
             f in filter_strategy(),
@@ -389,8 +511,9 @@ mod tests {
                 .iter()
                 .map(|x| x.len() >= 2 && sample_std(x) <= f64::EPSILON)
                 .collect();
-            prop_assert_eq!(constant(&views), by_rule);
-            filtfilt_all(&f, &mut views);
+            let kernels = best();
+            prop_assert_eq!((kernels.constant)(&views), by_rule);
+            (kernels.filtfilt_all)(&f, &mut views);
             for (x, y) in original.iter().zip(&all) {
                 prop_assert!(same_bits(&f.filtfilt(x).unwrap(), y));
             }
@@ -401,6 +524,48 @@ mod tests {
             for (x, y) in original.iter().zip(&many) {
                 prop_assert!(same_bits(&filtfilt_unless_constant(&f, x).unwrap(), y));
             }
+        }
+
+        /// Every copy of the kernels this processor can run (portable, AVX2, AVX-512)
+        /// gives the same bits and the same constancy decisions as the portable one.
+        #[test]
+        fn every_instruction_set_gives_the_same_bits(
+            f in filter_strategy(),
+            kinds in prop::collection::vec(0u8..6, 1..=23),
+            extra in prop_oneof![0usize..4, 0usize..200, 0usize..3000],
+            seed in any::<u64>(),
+        ) {
+            let n = f.padlen() + 1 + extra;
+            let original = columns(&kinds, n, seed);
+            let [portable, others @ ..] = &available()[..] else {
+                unreachable!("the portable kernels are always available");
+            };
+            let mut expected = original.clone();
+            let mut views: Vec<&mut [f64]> =
+                expected.iter_mut().map(|c| c.as_mut_slice()).collect();
+            let expected_constant = (portable.constant)(&views);
+            (portable.filtfilt_all)(&f, &mut views);
+            for kernels in others {
+                let mut got = original.clone();
+                let mut views: Vec<&mut [f64]> =
+                    got.iter_mut().map(|c| c.as_mut_slice()).collect();
+                prop_assert_eq!(&(kernels.constant)(&views), &expected_constant, "{}", kernels.name);
+                (kernels.filtfilt_all)(&f, &mut views);
+                for (x, y) in expected.iter().zip(&got) {
+                    prop_assert!(same_bits(x, y), "{}", kernels.name);
+                }
+            }
+        }
+    }
+
+    /// The processor this runs on picks the widest kernels it has, so that the tests above
+    /// check what `filtfilt_many_unless_constant` runs.
+    #[test]
+    fn best_is_the_widest_available() {
+        assert_eq!(best().name, available().last().unwrap().name);
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            assert!(available().iter().any(|k| k.name == "AVX2"));
         }
     }
 
@@ -433,13 +598,15 @@ mod tests {
         original[2][299] = f64::NEG_INFINITY;
         original[3][150] = f64::INFINITY;
         original[3][151] = f64::NEG_INFINITY;
-        let mut all = original.clone();
-        let mut views: Vec<&mut [f64]> = all.iter_mut().map(|c| c.as_mut_slice()).collect();
-        filtfilt_all(&f, &mut views);
-        for (x, y) in original.iter().zip(&all) {
-            let alone = f.filtfilt(x).unwrap();
-            let bits = |v: &[f64]| v.iter().map(|s| s.to_bits()).collect::<Vec<_>>();
-            assert_eq!(bits(&alone), bits(y));
+        for kernels in available() {
+            let mut all = original.clone();
+            let mut views: Vec<&mut [f64]> = all.iter_mut().map(|c| c.as_mut_slice()).collect();
+            (kernels.filtfilt_all)(&f, &mut views);
+            for (x, y) in original.iter().zip(&all) {
+                let alone = f.filtfilt(x).unwrap();
+                let bits = |v: &[f64]| v.iter().map(|s| s.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&alone), bits(y), "{}", kernels.name);
+            }
         }
     }
 }
