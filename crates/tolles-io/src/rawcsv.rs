@@ -631,12 +631,14 @@ impl RawRows {
             .filter(|&f| known(f).is_none())
             .collect();
         let mut fresh = self.parse_now(&missing).into_iter();
-        fields
-            .iter()
-            .map(|&f| match known(f) {
-                Some(p) => (p.values(), p.bad),
-                None => fresh.next().unwrap_or_default(),
-            })
+        // The parsed columns joined on all cores, one column each.
+        let joined: Vec<Option<(Vec<f64>, Option<usize>)>> = fields
+            .par_iter()
+            .map(|&f| known(f).map(|p| (p.values(), p.bad)))
+            .collect();
+        joined
+            .into_iter()
+            .map(|j| j.unwrap_or_else(|| fresh.next().unwrap_or_default()))
             .collect()
     }
 
@@ -834,6 +836,16 @@ pub fn format_number(v: f64, buffer: &mut zmij::Buffer, out: &mut Vec<u8>) {
         return general_format(v, out);
     }
     let shortest = buffer.format_finite(v).as_bytes();
+    if (1e-5..1e16).contains(&magnitude) && !shortest.contains(&b'e') {
+        // Already laid out as `Display` lays it out, but for a trailing `.0`.
+        let text = shortest.strip_suffix(b".0").unwrap_or(shortest);
+        let decimals = text.iter().position(|&b| b == b'.');
+        let decimals = decimals.map_or(0, |point| (text.len() - point - 1) as i32);
+        if fraction_bits(v) != decimals + 1 {
+            out.extend_from_slice(text);
+            return;
+        }
+    }
     let (negative, digits, exponent) = decompose(shortest);
     let decimals = (digits.len() as i32 - exponent).max(0);
     if fraction_bits(v) == decimals + 1 {
@@ -1053,6 +1065,14 @@ mod tests {
         #[test]
         fn any_f64_is_formatted_as_the_general_writer_does(bits in any::<u64>()) {
             let v = f64::from_bits(bits);
+            prop_assert_eq!(formatted(v), general_format(v));
+        }
+
+        #[test]
+        fn survey_sized_values_are_formatted_as_the_general_writer_does(
+            v in -1e6f64..1e6, scale in -8i32..12,
+        ) {
+            let v = v * 10f64.powi(scale);
             prop_assert_eq!(formatted(v), general_format(v));
         }
 

@@ -56,6 +56,39 @@ fn gaps(tt: Option<&[f64]>, n: usize) -> Vec<bool> {
 
 /// Median of the finite positive time steps (seconds), if any.
 pub fn median_step(tt: &[f64]) -> Option<f64> {
+    median_of_few(tt).or_else(|| median_by_selection(tt))
+}
+
+/// Distinct step values counted when a clock has only a few of them.
+const FEW_STEPS: usize = 32;
+
+/// [`median_step`] of a clock whose steps take at most [`FEW_STEPS`] distinct values (a
+/// regular clock written with a few decimals: 0.1 s give a handful of values a few ulp apart)
+/// by counting them: one pass, no copy. `None` for any other clock (or no step at all).
+fn median_of_few(tt: &[f64]) -> Option<f64> {
+    let mut counts: Vec<(f64, usize)> = Vec::with_capacity(FEW_STEPS);
+    for w in tt.windows(2) {
+        let d = w[1] - w[0];
+        if !(d.is_finite() && d > 0.0) {
+            continue;
+        }
+        match counts.iter().position(|(v, _)| v.to_bits() == d.to_bits()) {
+            Some(k) => counts[k].1 += 1,
+            None if counts.len() < FEW_STEPS => counts.push((d, 1)),
+            None => return None,
+        }
+    }
+    counts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    // The value at sorted position ⌊n/2⌋, as the selection below takes it.
+    let mid = counts.iter().map(|(_, n)| n).sum::<usize>() / 2;
+    let mut seen = 0;
+    counts.into_iter().find_map(|(v, n)| {
+        seen += n;
+        (seen > mid).then_some(v)
+    })
+}
+
+fn median_by_selection(tt: &[f64]) -> Option<f64> {
     let mut steps: Vec<f64> = tt
         .windows(2)
         .map(|w| w[1] - w[0])
@@ -113,6 +146,26 @@ pub fn run_on(tt: &[f64]) -> (Vec<f64>, Vec<usize>) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #[test]
+        fn counting_a_few_steps_gives_the_selected_median(
+            steps in prop::collection::vec(prop::sample::select(vec![0.1, 0.1 + 1e-15, 0.1 - 2e-15, 0.2, -0.1, f64::NAN, 0.0]), 0..60),
+            many in prop::collection::vec(0.05f64..0.15, 0..80),
+        ) {
+            for steps in [steps.clone(), [steps, many].concat()] {
+                let mut tt = vec![0.0];
+                for d in &steps {
+                    tt.push(tt[tt.len() - 1] + d);
+                }
+                let counted = median_of_few(&tt);
+                let selected = median_by_selection(&tt);
+                prop_assert!(counted.is_none() || counted.map(f64::to_bits) == selected.map(f64::to_bits));
+                prop_assert_eq!(median_step(&tt).map(f64::to_bits), selected.map(f64::to_bits));
+            }
+        }
+    }
 
     #[test]
     fn empty_and_all_unusable() {
