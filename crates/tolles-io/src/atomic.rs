@@ -80,74 +80,15 @@ impl AtomicFile {
 /// Writes `path` through `write`, atomically (see the module documentation).
 pub fn write_with(
     path: &Path,
-    write: impl FnOnce(&mut BufWriter<Syncing<'_>>) -> std::io::Result<()>,
+    write: impl FnOnce(&mut BufWriter<&File>) -> std::io::Result<()>,
 ) -> Result<(), IoError> {
     let file = AtomicFile::create(path)?;
-    let mut out = BufWriter::new(Syncing::new(file.file()));
+    let mut out = BufWriter::new(file.file());
     write(&mut out)
         .and_then(|_| out.flush())
         .map_err(|e| write_error(path, e))?;
     drop(out);
     file.commit()
-}
-
-/// Bytes written between two background flushes to disk.
-const SYNC_BYTES: u64 = 32 << 20;
-
-/// A file being written whose earlier bytes the kernel is asked to put on disk in the
-/// background (`fdatasync` on a thread of its own) while later ones are written, so the flush
-/// that [`AtomicFile::commit`] waits for is only the tail: a 170 MB output otherwise waited
-/// 70 ms for its flush after the last byte. A background flush that fails changes nothing: the
-/// commit's own flush reports the error.
-pub struct Syncing<'f> {
-    file: &'f File,
-    unsynced: u64,
-    pending: Option<std::thread::JoinHandle<()>>,
-}
-
-impl<'f> Syncing<'f> {
-    fn new(file: &'f File) -> Self {
-        Self {
-            file,
-            unsynced: 0,
-            pending: None,
-        }
-    }
-
-    fn start_flush(&mut self) {
-        if self.pending.as_ref().is_some_and(|h| !h.is_finished()) {
-            return;
-        }
-        if let Ok(handle) = self.file.try_clone() {
-            self.pending = Some(std::thread::spawn(move || {
-                let _ = handle.sync_data();
-            }));
-            self.unsynced = 0;
-        }
-    }
-}
-
-impl Write for Syncing<'_> {
-    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
-        let n = self.file.write(buf)?;
-        self.unsynced += n as u64;
-        if self.unsynced >= SYNC_BYTES {
-            self.start_flush();
-        }
-        Ok(n)
-    }
-
-    fn flush(&mut self) -> std::io::Result<()> {
-        self.file.flush()
-    }
-}
-
-impl Drop for Syncing<'_> {
-    fn drop(&mut self) {
-        if let Some(handle) = self.pending.take() {
-            let _ = handle.join();
-        }
-    }
 }
 
 /// Writes `bytes` to `path`, atomically.
