@@ -151,8 +151,15 @@ pub(crate) fn read(path: &Path, wanted: Wanted<'_>) -> Result<Option<RawCsv>, Io
 pub(crate) fn from_bytes(bytes: Arc<Bytes>, path: &Path, wanted: Wanted<'_>) -> Option<RawCsv> {
     let header_end = memchr::memchr(b'\n', &bytes)?;
     let header_line = &bytes[..=header_end];
-    // A quote may hide a line break in a name; an overlong header is the general reader's error.
-    if header_line.contains(&b'"') || header_end > crate::table::MAX_HEADER_BYTES {
+    // A quote may hide a line break in a name, a carriage return inside the line ends the header
+    // early for the general reader, and an overlong header is the general reader's error.
+    let inside = header_line
+        .strip_suffix(b"\r\n")
+        .unwrap_or(&header_line[..header_end]);
+    if header_line.contains(&b'"')
+        || inside.contains(&b'\r')
+        || header_end > crate::table::MAX_HEADER_BYTES
+    {
         return None;
     }
     let headers = header_names(header_line)?;
@@ -1144,6 +1151,7 @@ mod tests {
             "a,b",
             "",
             "\na,b\n1,2\n",
+            "a,b\r1,2\n",
         ] {
             let refused = match text {
                 "a,b\n1,\u{fffd}\n" => raw(text).is_some(),
