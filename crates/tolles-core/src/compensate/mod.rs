@@ -104,18 +104,15 @@ pub fn compensate_model<'a>(
     fs_ratio: f64,
     level: Level,
 ) -> Compensation {
-    let correction = model_field(flux, tt, model, fs_ratio);
-    let (correction, level_nt) = match level {
-        Level::Fixed(v) => (correction.iter().map(|c| c - v).collect(), v),
-        Level::FileMean => {
-            let mean = finite_mean(&correction);
-            (correction.iter().map(|c| c - mean).collect(), mean)
-        }
-        Level::FileLinearTrend => {
-            let mean = finite_mean(&correction);
-            (detrend(&correction), mean)
-        }
+    let mut correction = model_field(flux, tt, model, fs_ratio);
+    let level_nt = match level {
+        Level::Fixed(v) => v,
+        Level::FileMean | Level::FileLinearTrend => finite_mean(&correction),
     };
+    match level {
+        Level::FileLinearTrend => correction = detrend(&correction),
+        _ => correction.iter_mut().for_each(|c| *c -= level_nt),
+    }
     // A corrupt scalar cell is uncomputable, not a huge number passed through.
     let compensated: Vec<f64> = scalar
         .iter()
@@ -156,12 +153,11 @@ pub fn model_field<'a>(
 ) -> Vec<f64> {
     let flux = flux.into();
     let beta = rescale_eddy(model.design, model.coefficients, fs_ratio);
-    let usable: Vec<bool> = (0..flux.len()).map(|k| flux.is_finite(k)).collect();
     let mut field = vec![f64::NAN; flux.len()];
-    let blocks = blocks(&contiguous_runs(&usable, tt), FIELD_BLOCK_ROWS);
+    let blocks = blocks(&contiguous_runs(&flux.finite_mask(), tt), FIELD_BLOCK_ROWS);
     let exact =
         model.magnitude == Magnitude::Exact && flux.count() == 1 && model.design.extras.is_empty();
-    let block_field = |block: &Block| {
+    let block_field = |block: &Block, out: &mut [f64]| {
         let part = match exact {
             true => correction(
                 Magnitude::Exact,
@@ -174,38 +170,38 @@ pub fn model_field<'a>(
                 .apply(&flux.slice(block.with_halo.clone()), &beta),
         };
         let skip = block.rows.start - block.with_halo.start;
-        part[skip..skip + block.rows.len()].to_vec()
+        out.copy_from_slice(&part[skip..skip + block.rows.len()]);
     };
+    // Each block's rows of `field`, taken in order (rows between blocks stay NaN).
+    let mut outputs: Vec<(&Block, &mut [f64])> = Vec::with_capacity(blocks.len());
+    let mut rest: &mut [f64] = &mut field;
+    let mut at = 0;
+    for block in &blocks {
+        let (_, after) = std::mem::take(&mut rest).split_at_mut(block.rows.start - at);
+        let (rows, after) = after.split_at_mut(block.rows.len());
+        outputs.push((block, rows));
+        (rest, at) = (after, block.rows.end);
+    }
     // Blocks on all cores: every row's value is the same sum as over its whole run, because
     // each block carries the neighbours its central differences need.
     let threads = std::thread::available_parallelism()
         .map_or(1, |t| t.get())
         .min(blocks.len())
         .max(1);
-    let parts: Vec<Vec<Vec<f64>>> = std::thread::scope(|scope| {
-        let handles: Vec<_> = (0..threads)
-            .map(|t| {
-                let (blocks, block_field) = (&blocks, &block_field);
-                scope.spawn(move || {
-                    blocks
-                        .iter()
-                        .skip(t)
-                        .step_by(threads)
-                        .map(block_field)
-                        .collect::<Vec<_>>()
-                })
-            })
-            .collect();
-        handles
-            .into_iter()
-            .map(|h| h.join().unwrap_or_default())
-            .collect()
-    });
-    for (t, part) in parts.into_iter().enumerate() {
-        for (block, values) in blocks.iter().skip(t).step_by(threads).zip(part) {
-            field[block.rows.clone()].copy_from_slice(&values);
-        }
+    let mut shares: Vec<Vec<(&Block, &mut [f64])>> = (0..threads).map(|_| Vec::new()).collect();
+    for (b, output) in outputs.into_iter().enumerate() {
+        shares[b % threads].push(output);
     }
+    std::thread::scope(|scope| {
+        for share in shares {
+            let block_field = &block_field;
+            scope.spawn(move || {
+                for (block, out) in share {
+                    block_field(block, out);
+                }
+            });
+        }
+    });
     field
 }
 
@@ -323,7 +319,7 @@ mod tests {
                 magnitude,
             };
             let field = model_field(&flux, None, model, 1.0);
-            let usable: Vec<bool> = (0..n).map(|k| flux.is_finite(k)).collect();
+            let usable = Fluxgates::from(&flux).finite_mask();
             for run in contiguous_runs(&usable, None) {
                 let whole = correction(magnitude, &design, &flux.slice(run.clone()), &beta);
                 for (k, v) in run.clone().zip(whole) {

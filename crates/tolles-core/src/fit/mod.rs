@@ -465,9 +465,11 @@ pub fn fit<'a>(
 ) -> Result<Fit, FitError> {
     let flux = flux.into();
     check_inputs(scalar, &flux, fs_hz, settings)?;
-    let usable: Vec<bool> = (0..scalar.len())
-        .map(|k| scalar_usable(scalar[k]) && flux.is_finite(k))
-        .collect();
+    let mut usable = flux.finite_mask();
+    usable
+        .iter_mut()
+        .zip(scalar)
+        .for_each(|(u, s)| *u &= scalar_usable(*s));
     check_not_constant(scalar, flux.series()[0], &usable)?;
     let designs = settings.candidate_designs();
     let union = union_of_terms(&designs);
@@ -641,19 +643,36 @@ fn check_inputs(
 pub fn check_flux_magnitude<'a>(flux: impl Into<Fluxgates<'a>>) -> Result<(), FitError> {
     let (lo, hi) = FLUX_MAGNITUDE_RANGE_NT;
     for (fluxgate, series) in flux.into().series().iter().enumerate() {
-        for k in 0..series.len() {
-            let magnitude = series.magnitude(k);
-            if !magnitude.is_nan() && !(lo..=hi).contains(&magnitude) {
-                return Err(FitError::FluxMagnitude {
-                    fluxgate,
-                    index: k,
-                    magnitude,
-                });
+        // A block whose every sum of squares lies strictly between lo² and hi² (both exact)
+        // has every magnitude in range, because a rounded square root keeps the order; only
+        // a block with any other sample (NaN included) is looked at sample by sample.
+        let inside = |k: usize| {
+            let squares =
+                series.x[k] * series.x[k] + series.y[k] * series.y[k] + series.z[k] * series.z[k];
+            squares > lo * lo && squares < hi * hi
+        };
+        for start in (0..series.len()).step_by(MAGNITUDE_BLOCK) {
+            let block = start..(start + MAGNITUDE_BLOCK).min(series.len());
+            if block.clone().fold(true, |all, k| all & inside(k)) {
+                continue;
+            }
+            for k in block {
+                let magnitude = series.magnitude(k);
+                if !magnitude.is_nan() && !(lo..=hi).contains(&magnitude) {
+                    return Err(FitError::FluxMagnitude {
+                        fluxgate,
+                        index: k,
+                        magnitude,
+                    });
+                }
             }
         }
     }
     Ok(())
 }
+
+/// Samples [`check_flux_magnitude`] checks at once.
+const MAGNITUDE_BLOCK: usize = 1024;
 
 fn check_not_constant(
     scalar: &[f64],
@@ -811,6 +830,33 @@ fn diagnostics(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #[test]
+        fn flux_magnitude_check_finds_the_first_sample_out_of_range(
+            // Magnitudes at, just inside and just outside both limits, NaN, and (mostly)
+            // ordinary ones, so the first sample out of range is often a few blocks in.
+            picks in prop::collection::vec((0usize..4000, 0.0f64..1.0), 1..5000),
+        ) {
+            let (lo, hi) = FLUX_MAGNITUDE_RANGE_NT;
+            let magnitudes = [lo, hi, lo * (1.0 - 1e-16), hi * (1.0 + 2e-16), 0.0, f64::NAN, 50_000.0];
+            let flux = VectorSeries::new(
+                picks.iter().map(|(m, f)| magnitudes[(*m).min(6)] * f.sqrt()).collect(),
+                picks.iter().map(|(m, f)| magnitudes[(*m).min(6)] * (1.0 - f).sqrt()).collect(),
+                vec![0.0; picks.len()],
+            );
+            let expected = (0..flux.len()).find(|&k| {
+                let m = flux.magnitude(k);
+                !m.is_nan() && !(lo..=hi).contains(&m)
+            });
+            match check_flux_magnitude(&flux) {
+                Ok(()) => prop_assert_eq!(expected, None),
+                Err(FitError::FluxMagnitude { index, .. }) => prop_assert_eq!(Some(index), expected),
+                Err(e) => prop_assert!(false, "{e}"),
+            }
+        }
+    }
 
     #[test]
     fn passband_fraction_follows_the_fallbacks() {

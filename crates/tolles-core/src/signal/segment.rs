@@ -17,41 +17,47 @@ pub const GAP_FACTOR: f64 = 1.5;
 /// Maximal runs of `usable` samples, also split where the time step (`tt`, seconds) exceeds
 /// [`GAP_FACTOR`] times the median step.
 pub fn contiguous_runs(usable: &[bool], tt: Option<&[f64]>) -> Vec<Range<usize>> {
-    let gap_after = gaps(tt, usable.len());
+    let gaps = gaps(tt, usable.len());
+    let mut gaps = gaps.iter().copied().peekable();
     let mut runs = Vec::new();
-    let mut start: Option<usize> = None;
-    for (k, &ok) in usable.iter().enumerate() {
-        match (ok, start) {
-            (true, None) => start = Some(k),
-            (false, Some(s)) => {
-                runs.push(s..k);
-                start = None;
+    let mut k = 0;
+    while let Some(first) = usable[k..].iter().position(|&u| u) {
+        let start = k + first;
+        let end = usable[start..]
+            .iter()
+            .position(|&u| !u)
+            .map_or(usable.len(), |e| start + e);
+        // A gap after sample g of the run ends it at g + 1; one after its last sample changes
+        // nothing.
+        let mut from = start;
+        while let Some(g) = gaps.next_if(|&g| g + 1 < end) {
+            if g >= from {
+                runs.push(from..g + 1);
+                from = g + 1;
             }
-            _ => {}
         }
-        if let (Some(s), true) = (start, gap_after[k]) {
-            runs.push(s..k + 1);
-            start = None;
-        }
-    }
-    if let Some(s) = start {
-        runs.push(s..usable.len());
+        runs.push(from..end);
+        k = end;
     }
     runs
 }
 
-/// `gap[k]` is true when the step from sample k to k+1 is a gap.
-fn gaps(tt: Option<&[f64]>, n: usize) -> Vec<bool> {
-    let mut gap = vec![false; n];
-    let Some(tt) = tt else { return gap };
+/// The samples k whose step to sample k + 1 is a gap, ascending.
+fn gaps(tt: Option<&[f64]>, n: usize) -> Vec<usize> {
+    let Some(tt) = tt else { return Vec::new() };
     let Some(step) = median_step(tt) else {
-        return gap;
+        return Vec::new();
     };
-    for k in 0..n.saturating_sub(1) {
-        let dt = tt[k + 1] - tt[k];
-        gap[k] = dt.is_finite() && dt > GAP_FACTOR * step;
-    }
-    gap
+    let limit = GAP_FACTOR * step;
+    tt[..n.min(tt.len())]
+        .windows(2)
+        .enumerate()
+        .filter(|(_, w)| {
+            let dt = w[1] - w[0];
+            dt.is_finite() && dt > limit
+        })
+        .map(|(k, _)| k)
+        .collect()
 }
 
 /// Median of the finite positive time steps (seconds), if any.
@@ -66,17 +72,17 @@ const FEW_STEPS: usize = 32;
 /// regular clock written with a few decimals: 0.1 s give a handful of values a few ulp apart)
 /// by counting them: one pass, no copy. `None` for any other clock (or no step at all).
 fn median_of_few(tt: &[f64]) -> Option<f64> {
-    let mut counts: Vec<(f64, usize)> = Vec::with_capacity(FEW_STEPS);
-    for w in tt.windows(2) {
-        let d = w[1] - w[0];
-        if !(d.is_finite() && d > 0.0) {
-            continue;
+    let mut counts: Vec<(f64, usize)> = Vec::with_capacity(2 * FEW_STEPS);
+    for part in step_counts_on_all_cores(tt) {
+        for (v, n) in part? {
+            match counts.iter_mut().find(|(c, _)| c.to_bits() == v.to_bits()) {
+                Some(c) => c.1 += n,
+                None => counts.push((v, n)),
+            }
         }
-        match counts.iter().position(|(v, _)| v.to_bits() == d.to_bits()) {
-            Some(k) => counts[k].1 += 1,
-            None if counts.len() < FEW_STEPS => counts.push((d, 1)),
-            None => return None,
-        }
+    }
+    if counts.len() > FEW_STEPS {
+        return None;
     }
     counts.sort_by(|a, b| a.0.total_cmp(&b.0));
     // The value at sorted position ⌊n/2⌋, as the selection below takes it.
@@ -86,6 +92,71 @@ fn median_of_few(tt: &[f64]) -> Option<f64> {
         seen += n;
         (seen > mid).then_some(v)
     })
+}
+
+/// Samples of time below which [`step_counts`] runs on one core.
+const STEPS_ON_ONE_CORE: usize = 1 << 18;
+
+/// [`step_counts`] of consecutive parts of `tt` (overlapping by a sample, so every step is in
+/// exactly one), on all cores.
+fn step_counts_on_all_cores(tt: &[f64]) -> Vec<Option<Vec<(f64, usize)>>> {
+    let threads = std::thread::available_parallelism().map_or(1, |t| t.get());
+    if threads == 1 || tt.len() < STEPS_ON_ONE_CORE {
+        return vec![step_counts(tt)];
+    }
+    let part = tt.len().div_ceil(threads);
+    std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..threads)
+            .map(|t| {
+                let samples = &tt[(t * part).min(tt.len())..((t + 1) * part + 1).min(tt.len())];
+                scope.spawn(move || step_counts(samples))
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().unwrap_or(None))
+            .collect()
+    })
+}
+
+/// Each distinct finite positive step of `tt` and how often it occurs; `None` when there are
+/// more than [`FEW_STEPS`] distinct steps.
+fn step_counts(tt: &[f64]) -> Option<Vec<(f64, usize)>> {
+    // Counted in a small open-addressing table keyed by the step's bits (0 marks an empty
+    // slot: a zero step is never counted), so a sample costs a hash and a probe or two.
+    const SLOTS: usize = 2 * FEW_STEPS;
+    let mut keys = [0u64; SLOTS];
+    let mut counts = [0usize; SLOTS];
+    let mut distinct = 0;
+    for w in tt.windows(2) {
+        let d = w[1] - w[0];
+        if !(d.is_finite() && d > 0.0) {
+            continue;
+        }
+        let bits = d.to_bits();
+        let mut slot = (bits.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 58) as usize % SLOTS;
+        loop {
+            if keys[slot] == bits {
+                counts[slot] += 1;
+                break;
+            }
+            if keys[slot] == 0 {
+                if distinct == FEW_STEPS {
+                    return None;
+                }
+                (keys[slot], counts[slot], distinct) = (bits, 1, distinct + 1);
+                break;
+            }
+            slot = (slot + 1) % SLOTS;
+        }
+    }
+    Some(
+        keys.iter()
+            .zip(counts)
+            .filter(|(key, _)| **key != 0)
+            .map(|(key, n)| (f64::from_bits(*key), n))
+            .collect(),
+    )
 }
 
 fn median_by_selection(tt: &[f64]) -> Option<f64> {
@@ -165,6 +236,77 @@ mod tests {
                 prop_assert_eq!(median_step(&tt).map(f64::to_bits), selected.map(f64::to_bits));
             }
         }
+    }
+
+    /// The definition: a run goes on while samples are usable and no gap follows the last one.
+    fn runs_one_by_one(usable: &[bool], tt: Option<&[f64]>) -> Vec<Range<usize>> {
+        let gap_after = |k: usize| {
+            let (Some(tt), Some(step)) = (tt, tt.and_then(median_step)) else {
+                return false;
+            };
+            let dt = tt[k + 1] - tt[k];
+            k + 1 < usable.len() && dt.is_finite() && dt > GAP_FACTOR * step
+        };
+        let mut runs = Vec::new();
+        let mut start = None;
+        for (k, &ok) in usable.iter().enumerate() {
+            match (ok, start) {
+                (true, None) => start = Some(k),
+                (false, Some(s)) => {
+                    runs.push(s..k);
+                    start = None;
+                }
+                _ => {}
+            }
+            if let (Some(s), true) = (start, k + 1 < usable.len() && gap_after(k)) {
+                runs.push(s..k + 1);
+                start = None;
+            }
+        }
+        runs.extend(start.map(|s| s..usable.len()));
+        runs
+    }
+
+    proptest! {
+        #[test]
+        fn runs_split_at_unusable_samples_and_gaps(
+            samples in prop::collection::vec((any::<bool>(), prop::sample::select(vec![0.1, 0.1, 0.1, 0.5, 2.0, f64::NAN])), 0..80),
+        ) {
+            let usable: Vec<bool> = samples.iter().map(|s| s.0).collect();
+            // Steps of 0.1 s with longer ones among them; a NaN step leaves that time missing.
+            let mut t = 0.0f64;
+            let tt: Vec<f64> = samples
+                .iter()
+                .map(|s| {
+                    t += if s.1.is_nan() { 0.1 } else { s.1 };
+                    if s.1.is_nan() { f64::NAN } else { t }
+                })
+                .collect();
+            prop_assert_eq!(contiguous_runs(&usable, None), runs_one_by_one(&usable, None));
+            prop_assert_eq!(contiguous_runs(&usable, Some(&tt)), runs_one_by_one(&usable, Some(&tt)));
+        }
+    }
+
+    #[test]
+    fn long_clocks_are_counted_in_parts_as_one() {
+        let n = 3 * STEPS_ON_ONE_CORE;
+        // A 0.1 s clock written with 4 decimals: a few distinct steps a few ulp apart.
+        let regular: Vec<f64> = (0..n)
+            .map(|k| (k as f64 * 0.1 * 1e4).round() / 1e4)
+            .collect();
+        assert!(median_of_few(&regular).is_some());
+        assert_eq!(median_of_few(&regular), median_by_selection(&regular));
+        // Twenty distinct steps in each half, forty in all: too many to count.
+        let step = |k: usize| 0.1 + (k % 20 + 20 * (k >= n / 2) as usize) as f64 * 1e-3;
+        let mut t = 0.0;
+        let uneven: Vec<f64> = (0..n)
+            .map(|k| {
+                t += step(k);
+                t
+            })
+            .collect();
+        assert_eq!(median_of_few(&uneven), None);
+        assert_eq!(median_step(&uneven), median_by_selection(&uneven));
     }
 
     #[test]
