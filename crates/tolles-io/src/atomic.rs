@@ -205,8 +205,9 @@ impl Write for Unbuffered<'_> {
     }
 }
 
+/// The error of a direct write the file system refuses (no error code elsewhere).
 #[cfg(target_os = "linux")]
-const EINVAL: i32 = 22;
+const EINVAL: i32 = rustix::io::Errno::INVAL.raw_os_error();
 #[cfg(not(target_os = "linux"))]
 const EINVAL: i32 = -1;
 
