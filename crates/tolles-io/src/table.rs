@@ -171,6 +171,14 @@ impl Column {
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
+
+    /// The file rows and field behind a text column left in a file's bytes.
+    fn raw_source(&self) -> Option<(&Arc<RawRows>, usize)> {
+        match self {
+            Column::Text(text) => text.raw_source(),
+            Column::Numbers(_) => None,
+        }
+    }
 }
 
 /// A 1-D numeric array a file holds beside the table's columns but of another length (in
@@ -548,9 +556,8 @@ impl Table {
         let columns = self
             .columns
             .iter()
-            .map(|column| match column {
-                Column::Text(text) if text.raw_source().is_some() => {
-                    let (rows, field) = text.raw_source().expect("checked");
+            .map(|column| match (column, column.raw_source()) {
+                (_, Some((rows, field))) => {
                     let subset = match selected.iter().find(|(r, _)| Arc::ptr_eq(r, rows)) {
                         Some((_, subset)) => Arc::clone(subset),
                         None => {
@@ -561,14 +568,14 @@ impl Table {
                     };
                     Column::Text(TextColumn::raw(subset, field))
                 }
-                Column::Text(text) => {
+                (Column::Text(text), None) => {
                     let mut chosen = TextColumn::new(text.missing.clone());
                     for &k in &kept {
                         chosen.push(text.get(k));
                     }
                     Column::Text(chosen)
                 }
-                Column::Numbers(values) => {
+                (Column::Numbers(values), None) => {
                     Column::Numbers(kept.iter().map(|&k| values[k]).collect())
                 }
             })
@@ -625,28 +632,22 @@ impl Table {
     pub fn numeric_many(&self, indices: &[usize]) -> Vec<Result<Vec<f64>, IoError>> {
         let mut out: Vec<Option<Result<Vec<f64>, IoError>>> =
             indices.iter().map(|_| None).collect();
-        let mut groups: Vec<(&Arc<RawRows>, Vec<usize>)> = Vec::new();
+        // Per file behind some of the columns, which of `indices` (j) are which of its fields.
+        let mut groups: Vec<(&Arc<RawRows>, Vec<usize>, Vec<usize>)> = Vec::new();
         for (j, &index) in indices.iter().enumerate() {
-            let source = match &self.columns[index] {
-                Column::Text(text) => text.raw_source(),
-                Column::Numbers(_) => None,
-            };
-            match source {
-                Some((rows, _)) => match groups.iter_mut().find(|(r, _)| Arc::ptr_eq(r, rows)) {
-                    Some((_, members)) => members.push(j),
-                    None => groups.push((rows, vec![j])),
+            match self.columns[index].raw_source() {
+                Some((rows, field)) => match groups.iter_mut().find(|(r, ..)| Arc::ptr_eq(r, rows))
+                {
+                    Some((_, members, fields)) => {
+                        members.push(j);
+                        fields.push(field);
+                    }
+                    None => groups.push((rows, vec![j], vec![field])),
                 },
                 None => out[j] = Some(self.numeric_cells(indices[j])),
             }
         }
-        for (rows, members) in groups {
-            let fields: Vec<usize> = members
-                .iter()
-                .map(|&j| match &self.columns[indices[j]] {
-                    Column::Text(text) => text.raw_source().map_or(0, |(_, field)| field),
-                    Column::Numbers(_) => 0,
-                })
-                .collect();
+        for (rows, members, fields) in groups {
             for (&j, (values, bad)) in members.iter().zip(rows.parse(&fields)) {
                 out[j] = Some(match bad {
                     Some(k) => Err(self.not_a_number(indices[j], k)),
@@ -718,15 +719,10 @@ impl Table {
     /// The file rows behind this table when every column is, in order, the cells of a CSV file
     /// left in its bytes ([`crate::rawcsv`]): a row can then be written by copying it.
     fn raw_rows(&self) -> Option<&RawRows> {
-        let Some(Column::Text(first)) = self.columns.first() else {
-            return None;
-        };
-        let (rows, _) = first.raw_source()?;
-        let same = self.columns.iter().enumerate().all(|(j, c)| match c {
-            Column::Text(t) => t
-                .raw_source()
-                .is_some_and(|(r, field)| Arc::ptr_eq(r, rows) && field == j),
-            Column::Numbers(_) => false,
+        let (rows, _) = self.columns.first()?.raw_source()?;
+        let same = self.columns.iter().enumerate().all(|(j, c)| {
+            c.raw_source()
+                .is_some_and(|(r, field)| Arc::ptr_eq(r, rows) && field == j)
         });
         (same && rows.fields() == self.columns.len()).then_some(&**rows)
     }
