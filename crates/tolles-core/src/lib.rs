@@ -73,6 +73,7 @@ pub mod fit;
 pub mod flight;
 pub mod maneuvers;
 pub mod model;
+mod parallel;
 pub mod patent;
 pub mod signal;
 pub mod survey;

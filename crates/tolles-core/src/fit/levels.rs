@@ -112,7 +112,7 @@ pub fn reference(
     let cal = crate::fit::fit(&magnitude, flux, fs_hz, tt, &calibration_settings).ok()?;
     let mut values = vec![f64::NAN; flux.len()];
     for run in contiguous_runs(usable, tt) {
-        let part = design.apply(&flux.slice(run.clone()), &cal.coefficients);
+        let part = design.apply_over(flux, run.clone(), &cal.coefficients);
         for (k, v) in run.zip(part) {
             values[k] = magnitude[k] - v;
         }

@@ -484,9 +484,7 @@ pub fn fit<'a>(
     let mut levels = problem.level_setup(&usable, fs_hz, tt)?;
     let linear = |run: Range<usize>, out: &mut [f64]| {
         let (a, y) = out.split_at_mut(run.len() * union.len());
-        settings
-            .design
-            .matrix_into(&flux.slice(run.clone()), &union, a);
+        settings.design.matrix_over(flux.clone(), run.clone(), &union, a);
         y.copy_from_slice(&scalar[run]);
     };
     let prepared = problem.prepare(
@@ -515,12 +513,13 @@ pub fn fit<'a>(
         })?;
     }
     let design = designs[chosen.index].clone();
-    let exact = problem.exact(&design, &chosen, levels.as_mut())?;
+    let (before, short, runs_used) = (prepared.band_std(), prepared.short, prepared.runs_used());
+    // The exact fit's rows go where the linear rows were, whose pages are already mapped.
+    let exact = problem.exact(&design, &chosen, levels.as_mut(), prepared.into_buffers())?;
     let (magnitude, chosen, iterations) = match exact {
         Some((exact, iterations)) => pick_magnitude(chosen, exact, iterations, settings.magnitude),
         None => (Magnitude::Linear, chosen, 0),
     };
-    let before = prepared.band_std();
     let level_nt = mean_correction(
         &flux,
         &usable,
@@ -538,8 +537,8 @@ pub fn fit<'a>(
                 .map_or(0.0, |l| l.weighted_rss(&chosen.solution.coefficients)),
             total: scalar.len(),
             nonfinite: usable.iter().filter(|u| !**u).count(),
-            short: prepared.short,
-            runs_used: prepared.runs_used(),
+            short,
+            runs_used,
             before_std: before,
             fraction: match settings.target {
                 Target::Band => passband_fraction(settings.band, fs_hz),
@@ -724,7 +723,7 @@ fn mean_correction(
     let mut count = 0usize;
     for run in contiguous_runs(usable, tt) {
         let correction = match magnitude {
-            Magnitude::Linear => design.apply(&flux.slice(run), coefficients),
+            Magnitude::Linear => design.apply_over(flux.clone(), run, coefficients),
             Magnitude::Exact => correction(
                 magnitude,
                 design,

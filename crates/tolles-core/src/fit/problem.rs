@@ -10,6 +10,7 @@ use super::{
 use crate::model::design::Design;
 use crate::model::magnitude::exact_jacobian_into;
 use crate::model::vector::Fluxgates;
+use crate::parallel::split_rows;
 use crate::signal::filter::{filtfilt_many_unless_constant, Butterworth};
 use nalgebra::DMatrix;
 use std::ops::Range;
@@ -531,6 +532,7 @@ impl Problem<'_, '_> {
         design: &Design,
         linear: &Chosen,
         mut levels: Option<&mut LevelSetup>,
+        mut recycle: Vec<Vec<f64>>,
     ) -> Result<Option<(Chosen, usize)>, FitError> {
         // Extra channels and several fluxgates stay linear.
         if self.settings.magnitude == MagnitudeChoice::Linear
@@ -546,18 +548,17 @@ impl Problem<'_, '_> {
         let count = fold_count(self.settings.lambda);
         let mut beta = linear.solution.coefficients.clone();
         let mut best: Option<Chosen> = None;
-        let mut recycle = Vec::new();
         for iteration in 1..=EXACT_ITERATIONS {
             let current = beta.clone();
             let fill = |run: Range<usize>, out: &mut [f64]| {
                 let n = run.len();
-                let series = series.slice(run.clone());
+                let series = [&series.x, &series.y, &series.z].map(|c| &c[run.clone()]);
                 let scalar = &self.scalar[run];
                 let mut columns: Vec<&mut [f64]> = out.chunks_mut(n).collect();
                 split_rows(n, &mut columns, |rows, parts| {
                     let (j, y) = parts.split_at_mut(terms.len());
                     let y = &mut *y[0];
-                    exact_jacobian_into(design, &series, &current, &terms, rows.clone(), j, y);
+                    exact_jacobian_into(design, series, &current, &terms, rows.clone(), j, y);
                     // `y` holds the correction Δ; the target is the scalar − Δ + J·β.
                     for (r, v) in y.iter_mut().enumerate() {
                         let linearised: f64 = j.iter().zip(&current).map(|(c, b)| c[r] * b).sum();
@@ -590,38 +591,6 @@ impl Problem<'_, '_> {
         }
         Ok(best.map(|b| (b, EXACT_ITERATIONS)))
     }
-}
-
-/// Calls `f` on parts of the rows `0..n` of `columns` (each `n` long) from as many threads as
-/// there are cores, each with its rows of every column.
-fn split_rows(
-    n: usize,
-    columns: &mut [&mut [f64]],
-    f: impl Fn(Range<usize>, &mut [&mut [f64]]) + Sync,
-) {
-    // Below this many samples a thread costs more than it saves.
-    const PARALLEL_ROWS: usize = 100_000;
-    let threads = std::thread::available_parallelism()
-        .map_or(1, |t| t.get())
-        .min(n.div_ceil(PARALLEL_ROWS))
-        .max(1);
-    if threads == 1 {
-        f(0..n, columns);
-        return;
-    }
-    let share = n.div_ceil(threads);
-    let mut parts: Vec<Vec<&mut [f64]>> = (0..threads).map(|_| Vec::new()).collect();
-    for column in columns.iter_mut() {
-        for (part, piece) in parts.iter_mut().zip(column.chunks_mut(share)) {
-            part.push(piece);
-        }
-    }
-    std::thread::scope(|scope| {
-        for (t, mut part) in parts.into_iter().enumerate().filter(|(_, p)| !p.is_empty()) {
-            let f = &f;
-            scope.spawn(move || f(t * share..((t + 1) * share).min(n), &mut part));
-        }
-    });
 }
 
 /// Subtracts the mean: a run's intercept, for a target that has no filter to remove it.

@@ -24,12 +24,11 @@
 use crate::model::extra::ExtraChannel;
 pub use crate::model::terms::TermSet;
 use crate::model::terms::{Axis, Column};
-use crate::model::vector::{Fluxgates, VectorSeries};
+use crate::model::vector::Fluxgates;
+use crate::parallel::{blocks, split_rows};
+use std::ops::Range;
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
-
-/// Matrix entries above which [`Design::matrix_into`] shares the columns between two cores.
-const PARALLEL_ENTRIES: usize = 1 << 21;
 
 /// MagNav.jl's scale for the induced and eddy columns (nT), so they are of order one.
 pub const MAGNAV_BT_SCALE: f64 = 50_000.0;
@@ -220,44 +219,75 @@ impl Design {
     pub fn matrix_into<'a>(&self, flux: impl Into<Fluxgates<'a>>, terms: &[Term], out: &mut [f64]) {
         let flux = flux.into();
         let n = flux.len();
-        let components: Vec<Components> = flux.series().iter().map(|s| Components::of(s)).collect();
-        let write = |out: &mut [f64], term: &Term| {
-            let c = &components[term.fluxgate];
-            let scaled = |out: &mut [f64], u: &[f64], v: &[f64]| {
-                for ((o, u), v) in out.iter_mut().zip(u).zip(v) {
-                    *o = u * v / self.bt_scale;
+        self.matrix_over(flux, 0..n, terms, out);
+    }
+
+    /// [`Design::matrix_into`] of the samples `span` of `flux`, taken as a series of their own
+    /// (changes one-sided at its ends), without copying them: `out` holds `span.len()` values
+    /// per column.
+    ///
+    /// Built by blocks of samples on all cores, each entry with the arithmetic of
+    /// [`Design::row`]; no column of derived values (unit vector, changes) as long as the
+    /// series is ever stored.
+    ///
+    /// # Panics
+    /// If `span` is not within `flux`, `out` is shorter than the matrix, or `terms` names a
+    /// fluxgate that `flux` does not have: programming errors.
+    pub fn matrix_over<'a>(
+        &self,
+        flux: impl Into<Fluxgates<'a>>,
+        span: Range<usize>,
+        terms: &[Term],
+        out: &mut [f64],
+    ) {
+        let inputs = Spans::new(&flux.into(), span);
+        let n = inputs.len;
+        let mut columns: Vec<&mut [f64]> = out
+            .chunks_exact_mut(n.max(1))
+            .take(terms.len())
+            .collect();
+        split_rows(n, &mut columns, |part, columns| {
+            for rows in blocks(part.clone(), BLOCK_ROWS) {
+                let components = inputs.components(rows.clone());
+                let at = rows.start - part.start..rows.end - part.start;
+                for (column, term) in columns.iter_mut().zip(terms) {
+                    let extras = &inputs.extras;
+                    let out = &mut column[at.clone()];
+                    self.write_column(&components, extras, rows.clone(), *term, out);
                 }
-            };
-            match term.column {
-                Column::Permanent(i) => out.copy_from_slice(&c.unit[i.index()]),
-                Column::Induced(i, j) => scaled(out, &c.unit[i.index()], c.b[j.index()]),
-                Column::Eddy(i, j) => scaled(out, &c.unit[i.index()], &c.db[j.index()]),
-                Column::InducedTraceless(a) => c.traceless(out, false, a.index(), self.bt_scale),
-                Column::EddyTraceless(a) => c.traceless(out, true, a.index(), self.bt_scale),
-                Column::InducedTrace => c.trace(out, self.bt_scale),
-                Column::Extra { channel, axis } => {
-                    let values = flux.extras()[channel];
-                    for ((o, u), v) in out.iter_mut().zip(&c.unit[axis.index()]).zip(values) {
-                        *o = u * v;
-                    }
-                }
-                Column::Bias => out.fill(1.0),
+            }
+        });
+    }
+
+    /// Writes the column of `term` for the samples `rows` (of `components`' block) into `out`.
+    fn write_column(
+        &self,
+        components: &[Components],
+        extras: &[&[f64]],
+        rows: Range<usize>,
+        term: Term,
+        out: &mut [f64],
+    ) {
+        let c = &components[term.fluxgate];
+        let scaled = |out: &mut [f64], u: &[f64], v: &[f64]| {
+            for ((o, u), v) in out.iter_mut().zip(u).zip(v) {
+                *o = u * v / self.bt_scale;
             }
         };
-        let mut jobs: Vec<(&mut [f64], &Term)> =
-            out.chunks_exact_mut(n.max(1)).zip(terms).collect();
-        // Long series: half the columns on another core (each column is written on its own).
-        if n * terms.len() >= PARALLEL_ENTRIES
-            && std::thread::available_parallelism().map_or(1, |t| t.get()) > 1
-        {
-            let half = jobs.len() / 2;
-            let (first, second) = jobs.split_at_mut(half);
-            std::thread::scope(|scope| {
-                scope.spawn(|| first.iter_mut().for_each(|(o, t)| write(o, t)));
-                second.iter_mut().for_each(|(o, t)| write(o, t));
-            });
-        } else {
-            jobs.iter_mut().for_each(|(o, t)| write(o, t));
+        match term.column {
+            Column::Permanent(i) => out.copy_from_slice(&c.unit[i.index()]),
+            Column::Induced(i, j) => scaled(out, &c.unit[i.index()], c.b[j.index()]),
+            Column::Eddy(i, j) => scaled(out, &c.unit[i.index()], &c.db[j.index()]),
+            Column::InducedTraceless(a) => c.traceless(out, false, a.index(), self.bt_scale),
+            Column::EddyTraceless(a) => c.traceless(out, true, a.index(), self.bt_scale),
+            Column::InducedTrace => c.trace(out, self.bt_scale),
+            Column::Extra { channel, axis } => {
+                let values = &extras[channel][rows];
+                for ((o, u), v) in out.iter_mut().zip(&c.unit[axis.index()]).zip(values) {
+                    *o = u * v;
+                }
+            }
+            Column::Bias => out.fill(1.0),
         }
     }
 
@@ -276,55 +306,117 @@ impl Design {
     /// design: programming errors.
     pub fn apply<'a>(&self, flux: impl Into<Fluxgates<'a>>, coefficients: &[f64]) -> Vec<f64> {
         let flux = flux.into();
+        let n = flux.len();
+        self.apply_over(flux, 0..n, coefficients)
+    }
+
+    /// [`Design::apply`] to the samples `span` of `flux`, taken as a series of their own
+    /// (changes one-sided at its ends), without copying them (nT, one value per sample of
+    /// `span`). By blocks of samples on all cores.
+    ///
+    /// # Panics
+    /// If `span` is not within `flux`, `coefficients` is not [`Design::width`] long or `flux`
+    /// holds fewer fluxgates than the design: programming errors.
+    pub fn apply_over<'a>(
+        &self,
+        flux: impl Into<Fluxgates<'a>>,
+        span: Range<usize>,
+        coefficients: &[f64],
+    ) -> Vec<f64> {
         let terms = self.design_terms();
         assert_eq!(
             terms.len(),
             coefficients.len(),
             "one coefficient per column"
         );
-        // Column by column, adding each term in column order: the same sum as row by row.
-        let components: Vec<Components> = flux.series().iter().map(|s| Components::of(s)).collect();
-        let mut out = vec![0.0; flux.len()];
-        let add = |out: &mut [f64], u: &[f64], v: &[f64], beta: f64| {
+        let inputs = Spans::new(&flux.into(), span);
+        let mut out = vec![0.0; inputs.len];
+        split_rows(inputs.len, &mut [out.as_mut_slice()], |part, out| {
+            for rows in blocks(part.clone(), BLOCK_ROWS) {
+                let components = inputs.components(rows.clone());
+                let out = &mut out[0][rows.start - part.start..rows.end - part.start];
+                for (term, &beta) in terms.iter().zip(coefficients) {
+                    self.add_term(&components, &inputs.extras, rows.clone(), *term, beta, out);
+                }
+            }
+        });
+        out
+    }
+
+    /// Adds `beta` times the column of `term` for the samples `rows` (of `components`' block)
+    /// to `out`. Term after term, each in column order: the same sum as row by row.
+    fn add_term(
+        &self,
+        components: &[Components],
+        extras: &[&[f64]],
+        rows: Range<usize>,
+        term: Term,
+        beta: f64,
+        out: &mut [f64],
+    ) {
+        let c = &components[term.fluxgate];
+        let add = |out: &mut [f64], u: &[f64], v: &[f64]| {
             for ((o, u), v) in out.iter_mut().zip(u).zip(v) {
                 *o += u * v / self.bt_scale * beta;
             }
         };
-        for (term, &beta) in terms.iter().zip(coefficients) {
-            let c = &components[term.fluxgate];
-            match term.column {
-                Column::Permanent(i) => {
-                    for (o, u) in out.iter_mut().zip(&c.unit[i.index()]) {
-                        *o += u * beta;
-                    }
+        match term.column {
+            Column::Permanent(i) => {
+                for (o, u) in out.iter_mut().zip(&c.unit[i.index()]) {
+                    *o += u * beta;
                 }
-                Column::Induced(i, j) => add(&mut out, &c.unit[i.index()], c.b[j.index()], beta),
-                Column::Eddy(i, j) => add(&mut out, &c.unit[i.index()], &c.db[j.index()], beta),
-                Column::InducedTrace => {
-                    let mut column = vec![0.0; out.len()];
-                    c.trace(&mut column, self.bt_scale);
-                    out.iter_mut()
-                        .zip(&column)
-                        .for_each(|(o, v)| *o += v * beta);
-                }
-                Column::InducedTraceless(a) | Column::EddyTraceless(a) => {
-                    let mut column = vec![0.0; out.len()];
-                    let eddy = matches!(term.column, Column::EddyTraceless(_));
-                    c.traceless(&mut column, eddy, a.index(), self.bt_scale);
-                    out.iter_mut()
-                        .zip(&column)
-                        .for_each(|(o, v)| *o += v * beta);
-                }
-                Column::Extra { channel, axis } => {
-                    let values = flux.extras()[channel];
-                    for ((o, u), v) in out.iter_mut().zip(&c.unit[axis.index()]).zip(values) {
-                        *o += u * v * beta;
-                    }
-                }
-                Column::Bias => out.iter_mut().for_each(|o| *o += beta),
             }
+            Column::Induced(i, j) => add(out, &c.unit[i.index()], c.b[j.index()]),
+            Column::Eddy(i, j) => add(out, &c.unit[i.index()], &c.db[j.index()]),
+            Column::Extra { channel, axis } => {
+                let values = &extras[channel][rows];
+                for ((o, u), v) in out.iter_mut().zip(&c.unit[axis.index()]).zip(values) {
+                    *o += u * v * beta;
+                }
+            }
+            Column::InducedTrace | Column::InducedTraceless(_) | Column::EddyTraceless(_) => {
+                let mut column = vec![0.0; out.len()];
+                self.write_column(components, extras, rows, term, &mut column);
+                out.iter_mut()
+                    .zip(&column)
+                    .for_each(|(o, v)| *o += v * beta);
+            }
+            Column::Bias => out.iter_mut().for_each(|o| *o += beta),
         }
-        out
+    }
+}
+
+/// Samples per block of the column builders: a block's fluxgate values, unit vectors and
+/// changes stay in the first-level caches while every column of it is written.
+const BLOCK_ROWS: usize = 2048;
+
+/// The fluxgates' components (nT) and the extra channels over one span of samples, each a
+/// series of its own.
+struct Spans<'a> {
+    series: Vec<[&'a [f64]; 3]>,
+    extras: Vec<&'a [f64]>,
+    len: usize,
+}
+
+impl<'a> Spans<'a> {
+    fn new(flux: &Fluxgates<'a>, span: Range<usize>) -> Self {
+        Self {
+            series: flux
+                .series()
+                .iter()
+                .map(|s| [&s.x[span.clone()], &s.y[span.clone()], &s.z[span.clone()]])
+                .collect(),
+            extras: flux.extras().iter().map(|e| &e[span.clone()]).collect(),
+            len: span.len(),
+        }
+    }
+
+    /// Every fluxgate's [`Components`] at the samples `rows`.
+    fn components(&self, rows: Range<usize>) -> Vec<Components<'a>> {
+        self.series
+            .iter()
+            .map(|b| Components::of(*b, rows.clone()))
+            .collect()
     }
 }
 
@@ -361,12 +453,17 @@ impl<'a> Components<'a> {
         }
     }
 
-    fn of(flux: &'a VectorSeries) -> Self {
-        let b = [flux.x.as_slice(), flux.y.as_slice(), flux.z.as_slice()];
-        let norm: Vec<f64> = (0..flux.len()).map(|k| flux.magnitude(k)).collect();
+    /// The components `series` (x, y, z; nT) at the samples `rows`, with their changes as
+    /// [`central_difference`] gives them over the whole series.
+    fn of(series: [&'a [f64]; 3], rows: Range<usize>) -> Self {
+        let b = series.map(|c| &c[rows.clone()]);
+        let norm: Vec<f64> = rows
+            .clone()
+            .map(|k| crate::model::vector::norm3(series.map(|c| c[k])))
+            .collect();
         Self {
             b,
-            db: b.map(central_difference),
+            db: series.map(|c| central_difference_over(c, rows.clone())),
             unit: b.map(|c| c.iter().zip(&norm).map(|(v, m)| v / m).collect()),
         }
     }
@@ -391,25 +488,85 @@ fn unit_vector(b: [f64; 3]) -> [f64; 3] {
 ///
 /// Units: those of `x` per sample. A series of one sample has zero change.
 pub fn central_difference(x: &[f64]) -> Vec<f64> {
+    central_difference_over(x, 0..x.len())
+}
+
+/// [`central_difference`] of `x` at the samples `rows` only (one value per sample of `rows`).
+///
+/// # Panics
+/// If `rows` is not within `x`: a programming error.
+pub fn central_difference_over(x: &[f64], rows: Range<usize>) -> Vec<f64> {
     let n = x.len();
-    match n {
-        0 => Vec::new(),
-        1 => vec![0.0],
-        _ => {
-            let mut d = vec![0.0; n];
-            d[0] = x[1] - x[0];
-            d[n - 1] = x[n - 1] - x[n - 2];
-            for k in 1..n - 1 {
-                d[k] = (x[k + 1] - x[k - 1]) / 2.0;
-            }
-            d
-        }
-    }
+    let change = |k: usize| match k {
+        _ if n < 2 => 0.0,
+        0 => x[1] - x[0],
+        k if k + 1 == n => x[n - 1] - x[n - 2],
+        k => (x[k + 1] - x[k - 1]) / 2.0,
+    };
+    rows.map(change).collect()
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::extra::ExtraChannel;
+    use crate::model::vector::VectorSeries;
+
+    /// A long record of two fluxgates and a channel, every sample different.
+    fn long_record(n: usize) -> (VectorSeries, VectorSeries, Vec<f64>) {
+        let wave = |k: usize, f: f64, a: f64, c: f64| c + a * (k as f64 * f).sin();
+        let fluxgate = |p: f64| {
+            VectorSeries::new(
+                (0..n).map(|k| wave(k, 0.013 + p, 9e3, 2e4)).collect(),
+                (0..n).map(|k| wave(k, 0.007, 5e3 + p, -3e3)).collect(),
+                (0..n).map(|k| wave(k, 0.0031 * (1.0 + p), 2e3, 4.5e4)).collect(),
+            )
+        };
+        let channel = (0..n).map(|k| wave(k, 0.11, 3.0, 1.0)).collect();
+        (fluxgate(0.0), fluxgate(0.001), channel)
+    }
+
+    #[test]
+    fn a_span_built_by_blocks_on_all_cores_is_bit_for_bit_its_rows() {
+        // Long enough for two cores and many blocks; the span starts and ends inside.
+        let n = 230_017;
+        let (f0, f1, channel) = long_record(n);
+        let span = 1_999..n - 3;
+        let patent = Design::new("patent".parse().unwrap()).with_fluxgates(2);
+        let design = Design::new("p,i,e,b".parse().unwrap())
+            .with_fluxgates(2)
+            .with_extras(vec![ExtraChannel::plain("cur")]);
+        let mut terms = design.design_terms();
+        terms.extend(patent.design_terms());
+        let flux = Fluxgates::from(vec![&f0, &f1]).with_extras(vec![channel.as_slice()]);
+        let m = span.len();
+        let mut a = vec![0.0; m * terms.len()];
+        design.matrix_over(flux.clone(), span.clone(), &terms, &mut a);
+        let beta: Vec<f64> = (0..design.width()).map(|k| k as f64 * 0.37 - 3.0).collect();
+        let applied = design.apply_over(flux, span.clone(), &beta);
+        let own = |s: &VectorSeries| {
+            let part = s.slice(span.clone());
+            [&part.x, &part.y, &part.z].map(|c| central_difference(c))
+        };
+        let (d0, d1) = (own(&f0), own(&f1));
+        let mut value = [0.0];
+        let edges = [0, 1, 2047, 2048, 2049, m / 2 - 1, m / 2, m / 2 + 1, m - 2, m - 1];
+        for r in (0..m).step_by(997).chain(edges) {
+            let k = span.start + r;
+            let b = [f0.at(k), f1.at(k)];
+            let db = [d0.each_ref().map(|c| c[r]), d1.each_ref().map(|c| c[r])];
+            let mut sum = 0.0;
+            for (c, t) in terms.iter().enumerate() {
+                let f = t.fluxgate;
+                design.row_with_extras(&[t.column], b[f], db[f], &[channel[k]], &mut value);
+                assert_eq!(a[c * m + r].to_bits(), value[0].to_bits(), "row {r} {t:?}");
+                if c < beta.len() {
+                    sum += value[0] * beta[c];
+                }
+            }
+            assert!((applied[r] - sum).abs() <= 1e-9 * sum.abs().max(1.0), "row {r}");
+        }
+    }
 
     fn swinging(phase: f64) -> VectorSeries {
         let n = 6;

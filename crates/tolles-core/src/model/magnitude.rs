@@ -29,7 +29,7 @@
 //!
 //! Only one fluxgate's block is modelled exactly; designs over several fluxgates stay linear.
 
-use crate::model::design::{central_difference, Design, Term};
+use crate::model::design::{central_difference, central_difference_over, Design, Term};
 use crate::model::terms::Column;
 use crate::model::vector::VectorSeries;
 use nalgebra::DMatrix;
@@ -159,7 +159,7 @@ pub fn exact_jacobian(
     let mut columns: Vec<&mut [f64]> = jacobian.as_mut_slice().chunks_mut(n.max(1)).collect();
     exact_jacobian_into(
         design,
-        flux,
+        [&flux.x, &flux.y, &flux.z],
         coefficients,
         terms,
         0..n,
@@ -169,15 +169,16 @@ pub fn exact_jacobian(
     (delta, jacobian)
 }
 
-/// [`exact_jacobian`] for the samples `rows` of `flux`, written into `jacobian` (one slice per
-/// term, `rows.len()` long) and `delta`, so callers can share a series' samples between threads
-/// and decide where the rows live. The changes per sample are those of the whole series.
+/// [`exact_jacobian`] for the samples `rows` of the series whose x, y, z components (nT) are
+/// `flux`, written into `jacobian` (one slice per term, `rows.len()` long) and `delta`, so
+/// callers can share a series' samples between threads and decide where the rows live,
+/// without copying the series. The changes per sample are those of the whole series.
 ///
 /// # Panics
 /// If `rows` is not within the series or a slice is shorter than `rows`: programming errors.
 pub fn exact_jacobian_into(
     design: &Design,
-    flux: &VectorSeries,
+    flux: [&[f64]; 3],
     coefficients: &[f64],
     terms: &[Term],
     rows: std::ops::Range<usize>,
@@ -185,7 +186,6 @@ pub fn exact_jacobian_into(
     delta: &mut [f64],
 ) {
     let columns = design.columns();
-    let db = derivatives(flux);
     let s = design.bt_scale;
     // Each column's field is needed for H and again for its derivative: when the terms are the
     // design's own columns (one fluxgate, the usual case) it is computed once per sample. H is
@@ -193,31 +193,39 @@ pub fn exact_jacobian_into(
     let same =
         terms.len() == columns.len() && terms.iter().zip(&columns).all(|(t, c)| t.column == *c);
     let mut fields: Vec<Option<[f64; 3]>> = vec![None; columns.len()];
-    for (r, k) in rows.enumerate() {
-        let (b, d) = (sample(flux, k), at(&db, k));
-        for (field, column) in fields.iter_mut().zip(&columns) {
-            *field = field_per_unit(*column, b, d, s);
-        }
-        let mut h = [0.0; 3];
-        let mut bias = 0.0;
-        for (field, beta) in fields.iter().zip(coefficients) {
-            match field {
-                Some(v) => (0..3).for_each(|i| h[i] += beta * v[i]),
-                None => bias += beta,
+    // By blocks, so the changes per sample are computed for these rows only.
+    for block in crate::parallel::blocks(rows.clone(), CHANGE_BLOCK_ROWS) {
+        let db = flux.map(|c| central_difference_over(c, block.clone()));
+        for (offset, k) in block.clone().enumerate() {
+            let r = k - rows.start;
+            let (b, d) = (flux.map(|c| c[k]), at(&db, offset));
+            for (field, column) in fields.iter_mut().zip(&columns) {
+                *field = field_per_unit(*column, b, d, s);
             }
-        }
-        let (value, direction) = change_of_magnitude(b, h, bias);
-        delta[r] = value;
-        for (c, (out, term)) in jacobian.iter_mut().zip(terms).enumerate() {
-            let field = if same {
-                fields[c]
-            } else {
-                field_per_unit(term.column, b, d, s)
-            };
-            out[r] = derivative(field, direction);
+            let mut h = [0.0; 3];
+            let mut bias = 0.0;
+            for (field, beta) in fields.iter().zip(coefficients) {
+                match field {
+                    Some(v) => (0..3).for_each(|i| h[i] += beta * v[i]),
+                    None => bias += beta,
+                }
+            }
+            let (value, direction) = change_of_magnitude(b, h, bias);
+            delta[r] = value;
+            for (c, (out, term)) in jacobian.iter_mut().zip(terms).enumerate() {
+                let field = if same {
+                    fields[c]
+                } else {
+                    field_per_unit(term.column, b, d, s)
+                };
+                out[r] = derivative(field, direction);
+            }
         }
     }
 }
+
+/// Samples whose changes [`exact_jacobian_into`] computes at once.
+const CHANGE_BLOCK_ROWS: usize = 2048;
 
 /// `∂|B + H|/∂β` of a column with field `field` (1 for the bias).
 fn derivative(field: Option<[f64; 3]>, direction: [f64; 3]) -> f64 {
@@ -316,5 +324,22 @@ mod tests {
                 assert!((numeric - j[(k, c)]).abs() < 1e-6, "column {c} sample {k}");
             }
         }
+    }
+
+    #[test]
+    fn a_part_of_a_long_series_gives_the_whole_series_correction() {
+        // Rows across several blocks of changes, starting and ending inside the series.
+        let flux = swinging_flux(6_000);
+        let design = Design::new("patent,b".parse().unwrap());
+        let beta: Vec<f64> = (0..17).map(|k| (k as f64 - 8.0) * 40.0).collect();
+        let whole = correction(Magnitude::Exact, &design, &flux, &beta);
+        let terms = design.design_terms();
+        let rows = 1_000..5_999;
+        let mut j = vec![vec![0.0; rows.len()]; terms.len()];
+        let mut columns: Vec<&mut [f64]> = j.iter_mut().map(Vec::as_mut_slice).collect();
+        let mut delta = vec![0.0; rows.len()];
+        let series = [&flux.x, &flux.y, &flux.z].map(Vec::as_slice);
+        exact_jacobian_into(&design, series, &beta, &terms, rows.clone(), &mut columns, &mut delta);
+        assert_eq!(delta, whole[rows]);
     }
 }

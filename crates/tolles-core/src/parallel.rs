@@ -1,0 +1,75 @@
+//! Sharing long columns between the cores by rows.
+
+use std::ops::Range;
+
+/// Rows below which a thread costs more than it saves.
+const PARALLEL_ROWS: usize = 100_000;
+
+/// Calls `f` on parts of the rows `0..n` of `columns` (each `n` long) from as many threads as
+/// there are cores, each with its rows of every column.
+pub(crate) fn split_rows(
+    n: usize,
+    columns: &mut [&mut [f64]],
+    f: impl Fn(Range<usize>, &mut [&mut [f64]]) + Sync,
+) {
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |t| t.get())
+        .min(n.div_ceil(PARALLEL_ROWS))
+        .max(1);
+    if threads == 1 {
+        f(0..n, columns);
+        return;
+    }
+    let share = n.div_ceil(threads);
+    let mut parts: Vec<Vec<&mut [f64]>> = (0..threads).map(|_| Vec::new()).collect();
+    for column in columns.iter_mut() {
+        for (part, piece) in parts.iter_mut().zip(column.chunks_mut(share)) {
+            part.push(piece);
+        }
+    }
+    std::thread::scope(|scope| {
+        for (t, mut part) in parts.into_iter().enumerate().filter(|(_, p)| !p.is_empty()) {
+            let f = &f;
+            scope.spawn(move || f(t * share..((t + 1) * share).min(n), &mut part));
+        }
+    });
+}
+
+/// `rows` cut into consecutive blocks of at most `size` rows.
+pub(crate) fn blocks(rows: Range<usize>, size: usize) -> impl Iterator<Item = Range<usize>> {
+    let size = size.max(1);
+    (rows.start..rows.end)
+        .step_by(size)
+        .map(move |start| start..(start + size).min(rows.end))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_row_of_every_column_is_visited_once_with_its_own_index() {
+        for n in [0, 7, 250_001] {
+            let mut data = vec![vec![0.0; n]; 3];
+            let mut columns: Vec<&mut [f64]> = data.iter_mut().map(Vec::as_mut_slice).collect();
+            split_rows(n, &mut columns, |rows, part| {
+                for (c, column) in part.iter_mut().enumerate() {
+                    assert_eq!(column.len(), rows.len());
+                    for (v, k) in column.iter_mut().zip(rows.clone()) {
+                        *v += (k * 3 + c) as f64;
+                    }
+                }
+            });
+            for (c, column) in data.iter().enumerate() {
+                assert!(column.iter().enumerate().all(|(k, v)| *v == (k * 3 + c) as f64));
+            }
+        }
+    }
+
+    #[test]
+    fn blocks_cover_the_rows_in_order() {
+        let cut: Vec<_> = blocks(3..10, 3).collect();
+        assert_eq!(cut, [3..6, 6..9, 9..10]);
+        assert_eq!(blocks(4..4, 3).count(), 0);
+    }
+}
