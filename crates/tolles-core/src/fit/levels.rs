@@ -18,6 +18,7 @@
 //! independent, centred (the constant between `y` and `R` is unknown) and weighted by the ratio
 //! of the band-passed residual's scatter to theirs.
 
+use crate::fit::problem::Spare;
 use crate::fit::{Band, FitSettings, Lambda};
 use crate::model::design::Design;
 use crate::model::terms::TermSet;
@@ -85,6 +86,18 @@ pub fn reference(
     tt: Option<&[f64]>,
     settings: &FitSettings,
 ) -> Option<Reference> {
+    reference_reusing(flux, usable, fs_hz, tt, settings, &Spare::default())
+}
+
+/// [`reference`] with the calibration fit's buffers from `spare`, and given back to it.
+pub(super) fn reference_reusing(
+    flux: &VectorSeries,
+    usable: &[bool],
+    fs_hz: f64,
+    tt: Option<&[f64]>,
+    settings: &FitSettings,
+    spare: &Spare,
+) -> Option<Reference> {
     let magnitude: Vec<f64> = (0..flux.len())
         .map(|k| {
             if usable[k] {
@@ -109,7 +122,15 @@ pub fn reference(
         magnitude: Default::default(),
         ..settings.clone()
     };
-    let cal = crate::fit::fit(&magnitude, flux, fs_hz, tt, &calibration_settings).ok()?;
+    let cal = crate::fit::fit_reusing(
+        &magnitude,
+        flux.into(),
+        fs_hz,
+        tt,
+        &calibration_settings,
+        spare,
+    )
+    .ok()?;
     let mut values = vec![f64::NAN; flux.len()];
     for run in contiguous_runs(usable, tt) {
         let part = design.apply_over(flux, run.clone(), &cal.coefficients);
@@ -188,6 +209,18 @@ impl LowFrequency {
     /// are: they are filtered a few at a time in a copy, so a run's whole matrix is never
     /// copied.
     pub fn rows_of(&self, columns: &[&[f64]], y: &[f64]) -> Result<LevelRows, FilterError> {
+        self.rows_against(columns, y, None, &mut Vec::new())
+    }
+
+    /// [`LowFrequency::rows_of`] with the target `y − reference` (nT) when a reference is
+    /// given, filtered in the buffers of `scratch` (reused as they are, added to as needed).
+    pub(super) fn rows_against(
+        &self,
+        columns: &[&[f64]],
+        y: &[f64],
+        reference: Option<&[f64]>,
+        scratch: &mut Vec<Vec<f64>>,
+    ) -> Result<LevelRows, FilterError> {
         let n = y.len();
         if n <= self.filter.padlen() + 1 || n <= 2 * self.trim + self.step {
             return Ok(LevelRows {
@@ -199,14 +232,20 @@ impl LowFrequency {
         let keep: Vec<usize> = (self.trim..n - self.trim).step_by(self.step).collect();
         let mut a = DMatrix::zeros(keep.len(), columns.len());
         // Eight signals at a time keep the filter's threads busy with a bounded copy.
-        let mut scratch: Vec<Vec<f64>> = Vec::new();
         let signals: Vec<&[f64]> = columns.iter().copied().chain([y]).collect();
         let mut target = Vec::new();
         for (group, chunk) in signals.chunks(8).enumerate() {
-            scratch.resize_with(chunk.len(), Vec::new);
-            for (s, x) in scratch.iter_mut().zip(chunk) {
+            if scratch.len() < chunk.len() {
+                scratch.resize_with(chunk.len(), Vec::new);
+            }
+            for (i, (s, x)) in scratch.iter_mut().zip(chunk).enumerate() {
                 s.clear();
-                s.extend_from_slice(x);
+                match reference {
+                    Some(r) if group * 8 + i == columns.len() => {
+                        s.extend(x.iter().zip(r).map(|(y, r)| y - r));
+                    }
+                    _ => s.extend_from_slice(x),
+                }
             }
             let mut views: Vec<&mut [f64]> = scratch[..chunk.len()]
                 .iter_mut()

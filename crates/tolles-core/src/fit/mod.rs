@@ -60,7 +60,7 @@ pub mod ridge;
 use crate::fit::choice::{choose_design, pick_magnitude, union_of_terms};
 use crate::fit::crossval::{CrossValidation, DEFAULT_FOLDS};
 use crate::fit::levels::LevelDiagnostics;
-use crate::fit::problem::{fold_count, AboveBand, Problem};
+use crate::fit::problem::{fold_count, AboveBand, Problem, Spare};
 use crate::fit::ridge::{RidgeError, RidgeSolution};
 use crate::model::design::{Design, Term};
 use crate::model::magnitude::{correction, Magnitude};
@@ -463,7 +463,18 @@ pub fn fit<'a>(
     tt: Option<&[f64]>,
     settings: &FitSettings,
 ) -> Result<Fit, FitError> {
-    let flux = flux.into();
+    fit_reusing(scalar, flux.into(), fs_hz, tt, settings, &Spare::default())
+}
+
+/// [`fit`] with its large buffers from `spare`, and given back to it when done.
+fn fit_reusing(
+    scalar: &[f64],
+    flux: Fluxgates,
+    fs_hz: f64,
+    tt: Option<&[f64]>,
+    settings: &FitSettings,
+    spare: &Spare,
+) -> Result<Fit, FitError> {
     check_inputs(scalar, &flux, fs_hz, settings)?;
     let mut usable = flux.finite_mask();
     usable
@@ -480,6 +491,7 @@ pub fn fit<'a>(
         filter: settings.filter(fs_hz)?,
         above: settings.above_band(fs_hz, &union)?,
         settings,
+        spare,
     };
     let mut levels = problem.level_setup(&usable, fs_hz, tt)?;
     let linear = |run: Range<usize>, out: &mut [f64]| {
@@ -492,7 +504,6 @@ pub fn fit<'a>(
         &linear,
         levels.as_ref(),
         problem.above.as_ref(),
-        Vec::new(),
     )?;
     let count = fold_count(settings.lambda);
     // The band rows are factored once, cut where the folds of either plan start: the folds
@@ -514,8 +525,8 @@ pub fn fit<'a>(
     }
     let design = designs[chosen.index].clone();
     let (before, short, runs_used) = (prepared.band_std(), prepared.short, prepared.runs_used());
-    // The exact fit's rows go where the linear rows were, whose pages are already mapped.
-    let exact = problem.exact(&design, &chosen, levels.as_mut(), prepared.into_buffers())?;
+    spare.give(prepared.into_buffers());
+    let exact = problem.exact(&design, &chosen, levels.as_mut())?;
     let (magnitude, chosen, iterations) = match exact {
         Some((exact, iterations)) => pick_magnitude(chosen, exact, iterations, settings.magnitude),
         None => (Magnitude::Linear, chosen, 0),

@@ -14,15 +14,34 @@ use crate::parallel::split_rows;
 use crate::signal::filter::{filtfilt_many_unless_constant, Butterworth};
 use nalgebra::DMatrix;
 use std::ops::Range;
-
-/// `a − b`, element by element.
-pub(super) fn difference(a: &[f64], b: &[f64]) -> Vec<f64> {
-    a.iter().zip(b).map(|(x, y)| x - y).collect()
-}
+use std::sync::Mutex;
 
 /// Writes a run's unfiltered columns and, after them, its target into the slice given
 /// (column-major, one value per sample of the run each).
 pub(super) type FillRun<'m> = dyn Fn(Range<usize>, &mut [f64]) + Sync + 'm;
+
+/// Buffers a fit has finished with, for its next step to reuse. On a long flight, touching
+/// fresh memory costs more than the arithmetic done in it (on a virtual machine, gigabytes take
+/// seconds to fault in), so every large buffer of a fit comes from here and goes back.
+#[derive(Default)]
+pub(super) struct Spare(Mutex<Vec<Vec<f64>>>);
+
+impl Spare {
+    /// The spare buffer of the largest capacity, emptied, or a new one.
+    pub(super) fn take(&self) -> Vec<f64> {
+        let mut spare = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        let largest = (0..spare.len()).max_by_key(|&i| spare[i].capacity());
+        let mut buffer = largest.map(|i| spare.swap_remove(i)).unwrap_or_default();
+        buffer.clear();
+        buffer
+    }
+
+    /// Returns `buffers` for a later [`Spare::take`].
+    pub(super) fn give(&self, buffers: impl IntoIterator<Item = Vec<f64>>) {
+        let mut spare = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        spare.extend(buffers.into_iter().filter(|b| b.capacity() > 0));
+    }
+}
 
 /// One calibration flight, cut into runs, and how to fit it.
 pub(super) struct Problem<'p, 'a> {
@@ -32,6 +51,8 @@ pub(super) struct Problem<'p, 'a> {
     pub(super) filter: Option<Butterworth>,
     pub(super) above: Option<AboveBand>,
     pub(super) settings: &'p FitSettings,
+    /// Where the fit's large buffers come from and go back to.
+    pub(super) spare: &'p Spare,
 }
 
 /// Rows above the fitting band for extra channels. A current may switch or flash faster than
@@ -347,6 +368,9 @@ impl Prepared {
     }
 }
 
+/// Signals [`levels::LowFrequency`] filters at once.
+const LEVEL_SIGNALS: usize = 8;
+
 /// The number of folds `lambda` asks for: one for a fixed λ.
 pub(super) fn fold_count(lambda: Lambda) -> usize {
     match lambda {
@@ -409,7 +433,6 @@ impl Problem<'_, '_> {
         fill: &FillRun<'_>,
         levels: Option<&LevelSetup>,
         above_band: Option<&AboveBand>,
-        mut recycle: Vec<Vec<f64>>,
     ) -> Result<Prepared, FitError> {
         let trim = if self.filter.is_some() {
             self.settings.trim
@@ -433,10 +456,7 @@ impl Problem<'_, '_> {
                 short += n;
                 continue;
             }
-            // A buffer of an earlier preparation has its pages already: reusing it saves
-            // faulting in a fresh gigabyte on a long flight.
-            let mut data = recycle.pop().unwrap_or_default();
-            data.clear();
+            let mut data = self.spare.take();
             data.resize(n * (width + 1), 0.0);
             fill(run.clone(), &mut data);
             let above = match above_band {
@@ -446,9 +466,12 @@ impl Problem<'_, '_> {
             if let Some(setup) = levels {
                 let reference = levels::reference_over(&setup.reference, run.clone());
                 let (columns, y) = data.split_at(n * width);
-                let target = difference(y, reference);
                 let columns: Vec<&[f64]> = columns.chunks_exact(n).collect();
-                level_rows.push(setup.low.rows_of(&columns, &target)?);
+                let mut scratch = Vec::new();
+                scratch.resize_with(LEVEL_SIGNALS, || self.spare.take());
+                let rows = setup.low.rows_against(&columns, y, Some(reference), &mut scratch);
+                self.spare.give(scratch);
+                level_rows.push(rows?);
             }
             let mut signals: Vec<&mut [f64]> = data.chunks_mut(n).collect();
             if let Some(f) = &self.filter {
@@ -487,7 +510,9 @@ impl Problem<'_, '_> {
         let Some(low) = LowFrequency::new(s.band, s.order, s.trim, fs_hz)? else {
             return Ok(None);
         };
-        let Some(reference) = levels::reference(self.flux.series()[0], usable, fs_hz, tt, s) else {
+        let flux = self.flux.series()[0];
+        let Some(reference) = levels::reference_reusing(flux, usable, fs_hz, tt, s, self.spare)
+        else {
             return Ok(None);
         };
         // White noise of the reference, seen through the low-pass instead of the band.
@@ -532,7 +557,6 @@ impl Problem<'_, '_> {
         design: &Design,
         linear: &Chosen,
         mut levels: Option<&mut LevelSetup>,
-        mut recycle: Vec<Vec<f64>>,
     ) -> Result<Option<(Chosen, usize)>, FitError> {
         // Extra channels and several fluxgates stay linear.
         if self.settings.magnitude == MagnitudeChoice::Linear
@@ -571,7 +595,6 @@ impl Problem<'_, '_> {
                 &fill,
                 levels.as_deref(),
                 above.as_ref(),
-                std::mem::take(&mut recycle),
             )?;
             let weight = levels.as_deref().map_or(0.0, LevelSetup::weight);
             let plan = prepared.plan(levels.is_some(), count);
@@ -581,7 +604,7 @@ impl Problem<'_, '_> {
             if let Some(setup) = levels.as_deref_mut() {
                 setup.rows = std::mem::take(&mut prepared.levels);
             }
-            recycle = prepared.into_buffers();
+            self.spare.give(prepared.into_buffers());
             let step = relative_change(&beta, &chosen.solution.coefficients);
             beta = chosen.solution.coefficients.clone();
             best = Some(chosen);
