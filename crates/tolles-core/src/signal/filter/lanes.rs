@@ -138,12 +138,45 @@ pub(super) fn constant(signals: &[&mut [f64]]) -> Vec<bool> {
     // separately, at the baseline, instead of into the AVX copies of this function.
     let mut out = Vec::with_capacity(signals.len());
     for block in signals.chunks(LANES) {
+        if clearly_varying(block) {
+            out.extend(std::iter::repeat_n(false, block.len()));
+            continue;
+        }
         let std = sample_std_block(block, &mut tile);
         for &s in &std[..block.len()] {
             out.push(s <= f64::EPSILON);
         }
     }
     out
+}
+
+/// Samples [`clearly_varying`] looks at, from the start.
+const PREFIX: usize = 4096;
+
+/// True when every one of `signals` (equally long, at least 2 samples) has two samples among
+/// its first [`PREFIX`] so far apart that its sample standard deviation is surely above
+/// `f64::EPSILON`, so the two passes of [`sample_std_block`] can be skipped.
+///
+/// Two samples `a`, `b` of `n` bound the sample standard deviation below by
+/// `|a − b| / √(2(n − 1))`; a range above twice `f64::EPSILON·√(2(n − 1))` leaves a margin far
+/// larger than the sums' rounding (a relative `n·2⁻⁵³`, under 10⁻⁶ for a billion samples),
+/// so the decision is `sample_std`'s. `min` and `max` pass over NaN: a signal holding one is
+/// not constant by `sample_std` either (its deviation is NaN).
+#[inline(always)]
+fn clearly_varying(signals: &[&mut [f64]]) -> bool {
+    let n = signals[0].len();
+    let needed = 2.0 * f64::EPSILON * (2.0 * (n as f64 - 1.0)).sqrt();
+    let mut all = true;
+    for x in signals {
+        let prefix = &x[..n.min(PREFIX)];
+        let (mut lo, mut hi) = (prefix[0], prefix[0]);
+        for &v in prefix {
+            lo = lo.min(v);
+            hi = hi.max(v);
+        }
+        all &= hi - lo > needed;
+    }
+    all
 }
 
 /// [`super::sample_std`] of each of `signals` (at most `L`, equally long, at least 2
