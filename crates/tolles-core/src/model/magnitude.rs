@@ -188,44 +188,157 @@ pub fn exact_jacobian_into(
     let columns = design.columns();
     let s = design.bt_scale;
     // Each column's field is needed for H and again for its derivative: when the terms are the
-    // design's own columns (one fluxgate, the usual case) it is computed once per sample. H is
-    // summed in column order as `exact_at` sums it, so the values are the same.
+    // design's own columns (one fluxgate, the usual case) it is computed once per sample.
     let same =
         terms.len() == columns.len() && terms.iter().zip(&columns).all(|(t, c)| t.column == *c);
-    let mut fields: Vec<Option<[f64; 3]>> = vec![None; columns.len()];
-    // By blocks, so the changes per sample are computed for these rows only.
-    for block in crate::parallel::blocks(rows.clone(), CHANGE_BLOCK_ROWS) {
+    let mut ws = JacobianBlock::new(columns.len());
+    // By blocks of samples, column after column within a block so each loop is one formula
+    // over many samples; per sample the operations and their order are `exact_at`'s (H summed
+    // in column order), so the values are the same.
+    for block in crate::parallel::blocks(rows.clone(), JACOBIAN_BLOCK_ROWS) {
+        let m = block.len();
+        let b = flux.map(|c| &c[block.clone()]);
         let db = flux.map(|c| central_difference_over(c, block.clone()));
-        for (offset, k) in block.clone().enumerate() {
-            let r = k - rows.start;
-            let (b, d) = (flux.map(|c| c[k]), at(&db, offset));
-            for (field, column) in fields.iter_mut().zip(&columns) {
-                *field = field_per_unit(*column, b, d, s);
-            }
-            let mut h = [0.0; 3];
-            let mut bias = 0.0;
-            for (field, beta) in fields.iter().zip(coefficients) {
-                match field {
-                    Some(v) => (0..3).for_each(|i| h[i] += beta * v[i]),
-                    None => bias += beta,
-                }
-            }
-            let (value, direction) = change_of_magnitude(b, h, bias);
-            delta[r] = value;
-            for (c, (out, term)) in jacobian.iter_mut().zip(terms).enumerate() {
-                let field = if same {
-                    fields[c]
-                } else {
-                    field_per_unit(term.column, b, d, s)
-                };
-                out[r] = derivative(field, direction);
+        let db = [&db[0][..], &db[1][..], &db[2][..]];
+        ws.start(m);
+        for (c, (column, beta)) in columns.iter().zip(coefficients).enumerate() {
+            ws.is_field[c] = fields_of(*column, b, db, s, &mut ws.fields[c]);
+            ws.add_to_h(c, *beta);
+        }
+        let at = block.start - rows.start..block.end - rows.start;
+        for (k, value) in delta[at.clone()].iter_mut().enumerate() {
+            let bk = [b[0][k], b[1][k], b[2][k]];
+            let hk = [ws.h[0][k], ws.h[1][k], ws.h[2][k]];
+            let (v, direction) = change_of_magnitude(bk, hk, ws.bias[k]);
+            *value = v;
+            (0..3).for_each(|i| ws.direction[i][k] = direction[i]);
+        }
+        for (c, (out, term)) in jacobian.iter_mut().zip(terms).enumerate() {
+            let out = &mut out[at.clone()];
+            if same {
+                ws.derivatives(c, out);
+            } else {
+                let mut field = std::mem::take(&mut ws.spare);
+                let is_field = fields_of(term.column, b, db, s, &mut field);
+                ws.derivatives_of(is_field, &field, out);
+                ws.spare = field;
             }
         }
     }
 }
 
-/// Samples whose changes [`exact_jacobian_into`] computes at once.
-const CHANGE_BLOCK_ROWS: usize = 2048;
+/// Samples [`exact_jacobian_into`] computes at once: every column's field over a block stays
+/// in the second-level cache.
+const JACOBIAN_BLOCK_ROWS: usize = 256;
+
+/// One block's fields, total field and direction, reused from block to block.
+struct JacobianBlock {
+    /// Per column, its field's x, y, z over the block (nT per unit of its coefficient).
+    fields: Vec<[Vec<f64>; 3]>,
+    /// Per column, whether it is a field at all (not the bias).
+    is_field: Vec<bool>,
+    /// Another column's field, for terms that are not the design's columns.
+    spare: [Vec<f64>; 3],
+    h: [Vec<f64>; 3],
+    bias: Vec<f64>,
+    direction: [Vec<f64>; 3],
+}
+
+impl JacobianBlock {
+    fn new(columns: usize) -> Self {
+        Self {
+            fields: vec![Default::default(); columns],
+            is_field: vec![false; columns],
+            spare: Default::default(),
+            h: Default::default(),
+            bias: Vec::new(),
+            direction: Default::default(),
+        }
+    }
+
+    /// Clears the sums for a block of `m` samples.
+    fn start(&mut self, m: usize) {
+        let zero = |v: &mut Vec<f64>| {
+            v.clear();
+            v.resize(m, 0.0);
+        };
+        self.h.iter_mut().chain(self.direction.iter_mut()).for_each(zero);
+        zero(&mut self.bias);
+    }
+
+    /// Adds `beta` times column `c`'s field to H (the bias to `bias`), as `exact_at` does.
+    fn add_to_h(&mut self, c: usize, beta: f64) {
+        if !self.is_field[c] {
+            self.bias.iter_mut().for_each(|b| *b += beta);
+            return;
+        }
+        for (h, v) in self.h.iter_mut().zip(&self.fields[c]) {
+            for (h, v) in h.iter_mut().zip(v) {
+                *h += beta * v;
+            }
+        }
+    }
+
+    /// Column `c`'s derivative over the block into `out`.
+    fn derivatives(&self, c: usize, out: &mut [f64]) {
+        self.derivatives_of(self.is_field[c], &self.fields[c], out);
+    }
+
+    /// The derivative of a column with field `field` (or the bias) over the block.
+    fn derivatives_of(&self, is_field: bool, field: &[Vec<f64>; 3], out: &mut [f64]) {
+        if !is_field {
+            out.fill(1.0);
+            return;
+        }
+        let [d0, d1, d2] = &self.direction;
+        let [v0, v1, v2] = field;
+        for (k, o) in out.iter_mut().enumerate() {
+            *o = derivative(Some([v0[k], v1[k], v2[k]]), [d0[k], d1[k], d2[k]]);
+        }
+    }
+}
+
+/// The field of `column` (see [`field_per_unit`]) at every sample of a block with readings `b`
+/// and changes `db` (one slice per component), into `out`; false, leaving `out` alone, for a
+/// column that is no field.
+fn fields_of(
+    column: Column,
+    b: [&[f64]; 3],
+    db: [&[f64]; 3],
+    s: f64,
+    out: &mut [Vec<f64>; 3],
+) -> bool {
+    if field_per_unit(column, [0.0; 3], [0.0; 3], s).is_none() {
+        return false;
+    }
+    let m = b[0].len();
+    out.iter_mut().for_each(|o| {
+        o.clear();
+        o.resize(m, 0.0);
+    });
+    // Each arm names its column's kind, so the formula is fixed inside its loop.
+    match column {
+        Column::Permanent(i) => fields_over(Column::Permanent(i), b, db, s, out),
+        Column::Induced(i, j) => fields_over(Column::Induced(i, j), b, db, s, out),
+        Column::Eddy(i, j) => fields_over(Column::Eddy(i, j), b, db, s, out),
+        Column::InducedTraceless(a) => fields_over(Column::InducedTraceless(a), b, db, s, out),
+        Column::EddyTraceless(a) => fields_over(Column::EddyTraceless(a), b, db, s, out),
+        other => fields_over(other, b, db, s, out),
+    }
+    true
+}
+
+#[inline(always)]
+fn fields_over(column: Column, b: [&[f64]; 3], db: [&[f64]; 3], s: f64, out: &mut [Vec<f64>; 3]) {
+    let [o0, o1, o2] = out;
+    for k in 0..o0.len() {
+        let bk = [b[0][k], b[1][k], b[2][k]];
+        let dk = [db[0][k], db[1][k], db[2][k]];
+        if let Some(v) = field_per_unit(column, bk, dk, s) {
+            (o0[k], o1[k], o2[k]) = (v[0], v[1], v[2]);
+        }
+    }
+}
 
 /// `∂|B + H|/∂β` of a column with field `field` (1 for the bias).
 fn derivative(field: Option<[f64; 3]>, direction: [f64; 3]) -> f64 {
