@@ -238,15 +238,9 @@ impl LowFrequency {
             if scratch.len() < chunk.len() {
                 scratch.resize_with(chunk.len(), Vec::new);
             }
-            for (i, (s, x)) in scratch.iter_mut().zip(chunk).enumerate() {
-                s.clear();
-                match reference {
-                    Some(r) if group * 8 + i == columns.len() => {
-                        s.extend(x.iter().zip(r).map(|(y, r)| y - r));
-                    }
-                    _ => s.extend_from_slice(x),
-                }
-            }
+            // Copied on all cores: a new scratch buffer's pages are faulted in as it is written.
+            let target_at = reference.map(|r| (columns.len() - group * 8, r));
+            copy_on_all_cores(&mut scratch[..chunk.len()], chunk, target_at);
             let mut views: Vec<&mut [f64]> = scratch[..chunk.len()]
                 .iter_mut()
                 .map(|s| s.as_mut_slice())
@@ -269,6 +263,38 @@ impl LowFrequency {
             at: keep,
         })
     }
+}
+
+/// Copies each of `signals` into its buffer of `scratch`, signal `i` as `x − r` for
+/// `target = Some((i, r))`, the buffers shared between the cores.
+fn copy_on_all_cores(
+    scratch: &mut [Vec<f64>],
+    signals: &[&[f64]],
+    target: Option<(usize, &[f64])>,
+) {
+    let copy = |i: usize, s: &mut Vec<f64>, x: &[f64]| {
+        s.clear();
+        match target {
+            Some((t, r)) if t == i => s.extend(x.iter().zip(r).map(|(y, r)| y - r)),
+            _ => s.extend_from_slice(x),
+        }
+    };
+    let threads = std::thread::available_parallelism().map_or(1, |t| t.get());
+    let share = signals.len().div_ceil(threads).max(1);
+    std::thread::scope(|scope| {
+        for (part, (buffers, xs)) in scratch
+            .chunks_mut(share)
+            .zip(signals.chunks(share))
+            .enumerate()
+        {
+            let copy = &copy;
+            scope.spawn(move || {
+                for (j, (s, x)) in buffers.iter_mut().zip(xs).enumerate() {
+                    copy(part * share + j, s, x);
+                }
+            });
+        }
+    });
 }
 
 /// Low-frequency rows of one run, before centring and weighting.

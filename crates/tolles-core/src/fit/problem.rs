@@ -27,13 +27,23 @@ pub(super) type FillRun<'m> = dyn Fn(Range<usize>, &mut [f64]) + Sync + 'm;
 pub(super) struct Spare(Mutex<Vec<Vec<f64>>>);
 
 impl Spare {
-    /// The spare buffer of the largest capacity, emptied, or a new one.
-    pub(super) fn take(&self) -> Vec<f64> {
+    /// A buffer of `len` values: the smallest spare one that holds them, zeroed, or a new one.
+    /// A new one is zeroed by the system as its pages are first written, by whichever thread
+    /// writes them, so the fills that write on all cores also fault its pages in on all cores.
+    pub(super) fn take(&self, len: usize) -> Vec<f64> {
         let mut spare = self.0.lock().unwrap_or_else(|e| e.into_inner());
-        let largest = (0..spare.len()).max_by_key(|&i| spare[i].capacity());
-        let mut buffer = largest.map(|i| spare.swap_remove(i)).unwrap_or_default();
-        buffer.clear();
-        buffer
+        let fits = (0..spare.len())
+            .filter(|&i| spare[i].capacity() >= len)
+            .min_by_key(|&i| spare[i].capacity());
+        match fits {
+            Some(i) => {
+                let mut buffer = spare.swap_remove(i);
+                buffer.clear();
+                buffer.resize(len, 0.0);
+                buffer
+            }
+            None => vec![0.0; len],
+        }
     }
 
     /// Returns `buffers` for a later [`Spare::take`].
@@ -456,8 +466,7 @@ impl Problem<'_, '_> {
                 short += n;
                 continue;
             }
-            let mut data = self.spare.take();
-            data.resize(n * (width + 1), 0.0);
+            let mut data = self.spare.take(n * (width + 1));
             fill(run.clone(), &mut data);
             let above = match above_band {
                 Some(above) => Some(above.rows(&data, n, trim)?),
@@ -468,7 +477,7 @@ impl Problem<'_, '_> {
                 let (columns, y) = data.split_at(n * width);
                 let columns: Vec<&[f64]> = columns.chunks_exact(n).collect();
                 let mut scratch = Vec::new();
-                scratch.resize_with(LEVEL_SIGNALS, || self.spare.take());
+                scratch.resize_with(LEVEL_SIGNALS, || self.spare.take(n));
                 let rows = setup.low.rows_against(&columns, y, Some(reference), &mut scratch);
                 self.spare.give(scratch);
                 level_rows.push(rows?);
