@@ -61,7 +61,10 @@ mod tests {
                 }
             });
             for (c, column) in data.iter().enumerate() {
-                assert!(column.iter().enumerate().all(|(k, v)| *v == (k * 3 + c) as f64));
+                assert!(column
+                    .iter()
+                    .enumerate()
+                    .all(|(k, v)| *v == (k * 3 + c) as f64));
             }
         }
     }

@@ -496,7 +496,9 @@ fn fit_reusing(
     let mut levels = problem.level_setup(&usable, fs_hz, tt)?;
     let linear = |run: Range<usize>, out: &mut [f64]| {
         let (a, y) = out.split_at_mut(run.len() * union.len());
-        settings.design.matrix_over(flux.clone(), run.clone(), &union, a);
+        settings
+            .design
+            .matrix_over(flux.clone(), run.clone(), &union, a);
         y.copy_from_slice(&scalar[run]);
     };
     let prepared = problem.prepare(

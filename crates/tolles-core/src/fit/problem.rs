@@ -478,7 +478,9 @@ impl Problem<'_, '_> {
                 let columns: Vec<&[f64]> = columns.chunks_exact(n).collect();
                 let mut scratch = Vec::new();
                 scratch.resize_with(LEVEL_SIGNALS, || self.spare.take(n));
-                let rows = setup.low.rows_against(&columns, y, Some(reference), &mut scratch);
+                let rows = setup
+                    .low
+                    .rows_against(&columns, y, Some(reference), &mut scratch);
                 self.spare.give(scratch);
                 level_rows.push(rows?);
             }
@@ -599,12 +601,8 @@ impl Problem<'_, '_> {
                     }
                 });
             };
-            let mut prepared = self.prepare(
-                terms.len(),
-                &fill,
-                levels.as_deref(),
-                above.as_ref(),
-            )?;
+            let mut prepared =
+                self.prepare(terms.len(), &fill, levels.as_deref(), above.as_ref())?;
             let weight = levels.as_deref().map_or(0.0, LevelSetup::weight);
             let plan = prepared.plan(levels.is_some(), count);
             let band = prepared.band_factors(&[&plan]);

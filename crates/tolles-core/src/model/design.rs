@@ -26,9 +26,9 @@ pub use crate::model::terms::TermSet;
 use crate::model::terms::{Axis, Column};
 use crate::model::vector::Fluxgates;
 use crate::parallel::{blocks, split_rows};
-use std::ops::Range;
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
+use std::ops::Range;
 
 /// MagNav.jl's scale for the induced and eddy columns (nT), so they are of order one.
 pub const MAGNAV_BT_SCALE: f64 = 50_000.0;
@@ -242,10 +242,8 @@ impl Design {
     ) {
         let inputs = Spans::new(&flux.into(), span);
         let n = inputs.len;
-        let mut columns: Vec<&mut [f64]> = out
-            .chunks_exact_mut(n.max(1))
-            .take(terms.len())
-            .collect();
+        let mut columns: Vec<&mut [f64]> =
+            out.chunks_exact_mut(n.max(1)).take(terms.len()).collect();
         split_rows(n, &mut columns, |part, columns| {
             for rows in blocks(part.clone(), BLOCK_ROWS) {
                 let components = inputs.components(rows.clone());
@@ -519,7 +517,9 @@ mod tests {
             VectorSeries::new(
                 (0..n).map(|k| wave(k, 0.013 + p, 9e3, 2e4)).collect(),
                 (0..n).map(|k| wave(k, 0.007, 5e3 + p, -3e3)).collect(),
-                (0..n).map(|k| wave(k, 0.0031 * (1.0 + p), 2e3, 4.5e4)).collect(),
+                (0..n)
+                    .map(|k| wave(k, 0.0031 * (1.0 + p), 2e3, 4.5e4))
+                    .collect(),
             )
         };
         let channel = (0..n).map(|k| wave(k, 0.11, 3.0, 1.0)).collect();
@@ -550,7 +550,18 @@ mod tests {
         };
         let (d0, d1) = (own(&f0), own(&f1));
         let mut value = [0.0];
-        let edges = [0, 1, 2047, 2048, 2049, m / 2 - 1, m / 2, m / 2 + 1, m - 2, m - 1];
+        let edges = [
+            0,
+            1,
+            2047,
+            2048,
+            2049,
+            m / 2 - 1,
+            m / 2,
+            m / 2 + 1,
+            m - 2,
+            m - 1,
+        ];
         for r in (0..m).step_by(997).chain(edges) {
             let k = span.start + r;
             let b = [f0.at(k), f1.at(k)];
@@ -564,7 +575,10 @@ mod tests {
                     sum += value[0] * beta[c];
                 }
             }
-            assert!((applied[r] - sum).abs() <= 1e-9 * sum.abs().max(1.0), "row {r}");
+            assert!(
+                (applied[r] - sum).abs() <= 1e-9 * sum.abs().max(1.0),
+                "row {r}"
+            );
         }
     }
 

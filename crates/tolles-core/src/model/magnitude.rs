@@ -262,7 +262,10 @@ impl JacobianBlock {
             v.clear();
             v.resize(m, 0.0);
         };
-        self.h.iter_mut().chain(self.direction.iter_mut()).for_each(zero);
+        self.h
+            .iter_mut()
+            .chain(self.direction.iter_mut())
+            .for_each(zero);
         zero(&mut self.bias);
     }
 
@@ -452,7 +455,15 @@ mod tests {
         let mut columns: Vec<&mut [f64]> = j.iter_mut().map(Vec::as_mut_slice).collect();
         let mut delta = vec![0.0; rows.len()];
         let series = [&flux.x, &flux.y, &flux.z].map(Vec::as_slice);
-        exact_jacobian_into(&design, series, &beta, &terms, rows.clone(), &mut columns, &mut delta);
+        exact_jacobian_into(
+            &design,
+            series,
+            &beta,
+            &terms,
+            rows.clone(),
+            &mut columns,
+            &mut delta,
+        );
         assert_eq!(delta, whole[rows]);
     }
 }
