@@ -424,11 +424,17 @@ mod tests {
         );
     }
 
+    /// The patent's terms with a bias, and coefficients of a few hundred nT.
+    fn patent_with_bias() -> (Design, Vec<f64>) {
+        let design = Design::new("patent,b".parse().unwrap());
+        let beta = (0..17).map(|k| (k as f64 - 8.0) * 40.0).collect();
+        (design, beta)
+    }
+
     #[test]
     fn jacobian_matches_finite_differences() {
         let flux = swinging_flux(30);
-        let design = Design::new("patent,b".parse().unwrap());
-        let beta: Vec<f64> = (0..17).map(|k| (k as f64 - 8.0) * 40.0).collect();
+        let (design, beta) = patent_with_bias();
         let (delta, j) = exact_jacobian(&design, &flux, &beta, &design.design_terms());
         assert_eq!(delta, correction(Magnitude::Exact, &design, &flux, &beta));
         for c in 0..17 {
@@ -446,8 +452,7 @@ mod tests {
     fn a_part_of_a_long_series_gives_the_whole_series_correction() {
         // Rows across several blocks of changes, starting and ending inside the series.
         let flux = swinging_flux(6_000);
-        let design = Design::new("patent,b".parse().unwrap());
-        let beta: Vec<f64> = (0..17).map(|k| (k as f64 - 8.0) * 40.0).collect();
+        let (design, beta) = patent_with_bias();
         let whole = correction(Magnitude::Exact, &design, &flux, &beta);
         let terms = design.design_terms();
         let rows = 1_000..5_999;
