@@ -23,6 +23,7 @@ use crate::fit::{Band, FitSettings, Lambda};
 use crate::model::design::Design;
 use crate::model::terms::TermSet;
 use crate::model::vector::VectorSeries;
+use crate::parallel::split_rows;
 use crate::signal::filter::{filtfilt_many_unless_constant, Butterworth, FilterError};
 use crate::signal::segment::contiguous_runs;
 use nalgebra::DMatrix;
@@ -213,7 +214,8 @@ impl LowFrequency {
     }
 
     /// [`LowFrequency::rows_of`] with the target `y − reference` (nT) when a reference is
-    /// given, filtered in the buffers of `scratch` (reused as they are, added to as needed).
+    /// given, filtered in the buffers of `scratch`: each as long as `y`, up to
+    /// [`SIGNALS_AT_ONCE`] of them, added to as needed.
     pub(super) fn rows_against(
         &self,
         columns: &[&[f64]],
@@ -231,23 +233,21 @@ impl LowFrequency {
         }
         let keep: Vec<usize> = (self.trim..n - self.trim).step_by(self.step).collect();
         let mut a = DMatrix::zeros(keep.len(), columns.len());
-        // Eight signals at a time keep the filter's threads busy with a bounded copy.
         let signals: Vec<&[f64]> = columns.iter().copied().chain([y]).collect();
         let mut target = Vec::new();
-        for (group, chunk) in signals.chunks(8).enumerate() {
+        for (group, chunk) in signals.chunks(SIGNALS_AT_ONCE).enumerate() {
             if scratch.len() < chunk.len() {
-                scratch.resize_with(chunk.len(), Vec::new);
+                scratch.resize_with(chunk.len(), || vec![0.0; n]);
             }
-            // Copied on all cores: a new scratch buffer's pages are faulted in as it is written.
-            let target_at = reference.map(|r| (columns.len() - group * 8, r));
-            copy_on_all_cores(&mut scratch[..chunk.len()], chunk, target_at);
             let mut views: Vec<&mut [f64]> = scratch[..chunk.len()]
                 .iter_mut()
                 .map(|s| s.as_mut_slice())
                 .collect();
+            let target_at = reference.map(|r| (columns.len() - group * SIGNALS_AT_ONCE, r));
+            copy_on_all_cores(&mut views, chunk, target_at);
             filtfilt_many_unless_constant(&self.filter, &mut views)?;
             for (i, s) in scratch[..chunk.len()].iter().enumerate() {
-                let c = group * 8 + i;
+                let c = group * SIGNALS_AT_ONCE + i;
                 if c < columns.len() {
                     for (r, &k) in keep.iter().enumerate() {
                         a[(r, c)] = s[k];
@@ -265,34 +265,31 @@ impl LowFrequency {
     }
 }
 
-/// Copies each of `signals` into its buffer of `scratch`, signal `i` as `x − r` for
-/// `target = Some((i, r))`, the buffers shared between the cores.
+/// Signals [`LowFrequency`] filters at once: they keep the filter's threads busy with a
+/// bounded copy.
+pub(super) const SIGNALS_AT_ONCE: usize = 8;
+
+/// Copies each of `signals` into its buffer of `scratch` (equally long), signal `i` as
+/// `x − r` for `target = Some((i, r))`, by rows on all cores: a new buffer's pages are faulted
+/// in as it is written.
 fn copy_on_all_cores(
-    scratch: &mut [Vec<f64>],
+    scratch: &mut [&mut [f64]],
     signals: &[&[f64]],
     target: Option<(usize, &[f64])>,
 ) {
-    let copy = |i: usize, s: &mut Vec<f64>, x: &[f64]| {
-        s.clear();
-        match target {
-            Some((t, r)) if t == i => s.extend(x.iter().zip(r).map(|(y, r)| y - r)),
-            _ => s.extend_from_slice(x),
-        }
-    };
-    let threads = std::thread::available_parallelism().map_or(1, |t| t.get());
-    let share = signals.len().div_ceil(threads).max(1);
-    std::thread::scope(|scope| {
-        for (part, (buffers, xs)) in scratch
-            .chunks_mut(share)
-            .zip(signals.chunks(share))
-            .enumerate()
-        {
-            let copy = &copy;
-            scope.spawn(move || {
-                for (j, (s, x)) in buffers.iter_mut().zip(xs).enumerate() {
-                    copy(part * share + j, s, x);
+    let n = signals.first().map_or(0, |x| x.len());
+    split_rows(n, scratch, |rows, parts| {
+        for (i, (part, x)) in parts.iter_mut().zip(signals).enumerate() {
+            let x = &x[rows.clone()];
+            match target {
+                Some((t, r)) if t == i => {
+                    let r = &r[rows.clone()];
+                    for ((o, y), r) in part.iter_mut().zip(x).zip(r) {
+                        *o = y - r;
+                    }
                 }
-            });
+                _ => part.copy_from_slice(x),
+            }
         }
     });
 }

@@ -378,9 +378,6 @@ impl Prepared {
     }
 }
 
-/// Signals [`levels::LowFrequency`] filters at once.
-const LEVEL_SIGNALS: usize = 8;
-
 /// The number of folds `lambda` asks for: one for a fixed λ.
 pub(super) fn fold_count(lambda: Lambda) -> usize {
     match lambda {
@@ -477,7 +474,7 @@ impl Problem<'_, '_> {
                 let (columns, y) = data.split_at(n * width);
                 let columns: Vec<&[f64]> = columns.chunks_exact(n).collect();
                 let mut scratch = Vec::new();
-                scratch.resize_with(LEVEL_SIGNALS, || self.spare.take(n));
+                scratch.resize_with(levels::SIGNALS_AT_ONCE, || self.spare.take(n));
                 let rows = setup
                     .low
                     .rows_against(&columns, y, Some(reference), &mut scratch);

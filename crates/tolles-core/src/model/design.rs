@@ -241,18 +241,13 @@ impl Design {
         out: &mut [f64],
     ) {
         let inputs = Spans::new(&flux.into(), span);
-        let n = inputs.len;
-        let mut columns: Vec<&mut [f64]> =
-            out.chunks_exact_mut(n.max(1)).take(terms.len()).collect();
-        split_rows(n, &mut columns, |part, columns| {
-            for rows in blocks(part.clone(), BLOCK_ROWS) {
-                let components = inputs.components(rows.clone());
-                let at = rows.start - part.start..rows.end - part.start;
-                for (column, term) in columns.iter_mut().zip(terms) {
-                    let extras = &inputs.extras;
-                    let out = &mut column[at.clone()];
-                    self.write_column(&components, extras, rows.clone(), *term, out);
-                }
+        let mut columns: Vec<&mut [f64]> = out
+            .chunks_exact_mut(inputs.len.max(1))
+            .take(terms.len())
+            .collect();
+        inputs.by_blocks(&mut columns, |components, rows, columns| {
+            for (column, term) in columns.iter_mut().zip(terms) {
+                self.write_column(components, &inputs.extras, rows.clone(), *term, column);
             }
         });
     }
@@ -329,58 +324,19 @@ impl Design {
         );
         let inputs = Spans::new(&flux.into(), span);
         let mut out = vec![0.0; inputs.len];
-        split_rows(inputs.len, &mut [out.as_mut_slice()], |part, out| {
-            for rows in blocks(part.clone(), BLOCK_ROWS) {
-                let components = inputs.components(rows.clone());
-                let out = &mut out[0][rows.start - part.start..rows.end - part.start];
-                for (term, &beta) in terms.iter().zip(coefficients) {
-                    self.add_term(&components, &inputs.extras, rows.clone(), *term, beta, out);
-                }
-            }
-        });
-        out
-    }
-
-    /// Adds `beta` times the column of `term` for the samples `rows` (of `components`' block)
-    /// to `out`. Term after term, each in column order: the same sum as row by row.
-    fn add_term(
-        &self,
-        components: &[Components],
-        extras: &[&[f64]],
-        rows: Range<usize>,
-        term: Term,
-        beta: f64,
-        out: &mut [f64],
-    ) {
-        let c = &components[term.fluxgate];
-        let add = |out: &mut [f64], u: &[f64], v: &[f64]| {
-            for ((o, u), v) in out.iter_mut().zip(u).zip(v) {
-                *o += u * v / self.bt_scale * beta;
-            }
-        };
-        match term.column {
-            Column::Permanent(i) => {
-                for (o, u) in out.iter_mut().zip(&c.unit[i.index()]) {
-                    *o += u * beta;
-                }
-            }
-            Column::Induced(i, j) => add(out, &c.unit[i.index()], c.b[j.index()]),
-            Column::Eddy(i, j) => add(out, &c.unit[i.index()], &c.db[j.index()]),
-            Column::Extra { channel, axis } => {
-                let values = &extras[channel][rows];
-                for ((o, u), v) in out.iter_mut().zip(&c.unit[axis.index()]).zip(values) {
-                    *o += u * v * beta;
-                }
-            }
-            Column::InducedTrace | Column::InducedTraceless(_) | Column::EddyTraceless(_) => {
-                let mut column = vec![0.0; out.len()];
-                self.write_column(components, extras, rows, term, &mut column);
-                out.iter_mut()
+        inputs.by_blocks(&mut [out.as_mut_slice()], |components, rows, out| {
+            // Each term's column is written, then added times its coefficient: per sample the
+            // sum of `Design::row`'s values times β in column order, as `A·β` row by row.
+            let mut column = vec![0.0; rows.len()];
+            for (term, &beta) in terms.iter().zip(coefficients) {
+                self.write_column(components, &inputs.extras, rows.clone(), *term, &mut column);
+                out[0]
+                    .iter_mut()
                     .zip(&column)
                     .for_each(|(o, v)| *o += v * beta);
             }
-            Column::Bias => out.iter_mut().for_each(|o| *o += beta),
-        }
+        });
+        out
     }
 }
 
@@ -407,6 +363,24 @@ impl<'a> Spans<'a> {
             extras: flux.extras().iter().map(|e| &e[span.clone()]).collect(),
             len: span.len(),
         }
+    }
+
+    /// Calls `f` on consecutive blocks of the span's samples, on all cores, with every
+    /// fluxgate's [`Components`] at the block, its rows within the span and the block's rows
+    /// of each of `columns` (each as long as the span).
+    fn by_blocks(
+        &self,
+        columns: &mut [&mut [f64]],
+        f: impl Fn(&[Components], Range<usize>, &mut [&mut [f64]]) + Sync,
+    ) {
+        split_rows(self.len, columns, |part, columns| {
+            for rows in blocks(part.clone(), BLOCK_ROWS) {
+                let at = rows.start - part.start..rows.end - part.start;
+                let mut block: Vec<&mut [f64]> =
+                    columns.iter_mut().map(|c| &mut c[at.clone()]).collect();
+                f(&self.components(rows.clone()), rows, &mut block);
+            }
+        });
     }
 
     /// Every fluxgate's [`Components`] at the samples `rows`.
