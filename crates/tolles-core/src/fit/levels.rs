@@ -24,7 +24,7 @@ use crate::model::design::Design;
 use crate::model::terms::TermSet;
 use crate::model::vector::VectorSeries;
 use crate::parallel::split_rows;
-use crate::signal::filter::{filtfilt_many_unless_constant, Butterworth, FilterError};
+use crate::signal::filter::{filtfilt_sampled_unless_constant, Butterworth, FilterError};
 use crate::signal::segment::contiguous_runs;
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
@@ -207,21 +207,19 @@ impl LowFrequency {
     }
 
     /// [`LowFrequency::rows`] of columns given one by one (each as long as `y`), left as they
-    /// are: they are filtered a few at a time in a copy, so a run's whole matrix is never
-    /// copied.
+    /// are: only the kept samples of their low-passed versions are ever written.
     pub fn rows_of(&self, columns: &[&[f64]], y: &[f64]) -> Result<LevelRows, FilterError> {
-        self.rows_against(columns, y, None, &mut Vec::new())
+        self.rows_against(columns, y, None, &mut [])
     }
 
     /// [`LowFrequency::rows_of`] with the target `y − reference` (nT) when a reference is
-    /// given, filtered in the buffers of `scratch`: each as long as `y`, up to
-    /// [`SIGNALS_AT_ONCE`] of them, added to as needed.
+    /// given, formed in `target` (as long as `y`).
     pub(super) fn rows_against(
         &self,
         columns: &[&[f64]],
         y: &[f64],
         reference: Option<&[f64]>,
-        scratch: &mut Vec<Vec<f64>>,
+        target: &mut [f64],
     ) -> Result<LevelRows, FilterError> {
         let n = y.len();
         if n <= self.filter.padlen() + 1 || n <= 2 * self.trim + self.step {
@@ -231,65 +229,28 @@ impl LowFrequency {
                 at: Vec::new(),
             });
         }
+        let y = match reference {
+            Some(r) => {
+                difference_on_all_cores(y, r, target);
+                &*target
+            }
+            None => y,
+        };
         let keep: Vec<usize> = (self.trim..n - self.trim).step_by(self.step).collect();
-        let mut a = DMatrix::zeros(keep.len(), columns.len());
         let signals: Vec<&[f64]> = columns.iter().copied().chain([y]).collect();
-        let mut target = Vec::new();
-        for (group, chunk) in signals.chunks(SIGNALS_AT_ONCE).enumerate() {
-            if scratch.len() < chunk.len() {
-                scratch.resize_with(chunk.len(), || vec![0.0; n]);
-            }
-            let mut views: Vec<&mut [f64]> = scratch[..chunk.len()]
-                .iter_mut()
-                .map(|s| s.as_mut_slice())
-                .collect();
-            let target_at = reference.map(|r| (columns.len() - group * SIGNALS_AT_ONCE, r));
-            copy_on_all_cores(&mut views, chunk, target_at);
-            filtfilt_many_unless_constant(&self.filter, &mut views)?;
-            for (i, s) in scratch[..chunk.len()].iter().enumerate() {
-                let c = group * SIGNALS_AT_ONCE + i;
-                if c < columns.len() {
-                    for (r, &k) in keep.iter().enumerate() {
-                        a[(r, c)] = s[k];
-                    }
-                } else {
-                    target = keep.iter().map(|&k| s[k]).collect();
-                }
-            }
-        }
-        Ok(LevelRows {
-            a,
-            y: target,
-            at: keep,
-        })
+        let mut sampled = filtfilt_sampled_unless_constant(&self.filter, &signals, &keep)?;
+        let y = sampled.pop().expect("the target is filtered last");
+        let a = DMatrix::from_iterator(keep.len(), columns.len(), sampled.into_iter().flatten());
+        Ok(LevelRows { a, y, at: keep })
     }
 }
 
-/// Signals [`LowFrequency`] filters at once: they keep the filter's threads busy with a
-/// bounded copy.
-pub(super) const SIGNALS_AT_ONCE: usize = 8;
-
-/// Copies each of `signals` into its buffer of `scratch` (equally long), signal `i` as
-/// `x − r` for `target = Some((i, r))`, by rows on all cores: a new buffer's pages are faulted
-/// in as it is written.
-fn copy_on_all_cores(
-    scratch: &mut [&mut [f64]],
-    signals: &[&[f64]],
-    target: Option<(usize, &[f64])>,
-) {
-    let n = signals.first().map_or(0, |x| x.len());
-    split_rows(n, scratch, |rows, parts| {
-        for (i, (part, x)) in parts.iter_mut().zip(signals).enumerate() {
-            let x = &x[rows.clone()];
-            match target {
-                Some((t, r)) if t == i => {
-                    let r = &r[rows.clone()];
-                    for ((o, y), r) in part.iter_mut().zip(x).zip(r) {
-                        *o = y - r;
-                    }
-                }
-                _ => part.copy_from_slice(x),
-            }
+/// `out = y − r`, by rows on all cores: a new buffer's pages are faulted in as it is written.
+fn difference_on_all_cores(y: &[f64], r: &[f64], out: &mut [f64]) {
+    split_rows(y.len(), &mut [out], |rows, parts| {
+        let (y, r) = (&y[rows.clone()], &r[rows]);
+        for ((o, y), r) in parts[0].iter_mut().zip(y).zip(r) {
+            *o = y - r;
         }
     });
 }

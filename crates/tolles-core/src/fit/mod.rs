@@ -493,6 +493,9 @@ fn fit_reusing(
         settings,
         spare,
     };
+    // The linear rows are the largest buffer; the reference's calibration uses its first part.
+    let longest = problem.runs.iter().map(|r| r.len()).max().unwrap_or(0);
+    spare.reserve(longest * (union.len() + 1));
     let mut levels = problem.level_setup(&usable, fs_hz, tt)?;
     let linear = |run: Range<usize>, out: &mut [f64]| {
         let (a, y) = out.split_at_mut(run.len() * union.len());

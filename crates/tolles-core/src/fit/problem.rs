@@ -17,7 +17,8 @@ use std::ops::Range;
 use std::sync::Mutex;
 
 /// Writes a run's unfiltered columns and, after them, its target into the slice given
-/// (column-major, one value per sample of the run each).
+/// (column-major, one value per sample of the run each), every value of it: the slice holds
+/// whatever a [`Spare`] buffer last held.
 pub(super) type FillRun<'m> = dyn Fn(Range<usize>, &mut [f64]) + Sync + 'm;
 
 /// Buffers a fit has finished with, for its next step to reuse. On a long flight, touching
@@ -27,29 +28,51 @@ pub(super) type FillRun<'m> = dyn Fn(Range<usize>, &mut [f64]) + Sync + 'm;
 pub(super) struct Spare(Mutex<Vec<Vec<f64>>>);
 
 impl Spare {
-    /// A buffer of `len` values: the smallest spare one that holds them, zeroed, or a new one.
+    /// A buffer of at least `len` values, of which the taker uses the first `len`: the
+    /// smallest spare one that is long enough, as its last user left it (so every taker writes
+    /// all it uses before reading it: zeroing a gigabyte that is about to be overwritten costs
+    /// a tenth of a second), or a new one of `len` zeros.
+    ///
     /// A new one is zeroed by the system as its pages are first written, by whichever thread
     /// writes them, so the fills that write on all cores also fault its pages in on all cores.
     pub(super) fn take(&self, len: usize) -> Vec<f64> {
         let mut spare = self.0.lock().unwrap_or_else(|e| e.into_inner());
         let fits = (0..spare.len())
-            .filter(|&i| spare[i].capacity() >= len)
-            .min_by_key(|&i| spare[i].capacity());
+            .filter(|&i| spare[i].len() >= len)
+            .min_by_key(|&i| spare[i].len());
         match fits {
-            Some(i) => {
-                let mut buffer = spare.swap_remove(i);
-                buffer.clear();
-                buffer.resize(len, 0.0);
-                buffer
-            }
+            Some(i) => spare.swap_remove(i),
             None => vec![0.0; len],
+        }
+    }
+
+    /// [`Spare::take`] of each of `lens`, the longest first, so that the longest need gets the
+    /// longest buffer rather than one a shorter need took first. Empty for a length of 0.
+    pub(super) fn take_each(&self, lens: &[usize]) -> Vec<Vec<f64>> {
+        let mut order: Vec<usize> = (0..lens.len()).collect();
+        order.sort_by_key(|&i| std::cmp::Reverse(lens[i]));
+        let mut out = vec![Vec::new(); lens.len()];
+        for i in order.into_iter().filter(|&i| lens[i] > 0) {
+            out[i] = self.take(lens[i]);
+        }
+        out
+    }
+
+    /// Makes sure a spare buffer of at least `len` values is there, for a fit that will need
+    /// one that long after smaller ones: the smaller needs are then met by its first part,
+    /// and its pages are faulted in once, as far as each use reaches, rather than those of
+    /// every size in turn (on a virtual machine each new gigabyte costs about a second).
+    pub(super) fn reserve(&self, len: usize) {
+        let mut spare = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        if spare.iter().all(|b| b.len() < len) {
+            spare.push(vec![0.0; len]);
         }
     }
 
     /// Returns `buffers` for a later [`Spare::take`].
     pub(super) fn give(&self, buffers: impl IntoIterator<Item = Vec<f64>>) {
         let mut spare = self.0.lock().unwrap_or_else(|e| e.into_inner());
-        spare.extend(buffers.into_iter().filter(|b| b.capacity() > 0));
+        spare.extend(buffers.into_iter().filter(|b| !b.is_empty()));
     }
 }
 
@@ -108,7 +131,8 @@ impl AboveBand {
 
 /// The filtered rows of one run.
 struct RunRows {
-    /// The columns and the target, column-major, `len` samples each, filtered but not trimmed.
+    /// The columns and the target, column-major, `len` samples each, filtered but not trimmed,
+    /// at the start of a buffer that may be longer.
     data: Vec<f64>,
     len: usize,
     /// Rows above the band (trimmed), the target last; with extra channels only.
@@ -454,31 +478,43 @@ impl Problem<'_, '_> {
             .max()
             .unwrap_or(0)
             .max(2 * trim + 1);
+        let sizes: Vec<usize> = self
+            .runs
+            .iter()
+            .map(|r| {
+                if r.len() < needed {
+                    0
+                } else {
+                    r.len() * (width + 1)
+                }
+            })
+            .collect();
+        let mut buffers = self.spare.take_each(&sizes).into_iter();
         let mut runs = Vec::new();
         let mut level_rows = Vec::new();
         let mut short = 0;
-        for run in &self.runs {
+        for (run, used) in self.runs.iter().zip(sizes) {
             let n = run.len();
-            if n < needed {
+            let mut buffer = buffers.next().expect("one buffer per run");
+            if used == 0 {
                 short += n;
                 continue;
             }
-            let mut data = self.spare.take(n * (width + 1));
-            fill(run.clone(), &mut data);
+            let data = &mut buffer[..used];
+            fill(run.clone(), data);
             let above = match above_band {
-                Some(above) => Some(above.rows(&data, n, trim)?),
+                Some(above) => Some(above.rows(data, n, trim)?),
                 None => None,
             };
             if let Some(setup) = levels {
                 let reference = levels::reference_over(&setup.reference, run.clone());
                 let (columns, y) = data.split_at(n * width);
                 let columns: Vec<&[f64]> = columns.chunks_exact(n).collect();
-                let mut scratch = Vec::new();
-                scratch.resize_with(levels::SIGNALS_AT_ONCE, || self.spare.take(n));
+                let mut target = self.spare.take(n);
                 let rows = setup
                     .low
-                    .rows_against(&columns, y, Some(reference), &mut scratch);
-                self.spare.give(scratch);
+                    .rows_against(&columns, y, Some(reference), &mut target[..n]);
+                self.spare.give([target]);
                 level_rows.push(rows?);
             }
             let mut signals: Vec<&mut [f64]> = data.chunks_mut(n).collect();
@@ -488,7 +524,7 @@ impl Problem<'_, '_> {
                 signals.iter_mut().for_each(|s| remove_mean(s));
             }
             runs.push(RunRows {
-                data,
+                data: buffer,
                 len: n,
                 above,
             });
@@ -759,6 +795,21 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn the_longest_need_gets_the_longest_spare_buffer() {
+        let spare = Spare::default();
+        spare.reserve(100);
+        spare.reserve(60); // one long enough is there already
+        spare.give([vec![1.0; 30]]);
+        let taken = spare.take_each(&[20, 0, 90]);
+        let lens: Vec<usize> = taken.iter().map(Vec::len).collect();
+        // The 90 gets the reserved 100 although the 20, first in order, would fit it too.
+        assert_eq!(lens, [30, 0, 100]);
+        // A spare buffer comes as its last user left it; a new one is zeros.
+        assert_eq!(taken[0][0], 1.0);
+        assert_eq!(spare.take(5), vec![0.0; 5]);
     }
 
     #[test]

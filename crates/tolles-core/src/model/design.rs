@@ -328,12 +328,17 @@ impl Design {
             // Each term's column is written, then added times its coefficient: per sample the
             // sum of `Design::row`'s values times β in column order, as `A·β` row by row.
             let mut column = vec![0.0; rows.len()];
-            for (term, &beta) in terms.iter().zip(coefficients) {
+            for (index, (term, &beta)) in terms.iter().zip(coefficients).enumerate() {
                 self.write_column(components, &inputs.extras, rows.clone(), *term, &mut column);
-                out[0]
-                    .iter_mut()
-                    .zip(&column)
-                    .for_each(|(o, v)| *o += v * beta);
+                let out = out[0].iter_mut().zip(&column);
+                if index == 0 {
+                    // The sum starts from 0 as before, but the output is written before it is
+                    // read: a fresh page read first is mapped to the zero page, and the write
+                    // after it costs a second fault and a TLB flush on every core.
+                    out.for_each(|(o, v)| *o = 0.0 + v * beta);
+                } else {
+                    out.for_each(|(o, v)| *o += v * beta);
+                }
             }
         });
         out

@@ -340,10 +340,13 @@ pub fn filtfilt_many_unless_constant_with(
         signals.iter().all(|s| s.len() == n),
         "signals must have equal lengths"
     );
-    let constant: Vec<bool> = in_shares(signals, n, |share| (kernels.constant)(share))
-        .into_iter()
-        .flatten()
-        .collect();
+    let constant: Vec<bool> = in_shares(signals, n, |share| {
+        let share: Vec<&[f64]> = share.iter().map(|x| &**x).collect();
+        (kernels.constant)(&share)
+    })
+    .into_iter()
+    .flatten()
+    .collect();
     let mut varying: Vec<&mut [f64]> = signals
         .iter_mut()
         .zip(constant)
@@ -358,6 +361,62 @@ pub fn filtfilt_many_unless_constant_with(
         (kernels.filtfilt_all)(filter, share)
     });
     Ok(())
+}
+
+/// The samples at `at` (ascending, each below the signals' length) of
+/// [`filtfilt_unless_constant`] of each of `signals` (equally long): one vector of `at.len()`
+/// values per signal, bit for bit those of the whole result.
+///
+/// For a long signal of which a few samples are wanted (the low-passed level rows of a fit
+/// take one sample in fifty): nothing of the signals' length is allocated or written, and the
+/// signals are only read. The work is shared among the cores and runs in SIMD lanes as in
+/// [`filtfilt_many_unless_constant`], at the price of a second forward pass.
+///
+/// # Panics
+/// If the signals differ in length or a sample of `at` is out of range or out of order.
+pub fn filtfilt_sampled_unless_constant(
+    filter: &Butterworth,
+    signals: &[&[f64]],
+    at: &[usize],
+) -> Result<Vec<Vec<f64>>, FilterError> {
+    let kernels = Simd::best().0;
+    let n = signals.first().map_or(0, |s| s.len());
+    assert!(
+        signals.iter().all(|s| s.len() == n),
+        "signals must have equal lengths"
+    );
+    assert!(
+        at.windows(2).all(|w| w[0] < w[1]) && at.last().is_none_or(|&k| k < n),
+        "samples must be ascending and within the signals"
+    );
+    let mut all = signals.to_vec();
+    let constant: Vec<bool> = in_shares(&mut all, n, |share| (kernels.constant)(share))
+        .into_iter()
+        .flatten()
+        .collect();
+    let mut varying: Vec<&[f64]> = signals
+        .iter()
+        .zip(&constant)
+        .filter(|(_, constant)| !**constant)
+        .map(|(x, _)| *x)
+        .collect();
+    let padlen = filter.padlen();
+    if !varying.is_empty() && n <= padlen {
+        return Err(FilterError::TooShort { len: n, padlen });
+    }
+    let mut filtered = in_shares(&mut varying, n, |share| {
+        (kernels.filtfilt_sampled_all)(filter, share, at)
+    })
+    .into_iter()
+    .flatten();
+    Ok(signals
+        .iter()
+        .zip(constant)
+        .map(|(x, constant)| match constant {
+            true => at.iter().map(|&k| x[k]).collect(),
+            false => filtered.next().expect("one result per varying signal"),
+        })
+        .collect())
 }
 
 /// An instruction set that [`filtfilt_many_unless_constant`]'s kernels are compiled for and
@@ -394,10 +453,10 @@ impl std::fmt::Debug for Simd {
 ///
 /// Equal shares of signals, rather than of whole blocks of them, keep the threads finishing
 /// together: 20 signals on two cores as 10 + 10 (8 + 2 each), not 16 + 4.
-fn in_shares<R: Send>(
-    signals: &mut [&mut [f64]],
+fn in_shares<S: Send, R: Send>(
+    signals: &mut [S],
     n: usize,
-    work: impl Fn(&mut [&mut [f64]]) -> R + Sync,
+    work: impl Fn(&mut [S]) -> R + Sync,
 ) -> Vec<R> {
     // Threads only pay off when each has a sizeable share of the work.
     let threads = std::thread::available_parallelism()

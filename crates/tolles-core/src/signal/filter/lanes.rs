@@ -24,14 +24,20 @@ pub(super) struct Kernels {
     pub name: &'static str,
     /// [`filtfilt_all`].
     pub filtfilt_all: fn(&Butterworth, &mut [&mut [f64]]),
+    /// [`filtfilt_sampled_all`].
+    pub filtfilt_sampled_all: SampledKernel,
     /// [`constant`].
-    pub constant: fn(&[&mut [f64]]) -> Vec<bool>,
+    pub constant: fn(&[&[f64]]) -> Vec<bool>,
 }
+
+/// Filters signals (equally long) and returns each one's samples at the given positions.
+type SampledKernel = fn(&Butterworth, &[&[f64]], &[usize]) -> Vec<Vec<f64>>;
 
 /// The kernels for the target the crate is compiled for (SSE2 on plain x86-64).
 const PORTABLE: Kernels = Kernels {
     name: "portable",
     filtfilt_all,
+    filtfilt_sampled_all,
     constant,
 };
 
@@ -51,12 +57,21 @@ macro_rules! compiled_for {
                         filtfilt_all(filter, signals)
                     }
                     #[inherit_target]
-                    fn constant_here(signals: &[&mut [f64]]) -> Vec<bool> {
+                    fn filtfilt_sampled_all_here(
+                        filter: &Butterworth,
+                        signals: &[&[f64]],
+                        at: &[usize],
+                    ) -> Vec<Vec<f64>> {
+                        filtfilt_sampled_all(filter, signals, at)
+                    }
+                    #[inherit_target]
+                    fn constant_here(signals: &[&[f64]]) -> Vec<bool> {
                         constant(signals)
                     }
                     Some(Kernels {
                         name: $label,
                         filtfilt_all: filtfilt_all_here,
+                        filtfilt_sampled_all: filtfilt_sampled_all_here,
                         constant: constant_here,
                     })
                 }
@@ -120,6 +135,35 @@ pub(super) fn filtfilt_all(filter: &Butterworth, signals: &mut [&mut [f64]]) {
     }
 }
 
+/// [`Butterworth::filtfilt`] of every one of `signals` (equally long, longer than
+/// `filter.padlen()` samples), but only its samples at `at` (ascending, each below the
+/// signals' length): one vector of `at.len()` values per signal. The signals are not written.
+///
+/// Blocks of signals as in [`filtfilt_all`].
+#[inline(always)]
+pub(super) fn filtfilt_sampled_all(
+    filter: &Butterworth,
+    signals: &[&[f64]],
+    at: &[usize],
+) -> Vec<Vec<f64>> {
+    let mut out = Vec::with_capacity(signals.len());
+    let mut blocks = signals.chunks_exact(LANES);
+    if blocks.len() > 0 {
+        let mut ws = Workspace::<LANES>::new(filter);
+        for block in &mut blocks {
+            out.extend(filtfilt_sampled_block(block, at, &mut ws));
+        }
+    }
+    let rest = blocks.remainder();
+    out.extend(match rest.len() {
+        0 => Vec::new(),
+        1..=2 => filtfilt_sampled_block(rest, at, &mut Workspace::<2>::new(filter)),
+        3..=4 => filtfilt_sampled_block(rest, at, &mut Workspace::<4>::new(filter)),
+        _ => filtfilt_sampled_block(rest, at, &mut Workspace::<LANES>::new(filter)),
+    });
+    out
+}
+
 /// Whether each of `signals` (equally long) counts as constant by
 /// [`super::sample_std`]'s rule: at least 2 samples and a sample standard deviation of at
 /// most `f64::EPSILON` (in the units of the signal).
@@ -128,7 +172,7 @@ pub(super) fn filtfilt_all(filter: &Butterworth, signals: &mut [&mut [f64]]) {
 /// waits on for one signal; eight signals side by side overlap them. Per lane the
 /// operations and their order are `sample_std`'s, so the decision is the same.
 #[inline(always)]
-pub(super) fn constant(signals: &[&mut [f64]]) -> Vec<bool> {
+pub(super) fn constant(signals: &[&[f64]]) -> Vec<bool> {
     let n = signals.first().map_or(0, |x| x.len());
     if n < 2 {
         return vec![false; signals.len()];
@@ -163,7 +207,7 @@ const PREFIX: usize = 4096;
 /// so the decision is `sample_std`'s. `min` and `max` pass over NaN: a signal holding one is
 /// not constant by `sample_std` either (its deviation is NaN).
 #[inline(always)]
-fn clearly_varying(signals: &[&mut [f64]]) -> bool {
+fn clearly_varying(signals: &[&[f64]]) -> bool {
     let n = signals[0].len();
     let needed = 2.0 * f64::EPSILON * (2.0 * (n as f64 - 1.0)).sqrt();
     let mut all = true;
@@ -183,7 +227,7 @@ fn clearly_varying(signals: &[&mut [f64]]) -> bool {
 /// samples) in its lane; unused lanes hold 0.
 #[allow(clippy::needless_range_loop)] // as in `step`: the per-lane formula stays visible
 #[inline(always)]
-fn sample_std_block<const L: usize>(signals: &[&mut [f64]], tile: &mut [[f64; L]]) -> [f64; L] {
+fn sample_std_block<const L: usize>(signals: &[&[f64]], tile: &mut [[f64; L]]) -> [f64; L] {
     let n = signals[0].len();
     if signals.len() < L {
         tile.fill([0.0; L]);
@@ -254,6 +298,51 @@ impl<const L: usize> Workspace<L> {
             }
         }
     }
+
+    /// The forward pass over the leading odd extension of `signals` (scipy's `odd_ext`:
+    /// `2 x[0] − x[padlen − i]` at sample `i`), from its steady state: only the delays it
+    /// leaves matter.
+    #[inline(always)]
+    fn start_forward<S: AsRef<[f64]>>(&mut self, signals: &[S]) {
+        let padlen = self.pad.len();
+        for (l, x) in signals.iter().enumerate() {
+            let x = x.as_ref();
+            let first = x[0];
+            for (p, v) in self.pad.iter_mut().zip(x[1..=padlen].iter().rev()) {
+                p[l] = 2.0 * first - v;
+            }
+        }
+        self.steady(self.pad[0]);
+        run(&mut self.sections, &mut self.pad, false);
+    }
+
+    /// The trailing odd extension of `signals` into `pad`: `2 x[n−1] − x[n−2−j]` at sample
+    /// `n + padlen + j`.
+    #[inline(always)]
+    fn trailing_extension<S: AsRef<[f64]>>(&mut self, signals: &[S]) {
+        let padlen = self.pad.len();
+        for (l, x) in signals.iter().enumerate() {
+            let x = x.as_ref();
+            let n = x.len();
+            let last = x[n - 1];
+            for (p, v) in self
+                .pad
+                .iter_mut()
+                .zip(x[n - 1 - padlen..n - 1].iter().rev())
+            {
+                p[l] = 2.0 * last - v;
+            }
+        }
+    }
+
+    /// The backward pass over the trailing extension's forward output in `pad`, from the
+    /// steady state of its last sample: the delays the signals' backward pass starts from.
+    #[inline(always)]
+    fn start_backward(&mut self) {
+        let padlen = self.pad.len();
+        self.steady(self.pad[padlen - 1]);
+        run(&mut self.sections, &mut self.pad, true);
+    }
 }
 
 /// [`Butterworth::filtfilt`] of each of `signals` (at most `L`, equally long, longer than
@@ -279,24 +368,9 @@ fn filtfilt_block<const L: usize>(signals: &mut [&mut [f64]], ws: &mut Workspace
         ws.tile.fill([0.0; L]);
     }
 
-    // Leading odd extension, scipy's `odd_ext`: `2 x[0] - x[padlen - i]` at sample `i`.
-    for (l, x) in signals.iter().enumerate() {
-        let first = x[0];
-        for (p, v) in ws.pad.iter_mut().zip(x[1..=padlen].iter().rev()) {
-            p[l] = 2.0 * first - v;
-        }
-    }
-    ws.steady(ws.pad[0]);
-    run(&mut ws.sections, &mut ws.pad, false);
-
-    // Trailing odd extension, `2 x[n-1] - x[n-2-j]` at sample `n + padlen + j`, taken
-    // before the forward pass overwrites the signals.
-    for (l, x) in signals.iter().enumerate() {
-        let last = x[n - 1];
-        for (p, v) in ws.pad.iter_mut().zip(x[n - 1 - padlen..n - 1].iter().rev()) {
-            p[l] = 2.0 * last - v;
-        }
-    }
+    ws.start_forward(signals);
+    // The trailing extension is taken before the forward pass overwrites the signals.
+    ws.trailing_extension(signals);
     for start in (0..n).step_by(TILE) {
         let tile = &mut ws.tile[..TILE.min(n - start)];
         gather(signals, start, tile);
@@ -305,8 +379,7 @@ fn filtfilt_block<const L: usize>(signals: &mut [&mut [f64]], ws: &mut Workspace
     }
     run(&mut ws.sections, &mut ws.pad, false);
 
-    ws.steady(ws.pad[padlen - 1]);
-    run(&mut ws.sections, &mut ws.pad, true);
+    ws.start_backward();
     for start in (0..n).step_by(TILE).rev() {
         let tile = &mut ws.tile[..TILE.min(n - start)];
         gather(signals, start, tile);
@@ -315,12 +388,74 @@ fn filtfilt_block<const L: usize>(signals: &mut [&mut [f64]], ws: &mut Workspace
     }
 }
 
+/// Samples per stretch of [`filtfilt_sampled_block`]: its stretch of the signals, interleaved,
+/// stays in the L2 cache between the two passes over it.
+const STRETCH: usize = 2048;
+
+/// [`filtfilt_block`] of `signals` (at most `L`), keeping only the samples at `at`.
+///
+/// The forward pass runs twice instead of being stored: once over the whole signals for the
+/// delays at the start of every stretch of [`STRETCH`] samples, then again stretch by stretch,
+/// from the last, just ahead of the backward pass over the same stretch. The same operations
+/// on the same delays give the same bits, and nothing of the signals' length is held.
+#[inline(always)]
+fn filtfilt_sampled_block<const L: usize>(
+    signals: &[&[f64]],
+    at: &[usize],
+    ws: &mut Workspace<L>,
+) -> Vec<Vec<f64>> {
+    assert!(signals.len() <= L, "at most {L} signals per block");
+    let Some(n) = signals.first().map(|s| s.len()) else {
+        return Vec::new();
+    };
+    assert!(n > ws.pad.len(), "signals must be longer than padlen");
+    let mut stretch = vec![[0.0; L]; STRETCH.min(n)];
+    if signals.len() < L {
+        ws.pad.fill([0.0; L]);
+    }
+    ws.start_forward(signals);
+    let starts = (0..n).step_by(STRETCH);
+    let mut delays = Vec::with_capacity(starts.len() * ws.sections.len());
+    for start in starts.clone() {
+        delays.extend(ws.sections.iter().map(Section::delays));
+        let stretch = &mut stretch[..STRETCH.min(n - start)];
+        gather(signals, start, stretch);
+        run(&mut ws.sections, stretch, false);
+    }
+    ws.trailing_extension(signals);
+    let mut forward = ws.sections.clone();
+    run(&mut ws.sections, &mut ws.pad, false);
+    ws.start_backward();
+
+    let mut out = vec![vec![0.0; at.len()]; signals.len()];
+    let mut next = at.len();
+    for (index, start) in starts.enumerate().rev() {
+        let saved = &delays[index * forward.len()..(index + 1) * forward.len()];
+        forward
+            .iter_mut()
+            .zip(saved)
+            .for_each(|(s, d)| s.set_delays(d));
+        let stretch = &mut stretch[..STRETCH.min(n - start)];
+        gather(signals, start, stretch);
+        run(&mut forward, stretch, false);
+        run(&mut ws.sections, stretch, true);
+        while next > 0 && at[next - 1] >= start {
+            next -= 1;
+            let sample = stretch[at[next] - start];
+            for (o, v) in out.iter_mut().zip(sample) {
+                o[next] = v;
+            }
+        }
+    }
+    out
+}
+
 /// Interleaves samples `start..start + tile.len()` of `signals` into `tile`, one signal
 /// per lane.
 #[inline(always)]
-fn gather<const L: usize>(signals: &[&mut [f64]], start: usize, tile: &mut [[f64; L]]) {
+fn gather<const L: usize, S: AsRef<[f64]>>(signals: &[S], start: usize, tile: &mut [[f64; L]]) {
     for (l, x) in signals.iter().enumerate() {
-        for (t, v) in tile.iter_mut().zip(&x[start..]) {
+        for (t, v) in tile.iter_mut().zip(&x.as_ref()[start..]) {
             t[l] = *v;
         }
     }
@@ -422,6 +557,18 @@ struct Section<const L: usize> {
 }
 
 impl<const L: usize> Section<L> {
+    /// The delays `[z0, z1]`, per lane.
+    #[inline(always)]
+    fn delays(&self) -> [[f64; L]; 2] {
+        [self.z0, self.z1]
+    }
+
+    #[inline(always)]
+    fn set_delays(&mut self, &[z0, z1]: &[[f64; L]; 2]) {
+        self.z0 = z0;
+        self.z1 = z1;
+    }
+
     /// From `[b0, b1, b2, a0, a1, a2]` with `a0 = 1`, delays at rest.
     fn new(&[b0, b1, b2, _, a1, a2]: &[f64; 6]) -> Self {
         Self {
@@ -439,7 +586,8 @@ impl<const L: usize> Section<L> {
 #[cfg(test)]
 mod tests {
     use super::super::{
-        filtfilt_many_unless_constant, filtfilt_unless_constant, sample_std, Butterworth, Response,
+        filtfilt_many_unless_constant, filtfilt_sampled_unless_constant, filtfilt_unless_constant,
+        sample_std, Butterworth, Response,
     };
     use super::{available, best};
     use proptest::prelude::*;
@@ -520,6 +668,22 @@ mod tests {
         kinds.iter().map(|&k| column(k, n, &mut rng)).collect()
     }
 
+    fn read_only(columns: &[Vec<f64>]) -> Vec<&[f64]> {
+        columns.iter().map(Vec::as_slice).collect()
+    }
+
+    /// Ascending samples of `0..n`: the first and last, and others at a stride drawn from
+    /// `seed` (sometimes 1, so every sample, sometimes longer than a stretch of the sampled
+    /// kernel, so whole stretches hold none).
+    fn some_samples(n: usize, seed: u64) -> Vec<usize> {
+        let stride = [1, 3, 50, 2500][(seed % 4) as usize];
+        let mut at: Vec<usize> = (0..n).step_by(stride).collect();
+        if at.last() != Some(&(n - 1)) {
+            at.push(n - 1);
+        }
+        at
+    }
+
     fn same_bits(a: &[f64], b: &[f64]) -> bool {
         a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
     }
@@ -545,10 +709,17 @@ mod tests {
                 .map(|x| x.len() >= 2 && sample_std(x) <= f64::EPSILON)
                 .collect();
             let kernels = best();
-            prop_assert_eq!((kernels.constant)(&views), by_rule);
+            prop_assert_eq!((kernels.constant)(&read_only(&original)), by_rule);
             (kernels.filtfilt_all)(&f, &mut views);
             for (x, y) in original.iter().zip(&all) {
                 prop_assert!(same_bits(&f.filtfilt(x).unwrap(), y));
+            }
+            let at = some_samples(n, seed);
+            let sampled = (kernels.filtfilt_sampled_all)(&f, &read_only(&original), &at);
+            prop_assert_eq!(sampled.len(), original.len());
+            for (whole, some) in all.iter().zip(&sampled) {
+                let wanted: Vec<f64> = at.iter().map(|&k| whole[k]).collect();
+                prop_assert!(same_bits(&wanted, some));
             }
 
             let mut many = original.clone();
@@ -576,15 +747,26 @@ mod tests {
             let mut expected = original.clone();
             let mut views: Vec<&mut [f64]> =
                 expected.iter_mut().map(|c| c.as_mut_slice()).collect();
-            let expected_constant = (portable.constant)(&views);
+            let expected_constant = (portable.constant)(&read_only(&original));
             (portable.filtfilt_all)(&f, &mut views);
+            let at = some_samples(n, seed);
+            let expected_sampled = (portable.filtfilt_sampled_all)(&f, &read_only(&original), &at);
             for kernels in others {
                 let mut got = original.clone();
                 let mut views: Vec<&mut [f64]> =
                     got.iter_mut().map(|c| c.as_mut_slice()).collect();
-                prop_assert_eq!(&(kernels.constant)(&views), &expected_constant, "{}", kernels.name);
+                prop_assert_eq!(
+                    &(kernels.constant)(&read_only(&original)),
+                    &expected_constant,
+                    "{}",
+                    kernels.name
+                );
                 (kernels.filtfilt_all)(&f, &mut views);
                 for (x, y) in expected.iter().zip(&got) {
+                    prop_assert!(same_bits(x, y), "{}", kernels.name);
+                }
+                let sampled = (kernels.filtfilt_sampled_all)(&f, &read_only(&original), &at);
+                for (x, y) in expected_sampled.iter().zip(&sampled) {
                     prop_assert!(same_bits(x, y), "{}", kernels.name);
                 }
             }
@@ -618,6 +800,13 @@ mod tests {
             assert!(same_bits(&filtfilt_unless_constant(&f, x).unwrap(), y));
         }
         assert!(same_bits(&original[5], &many[5]));
+
+        let at: Vec<usize> = (7..100_003).step_by(50).collect();
+        let sampled = filtfilt_sampled_unless_constant(&f, &read_only(&original), &at).unwrap();
+        for (whole, some) in many.iter().zip(&sampled) {
+            let wanted: Vec<f64> = at.iter().map(|&k| whole[k]).collect();
+            assert!(same_bits(&wanted, some));
+        }
     }
 
     /// NaN and infinities propagate to the same bits too (including the sign of the NaN
