@@ -666,8 +666,7 @@ pub fn check_flux_magnitude<'a>(flux: impl Into<Fluxgates<'a>>) -> Result<(), Fi
                 series.x[k] * series.x[k] + series.y[k] * series.y[k] + series.z[k] * series.z[k];
             squares > lo * lo && squares < hi * hi
         };
-        for start in (0..series.len()).step_by(MAGNITUDE_BLOCK) {
-            let block = start..(start + MAGNITUDE_BLOCK).min(series.len());
+        for block in crate::parallel::blocks(0..series.len(), MAGNITUDE_BLOCK) {
             if block.clone().fold(true, |all, k| all & inside(k)) {
                 continue;
             }

@@ -335,28 +335,14 @@ pub fn filtfilt_many_unless_constant_with(
     signals: &mut [&mut [f64]],
 ) -> Result<(), FilterError> {
     let kernels = simd.0;
-    let n = signals.first().map_or(0, |s| s.len());
-    assert!(
-        signals.iter().all(|s| s.len() == n),
-        "signals must have equal lengths"
-    );
-    let constant: Vec<bool> = in_shares(signals, n, |share| {
-        let share: Vec<&[f64]> = share.iter().map(|x| &**x).collect();
-        (kernels.constant)(&share)
-    })
-    .into_iter()
-    .flatten()
-    .collect();
+    let read: Vec<&[f64]> = signals.iter().map(|x| &**x).collect();
+    let (n, constant) = constancy(kernels, filter, &read)?;
     let mut varying: Vec<&mut [f64]> = signals
         .iter_mut()
         .zip(constant)
         .filter(|(_, constant)| !constant)
         .map(|(x, _)| &mut **x)
         .collect();
-    let padlen = filter.padlen();
-    if !varying.is_empty() && n <= padlen {
-        return Err(FilterError::TooShort { len: n, padlen });
-    }
     in_shares(&mut varying, n, |share| {
         (kernels.filtfilt_all)(filter, share)
     });
@@ -380,30 +366,17 @@ pub fn filtfilt_sampled_unless_constant(
     at: &[usize],
 ) -> Result<Vec<Vec<f64>>, FilterError> {
     let kernels = Simd::best().0;
-    let n = signals.first().map_or(0, |s| s.len());
-    assert!(
-        signals.iter().all(|s| s.len() == n),
-        "signals must have equal lengths"
-    );
+    let (n, constant) = constancy(kernels, filter, signals)?;
     assert!(
         at.windows(2).all(|w| w[0] < w[1]) && at.last().is_none_or(|&k| k < n),
         "samples must be ascending and within the signals"
     );
-    let mut all = signals.to_vec();
-    let constant: Vec<bool> = in_shares(&mut all, n, |share| (kernels.constant)(share))
-        .into_iter()
-        .flatten()
-        .collect();
     let mut varying: Vec<&[f64]> = signals
         .iter()
         .zip(&constant)
         .filter(|(_, constant)| !**constant)
         .map(|(x, _)| *x)
         .collect();
-    let padlen = filter.padlen();
-    if !varying.is_empty() && n <= padlen {
-        return Err(FilterError::TooShort { len: n, padlen });
-    }
     let mut filtered = in_shares(&mut varying, n, |share| {
         (kernels.filtfilt_sampled_all)(filter, share, at)
     })
@@ -417,6 +390,33 @@ pub fn filtfilt_sampled_unless_constant(
             false => filtered.next().expect("one result per varying signal"),
         })
         .collect())
+}
+
+/// The signals' common length and, tested on all cores, which of them are constant by
+/// [`filtfilt_unless_constant`]'s rule; an error if any other is too short for `filter`.
+///
+/// # Panics
+/// If the signals differ in length.
+fn constancy(
+    kernels: lanes::Kernels,
+    filter: &Butterworth,
+    signals: &[&[f64]],
+) -> Result<(usize, Vec<bool>), FilterError> {
+    let n = signals.first().map_or(0, |s| s.len());
+    assert!(
+        signals.iter().all(|s| s.len() == n),
+        "signals must have equal lengths"
+    );
+    let mut shared = signals.to_vec();
+    let constant: Vec<bool> = in_shares(&mut shared, n, |share| (kernels.constant)(share))
+        .into_iter()
+        .flatten()
+        .collect();
+    let padlen = filter.padlen();
+    if constant.iter().any(|c| !c) && n <= padlen {
+        return Err(FilterError::TooShort { len: n, padlen });
+    }
+    Ok((n, constant))
 }
 
 /// An instruction set that [`filtfilt_many_unless_constant`]'s kernels are compiled for and
