@@ -15,6 +15,7 @@
 
 pub mod atomic;
 pub mod chunks;
+mod decimal;
 pub mod error;
 pub mod format;
 pub mod gdf;

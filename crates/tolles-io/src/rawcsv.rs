@@ -12,15 +12,19 @@
 //!   pieces at line boundaries; each core finds its pieces' rows, counts their cells and marks
 //!   the rows whose cells have white space at an edge ("untidy"), which the general reader
 //!   trims. Blank lines are skipped, as the general reader skips them.
-//! - **Numbers only on demand**, straight from the bytes, in parallel, several columns in one
-//!   pass ([`RawRows::parse`]). A plain decimal (`-50030.0342`) is converted inline — the exact
-//!   quotient of two exactly representable numbers, so the same f64 as `str::parse` gives;
-//!   anything else goes through [`crate::table::parse_cell`], the general reader's own rule.
+//! - **Numbers only on demand**, straight from the bytes: the columns a command names are
+//!   parsed while the rows are found, each piece straight into its place in the whole column
+//!   (a count of its lines fixes where; blank lines leave gaps closed afterwards), and handed
+//!   over without a copy ([`RawRows::parse`]); any other column in one later pass on all cores.
+//!   A plain decimal (`-50030.0342`) is converted inline ([`crate::decimal`]), to the same f64
+//!   as `str::parse` gives; anything else goes through [`crate::table::parse_cell`], the
+//!   general reader's own rule.
 //! - **Rows written by copying** ([`write_rows`]): a tidy row is the same bytes as the general
 //!   writer would write (no cell needs quotes, none has white space to trim), so it is copied;
 //!   an untidy row is written cell by cell, trimmed. New cells are formatted on all cores
 //!   ([`format_number`], the same text as [`crate::table::format_value`]).
 
+use crate::decimal::plain_decimal;
 use crate::error::IoError;
 use crate::table::parse_cell;
 use rayon::prelude::*;
@@ -28,7 +32,7 @@ use std::io::Write;
 use std::ops::{Deref, Range};
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, PoisonError};
 
 /// A file's bytes: mapped into memory where the file allows it, else read.
 pub(crate) enum Bytes {
@@ -87,8 +91,8 @@ pub struct RawRows {
     untidy: Vec<u32>,
     /// Cells per row (the header's).
     fields: usize,
-    /// Columns parsed while the rows were found.
-    parsed: Vec<ParsedField>,
+    /// Columns parsed while the rows were found, until [`RawRows::parse`] hands them over.
+    parsed: Mutex<Vec<ParsedField>>,
 }
 
 impl std::fmt::Debug for RawRows {
@@ -109,25 +113,13 @@ pub(crate) struct RawCsv {
     pub lines: Option<Vec<u64>>,
 }
 
-/// One column parsed while the rows were found, in the pieces the cores read: joined only
-/// when asked for, so the values are copied once.
+/// One column parsed while the rows were found.
 #[derive(Debug, Clone)]
 struct ParsedField {
     field: usize,
-    pieces: Vec<Vec<f64>>,
+    values: Vec<f64>,
     /// The first row whose cell is not a number.
     bad: Option<usize>,
-}
-
-impl ParsedField {
-    /// The values of every row, in order.
-    fn values(&self) -> Vec<f64> {
-        let mut values = Vec::with_capacity(self.pieces.iter().map(|p| p.len()).sum());
-        for piece in &self.pieces {
-            values.extend_from_slice(piece);
-        }
-        values
-    }
 }
 
 /// Smallest piece of a file one core scans on its own (bytes).
@@ -149,6 +141,16 @@ pub(crate) fn read(path: &Path, wanted: Wanted<'_>) -> Result<Option<RawCsv>, Io
 
 /// [`read`] of bytes already in memory.
 pub(crate) fn from_bytes(bytes: Arc<Bytes>, path: &Path, wanted: Wanted<'_>) -> Option<RawCsv> {
+    from_bytes_in_pieces(bytes, path, wanted, PIECE_BYTES)
+}
+
+/// [`from_bytes`] with the rows cut into pieces of about `piece_bytes` for the cores.
+fn from_bytes_in_pieces(
+    bytes: Arc<Bytes>,
+    path: &Path,
+    wanted: Wanted<'_>,
+    piece_bytes: usize,
+) -> Option<RawCsv> {
     let header_end = memchr::memchr(b'\n', &bytes)?;
     let header_line = &bytes[..=header_end];
     // A quote may hide a line break in a name, a carriage return inside the line ends the header
@@ -169,67 +171,91 @@ pub(crate) fn from_bytes(bytes: Arc<Bytes>, path: &Path, wanted: Wanted<'_>) -> 
     fields.sort_unstable();
     fields.dedup();
     let layout = Layout::new(headers.len(), &fields);
-    let pieces = pieces(&bytes, header_end + 1..bytes.len());
-    let scanned: Vec<Piece> = pieces
-        .par_iter()
-        .map(|range| scan(&bytes, range.clone(), &layout))
-        .collect::<Option<_>>()?;
-    let rows = assemble(Arc::clone(&bytes), headers.len(), &fields, scanned)?;
-    let lines = rows.blank.then(|| line_numbers(&bytes, &rows.rows.starts));
+    let pieces = pieces(&bytes, header_end + 1..bytes.len(), piece_bytes);
+    let (rows, blank) = scan_all(Arc::clone(&bytes), &pieces, &layout)?;
+    let lines = blank.then(|| line_numbers(&bytes, &rows.starts));
     Some(RawCsv {
         headers,
-        rows: rows.rows,
+        rows,
         lines,
     })
 }
 
-/// The rows of all pieces, in order, and whether any line was blank.
-struct Assembled {
-    rows: RawRows,
-    blank: bool,
+/// The rows of all `pieces` (in order) and whether any line was blank: every piece scanned on
+/// its own core straight into its share of the row spans and parsed columns, which a count of
+/// its lines fixes beforehand; blank lines leave gaps that are closed afterwards.
+fn scan_all(
+    bytes: Arc<Bytes>,
+    pieces: &[Range<usize>],
+    layout: &Layout,
+) -> Option<(RawRows, bool)> {
+    let lines: Vec<usize> = pieces
+        .par_iter()
+        .map(|range| lines_in(&bytes[range.clone()]))
+        .collect();
+    let total: usize = lines.iter().sum();
+    u32::try_from(total).ok()?;
+    let mut starts = vec![0u64; total];
+    let mut lens = vec![0u32; total];
+    let mut values: Vec<Vec<f64>> = layout.fields.iter().map(|_| vec![0.0; total]).collect();
+    let slots = Slots::cut(&mut starts, &mut lens, &mut values, &lines);
+    let scanned: Vec<Scanned> = pieces
+        .par_iter()
+        .zip(slots)
+        .map(|(range, slots)| scan(&bytes, range.clone(), layout, slots))
+        .collect::<Option<_>>()?;
+    let found: Vec<usize> = scanned.iter().map(|s| s.rows).collect();
+    close_gaps(&mut starts, &lines, &found);
+    close_gaps(&mut lens, &lines, &found);
+    values
+        .iter_mut()
+        .for_each(|v| close_gaps(v, &lines, &found));
+    let mut untidy = Vec::new();
+    let mut first = 0;
+    let mut bad = vec![None; layout.fields.len()];
+    for piece in &scanned {
+        untidy.extend(piece.untidy.iter().map(|k| k + first as u32));
+        for (b, piece_bad) in bad.iter_mut().zip(&piece.bad) {
+            *b = b.or(piece_bad.map(|k| k + first));
+        }
+        first += piece.rows;
+    }
+    let parsed = layout
+        .fields
+        .iter()
+        .zip(values)
+        .zip(bad)
+        .map(|((&field, values), bad)| ParsedField { field, values, bad })
+        .collect();
+    let rows = RawRows {
+        bytes,
+        starts,
+        lens,
+        untidy,
+        fields: layout.width,
+        parsed: Mutex::new(parsed),
+    };
+    Some((rows, scanned.iter().any(|s| s.blank)))
 }
 
-fn assemble(
-    bytes: Arc<Bytes>,
-    width: usize,
-    fields: &[usize],
-    pieces: Vec<Piece>,
-) -> Option<Assembled> {
-    let total: usize = pieces.iter().map(|p| p.starts.len()).sum();
-    u32::try_from(total).ok()?;
-    let mut rows = RawRows {
-        bytes,
-        starts: Vec::with_capacity(total),
-        lens: Vec::with_capacity(total),
-        untidy: Vec::new(),
-        fields: width,
-        parsed: Vec::new(),
-    };
-    let mut blank = false;
-    let mut firsts = Vec::with_capacity(pieces.len());
-    for piece in &pieces {
-        let before = rows.starts.len() as u32;
-        firsts.push(before as usize);
-        rows.untidy.extend(piece.untidy.iter().map(|k| k + before));
-        rows.starts.extend_from_slice(&piece.starts);
-        rows.lens.extend_from_slice(&piece.lens);
-        blank |= piece.blank;
+/// Lines of `text`, the last one counted even without its line feed: at most its rows.
+fn lines_in(text: &[u8]) -> usize {
+    let breaks = memchr::memchr_iter(b'\n', text).count();
+    breaks + usize::from(text.last().is_some_and(|&b| b != b'\n'))
+}
+
+/// `v` with each piece's `found` rows moved down after the rows of the pieces before it, where
+/// the pieces had room for `room` rows each, and cut to the rows found.
+fn close_gaps<T: Copy>(v: &mut Vec<T>, room: &[usize], found: &[usize]) {
+    let (mut from, mut to) = (0, 0);
+    for (&room, &found) in room.iter().zip(found) {
+        if from != to {
+            v.copy_within(from..from + found, to);
+        }
+        from += room;
+        to += found;
     }
-    let mut pieces = pieces;
-    rows.parsed = (0..fields.len())
-        .map(|slot| ParsedField {
-            field: fields[slot],
-            pieces: pieces
-                .iter_mut()
-                .map(|p| std::mem::take(&mut p.values[slot]))
-                .collect(),
-            bad: pieces
-                .iter()
-                .zip(&firsts)
-                .find_map(|(p, first)| p.bad[slot].map(|k| k + first)),
-        })
-        .collect();
-    Some(Assembled { rows, blank })
+    v.truncate(to);
 }
 
 /// The header's names as the general reader takes them (trimmed; a UTF-8 byte-order mark
@@ -243,11 +269,11 @@ fn header_names(line: &[u8]) -> Option<Vec<String>> {
     Some(names.iter().map(str::to_string).collect())
 }
 
-/// `range` cut into pieces that start at line starts, about one per [`PIECE_BYTES`] and at
+/// `range` cut into pieces that start at line starts, about one per `piece_bytes` and at
 /// least a few per core.
-fn pieces(bytes: &[u8], range: Range<usize>) -> Vec<Range<usize>> {
+fn pieces(bytes: &[u8], range: Range<usize>, piece_bytes: usize) -> Vec<Range<usize>> {
     let cores = rayon::current_num_threads().max(1);
-    let count = (range.len() / PIECE_BYTES).clamp(1, 64 * cores);
+    let count = (range.len() / piece_bytes.max(1)).clamp(1, 64 * cores);
     let step = range.len().div_ceil(count).max(1);
     let mut out = Vec::with_capacity(count);
     let mut start = range.start;
@@ -286,53 +312,98 @@ impl Layout {
     }
 }
 
-/// One piece's rows and parsed cells.
-struct Piece {
-    starts: Vec<u64>,
-    lens: Vec<u32>,
+/// One piece's share of the row spans and of each parsed column (a row per line of the piece).
+struct Slots<'s> {
+    starts: &'s mut [u64],
+    lens: &'s mut [u32],
+    values: Vec<&'s mut [f64]>,
+}
+
+impl<'s> Slots<'s> {
+    /// The slots of consecutive pieces with `lines` lines each.
+    fn cut(
+        starts: &'s mut [u64],
+        lens: &'s mut [u32],
+        values: &'s mut [Vec<f64>],
+        lines: &[usize],
+    ) -> Vec<Slots<'s>> {
+        let mut rest = Slots {
+            starts,
+            lens,
+            values: values.iter_mut().map(|v| v.as_mut_slice()).collect(),
+        };
+        let mut out = Vec::with_capacity(lines.len());
+        for &n in lines {
+            let (starts, after_starts) = std::mem::take(&mut rest.starts).split_at_mut(n);
+            let (lens, after_lens) = std::mem::take(&mut rest.lens).split_at_mut(n);
+            let (values, after_values): (Vec<_>, Vec<_>) = std::mem::take(&mut rest.values)
+                .into_iter()
+                .map(|v| v.split_at_mut(n))
+                .unzip();
+            out.push(Slots {
+                starts,
+                lens,
+                values,
+            });
+            rest = Slots {
+                starts: after_starts,
+                lens: after_lens,
+                values: after_values,
+            };
+        }
+        out
+    }
+}
+
+/// One piece being scanned: its slots and what was found so far.
+struct Piece<'s> {
+    slots: Slots<'s>,
+    found: Scanned,
+}
+
+/// What scanning one piece found besides the rows written into its slots.
+struct Scanned {
+    rows: usize,
     /// Untidy rows, counted from the piece's first row.
     untidy: Vec<u32>,
     blank: bool,
-    /// Per parsed column, a value per row and the first row (of the piece) that is no number.
-    values: Vec<Vec<f64>>,
+    /// Per parsed column, the first row (of the piece) that is no number.
     bad: Vec<Option<usize>>,
 }
 
-impl Piece {
-    fn new(bytes: usize, layout: &Layout) -> Self {
-        let rows = bytes / 32 + 1;
+impl<'s> Piece<'s> {
+    fn new(slots: Slots<'s>) -> Self {
+        let bad = vec![None; slots.values.len()];
         Self {
-            starts: Vec::with_capacity(rows),
-            lens: Vec::with_capacity(rows),
-            untidy: Vec::new(),
-            blank: false,
-            values: layout
-                .fields
-                .iter()
-                .map(|_| Vec::with_capacity(rows))
-                .collect(),
-            bad: vec![None; layout.fields.len()],
+            slots,
+            found: Scanned {
+                rows: 0,
+                untidy: Vec::new(),
+                blank: false,
+                bad,
+            },
         }
     }
 
     /// Stores the value of parsed column `slot` for the row being read.
     fn put(&mut self, slot: usize, value: Option<f64>) {
-        let row = self.starts.len();
-        match value {
-            Some(v) => self.values[slot].push(v),
-            None => {
-                self.values[slot].push(f64::NAN);
-                self.bad[slot].get_or_insert(row);
-            }
+        let row = self.found.rows;
+        let value = value.unwrap_or_else(|| {
+            self.found.bad[slot].get_or_insert(row);
+            f64::NAN
+        });
+        // A row per line, and the piece's lines were counted: there is always room.
+        if let Some(cell) = self.slots.values[slot].get_mut(row) {
+            *cell = value;
         }
     }
 }
 
 /// The rows of `range` (whole lines) with their parsed cells, or `None` if a line must go to
 /// the general reader.
-fn scan(bytes: &[u8], range: Range<usize>, layout: &Layout) -> Option<Piece> {
+fn scan(bytes: &[u8], range: Range<usize>, layout: &Layout, slots: Slots<'_>) -> Option<Scanned> {
     let text = &bytes[range.clone()];
-    let mut piece = Piece::new(text.len(), layout);
+    let mut piece = Piece::new(slots);
     if memchr::memchr(b'"', text).is_some() {
         return None;
     }
@@ -383,12 +454,12 @@ fn scan(bytes: &[u8], range: Range<usize>, layout: &Layout) -> Option<Piece> {
         }
         piece.end_line(text, start, text.len(), &line, layout.width, range.start)?;
     }
-    Some(piece)
+    Some(piece.found)
 }
 
 /// [`scan`] of a piece with multi-byte characters: every byte classified, then the wanted
 /// cells of each row parsed.
-fn scan_slowly(text: &[u8], offset: usize, layout: &Layout, mut piece: Piece) -> Option<Piece> {
+fn scan_slowly(text: &[u8], offset: usize, layout: &Layout, mut piece: Piece) -> Option<Scanned> {
     let mut line = LineScan::default();
     let mut start = 0usize;
     for (i, &b) in text.iter().enumerate() {
@@ -408,17 +479,21 @@ fn scan_slowly(text: &[u8], offset: usize, layout: &Layout, mut piece: Piece) ->
         piece.end_line(text, start, text.len(), &line, layout.width, offset)?;
     }
     let order: Vec<usize> = (0..layout.fields.len()).collect();
-    for k in 0..piece.starts.len() {
-        let from = piece.starts[k] as usize - offset;
-        let row = &text[from..from + piece.lens[k] as usize];
+    let Piece {
+        mut slots,
+        mut found,
+    } = piece;
+    for k in 0..found.rows {
+        let from = slots.starts[k] as usize - offset;
+        let row = &text[from..from + slots.lens[k] as usize];
         for (slot, value) in parse_line(row, &layout.fields, &order) {
-            piece.values[slot].push(value.unwrap_or(f64::NAN));
+            slots.values[slot][k] = value.unwrap_or(f64::NAN);
             if value.is_none() {
-                piece.bad[slot].get_or_insert(k);
+                found.bad[slot].get_or_insert(k);
             }
         }
     }
-    Some(piece)
+    Some(found)
 }
 
 /// What a pass over one line found.
@@ -442,7 +517,7 @@ impl LineScan {
     }
 }
 
-impl Piece {
+impl Piece<'_> {
     /// Records the line `text[start..end]` (`end` at its `\n` or the end of the text), found
     /// `offset` bytes into the file; `None` if the general reader must take it.
     fn end_line(
@@ -463,18 +538,20 @@ impl Piece {
         };
         let line = &text[start..end];
         if line.is_empty() {
-            self.blank = true;
+            self.found.blank = true;
             return Some(());
         }
         if refused || scan.commas + 1 != fields || (scan.high && std::str::from_utf8(line).is_err())
         {
             return None;
         }
+        let row = self.found.rows;
         if scan.untidy || maybe_space(line[0]) || maybe_space(line[line.len() - 1]) {
-            self.untidy.push(self.starts.len() as u32);
+            self.found.untidy.push(row as u32);
         }
-        self.starts.push((offset + start) as u64);
-        self.lens.push(u32::try_from(line.len()).ok()?);
+        *self.slots.starts.get_mut(row)? = (offset + start) as u64;
+        *self.slots.lens.get_mut(row)? = u32::try_from(line.len()).ok()?;
+        self.found.rows += 1;
         Some(())
     }
 }
@@ -605,16 +682,13 @@ impl RawRows {
             }
         }
         let parsed = self
-            .parsed
+            .parsed_fields()
             .iter()
             .filter(|p| p.bad.is_none())
-            .map(|p| {
-                let values = p.values();
-                ParsedField {
-                    field: p.field,
-                    pieces: vec![kept.iter().map(|&k| values[k]).collect()],
-                    bad: None,
-                }
+            .map(|p| ParsedField {
+                field: p.field,
+                values: kept.iter().map(|&k| p.values[k]).collect(),
+                bad: None,
             })
             .collect();
         RawRows {
@@ -623,29 +697,42 @@ impl RawRows {
             lens: kept.iter().map(|&k| self.lens[k]).collect(),
             untidy,
             fields: self.fields,
-            parsed,
+            parsed: Mutex::new(parsed),
         }
     }
 
+    /// The columns parsed while reading and not handed over yet.
+    fn parsed_fields(&self) -> std::sync::MutexGuard<'_, Vec<ParsedField>> {
+        // The lock is only held to look or to take a column out: no panic can leave it torn.
+        self.parsed.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
     /// The cells of `fields` as numbers (NaN where missing), each with the first row whose
-    /// cell is not a number: those parsed while reading as they are, the others in one pass
-    /// over the rows on all cores.
+    /// cell is not a number. A column parsed while reading is handed over as it is, once (no
+    /// copy); any other, or one asked for again, is parsed now, in one pass over the rows on
+    /// all cores — the same values either way.
     pub fn parse(&self, fields: &[usize]) -> Vec<(Vec<f64>, Option<usize>)> {
-        let known = |f: usize| self.parsed.iter().find(|p| p.field == f);
+        let taken: Vec<Option<(Vec<f64>, Option<usize>)>> = {
+            let mut parsed = self.parsed_fields();
+            fields
+                .iter()
+                .map(|&f| {
+                    let at = parsed.iter().position(|p| p.field == f)?;
+                    let p = parsed.swap_remove(at);
+                    Some((p.values, p.bad))
+                })
+                .collect()
+        };
         let missing: Vec<usize> = fields
             .iter()
-            .copied()
-            .filter(|&f| known(f).is_none())
+            .zip(&taken)
+            .filter(|(_, t)| t.is_none())
+            .map(|(&f, _)| f)
             .collect();
         let mut fresh = self.parse_now(&missing).into_iter();
-        // The parsed columns joined on all cores, one column each.
-        let joined: Vec<Option<(Vec<f64>, Option<usize>)>> = fields
-            .par_iter()
-            .map(|&f| known(f).map(|p| (p.values(), p.bad)))
-            .collect();
-        joined
+        taken
             .into_iter()
-            .map(|j| j.unwrap_or_else(|| fresh.next().unwrap_or_default()))
+            .map(|t| t.unwrap_or_else(|| fresh.next().unwrap_or_default()))
             .collect()
     }
 
@@ -697,44 +784,6 @@ fn transpose_chunks(columns: &mut [Vec<f64>], rows: usize) -> Vec<Vec<&mut [f64]
         }
     }
     blocks
-}
-
-/// Exact powers of ten as f64 (10²² is the largest that is exact).
-const POW10: [f64; 23] = [
-    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
-    1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
-];
-
-/// A cell written as a plain decimal (`[+-]digits[.digits]`, at most 2⁵³ without its point and
-/// at most 22 decimals), else `None`. Both the digits as an integer and the power of ten are
-/// exact f64s, so their quotient is correctly rounded: the value `str::parse` gives.
-fn plain_decimal(cell: &[u8]) -> Option<f64> {
-    let (negative, digits) = match cell.first()? {
-        b'-' => (true, &cell[1..]),
-        b'+' => (false, &cell[1..]),
-        _ => (false, cell),
-    };
-    let (mut mantissa, mut count, mut decimals, mut point) = (0u64, 0u32, 0usize, false);
-    for &b in digits {
-        let d = b.wrapping_sub(b'0');
-        if d < 10 {
-            if count == 19 {
-                return None;
-            }
-            mantissa = mantissa * 10 + u64::from(d);
-            count += 1;
-            decimals += usize::from(point);
-        } else if b == b'.' && !point {
-            point = true;
-        } else {
-            return None;
-        }
-    }
-    if count == 0 || mantissa > 1 << 53 || decimals >= POW10.len() {
-        return None;
-    }
-    let value = mantissa as f64 / POW10[decimals];
-    Some(if negative { -value } else { value })
 }
 
 /// Any other cell, by the general reader's rule ([`parse_cell`]).
@@ -1092,42 +1141,6 @@ mod tests {
             prop_assert_eq!(formatted(v), general_format(v));
         }
 
-        #[test]
-        fn plain_decimals_parse_as_str_parse_does(
-            int in 0u64..100_000_000_000, frac in 0u64..100_000_000, width in 0usize..9,
-            negative in any::<bool>(),
-        ) {
-            let frac = frac % 10u64.pow(width as u32);
-            let text = if width == 0 {
-                format!("{}{int}", if negative { "-" } else { "" })
-            } else {
-                format!("{}{int}.{frac:0width$}", if negative { "-" } else { "" })
-            };
-            let want: f64 = text.parse().unwrap();
-            let got = plain_decimal(text.as_bytes());
-            // Digits beyond 2⁵³ go the general way; every other cell takes the fast one.
-            let fast = text.len() - usize::from(negative) - usize::from(width > 0) <= 15;
-            prop_assert!(got.is_some() || !fast, "{text}");
-            prop_assert!(got.is_none_or(|v| v.to_bits() == want.to_bits()), "{text}");
-        }
-    }
-
-    #[test]
-    fn only_plain_decimals_take_the_fast_path() {
-        for cell in [
-            "", "-", ".", "1e5", " 1", "1 ", "1.2.3", "nan", "inf", "0x10", "--1",
-        ] {
-            assert_eq!(plain_decimal(cell.as_bytes()), None, "{cell:?}");
-        }
-        assert_eq!(plain_decimal(b"1."), Some(1.0));
-        assert_eq!(plain_decimal(b".5"), Some(0.5));
-        assert_eq!(plain_decimal(b"+2.50"), Some(2.5));
-        assert_eq!(
-            plain_decimal(b"-0").map(f64::to_bits),
-            Some((-0.0f64).to_bits())
-        );
-        assert_eq!(plain_decimal(b"12345678901234567890"), None);
-        assert_eq!(plain_decimal(b"9007199254740993"), None);
     }
 
     fn raw(text: &str) -> Option<RawCsv> {
@@ -1316,6 +1329,45 @@ mod tests {
                     without_line_numbers(&b.to_string())
                 ),
                 (a, b) => prop_assert!(false, "{:?} vs {:?}", a.map(|t| t.len()), b.map(|t| t.len())),
+            }
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(2000))]
+        #[test]
+        fn small_pieces_parsed_while_reading_give_what_one_piece_parsed_later_gives(
+            text in csv_text(),
+            piece_bytes in 1usize..40,
+        ) {
+            let read = |wanted: Wanted<'_>, piece_bytes| {
+                let bytes = Arc::new(Bytes::Owned(text.as_bytes().to_vec()));
+                from_bytes_in_pieces(bytes, Path::new("t.csv"), wanted, piece_bytes)
+            };
+            let all = |headers: &[String]| (0..headers.len()).collect();
+            let none = |_: &[String]| Vec::new();
+            match (read(&all, piece_bytes), read(&none, PIECE_BYTES)) {
+                (Some(a), Some(b)) => {
+                    prop_assert_eq!(&a.rows.starts, &b.rows.starts);
+                    prop_assert_eq!(&a.rows.lens, &b.rows.lens);
+                    prop_assert_eq!(&a.rows.untidy, &b.rows.untidy);
+                    prop_assert_eq!(&a.lines, &b.lines);
+                    let fields: Vec<usize> = (0..a.headers.len()).collect();
+                    prop_assert_eq!(a.rows.parsed_fields().len(), fields.len());
+                    let bits = |parsed: Vec<(Vec<f64>, Option<usize>)>| {
+                        parsed
+                            .into_iter()
+                            .map(|(v, bad)| (v.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), bad))
+                            .collect::<Vec<_>>()
+                    };
+                    let handed_over = bits(a.rows.parse(&fields));
+                    prop_assert!(a.rows.parsed_fields().is_empty());
+                    prop_assert_eq!(&handed_over, &bits(b.rows.parse(&fields)));
+                    // Asked again, the columns are parsed anew, to the same values.
+                    prop_assert_eq!(&handed_over, &bits(a.rows.parse(&fields)));
+                }
+                (None, None) => {}
+                (a, b) => prop_assert!(false, "{:?} vs {:?}", a.is_some(), b.is_some()),
             }
         }
     }

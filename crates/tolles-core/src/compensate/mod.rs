@@ -24,7 +24,7 @@ use crate::fit::scalar_usable;
 use crate::model::design::Design;
 use crate::model::magnitude::{correction, Magnitude};
 use crate::model::terms::Column;
-use crate::model::vector::Fluxgates;
+use crate::model::vector::{Fluxgates, VectorSeries};
 use crate::signal::segment::contiguous_runs;
 use serde::{Deserialize, Serialize};
 use std::ops::Range;
@@ -154,27 +154,44 @@ pub fn model_field<'a>(
     let flux = flux.into();
     let beta = rescale_eddy(model.design, model.coefficients, fs_ratio);
     let mut field = vec![f64::NAN; flux.len()];
-    let blocks = blocks(&contiguous_runs(&flux.finite_mask(), tt), FIELD_BLOCK_ROWS);
+    let runs = contiguous_runs(&flux.finite_mask(), tt);
     let exact =
         model.magnitude == Magnitude::Exact && flux.count() == 1 && model.design.extras.is_empty();
+    if exact {
+        exact_field(flux.series()[0], &runs, model.design, &beta, &mut field);
+        return field;
+    }
+    // Each run is a series of its own, written in place by blocks on all cores.
+    for run in runs {
+        let rows = &mut field[run.clone()];
+        model.design.apply_over_into(flux.clone(), run, &beta, rows);
+    }
+    field
+}
+
+/// The exact-magnitude correction (nT) of each of the `runs` of `flux`, written into their
+/// rows of `field`, by blocks on all cores.
+fn exact_field(
+    flux: &VectorSeries,
+    runs: &[Range<usize>],
+    design: &Design,
+    beta: &[f64],
+    field: &mut [f64],
+) {
+    let blocks = blocks(runs, FIELD_BLOCK_ROWS);
     let block_field = |block: &Block, out: &mut [f64]| {
-        let part = match exact {
-            true => correction(
-                Magnitude::Exact,
-                model.design,
-                &flux.series()[0].slice(block.with_halo.clone()),
-                &beta,
-            ),
-            false => model
-                .design
-                .apply(&flux.slice(block.with_halo.clone()), &beta),
-        };
+        let part = correction(
+            Magnitude::Exact,
+            design,
+            &flux.slice(block.with_halo.clone()),
+            beta,
+        );
         let skip = block.rows.start - block.with_halo.start;
         out.copy_from_slice(&part[skip..skip + block.rows.len()]);
     };
-    // Each block's rows of `field`, taken in order (rows between blocks stay NaN).
+    // Each block's rows of `field`, taken in order (rows between blocks stay as they are).
     let mut outputs: Vec<(&Block, &mut [f64])> = Vec::with_capacity(blocks.len());
-    let mut rest: &mut [f64] = &mut field;
+    let mut rest: &mut [f64] = field;
     let mut at = 0;
     for block in &blocks {
         let (_, after) = std::mem::take(&mut rest).split_at_mut(block.rows.start - at);
@@ -202,7 +219,6 @@ pub fn model_field<'a>(
             });
         }
     });
-    field
 }
 
 /// Rows per block of [`model_field`].

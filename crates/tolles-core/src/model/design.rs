@@ -316,15 +316,32 @@ impl Design {
         span: Range<usize>,
         coefficients: &[f64],
     ) -> Vec<f64> {
+        let mut out = vec![0.0; span.len()];
+        self.apply_over_into(flux, span, coefficients, &mut out);
+        out
+    }
+
+    /// [`Design::apply_over`] written into `out` (nT, one value per sample of `span`), which
+    /// is only written, never read.
+    ///
+    /// # Panics
+    /// As [`Design::apply_over`], and if `out` is not as long as `span`.
+    pub fn apply_over_into<'a>(
+        &self,
+        flux: impl Into<Fluxgates<'a>>,
+        span: Range<usize>,
+        coefficients: &[f64],
+        out: &mut [f64],
+    ) {
         let terms = self.design_terms();
         assert_eq!(
             terms.len(),
             coefficients.len(),
             "one coefficient per column"
         );
+        assert_eq!(out.len(), span.len(), "one output per sample of the span");
         let inputs = Spans::new(&flux.into(), span);
-        let mut out = vec![0.0; inputs.len];
-        inputs.by_blocks(&mut [out.as_mut_slice()], |components, rows, out| {
+        inputs.by_blocks(&mut [out], |components, rows, out| {
             // Each term's column is written, then added times its coefficient: per sample the
             // sum of `Design::row`'s values times β in column order, as `A·β` row by row.
             let mut column = vec![0.0; rows.len()];
@@ -341,7 +358,6 @@ impl Design {
                 }
             }
         });
-        out
     }
 }
 
