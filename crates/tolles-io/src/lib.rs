@@ -14,6 +14,7 @@
 //! Every error names the file, and where it can the line and column, so a user can fix the input.
 
 pub mod atomic;
+mod bytemask;
 pub mod chunks;
 mod decimal;
 pub mod error;

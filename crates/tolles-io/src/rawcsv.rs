@@ -24,6 +24,7 @@
 //!   an untidy row is written cell by cell, trimmed. New cells are formatted on all cores
 //!   ([`format_number`], the same text as [`crate::table::format_value`]).
 
+use crate::bytemask::{any_of, block_at, each_of, BLOCK};
 use crate::decimal::plain_decimal;
 use crate::error::IoError;
 use crate::table::parse_cell;
@@ -189,10 +190,14 @@ fn scan_all(
     pieces: &[Range<usize>],
     layout: &Layout,
 ) -> Option<(RawRows, bool)> {
-    let lines: Vec<usize> = pieces
+    let surveys: Vec<Survey> = pieces
         .par_iter()
-        .map(|range| lines_in(&bytes[range.clone()]))
+        .map(|range| survey(&bytes[range.clone()]))
         .collect();
+    if surveys.iter().any(|s| s.quote) {
+        return None;
+    }
+    let lines: Vec<usize> = surveys.iter().map(|s| s.lines).collect();
     let total: usize = lines.iter().sum();
     u32::try_from(total).ok()?;
     let mut starts = vec![0u64; total];
@@ -202,7 +207,14 @@ fn scan_all(
     let scanned: Vec<Scanned> = pieces
         .par_iter()
         .zip(slots)
-        .map(|(range, slots)| scan(&bytes, range.clone(), layout, slots))
+        .zip(&surveys)
+        .map(|((range, slots), survey)| {
+            let text = &bytes[range.clone()];
+            match survey.ascii {
+                true => scan(text, range.start, layout, Piece::new(slots)),
+                false => scan_slowly(text, range.start, layout, Piece::new(slots)),
+            }
+        })
         .collect::<Option<_>>()?;
     let found: Vec<usize> = scanned.iter().map(|s| s.rows).collect();
     close_gaps(&mut starts, &lines, &found);
@@ -238,10 +250,29 @@ fn scan_all(
     Some((rows, scanned.iter().any(|s| s.blank)))
 }
 
-/// Lines of `text`, the last one counted even without its line feed: at most its rows.
-fn lines_in(text: &[u8]) -> usize {
-    let breaks = memchr::memchr_iter(b'\n', text).count();
-    breaks + usize::from(text.last().is_some_and(|&b| b != b'\n'))
+/// What one pass over a piece's bytes tells before its rows are read.
+struct Survey {
+    /// Its lines, the last one counted even without its line feed: at most its rows.
+    lines: usize,
+    /// A quote: the general reader must take the file.
+    quote: bool,
+    /// No byte of a multi-byte character.
+    ascii: bool,
+}
+
+fn survey(text: &[u8]) -> Survey {
+    let (mut feeds, mut quotes, mut high) = (0usize, 0u64, 0u64);
+    for at in (0..text.len()).step_by(BLOCK) {
+        let ([feed, quote], high_bytes) = each_of(&block_at(text, at), [b'\n', b'"']);
+        feeds += feed.count_ones() as usize;
+        quotes |= quote;
+        high |= high_bytes;
+    }
+    Survey {
+        lines: feeds + usize::from(text.last().is_some_and(|&b| b != b'\n')),
+        quote: quotes != 0,
+        ascii: high == 0,
+    }
 }
 
 /// `v` with each piece's `found` rows moved down after the rows of the pieces before it, where
@@ -399,22 +430,14 @@ impl<'s> Piece<'s> {
     }
 }
 
-/// The rows of `range` (whole lines) with their parsed cells, or `None` if a line must go to
-/// the general reader.
-fn scan(bytes: &[u8], range: Range<usize>, layout: &Layout, slots: Slots<'_>) -> Option<Scanned> {
-    let text = &bytes[range.clone()];
-    let mut piece = Piece::new(slots);
-    if memchr::memchr(b'"', text).is_some() {
-        return None;
-    }
-    if !text.is_ascii() {
-        return scan_slowly(text, range.start, layout, piece);
-    }
+/// The rows of `text`, whole lines of ASCII without a quote `offset` bytes into the file,
+/// with their parsed cells; `None` if a line must go to the general reader.
+fn scan(text: &[u8], offset: usize, layout: &Layout, mut piece: Piece) -> Option<Scanned> {
     // Only separators, line feeds and carriage returns matter: jump between them, parsing the
     // wanted cells as their ends are found.
     let mut line = LineScan::default();
     let (mut start, mut cell_start) = (0usize, 0usize);
-    for i in memchr::memchr3_iter(b',', b'\n', b'\r', text) {
+    for i in Separators::new(text) {
         match text[i] {
             b',' => {
                 if let Some(&Some(slot)) = layout.slot.get(line.commas) {
@@ -434,7 +457,7 @@ fn scan(bytes: &[u8], range: Range<usize>, layout: &Layout, slots: Slots<'_>) ->
                         piece.put(slot, cell_value(&text[cell_start..end]));
                     }
                 }
-                piece.end_line(text, start, i, &line, layout.width, range.start)?;
+                piece.end_line(text, start, i, &line, layout.width, offset)?;
                 line = LineScan::default();
                 start = i + 1;
                 cell_start = start;
@@ -452,9 +475,54 @@ fn scan(bytes: &[u8], range: Range<usize>, layout: &Layout, slots: Slots<'_>) ->
                 piece.put(slot, cell_value(&text[cell_start..end]));
             }
         }
-        piece.end_line(text, start, text.len(), &line, layout.width, range.start)?;
+        piece.end_line(text, start, text.len(), &line, layout.width, offset)?;
     }
     Some(piece.found)
+}
+
+/// The positions of the commas, line feeds and carriage returns of a text, ascending.
+struct Separators<'t> {
+    text: &'t [u8],
+    /// Where the block of `bits` starts.
+    base: usize,
+    /// The separators of that block not given yet.
+    bits: u64,
+}
+
+impl<'t> Separators<'t> {
+    fn new(text: &'t [u8]) -> Self {
+        let bits = Self::of_block(text, 0);
+        Self {
+            text,
+            base: 0,
+            bits,
+        }
+    }
+
+    fn of_block(text: &[u8], at: usize) -> u64 {
+        const SEPARATORS: [u8; 3] = [b',', b'\n', b'\r'];
+        match text.get(at..at + BLOCK).map(<&[u8; BLOCK]>::try_from) {
+            Some(Ok(block)) => any_of(block, SEPARATORS),
+            _ => any_of(&block_at(text, at), SEPARATORS),
+        }
+    }
+}
+
+impl Iterator for Separators<'_> {
+    type Item = usize;
+
+    fn next(&mut self) -> Option<usize> {
+        while self.bits == 0 {
+            self.base += BLOCK;
+            if self.base >= self.text.len() {
+                return None;
+            }
+            self.bits = Self::of_block(self.text, self.base);
+        }
+        let i = self.base + self.bits.trailing_zeros() as usize;
+        self.bits &= self.bits - 1;
+        Some(i)
+    }
 }
 
 /// [`scan`] of a piece with multi-byte characters: every byte classified, then the wanted
@@ -1330,6 +1398,18 @@ mod tests {
                 ),
                 (a, b) => prop_assert!(false, "{:?} vs {:?}", a.map(|t| t.len()), b.map(|t| t.len())),
             }
+        }
+    }
+
+    proptest! {
+        #[test]
+        fn separators_are_every_comma_line_feed_and_carriage_return(
+            text in prop::collection::vec(prop::sample::select(b",\n\r1. ".to_vec()), 0..300),
+        ) {
+            let want: Vec<usize> = (0..text.len())
+                .filter(|&i| matches!(text[i], b',' | b'\n' | b'\r'))
+                .collect();
+            prop_assert_eq!(Separators::new(&text).collect::<Vec<_>>(), want);
         }
     }
 
