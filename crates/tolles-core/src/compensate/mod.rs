@@ -25,6 +25,7 @@ use crate::model::design::Design;
 use crate::model::magnitude::{correction, Magnitude};
 use crate::model::terms::Column;
 use crate::model::vector::{Fluxgates, VectorSeries};
+use crate::parallel::split_rows;
 use crate::signal::segment::contiguous_runs;
 use serde::{Deserialize, Serialize};
 use std::ops::Range;
@@ -109,16 +110,30 @@ pub fn compensate_model<'a>(
         Level::Fixed(v) => v,
         Level::FileMean | Level::FileLinearTrend => finite_mean(&correction),
     };
-    match level {
-        Level::FileLinearTrend => correction = detrend(&correction),
-        _ => correction.iter_mut().for_each(|c| *c -= level_nt),
-    }
-    // A corrupt scalar cell is uncomputable, not a huge number passed through.
-    let compensated: Vec<f64> = scalar
-        .iter()
-        .zip(&correction)
-        .map(|(s, c)| if scalar_usable(*s) { s - c } else { f64::NAN })
-        .collect();
+    let subtract = match level {
+        Level::FileLinearTrend => {
+            correction = detrend(&correction);
+            0.0
+        }
+        _ => level_nt,
+    };
+    let n = scalar.len().min(correction.len());
+    correction[n..].iter_mut().for_each(|c| *c -= subtract);
+    let mut compensated = vec![0.0; n];
+    split_rows(
+        n,
+        &mut [&mut correction[..n], &mut compensated],
+        |rows, parts| {
+            if let [correction, compensated] = parts {
+                let pairs = correction.iter_mut().zip(compensated.iter_mut());
+                for ((c, out), s) in pairs.zip(&scalar[rows]) {
+                    *c -= subtract;
+                    // A corrupt scalar cell is uncomputable, not a huge number passed through.
+                    *out = if scalar_usable(*s) { s - *c } else { f64::NAN };
+                }
+            }
+        },
+    );
     let uncomputable = compensated.iter().filter(|v| !v.is_finite()).count();
     Compensation {
         compensated,
@@ -153,8 +168,14 @@ pub fn model_field<'a>(
 ) -> Vec<f64> {
     let flux = flux.into();
     let beta = rescale_eddy(model.design, model.coefficients, fs_ratio);
-    let mut field = vec![f64::NAN; flux.len()];
     let runs = contiguous_runs(&flux.finite_mask(), tt);
+    // Written run by run below, on all cores; only the rows between runs are set here.
+    let mut field = vec![0.0; flux.len()];
+    let mut after_run = 0;
+    for run in runs.iter().chain([&(flux.len()..flux.len())]) {
+        field[after_run..run.start].fill(f64::NAN);
+        after_run = run.end;
+    }
     let exact =
         model.magnitude == Magnitude::Exact && flux.count() == 1 && model.design.extras.is_empty();
     if exact {
