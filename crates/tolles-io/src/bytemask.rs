@@ -37,8 +37,17 @@ pub(crate) fn each_of<const K: usize>(block: &[u8; BLOCK], needles: [u8; K]) -> 
     }
 }
 
+/// `f` of the block of `text` from `at`: the text's own bytes where a whole block is left,
+/// else a copy padded with zero bytes past its end.
+pub(crate) fn with_block<R>(text: &[u8], at: usize, f: impl FnOnce(&[u8; BLOCK]) -> R) -> R {
+    match text.get(at..at + BLOCK).map(<&[u8; BLOCK]>::try_from) {
+        Some(Ok(block)) => f(block),
+        _ => f(&block_at(text, at)),
+    }
+}
+
 /// The bytes of `text` from `at` as a block, padded with zero bytes past its end.
-pub(crate) fn block_at(text: &[u8], at: usize) -> [u8; BLOCK] {
+fn block_at(text: &[u8], at: usize) -> [u8; BLOCK] {
     let mut block = [0; BLOCK];
     let part = &text[at.min(text.len())..(at + BLOCK).min(text.len())];
     block[..part.len()].copy_from_slice(part);
@@ -160,5 +169,8 @@ mod tests {
         let block = block_at(b"abc", 1);
         assert_eq!(&block[..3], b"bc\0");
         assert!(block_at(b"abc", 7).iter().all(|&b| b == 0));
+        let text: Vec<u8> = (0..=200).collect();
+        assert_eq!(with_block(&text, 100, |b| b[63]), 163);
+        assert_eq!(with_block(&text, 150, |b| (b[50], b[51])), (200, 0));
     }
 }

@@ -24,7 +24,7 @@
 //!   an untidy row is written cell by cell, trimmed. New cells are formatted on all cores
 //!   ([`format_number`], the same text as [`crate::table::format_value`]).
 
-use crate::bytemask::{any_of, block_at, each_of, BLOCK};
+use crate::bytemask::{any_of, each_of, with_block, BLOCK};
 use crate::decimal::plain_decimal;
 use crate::error::IoError;
 use crate::table::parse_cell;
@@ -263,7 +263,7 @@ struct Survey {
 fn survey(text: &[u8]) -> Survey {
     let (mut feeds, mut quotes, mut high) = (0usize, 0u64, 0u64);
     for at in (0..text.len()).step_by(BLOCK) {
-        let ([feed, quote], high_bytes) = each_of(&block_at(text, at), [b'\n', b'"']);
+        let ([feed, quote], high_bytes) = with_block(text, at, |b| each_of(b, [b'\n', b'"']));
         feeds += feed.count_ones() as usize;
         quotes |= quote;
         high |= high_bytes;
@@ -428,6 +428,43 @@ impl<'s> Piece<'s> {
             *cell = value;
         }
     }
+
+    /// Records the line `text[start..end]` (`end` at its `\n` or the end of the text), found
+    /// `offset` bytes into the file; `None` if the general reader must take it.
+    fn end_line(
+        &mut self,
+        text: &[u8],
+        start: usize,
+        end: usize,
+        scan: &LineScan,
+        fields: usize,
+        offset: usize,
+    ) -> Option<()> {
+        // A carriage return right before the line feed is part of the terminator.
+        let (end, refused) = if end > start && text[end - 1] == b'\r' {
+            let inside = text[start..end - 1].contains(&b'\r');
+            (end - 1, scan.refused && inside)
+        } else {
+            (end, scan.refused)
+        };
+        let line = &text[start..end];
+        if line.is_empty() {
+            self.found.blank = true;
+            return Some(());
+        }
+        if refused || scan.commas + 1 != fields || (scan.high && std::str::from_utf8(line).is_err())
+        {
+            return None;
+        }
+        let row = self.found.rows;
+        if scan.untidy || maybe_space(line[0]) || maybe_space(line[line.len() - 1]) {
+            self.found.untidy.push(row as u32);
+        }
+        *self.slots.starts.get_mut(row)? = (offset + start) as u64;
+        *self.slots.lens.get_mut(row)? = u32::try_from(line.len()).ok()?;
+        self.found.rows += 1;
+        Some(())
+    }
 }
 
 /// The rows of `text`, whole lines of ASCII without a quote `offset` bytes into the file,
@@ -500,11 +537,7 @@ impl<'t> Separators<'t> {
     }
 
     fn of_block(text: &[u8], at: usize) -> u64 {
-        const SEPARATORS: [u8; 3] = [b',', b'\n', b'\r'];
-        match text.get(at..at + BLOCK).map(<&[u8; BLOCK]>::try_from) {
-            Some(Ok(block)) => any_of(block, SEPARATORS),
-            _ => any_of(&block_at(text, at), SEPARATORS),
-        }
+        with_block(text, at, |block| any_of(block, [b',', b'\n', b'\r']))
     }
 }
 
@@ -582,45 +615,6 @@ impl LineScan {
         let before = i > 0 && maybe_space(text[i - 1]);
         let after = i + 1 < text.len() && maybe_space(text[i + 1]);
         self.untidy |= before | after;
-    }
-}
-
-impl Piece<'_> {
-    /// Records the line `text[start..end]` (`end` at its `\n` or the end of the text), found
-    /// `offset` bytes into the file; `None` if the general reader must take it.
-    fn end_line(
-        &mut self,
-        text: &[u8],
-        start: usize,
-        end: usize,
-        scan: &LineScan,
-        fields: usize,
-        offset: usize,
-    ) -> Option<()> {
-        // A carriage return right before the line feed is part of the terminator.
-        let (end, refused) = if end > start && text[end - 1] == b'\r' {
-            let inside = text[start..end - 1].contains(&b'\r');
-            (end - 1, scan.refused && inside)
-        } else {
-            (end, scan.refused)
-        };
-        let line = &text[start..end];
-        if line.is_empty() {
-            self.found.blank = true;
-            return Some(());
-        }
-        if refused || scan.commas + 1 != fields || (scan.high && std::str::from_utf8(line).is_err())
-        {
-            return None;
-        }
-        let row = self.found.rows;
-        if scan.untidy || maybe_space(line[0]) || maybe_space(line[line.len() - 1]) {
-            self.found.untidy.push(row as u32);
-        }
-        *self.slots.starts.get_mut(row)? = (offset + start) as u64;
-        *self.slots.lens.get_mut(row)? = u32::try_from(line.len()).ok()?;
-        self.found.rows += 1;
-        Some(())
     }
 }
 
