@@ -14,8 +14,9 @@
 use criterion::{criterion_group, BatchSize, Criterion, SamplingMode, Throughput};
 use std::hint::black_box;
 use tolles_core::signal::filter::{
-    filtfilt_many_unless_constant, filtfilt_many_unless_constant_with, filtfilt_unless_constant,
-    magnav_bandpass, Butterworth, Simd,
+    filtfilt_many_unless_constant, filtfilt_many_unless_constant_with,
+    filtfilt_sampled_unless_constant, filtfilt_unless_constant, magnav_bandpass, Butterworth,
+    Response, Simd,
 };
 
 const FS_HZ: f64 = 10.0;
@@ -104,7 +105,23 @@ fn bandpass(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, bandpass);
+/// The heading-level rows' low-pass: 4th order below 0.1 Hz at 10 Hz, one sample in 50 kept,
+/// of the 19 signals a default fit's linear step low-passes.
+fn lowpass_sampled(c: &mut Criterion) {
+    let filter = Butterworth::design(4, Response::LowPass { cutoff_hz: 0.1 }, FS_HZ).unwrap();
+    let input = signals();
+    let views: Vec<&[f64]> = input[..19].iter().map(Vec::as_slice).collect();
+    let at: Vec<usize> = (50..SAMPLES - 50).step_by(50).collect();
+    let mut group = c.benchmark_group("lowpass_sampled_19x1e6");
+    group.sample_size(10).sampling_mode(SamplingMode::Flat);
+    group.throughput(Throughput::Elements((19 * SAMPLES) as u64));
+    group.bench_function("blocks", |b| {
+        b.iter(|| filtfilt_sampled_unless_constant(&filter, black_box(&views), &at).unwrap())
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bandpass, lowpass_sampled);
 
 fn main() {
     benches();

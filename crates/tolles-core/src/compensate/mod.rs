@@ -176,18 +176,36 @@ pub fn model_field<'a>(
         field[after_run..run.start].fill(f64::NAN);
         after_run = run.end;
     }
+    let model = Model {
+        coefficients: &beta,
+        ..model
+    };
+    write_runs(flux, &runs, model, &mut field);
+    field
+}
+
+/// The model's correction (nT) of each of `runs` of `flux`, each run a series of its own,
+/// written into its rows of `field` by blocks on all cores (rows between runs are left as
+/// they are). The coefficients are used as given, for the sample rate they were fitted at.
+pub(crate) fn write_runs(flux: Fluxgates, runs: &[Range<usize>], model: Model, field: &mut [f64]) {
     let exact =
         model.magnitude == Magnitude::Exact && flux.count() == 1 && model.design.extras.is_empty();
     if exact {
-        exact_field(flux.series()[0], &runs, model.design, &beta, &mut field);
-        return field;
+        exact_field(
+            flux.series()[0],
+            runs,
+            model.design,
+            model.coefficients,
+            field,
+        );
+        return;
     }
-    // Each run is a series of its own, written in place by blocks on all cores.
     for run in runs {
         let rows = &mut field[run.clone()];
-        model.design.apply_over_into(flux.clone(), run, &beta, rows);
+        model
+            .design
+            .apply_over_into(flux.clone(), run.clone(), model.coefficients, rows);
     }
-    field
 }
 
 /// The exact-magnitude correction (nT) of each of the `runs` of `flux`, written into their

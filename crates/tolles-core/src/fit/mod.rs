@@ -57,13 +57,14 @@ mod problem;
 mod qr;
 pub mod ridge;
 
+use crate::compensate::{write_runs, Model};
 use crate::fit::choice::{choose_design, pick_magnitude, union_of_terms};
 use crate::fit::crossval::{CrossValidation, DEFAULT_FOLDS};
 use crate::fit::levels::LevelDiagnostics;
 use crate::fit::problem::{fold_count, AboveBand, Problem, Spare};
 use crate::fit::ridge::{RidgeError, RidgeSolution};
 use crate::model::design::{Design, Term};
-use crate::model::magnitude::{correction, Magnitude};
+use crate::model::magnitude::Magnitude;
 use crate::model::terms::{Column, TermSet};
 use crate::model::vector::{Fluxgates, VectorSeries};
 use crate::signal::filter::{magnav_bandpass, Butterworth, FilterError};
@@ -536,14 +537,12 @@ fn fit_reusing(
         Some((exact, iterations)) => pick_magnitude(chosen, exact, iterations, settings.magnitude),
         None => (Magnitude::Linear, chosen, 0),
     };
-    let level_nt = mean_correction(
-        &flux,
-        &usable,
-        tt,
-        &design,
+    let model = Model {
+        design: &design,
+        coefficients: &chosen.solution.coefficients,
         magnitude,
-        &chosen.solution.coefficients,
-    );
+    };
+    let level_nt = mean_correction(&flux, &usable, tt, model, spare);
     let mut diagnostics = diagnostics(
         &chosen.solution,
         DiagnosticCounts {
@@ -730,25 +729,20 @@ fn mean_correction(
     flux: &Fluxgates,
     usable: &[bool],
     tt: Option<&[f64]>,
-    design: &Design,
-    magnitude: Magnitude,
-    coefficients: &[f64],
+    model: Model,
+    spare: &Spare,
 ) -> f64 {
+    let runs = contiguous_runs(usable, tt);
+    let mut field = spare.take(flux.len());
+    write_runs(flux.clone(), &runs, model, &mut field[..flux.len()]);
+    // Run by run, each summed from its first sample: the same additions as ever.
     let mut sum = 0.0;
     let mut count = 0usize;
-    for run in contiguous_runs(usable, tt) {
-        let correction = match magnitude {
-            Magnitude::Linear => design.apply_over(flux.clone(), run, coefficients),
-            Magnitude::Exact => correction(
-                magnitude,
-                design,
-                &flux.series()[0].slice(run),
-                coefficients,
-            ),
-        };
-        sum += correction.iter().sum::<f64>();
-        count += correction.len();
+    for run in runs {
+        sum += field[run.clone()].iter().sum::<f64>();
+        count += run.len();
     }
+    spare.give([field]);
     if count == 0 {
         0.0
     } else {

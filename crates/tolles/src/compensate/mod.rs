@@ -14,7 +14,6 @@ use std::path::{Path, PathBuf};
 use std::str::FromStr;
 use tolles_core::compensate::{compensate_model, Compensation, Level, Model};
 use tolles_core::fit::check_flux_magnitude;
-use tolles_core::model::vector::Fluxgates;
 use tolles_io::format::{write_table, Format};
 use tolles_io::model::{ModelFile, ScalarModel};
 use tolles_io::schema::output_names;
@@ -145,23 +144,17 @@ pub fn compensate_flight(
         coefficients: &fit.fit.coefficients,
         magnitude: fit.fit.magnitude,
     };
-    // A fluxgate that samples late is read that much later, as the fit did; without a lag or
-    // extra channels to condition, the flight's own columns are the inputs (no copy).
-    let lagged;
-    let inputs: Fluxgates = if fit.fit.lag_s == 0.0 && flight.extras.is_empty() {
-        flight.flux.as_slice().into()
-    } else {
-        lagged = flight.lagged_inputs(fit.fit.lag_s, fs_hz);
-        (&lagged).into()
-    };
-    Ok(compensate_model(
-        &flight.scalar,
-        inputs,
-        flight.tt.as_deref(),
-        model,
-        fs_hz / fit.fit.fs_hz,
-        level(fit, request.level),
-    ))
+    // A fluxgate that samples late is read that much later, as the fit did.
+    Ok(flight.with_inputs(fit.fit.lag_s, fs_hz, |inputs| {
+        compensate_model(
+            &flight.scalar,
+            inputs,
+            flight.tt.as_deref(),
+            model,
+            fs_hz / fit.fit.fs_hz,
+            level(fit, request.level),
+        )
+    }))
 }
 
 /// The core's level for a choice.

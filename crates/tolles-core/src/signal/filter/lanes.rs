@@ -450,14 +450,36 @@ fn filtfilt_sampled_block<const L: usize>(
     out
 }
 
-/// Interleaves samples `start..start + tile.len()` of `signals` into `tile`, one signal
-/// per lane.
+/// Interleaves samples `start..start + tile.len()` of `signals` (at most `L`) into `tile`,
+/// one signal per lane; lanes without a signal are set to 0.
+///
+/// Eight samples of every signal are read at once and transposed in registers. Writing each
+/// signal's samples down its lane instead is a strided store, which the compiler turns into
+/// AVX-512 scatter instructions: they took half the time of a low-pass of 19 signals.
 #[inline(always)]
 fn gather<const L: usize, S: AsRef<[f64]>>(signals: &[S], start: usize, tile: &mut [[f64; L]]) {
-    for (l, x) in signals.iter().enumerate() {
-        for (t, v) in tile.iter_mut().zip(&x.as_ref()[start..]) {
-            t[l] = *v;
+    const GROUP: usize = 8;
+    let len = tile.len();
+    let columns: [&[f64]; L] = std::array::from_fn(|l| match signals.get(l) {
+        Some(x) => &x.as_ref()[start..start + len],
+        None => &[],
+    });
+    let mut groups = tile.chunks_exact_mut(GROUP);
+    let mut t = 0;
+    for rows in &mut groups {
+        let mut block = [[0.0; GROUP]; L];
+        for (b, x) in block.iter_mut().zip(&columns) {
+            if let Some(x) = x.get(t..t + GROUP) {
+                b.copy_from_slice(x);
+            }
         }
+        for (i, row) in rows.iter_mut().enumerate() {
+            *row = std::array::from_fn(|l| block[l][i]);
+        }
+        t += GROUP;
+    }
+    for (i, row) in groups.into_remainder().iter_mut().enumerate() {
+        *row = std::array::from_fn(|l| columns[l].get(t + i).copied().unwrap_or(0.0));
     }
 }
 
