@@ -497,31 +497,38 @@ fn scatter<const L: usize>(tile: &[[f64; L]], start: usize, signals: &mut [&mut 
 /// in time or, if `backward`, from the last sample to the first, carrying the delays on.
 #[inline(always)]
 fn run<const L: usize>(sections: &mut [Section<L>], data: &mut [[f64; L]], backward: bool) {
+    // A Butterworth filter's gain sits in its first section; the others have numerators
+    // (1, ±2, 1) (see `Section::unit`), whose two multiplications by 1 are left out.
+    let tail_unit = sections.iter().skip(1).all(|s| s.unit);
     // A fixed number of sections copied into locals keeps the delays in registers for
     // the tile; through the slice they go to memory and back every sample, which lengthens
     // each section's chain of dependent operations by the store-to-load latency.
-    match sections {
-        [a] => run_fixed(&mut [a], data, backward),
-        [a, b] => run_fixed(&mut [a, b], data, backward),
-        [a, b, c] => run_fixed(&mut [a, b, c], data, backward),
-        [a, b, c, d] => run_fixed(&mut [a, b, c, d], data, backward),
-        _ => {
+    match (sections, tail_unit) {
+        ([a], _) => run_fixed::<L, 1, false>(&mut [a], data, backward),
+        ([a, b], true) => run_fixed::<L, 2, true>(&mut [a, b], data, backward),
+        ([a, b], false) => run_fixed::<L, 2, false>(&mut [a, b], data, backward),
+        ([a, b, c], true) => run_fixed::<L, 3, true>(&mut [a, b, c], data, backward),
+        ([a, b, c], false) => run_fixed::<L, 3, false>(&mut [a, b, c], data, backward),
+        ([a, b, c, d], true) => run_fixed::<L, 4, true>(&mut [a, b, c, d], data, backward),
+        ([a, b, c, d], false) => run_fixed::<L, 4, false>(&mut [a, b, c, d], data, backward),
+        (sections, _) => {
             if backward {
                 for v in data.iter_mut().rev() {
-                    step(sections.iter_mut(), v);
+                    step::<L, false>(sections.iter_mut(), v);
                 }
             } else {
                 for v in data.iter_mut() {
-                    step(sections.iter_mut(), v);
+                    step::<L, false>(sections.iter_mut(), v);
                 }
             }
         }
     }
 }
 
-/// [`run`] with `S` sections, copied in and back out.
+/// [`run`] with `S` sections, copied in and back out; with `TAIL_UNIT`, every section but the
+/// first has a unit numerator.
 #[inline(always)]
-fn run_fixed<const L: usize, const S: usize>(
+fn run_fixed<const L: usize, const S: usize, const TAIL_UNIT: bool>(
     sections: &mut [&mut Section<L>; S],
     data: &mut [[f64; L]],
     backward: bool,
@@ -529,11 +536,11 @@ fn run_fixed<const L: usize, const S: usize>(
     let mut local: [Section<L>; S] = std::array::from_fn(|k| *sections[k]);
     if backward {
         for v in data.iter_mut().rev() {
-            step(local.iter_mut(), v);
+            step::<L, TAIL_UNIT>(local.iter_mut(), v);
         }
     } else {
         for v in data.iter_mut() {
-            step(local.iter_mut(), v);
+            step::<L, TAIL_UNIT>(local.iter_mut(), v);
         }
     }
     for (s, l) in sections.iter_mut().zip(local) {
@@ -543,7 +550,9 @@ fn run_fixed<const L: usize, const S: usize>(
 
 /// One sample of every lane through all sections: [`super::SosState::step`]'s arithmetic
 /// per lane, operation for operation (transposed direct form II, no fused multiply-add,
-/// which Rust never introduces on its own).
+/// which Rust never introduces on its own). With `TAIL_UNIT`, the sections after the first
+/// take `x` for `b0·x` and `b2·x`: their `b0` and `b2` are exactly 1, and `1·x` is `x` to
+/// the bit, so only the two multiplications go.
 ///
 /// All sections per sample rather than one section over many samples: consecutive
 /// sections are further independent chains the processor overlaps (measured about 2×
@@ -552,14 +561,27 @@ fn run_fixed<const L: usize, const S: usize>(
 // Indexing every array by lane keeps the line-for-line match with the scalar recursion
 // visible; the compiler turns the fixed-length loop into vector instructions either way.
 #[allow(clippy::needless_range_loop)]
-fn step<'a, const L: usize>(sections: impl Iterator<Item = &'a mut Section<L>>, v: &mut [f64; L]) {
-    for s in sections {
-        for l in 0..L {
-            let x = v[l];
-            let y = s.b0[l] * x + s.z0[l];
-            s.z0[l] = s.b1[l] * x - s.a1[l] * y + s.z1[l];
-            s.z1[l] = s.b2[l] * x - s.a2[l] * y;
-            v[l] = y;
+fn step<'a, const L: usize, const TAIL_UNIT: bool>(
+    sections: impl Iterator<Item = &'a mut Section<L>>,
+    v: &mut [f64; L],
+) {
+    for (k, s) in sections.enumerate() {
+        if TAIL_UNIT && k > 0 {
+            for l in 0..L {
+                let x = v[l];
+                let y = x + s.z0[l];
+                s.z0[l] = s.b1[l] * x - s.a1[l] * y + s.z1[l];
+                s.z1[l] = x - s.a2[l] * y;
+                v[l] = y;
+            }
+        } else {
+            for l in 0..L {
+                let x = v[l];
+                let y = s.b0[l] * x + s.z0[l];
+                s.z0[l] = s.b1[l] * x - s.a1[l] * y + s.z1[l];
+                s.z1[l] = s.b2[l] * x - s.a2[l] * y;
+                v[l] = y;
+            }
         }
     }
 }
@@ -576,6 +598,8 @@ struct Section<const L: usize> {
     a2: [f64; L],
     z0: [f64; L],
     z1: [f64; L],
+    /// `b0` and `b2` are exactly 1.
+    unit: bool,
 }
 
 impl<const L: usize> Section<L> {
@@ -601,6 +625,7 @@ impl<const L: usize> Section<L> {
             a2: [a2; L],
             z0: [0.0; L],
             z1: [0.0; L],
+            unit: b0 == 1.0 && b2 == 1.0,
         }
     }
 }
