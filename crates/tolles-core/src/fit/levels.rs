@@ -132,11 +132,13 @@ pub(super) fn reference_reusing(
         spare,
     )
     .ok()?;
+    // The calibrated magnitude's correction is written in place and subtracted there.
     let mut values = vec![f64::NAN; flux.len()];
     for run in contiguous_runs(usable, tt) {
-        let part = design.apply_over(flux, run.clone(), &cal.coefficients);
-        for (k, v) in run.zip(part) {
-            values[k] = magnitude[k] - v;
+        let part = &mut values[run.clone()];
+        design.apply_over_into(flux, run.clone(), &cal.coefficients, part);
+        for (v, m) in part.iter_mut().zip(&magnitude[run]) {
+            *v = m - *v;
         }
     }
     let c = &cal.coefficients;
