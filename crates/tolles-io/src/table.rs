@@ -406,9 +406,19 @@ impl Table {
     /// CSV text held in memory (standard input), named `name` in messages: left in its bytes
     /// where [`crate::rawcsv`] takes it, else read cell by cell; the same table either way.
     pub fn from_csv_bytes(bytes: Vec<u8>, name: impl AsRef<Path>) -> Result<Self, IoError> {
+        Self::from_csv_bytes_parsing(bytes, name, &|_| Vec::new())
+    }
+
+    /// [`Table::from_csv_bytes`], parsing the columns `wanted` picks while the rows are found,
+    /// as [`Table::read_csv_raw_parsing`] does for a file.
+    pub fn from_csv_bytes_parsing(
+        bytes: Vec<u8>,
+        name: impl AsRef<Path>,
+        wanted: crate::rawcsv::Wanted<'_>,
+    ) -> Result<Self, IoError> {
         let path = name.as_ref();
         let bytes = Arc::new(crate::rawcsv::Bytes::Owned(bytes));
-        match crate::rawcsv::from_bytes(Arc::clone(&bytes), path, &|_| Vec::new()) {
+        match crate::rawcsv::from_bytes(Arc::clone(&bytes), path, wanted) {
             Some(csv) => Self::from_raw(path, csv),
             None => Self::from_reader(&bytes[..], path),
         }
@@ -1174,6 +1184,20 @@ mod tests {
 
     fn read(text: &str) -> Result<Table, IoError> {
         Table::from_reader(text.as_bytes(), "t.csv")
+    }
+
+    #[test]
+    fn bytes_parsed_while_read_give_the_values_and_errors_of_bytes_parsed_later() {
+        let text = "a,b,c\n1,2.5,x\n\n-3,4e1,5\n";
+        let wanted = |_: &[String]| vec![0, 2];
+        let early = Table::from_csv_bytes_parsing(text.as_bytes().to_vec(), "t.csv", &wanted);
+        let (early, later) = (early.unwrap(), read(text).unwrap());
+        for _ in 0..2 {
+            assert_eq!(early.numeric("a").unwrap(), [1.0, -3.0]);
+            assert_eq!(early.numeric("b").unwrap(), later.numeric("b").unwrap());
+            let error = |t: &Table| t.numeric("c").unwrap_err().to_string();
+            assert_eq!(error(&early), error(&later));
+        }
     }
 
     #[test]
