@@ -938,8 +938,39 @@ fn check_unique(path: &Path, headers: &[String]) -> Result<(), IoError> {
 /// The longest header line a CSV file may have (bytes); far beyond any real flight's.
 pub const MAX_HEADER_BYTES: usize = 1 << 20;
 
-/// A reader whose header line was checked by [`bounded_header`].
-pub(crate) type Bounded<R> = std::io::Chain<std::io::Cursor<Vec<u8>>, std::io::BufReader<R>>;
+/// A reader whose header line was checked by [`bounded_header`], which also notes how it ended:
+/// the csv crate does not say whether the last row had a newline of its own, and without one
+/// that row's line is counted differently (see [`read_located`]).
+pub(crate) struct Bounded<R> {
+    inner: std::io::Chain<std::io::Cursor<Vec<u8>>, std::io::BufReader<R>>,
+    /// Bytes read so far.
+    read: u64,
+    /// The last byte read.
+    last: Option<u8>,
+    /// Whether the end of the input was reached.
+    ended: bool,
+}
+
+impl<R: Read> Read for Bounded<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        match n {
+            0 => self.ended |= !buf.is_empty(),
+            _ => {
+                self.read += n as u64;
+                self.last = Some(buf[n - 1]);
+            }
+        }
+        Ok(n)
+    }
+}
+
+impl<R> Bounded<R> {
+    /// Whether a row that ends at byte `at` is the input's last and has no newline of its own.
+    fn unterminated_at(&self, at: u64) -> bool {
+        self.ended && at == self.read && self.last != Some(b'\n')
+    }
+}
 
 /// `reader` with its first line checked to be at most [`MAX_HEADER_BYTES`] long, so a huge
 /// header is refused before the header's names are held in memory.
@@ -961,17 +992,28 @@ pub(crate) fn bounded_header<R: Read>(reader: R, path: &Path) -> Result<Bounded<
             message: format!("the header line is longer than {MAX_HEADER_BYTES} bytes"),
         });
     }
-    Ok(std::io::Cursor::new(first).chain(reader))
+    Ok(Bounded {
+        inner: std::io::Cursor::new(first).chain(reader),
+        read: 0,
+        last: None,
+        ended: false,
+    })
 }
 
 /// Reads the next record into `record` and returns its file line (1-based), `None` at the end.
 ///
+/// Lines the terminator of the row just read adds to the reader's count: 1, or 0 for a last row
+/// with no newline of its own.
+fn terminator<R: Read>(reader: &csv::Reader<Bounded<R>>) -> u64 {
+    u64::from(!reader.get_ref().unterminated_at(reader.position().byte()))
+}
+
 /// The csv crate dates a record from where it started reading it, which is before any blank
 /// lines it skipped; so the line is counted back from where the record ended instead (less its
-/// terminator and any newlines inside quoted cells). Errors name the line the same way. One case
-/// stays one line short: blank lines before a last row that has no newline of its own.
+/// terminator, unless it is the last row and has none, and any newlines inside quoted cells).
+/// Errors name the line the same way.
 pub(crate) fn read_located<R: Read>(
-    reader: &mut csv::Reader<R>,
+    reader: &mut csv::Reader<Bounded<R>>,
     record: &mut csv::StringRecord,
     path: &Path,
 ) -> Result<Option<u64>, IoError> {
@@ -986,7 +1028,9 @@ pub(crate) fn read_located<R: Read>(
                 0
             };
             let end = reader.position().line();
-            Ok(Some(start.max(end.saturating_sub(1 + inside))))
+            Ok(Some(
+                start.max(end.saturating_sub(terminator(reader) + inside)),
+            ))
         }
         Err(error) => {
             let end = reader.position().line();
@@ -998,7 +1042,7 @@ pub(crate) fn read_located<R: Read>(
                     message: "a quote opened on this line is never closed".to_string(),
                 });
             }
-            let line = start.max(end.saturating_sub(1));
+            let line = start.max(end.saturating_sub(terminator(reader)));
             Err(csv_error_at(path, error, line))
         }
     }
@@ -1198,6 +1242,27 @@ mod tests {
             let error = |t: &Table| t.numeric("c").unwrap_err().to_string();
             assert_eq!(error(&early), error(&later));
         }
+    }
+
+    #[test]
+    fn a_last_row_without_a_newline_after_blank_lines_is_named_by_its_own_line() {
+        for (text, line) in [
+            ("a\n\nx", 3),
+            ("a\n\nx\n", 3),
+            ("a\n1\n\n\nx", 5),
+            ("a\nx", 2),
+            ("a\n\n\"\nx\"", 3),
+        ] {
+            let error = read(text).unwrap().numeric("a").unwrap_err().to_string();
+            assert!(
+                error.contains(&format!("line {line},")),
+                "{text:?}: {error}"
+            );
+            let raw = Table::from_csv_bytes(text.as_bytes().to_vec(), "t.csv").unwrap();
+            assert_eq!(raw.numeric("a").unwrap_err().to_string(), error, "{text:?}");
+        }
+        let error = read("a,b\n1,2\n\n3").unwrap_err().to_string();
+        assert_eq!(error, "t.csv: line 4: 1 fields, but the header has 2");
     }
 
     #[test]
