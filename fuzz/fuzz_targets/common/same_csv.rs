@@ -1,6 +1,25 @@
 //! What the raw CSV reader's fuzz targets check: its table is the general reader's.
 
 use tolles_io::table::{write_with_column, Table};
+use tolles_io::IoError;
+
+/// Both readers of `text` give a table or both refuse it; their tables are [`assert_same`].
+pub fn assert_agree(
+    raw: Result<Table, IoError>,
+    general: Result<Table, IoError>,
+    text: &[u8],
+    asks: usize,
+) {
+    match (raw, general) {
+        (Ok(raw), Ok(general)) => assert_same(&raw, &general, text, asks),
+        (Err(_), Err(_)) => {}
+        (raw, general) => panic!(
+            "{:?} vs {:?}",
+            raw.map(|t| t.len()),
+            general.map(|t| t.len())
+        ),
+    }
+}
 
 /// `raw` and `general`, read from `text`, have the same headers, rows, values or errors (bit
 /// for bit; messages too where both readers count lines alike), asked for `asks` times, and
