@@ -99,15 +99,17 @@ pub(super) fn reference_reusing(
     settings: &FitSettings,
     spare: &Spare,
 ) -> Option<Reference> {
-    let magnitude: Vec<f64> = (0..flux.len())
-        .map(|k| {
-            if usable[k] {
+    let n = flux.len();
+    let mut magnitude = vec![0.0; n];
+    split_rows(n, &mut [&mut magnitude], |rows, out| {
+        for (m, k) in out[0].iter_mut().zip(rows) {
+            *m = if usable[k] {
                 flux.magnitude(k)
             } else {
                 f64::NAN
-            }
-        })
-        .collect();
+            };
+        }
+    });
     let design = Design::new(TermSet {
         permanent: true,
         induced: Some(crate::model::terms::InducedTerms::Traceless),
@@ -130,17 +132,25 @@ pub(super) fn reference_reusing(
         tt,
         &calibration_settings,
         spare,
+        crate::fit::Wanted::Coefficients,
     )
     .ok()?;
-    // The calibrated magnitude's correction is written in place and subtracted there.
-    let mut values = vec![f64::NAN; flux.len()];
+    // The calibrated magnitude's correction is written in place and subtracted there; the
+    // samples outside the runs (the unusable ones) are NaN.
+    let mut values = vec![0.0; n];
     for run in contiguous_runs(usable, tt) {
         let part = &mut values[run.clone()];
         design.apply_over_into(flux, run.clone(), &cal.coefficients, part);
-        for (v, m) in part.iter_mut().zip(&magnitude[run]) {
-            *v = m - *v;
-        }
     }
+    split_rows(n, &mut [&mut values], |rows, out| {
+        for ((v, m), u) in out[0]
+            .iter_mut()
+            .zip(&magnitude[rows.clone()])
+            .zip(&usable[rows])
+        {
+            *v = if *u { m - *v } else { f64::NAN };
+        }
+    });
     let c = &cal.coefficients;
     let believable = c[..3].iter().all(|o| o.abs() <= MAX_OFFSET_NT)
         && c[3..]
@@ -314,6 +324,40 @@ pub fn reference_over(reference: &Reference, run: Range<usize>) -> &[f64] {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_reference_is_the_calibrated_magnitude_on_usable_samples_and_nan_elsewhere() {
+        use crate::flight::plan::BoxPlan;
+        use crate::flight::sim::{simulate, Installation};
+        let flight = simulate(
+            &BoxPlan::default().build(),
+            &Installation::TailStinger.scenario(3),
+        )
+        .unwrap();
+        let flux = &flight.flux;
+        let n = flux.len();
+        let mut usable = vec![true; n];
+        usable[n / 3..n / 3 + 50].fill(false);
+        let settings = FitSettings::recommended();
+        let r = reference(flux, &usable, 10.0, Some(&flight.tt), &settings).unwrap();
+        let design = Design::new("p,it".parse().unwrap());
+        let c = &r.calibration;
+        let beta: Vec<f64> = c
+            .offset_nt
+            .iter()
+            .copied()
+            .chain(c.distortion.iter().map(|d| d * design.bt_scale))
+            .collect();
+        for run in [0..n / 3, n / 3 + 50..n] {
+            let correction = design.apply_over(flux, run.clone(), &beta);
+            for (k, v) in run.zip(correction) {
+                // β is rebuilt from the calibration's distortions (divided by Bt_scale).
+                let expected = flux.magnitude(k) - v;
+                assert!((r.values[k] - expected).abs() <= 1e-9, "sample {k}");
+            }
+        }
+        assert!(r.values[n / 3..n / 3 + 50].iter().all(|v| v.is_nan()));
+    }
 
     #[test]
     fn centring_removes_the_common_mean_over_runs() {

@@ -464,7 +464,26 @@ pub fn fit<'a>(
     tt: Option<&[f64]>,
     settings: &FitSettings,
 ) -> Result<Fit, FitError> {
-    fit_reusing(scalar, flux.into(), fs_hz, tt, settings, &Spare::default())
+    let spare = Spare::default();
+    fit_reusing(
+        scalar,
+        flux.into(),
+        fs_hz,
+        tt,
+        settings,
+        &spare,
+        Wanted::Everything,
+    )
+}
+
+/// What the caller of [`fit_reusing`] reads of the fit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Wanted {
+    Everything,
+    /// The coefficients and the residual's standard deviation only (a fluxgate calibration):
+    /// the mean correction and the scatter before the fit, each a pass over every sample,
+    /// are left out (`level_nt` 0, `filtered_std_before_nt` NaN).
+    Coefficients,
 }
 
 /// [`fit`] with its large buffers from `spare`, and given back to it when done.
@@ -475,6 +494,7 @@ fn fit_reusing(
     tt: Option<&[f64]>,
     settings: &FitSettings,
     spare: &Spare,
+    wanted: Wanted,
 ) -> Result<Fit, FitError> {
     check_inputs(scalar, &flux, fs_hz, settings)?;
     let mut usable = flux.finite_mask();
@@ -530,7 +550,11 @@ fn fit_reusing(
         })?;
     }
     let design = designs[chosen.index].clone();
-    let (before, short, runs_used) = (prepared.band_std(), prepared.short, prepared.runs_used());
+    let before = match wanted {
+        Wanted::Everything => prepared.band_std(),
+        Wanted::Coefficients => f64::NAN,
+    };
+    let (short, runs_used) = (prepared.short, prepared.runs_used());
     spare.give(prepared.into_buffers());
     let exact = problem.exact(&design, &chosen, levels.as_mut())?;
     let (magnitude, chosen, iterations) = match exact {
@@ -542,7 +566,10 @@ fn fit_reusing(
         coefficients: &chosen.solution.coefficients,
         magnitude,
     };
-    let level_nt = mean_correction(&flux, &usable, tt, model, spare);
+    let level_nt = match wanted {
+        Wanted::Everything => mean_correction(&flux, &usable, tt, model, spare),
+        Wanted::Coefficients => 0.0,
+    };
     let mut diagnostics = diagnostics(
         &chosen.solution,
         DiagnosticCounts {
@@ -565,7 +592,7 @@ fn fit_reusing(
     );
     diagnostics.levels = levels.map(|l| l.diagnostics(&chosen.solution.coefficients));
     diagnostics.exact_iterations = iterations;
-    check_finite(&chosen.solution.coefficients, &diagnostics)?;
+    check_finite(&chosen.solution.coefficients, &diagnostics, wanted)?;
     Ok(Fit {
         settings: FitSettings {
             design: design.clone(),
@@ -587,13 +614,19 @@ fn is_zero(v: &f64) -> bool {
 
 /// Refuses a fit that overflowed: a model with NaN coefficients would be refused only later,
 /// by whoever applies it, far from the cause.
-fn check_finite(coefficients: &[f64], diagnostics: &Diagnostics) -> Result<(), FitError> {
+fn check_finite(
+    coefficients: &[f64],
+    diagnostics: &Diagnostics,
+    wanted: Wanted,
+) -> Result<(), FitError> {
     if !coefficients.iter().all(|b| b.is_finite()) {
         return Err(FitError::NotFinite {
             what: "coefficients",
         });
     }
-    if !(diagnostics.residual_std_nt.is_finite() && diagnostics.filtered_std_before_nt.is_finite())
+    let before = diagnostics.filtered_std_before_nt;
+    if !(diagnostics.residual_std_nt.is_finite()
+        && (before.is_finite() || wanted == Wanted::Coefficients))
     {
         return Err(FitError::NotFinite { what: "residual" });
     }
@@ -955,16 +988,27 @@ mod tests {
             residual_std_nt: residual,
             ..turning_fit().diagnostics
         };
+        let all = Wanted::Everything;
         assert_eq!(
-            check_finite(&[f64::NAN], &diagnostics(1.0)),
+            check_finite(&[f64::NAN], &diagnostics(1.0), all),
             Err(FitError::NotFinite {
                 what: "coefficients"
             })
         );
         assert_eq!(
-            check_finite(&[1.0], &diagnostics(f64::NAN)),
+            check_finite(&[1.0], &diagnostics(f64::NAN), all),
             Err(FitError::NotFinite { what: "residual" })
         );
+        // A calibration leaves the scatter before the fit out (NaN); its residual still counts.
+        let mut unmeasured = diagnostics(1.0);
+        unmeasured.filtered_std_before_nt = f64::NAN;
+        assert!(check_finite(&[1.0], &unmeasured, all).is_err());
+        assert_eq!(
+            check_finite(&[1.0], &unmeasured, Wanted::Coefficients),
+            Ok(())
+        );
+        let coefficients_only = Wanted::Coefficients;
+        assert!(check_finite(&[1.0], &diagnostics(f64::NAN), coefficients_only).is_err());
     }
 
     fn turning_fit() -> Fit {
