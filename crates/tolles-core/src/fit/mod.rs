@@ -479,6 +479,7 @@ pub fn fit<'a>(
 /// What the caller of [`fit_reusing`] reads of the fit.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Wanted {
+    /// Every part of the [`Fit`].
     Everything,
     /// The coefficients and the residual's standard deviation only (a fluxgate calibration):
     /// the mean correction and the scatter before the fit, each a pass over every sample,
