@@ -1000,14 +1000,14 @@ pub(crate) fn bounded_header<R: Read>(reader: R, path: &Path) -> Result<Bounded<
     })
 }
 
-/// Reads the next record into `record` and returns its file line (1-based), `None` at the end.
-///
 /// Lines the terminator of the row just read adds to the reader's count: 1, or 0 for a last row
 /// with no newline of its own.
 fn terminator<R: Read>(reader: &csv::Reader<Bounded<R>>) -> u64 {
     u64::from(!reader.get_ref().unterminated_at(reader.position().byte()))
 }
 
+/// Reads the next record into `record` and returns its file line (1-based), `None` at the end.
+///
 /// The csv crate dates a record from where it started reading it, which is before any blank
 /// lines it skipped; so the line is counted back from where the record ended instead (less its
 /// terminator, unless it is the last row and has none, and any newlines inside quoted cells).
