@@ -8,6 +8,9 @@
 //! processor has, and `blocks_<simd>` the same with the kernels of each instruction set it
 //! has (`blocks_portable` being the x86-64 baseline, SSE2).
 //!
+//! `level_and_band_rows` is a fit's run with heading levels: the level rows' low-pass and the
+//! band-pass as two calls in turn, and as one job (`filtfilt_sampled_then_in_place`).
+//!
 //! `cargo bench -p tolles-core --bench filter`; under `taskset -c 0` the threaded variants
 //! use one core, which compares the single-thread speed of the kernels.
 
@@ -15,8 +18,8 @@ use criterion::{criterion_group, BatchSize, Criterion, SamplingMode, Throughput}
 use std::hint::black_box;
 use tolles_core::signal::filter::{
     filtfilt_many_unless_constant, filtfilt_many_unless_constant_with,
-    filtfilt_sampled_unless_constant, filtfilt_unless_constant, magnav_bandpass, Butterworth,
-    Response, Simd,
+    filtfilt_sampled_then_in_place, filtfilt_sampled_unless_constant, filtfilt_unless_constant,
+    magnav_bandpass, Butterworth, Response, Simd,
 };
 
 const FS_HZ: f64 = 10.0;
@@ -121,7 +124,50 @@ fn lowpass_sampled(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, bandpass, lowpass_sampled);
+/// A fit's run with heading levels: the level rows' low-pass of 19 columns and the target
+/// (one sample in 50 kept), then the band-pass of the 19 columns and the scalar in place, in
+/// turn as two calls and together as one job on all cores.
+fn level_and_band_rows(c: &mut Criterion) {
+    let low = Butterworth::design(4, Response::LowPass { cutoff_hz: 0.1 }, FS_HZ).unwrap();
+    let band = magnav_bandpass(0.1, 0.9, 4, FS_HZ).unwrap().unwrap();
+    let input = signals();
+    let target: Vec<f64> = input[SIGNALS - 1].iter().map(|v| v - 50_000.0).collect();
+    let at: Vec<usize> = (50..SAMPLES - 50).step_by(50).collect();
+    let mut group = c.benchmark_group("level_and_band_rows_20x1e6");
+    group.sample_size(10).sampling_mode(SamplingMode::Flat);
+    group.throughput(Throughput::Elements((SIGNALS * SAMPLES) as u64));
+    group.bench_function("in_turn", |b| {
+        b.iter_batched_ref(
+            || input.clone(),
+            |x| {
+                let read: Vec<&[f64]> = x[..SIGNALS - 1]
+                    .iter()
+                    .map(Vec::as_slice)
+                    .chain([target.as_slice()])
+                    .collect();
+                let rows = filtfilt_sampled_unless_constant(&low, &read, &at).unwrap();
+                let mut views: Vec<&mut [f64]> = x.iter_mut().map(Vec::as_mut_slice).collect();
+                filtfilt_many_unless_constant(&band, &mut views).unwrap();
+                black_box(rows)
+            },
+            BatchSize::LargeInput,
+        )
+    });
+    group.bench_function("together", |b| {
+        b.iter_batched_ref(
+            || input.clone(),
+            |x| {
+                let mut views: Vec<&mut [f64]> = x.iter_mut().map(Vec::as_mut_slice).collect();
+                let rows = filtfilt_sampled_then_in_place(&low, &at, &target, &band, &mut views);
+                black_box(rows.unwrap())
+            },
+            BatchSize::LargeInput,
+        )
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bandpass, lowpass_sampled, level_and_band_rows);
 
 fn main() {
     benches();

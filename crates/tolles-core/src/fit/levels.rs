@@ -24,7 +24,10 @@ use crate::model::design::Design;
 use crate::model::terms::TermSet;
 use crate::model::vector::VectorSeries;
 use crate::parallel::split_rows;
-use crate::signal::filter::{filtfilt_sampled_unless_constant, Butterworth, FilterError};
+use crate::signal::filter::{
+    filtfilt_many_unless_constant, filtfilt_sampled_then_in_place,
+    filtfilt_sampled_unless_constant, Butterworth, FilterError,
+};
 use crate::signal::segment::contiguous_runs;
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
@@ -233,14 +236,9 @@ impl LowFrequency {
         reference: Option<&[f64]>,
         target: &mut [f64],
     ) -> Result<LevelRows, FilterError> {
-        let n = y.len();
-        if n <= self.filter.padlen() + 1 || n <= 2 * self.trim + self.step {
-            return Ok(LevelRows {
-                a: DMatrix::zeros(0, columns.len()),
-                y: Vec::new(),
-                at: Vec::new(),
-            });
-        }
+        let Some(keep) = self.kept(y.len()) else {
+            return Ok(LevelRows::none(columns.len()));
+        };
         let y = match reference {
             Some(r) => {
                 difference_on_all_cores(y, r, target);
@@ -248,12 +246,38 @@ impl LowFrequency {
             }
             None => y,
         };
-        let keep: Vec<usize> = (self.trim..n - self.trim).step_by(self.step).collect();
         let signals: Vec<&[f64]> = columns.iter().copied().chain([y]).collect();
-        let mut sampled = filtfilt_sampled_unless_constant(&self.filter, &signals, &keep)?;
-        let y = sampled.pop().expect("the target is filtered last");
-        let a = DMatrix::from_iterator(keep.len(), columns.len(), sampled.into_iter().flatten());
-        Ok(LevelRows { a, y, at: keep })
+        let sampled = filtfilt_sampled_unless_constant(&self.filter, &signals, &keep)?;
+        Ok(LevelRows::from_sampled(sampled, keep))
+    }
+
+    /// [`LowFrequency::rows_against`] of a run's `signals` (its columns, then its target `y`)
+    /// and `reference`, and then `band` of every one of `signals` in place, as
+    /// [`filtfilt_many_unless_constant`] does: both filters' work shared among the cores at
+    /// once ([`filtfilt_sampled_then_in_place`]), with the same values as one after the other.
+    pub(crate) fn rows_against_then_band(
+        &self,
+        signals: &mut [&mut [f64]],
+        reference: &[f64],
+        target: &mut [f64],
+        band: &Butterworth,
+    ) -> Result<LevelRows, FilterError> {
+        let width = signals.len() - 1;
+        let Some(keep) = self.kept(signals[width].len()) else {
+            filtfilt_many_unless_constant(band, signals)?;
+            return Ok(LevelRows::none(width));
+        };
+        difference_on_all_cores(&signals[width][..], reference, target);
+        let sampled = filtfilt_sampled_then_in_place(&self.filter, &keep, target, band, signals)?;
+        Ok(LevelRows::from_sampled(sampled, keep))
+    }
+
+    /// The samples of a run of `n` that give level rows; `None` if it is too short for any.
+    fn kept(&self, n: usize) -> Option<Vec<usize>> {
+        if n <= self.filter.padlen() + 1 || n <= 2 * self.trim + self.step {
+            return None;
+        }
+        Some((self.trim..n - self.trim).step_by(self.step).collect())
     }
 }
 
@@ -276,6 +300,24 @@ pub struct LevelRows {
     pub y: Vec<f64>,
     /// Sample index of each row within its run, to interleave them with the band rows in time.
     pub at: Vec<usize>,
+}
+
+impl LevelRows {
+    /// No rows, for `columns` columns.
+    fn none(columns: usize) -> Self {
+        LevelRows {
+            a: DMatrix::zeros(0, columns),
+            y: Vec::new(),
+            at: Vec::new(),
+        }
+    }
+
+    /// The rows at `at` from the low-passed samples of each column, then of the target.
+    fn from_sampled(mut sampled: Vec<Vec<f64>>, at: Vec<usize>) -> Self {
+        let y = sampled.pop().expect("the target is filtered last");
+        let a = DMatrix::from_iterator(at.len(), sampled.len(), sampled.into_iter().flatten());
+        LevelRows { a, y, at }
+    }
 }
 
 /// Subtracts, from every level row's columns and target, their mean over all runs: the unknown

@@ -506,21 +506,33 @@ impl Problem<'_, '_> {
                 Some(above) => Some(above.rows(data, n, trim)?),
                 None => None,
             };
+            let mut signals: Vec<&mut [f64]> = data.chunks_mut(n).collect();
+            let mut filtered = false;
             if let Some(setup) = levels {
                 let reference = levels::reference_over(&setup.reference, run.clone());
-                let (columns, y) = data.split_at(n * width);
-                let columns: Vec<&[f64]> = columns.chunks_exact(n).collect();
                 let mut target = self.spare.take(n);
-                let rows = setup
-                    .low
-                    .rows_against(&columns, y, Some(reference), &mut target[..n]);
+                let rows = match &self.filter {
+                    // The level rows' low-pass and the band-pass share the cores as one job.
+                    Some(band) => {
+                        filtered = true;
+                        let low = &setup.low;
+                        low.rows_against_then_band(&mut signals, reference, &mut target[..n], band)
+                    }
+                    None => {
+                        let (columns, y) = signals.split_at(width);
+                        let columns: Vec<&[f64]> = columns.iter().map(|c| &**c).collect();
+                        let target = &mut target[..n];
+                        setup
+                            .low
+                            .rows_against(&columns, y[0], Some(reference), target)
+                    }
+                };
                 self.spare.give([target]);
                 level_rows.push(rows?);
             }
-            let mut signals: Vec<&mut [f64]> = data.chunks_mut(n).collect();
-            if let Some(f) = &self.filter {
+            if let (Some(f), false) = (&self.filter, filtered) {
                 filtfilt_many_unless_constant(f, &mut signals)?;
-            } else if self.settings.target == Target::Interference {
+            } else if self.filter.is_none() && self.settings.target == Target::Interference {
                 signals.iter_mut().for_each(|s| remove_mean(s));
             }
             runs.push(RunRows {
