@@ -35,6 +35,27 @@ pub(crate) fn split_rows(
     });
 }
 
+/// Calls `f` on consecutive parts of `items` from as many threads as there are cores, each
+/// with the range of indices its part covers: [`split_rows`] for one column of any type.
+pub(crate) fn split_items<T: Send>(items: &mut [T], f: impl Fn(Range<usize>, &mut [T]) + Sync) {
+    let n = items.len();
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |t| t.get())
+        .min(n.div_ceil(PARALLEL_ROWS))
+        .max(1);
+    let share = n.div_ceil(threads).max(1);
+    if threads == 1 {
+        f(0..n, items);
+        return;
+    }
+    std::thread::scope(|scope| {
+        for (t, part) in items.chunks_mut(share).enumerate() {
+            let f = &f;
+            scope.spawn(move || f(t * share..t * share + part.len(), part));
+        }
+    });
+}
+
 /// `rows` cut into consecutive blocks of at most `size` rows.
 pub(crate) fn blocks(rows: Range<usize>, size: usize) -> impl Iterator<Item = Range<usize>> {
     let size = size.max(1);
@@ -46,6 +67,20 @@ pub(crate) fn blocks(rows: Range<usize>, size: usize) -> impl Iterator<Item = Ra
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn every_item_is_visited_once_with_its_own_index() {
+        for n in [0, 7, 250_001] {
+            let mut items = vec![0usize; n];
+            split_items(&mut items, |range, part| {
+                assert_eq!(part.len(), range.len());
+                for (v, k) in part.iter_mut().zip(range) {
+                    *v += k + 1;
+                }
+            });
+            assert!(items.iter().enumerate().all(|(k, v)| *v == k + 1));
+        }
+    }
 
     #[test]
     fn every_row_of_every_column_is_visited_once_with_its_own_index() {

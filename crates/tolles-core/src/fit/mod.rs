@@ -499,10 +499,12 @@ fn fit_reusing(
 ) -> Result<Fit, FitError> {
     check_inputs(scalar, &flux, fs_hz, settings)?;
     let mut usable = flux.finite_mask();
-    usable
-        .iter_mut()
-        .zip(scalar)
-        .for_each(|(u, s)| *u &= scalar_usable(*s));
+    crate::parallel::split_items(&mut usable, |rows, usable| {
+        usable
+            .iter_mut()
+            .zip(&scalar[rows])
+            .for_each(|(u, s)| *u &= scalar_usable(*s));
+    });
     check_not_constant(scalar, flux.series()[0], &usable)?;
     let designs = settings.candidate_designs();
     let union = union_of_terms(&designs);

@@ -158,16 +158,20 @@ impl<'a> Fluxgates<'a> {
         self.0.iter().all(|s| s.len() == self.len()) && self.1.iter().all(|e| e.len() == self.len())
     }
 
-    /// [`Fluxgates::is_finite`] of every sample, a column at a time (so it vectorises).
+    /// [`Fluxgates::is_finite`] of every sample, a column at a time (so it vectorises), by
+    /// parts of the samples on all cores.
     pub fn finite_mask(&self) -> Vec<bool> {
         let mut mask = vec![true; self.len()];
-        let columns = self.0.iter().flat_map(|s| [&s.x[..], &s.y[..], &s.z[..]]);
-        for column in columns.chain(self.1.iter().copied()) {
-            // Bytes and a comparison of the exponent bits: a loop the compiler vectorises.
-            for (m, v) in mask.iter_mut().zip(column) {
-                *m &= v.to_bits() & EXPONENT != EXPONENT;
+        crate::parallel::split_items(&mut mask, |rows, mask| {
+            let columns = self.0.iter().flat_map(|s| [&s.x[..], &s.y[..], &s.z[..]]);
+            for column in columns.chain(self.1.iter().copied()) {
+                // Bytes and a comparison of the exponent bits: a loop the compiler vectorises.
+                let part = &column[rows.start.min(column.len())..rows.end.min(column.len())];
+                for (m, v) in mask.iter_mut().zip(part) {
+                    *m &= v.to_bits() & EXPONENT != EXPONENT;
+                }
             }
-        }
+        });
         mask
     }
 
