@@ -1069,8 +1069,8 @@ mod tests {
     /// that `inf - inf` creates), as long as each lane keeps the scalar operand order.
     #[test]
     fn non_finite_samples_spread_alike() {
-        // A low-pass's sections after the first have the numerator (1, 2, 1), whose
-        // recursion is shortened; a band-pass's (1, 0, −1) are not.
+        // A low-pass's sections after the first have the numerator (1, 2, 1), a band-pass's
+        // (1, 0, −1): each has its shortened recursion, which the scalar one must match.
         let low = Butterworth::design(3, Response::LowPass { cutoff_hz: 1.0 }, 10.0).unwrap();
         let band = super::super::magnav_bandpass(0.1, 0.9, 4, 10.0)
             .unwrap()
