@@ -220,24 +220,6 @@ impl Butterworth {
 pub struct SosState {
     sections: Vec<[f64; 6]>,
     state: Vec<[f64; 2]>,
-    /// The filter is a band-pass's: see [`has_band_numerators`].
-    band: bool,
-}
-
-/// Whether every section of `sections` has `b1 = 0` and every one after the first the
-/// numerator (1, 0, −1), as a Butterworth band-pass's do.
-///
-/// Their recursions then leave out the multiplications by 0 and ±1: `z0 = z1 − a1·y`
-/// (for `b1·x − a1·y + z1`) and, after the first section, `y = x + z0` and
-/// `z1 = (−a2)·y − x` (for `−1·x − a2·y`), five operations per section instead of nine. For
-/// finite samples each gives the general formula's value to the bit (`0·x − p + z1` is
-/// `z1 − p`; `(−1)·x − q` and `(−q) − x` round alike), save for the sign of an exact zero;
-/// an infinite sample no longer makes `0·∞ = NaN` in the section that meets it first (the
-/// output is not finite either way). The lanes in `lanes` apply the same rule, so every path
-/// gives the same bits.
-fn has_band_numerators(sections: &[[f64; 6]]) -> bool {
-    sections.iter().all(|s| s[1] == 0.0)
-        && sections.iter().skip(1).all(|s| s[0] == 1.0 && s[2] == -1.0)
 }
 
 impl SosState {
@@ -246,7 +228,6 @@ impl SosState {
         Self {
             sections: filter.sections.clone(),
             state: vec![[0.0; 2]; filter.sections.len()],
-            band: has_band_numerators(&filter.sections),
         }
     }
 
@@ -260,38 +241,18 @@ impl SosState {
         Self {
             sections: filter.sections.clone(),
             state,
-            band: has_band_numerators(&filter.sections),
         }
     }
 
     /// Feeds one sample through all sections and returns the filtered sample.
     #[inline]
     pub fn step(&mut self, x: f64) -> f64 {
-        if self.band {
-            return self.band_step(x);
-        }
         let mut v = x;
         for (s, z) in self.sections.iter().zip(self.state.iter_mut()) {
             // Transposed direct form II: two delays per section, good rounding behaviour.
             let y = s[0] * v + z[0];
             z[0] = s[1] * v - s[4] * y + z[1];
             z[1] = s[2] * v - s[5] * y;
-            v = y;
-        }
-        v
-    }
-
-    /// [`SosState::step`] for a band-pass's numerators ([`has_band_numerators`]).
-    fn band_step(&mut self, x: f64) -> f64 {
-        let mut v = x;
-        for (k, (s, z)) in self.sections.iter().zip(self.state.iter_mut()).enumerate() {
-            let y = if k == 0 { s[0] * v } else { v } + z[0];
-            z[0] = z[1] - s[4] * y;
-            z[1] = if k == 0 {
-                s[2] * v - s[5] * y
-            } else {
-                -s[5] * y - v
-            };
             v = y;
         }
         v
@@ -986,36 +947,6 @@ mod tests {
         for (&xi, &yi) in x.iter().zip(&batch) {
             assert_eq!(state.step(xi), yi);
         }
-    }
-
-    /// The band-pass recursion without its multiplications by 0 and ±1 gives the general
-    /// formulas' bits on finite samples, exact zeros among them.
-    #[test]
-    fn band_recursion_is_the_general_one_on_finite_samples() {
-        for order in [1, 2, 4, 5] {
-            let f = magnav_bandpass(0.1, 0.9, order, 10.0).unwrap().unwrap();
-            assert!(has_band_numerators(&f.sections), "order {order}");
-            let x: Vec<f64> = (0..600)
-                .map(|i| match i % 97 {
-                    0..=9 => 0.0,
-                    _ => (i as f64 * 0.37).sin() * 1e4 + 5e4 * (i % 3) as f64,
-                })
-                .collect();
-            let mut state = SosState::steady(&f, x[0]);
-            let mut general = state.state.clone();
-            for &xi in &x {
-                let mut v = xi;
-                for (s, z) in f.sections.iter().zip(general.iter_mut()) {
-                    let y = s[0] * v + z[0];
-                    z[0] = s[1] * v - s[4] * y + z[1];
-                    z[1] = s[2] * v - s[5] * y;
-                    v = y;
-                }
-                assert_eq!(state.step(xi).to_bits(), v.to_bits(), "order {order}");
-            }
-        }
-        let low = Butterworth::design(4, Response::LowPass { cutoff_hz: 1.0 }, 10.0).unwrap();
-        assert!(!has_band_numerators(&low.sections));
     }
 
     #[test]

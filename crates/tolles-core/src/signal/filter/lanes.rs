@@ -523,9 +523,9 @@ fn filtfilt_sampled_block<const L: usize>(
 /// Loads the samples `range` of `signals` into `buffer`, and the forward pass's delays at its
 /// start, `saved`, into `forward`.
 ///
-/// A function rather than a closure of [`filtfilt_sampled_block`]: a closure is compiled on
-/// its own, for the baseline, and [`gather`] with it (a sixth of a low-pass's time with eight
-/// lanes at 10⁶ samples).
+/// A function rather than a closure of [`filtfilt_sampled_block`]: the closure was compiled
+/// on its own (5 % of a 10⁶-sample fit's `perf` samples under its own name), outside the
+/// `#[inline(always)]` chain that puts every helper into the kernels' instruction sets.
 #[inline(always)]
 fn load<const L: usize>(
     signals: &[&[f64]],
@@ -599,46 +599,30 @@ fn scatter<const L: usize>(tile: &[[f64; L]], start: usize, signals: &mut [&mut 
 fn run<const L: usize>(sections: &mut [Section<L>], data: &mut [[f64; L]], backward: bool) {
     // A Butterworth low- or high-pass's gain sits in its first section; the others have
     // numerators (1, ±2, 1) (see `Section::unit`), whose two multiplications by 1 are left
-    // out. A band-pass's are (1, 0, −1) after a first (g, 0, −g): its multiplications by 0
-    // and ±1 are left out (`super::has_band_numerators`).
-    let form = form_of(sections);
+    // out. A band-pass's are (1, 0, −1): leaving out its ±1s, exact with `(−a2)·y − x`, was
+    // vectorised into partial vectors and shuffles, 1.4–2.3× slower.
+    let tail_unit = sections.iter().skip(1).all(|s| s.unit);
     // A fixed number of sections copied into locals keeps the delays in registers for
     // the tile; through the slice they go to memory and back every sample, which lengthens
     // each section's chain of dependent operations by the store-to-load latency.
-    match (sections, form) {
-        ([a], BAND) => run_fixed::<L, 1, BAND>(&mut [a], data, backward),
-        ([a], _) => run_fixed::<L, 1, GENERAL>(&mut [a], data, backward),
-        ([a, b], UNIT_TAIL) => run_fixed::<L, 2, UNIT_TAIL>(&mut [a, b], data, backward),
-        ([a, b], BAND) => run_fixed::<L, 2, BAND>(&mut [a, b], data, backward),
-        ([a, b], _) => run_fixed::<L, 2, GENERAL>(&mut [a, b], data, backward),
-        ([a, b, c], UNIT_TAIL) => run_fixed::<L, 3, UNIT_TAIL>(&mut [a, b, c], data, backward),
-        ([a, b, c], BAND) => run_fixed::<L, 3, BAND>(&mut [a, b, c], data, backward),
-        ([a, b, c], _) => run_fixed::<L, 3, GENERAL>(&mut [a, b, c], data, backward),
-        ([a, b, c, d], UNIT_TAIL) => {
-            run_fixed::<L, 4, UNIT_TAIL>(&mut [a, b, c, d], data, backward)
-        }
-        ([a, b, c, d], BAND) => run_fixed::<L, 4, BAND>(&mut [a, b, c, d], data, backward),
-        ([a, b, c, d], _) => run_fixed::<L, 4, GENERAL>(&mut [a, b, c, d], data, backward),
-        (sections, BAND) => run_slice::<L, BAND>(sections, data, backward),
-        (sections, UNIT_TAIL) => run_slice::<L, UNIT_TAIL>(sections, data, backward),
-        (sections, _) => run_slice::<L, GENERAL>(sections, data, backward),
-    }
-}
-
-/// [`run`] through the sections where they are, for filters of more than four.
-#[inline(always)]
-fn run_slice<const L: usize, const FORM: u8>(
-    sections: &mut [Section<L>],
-    data: &mut [[f64; L]],
-    backward: bool,
-) {
-    if backward {
-        for v in data.iter_mut().rev() {
-            step::<L, FORM>(sections.iter_mut(), v);
-        }
-    } else {
-        for v in data.iter_mut() {
-            step::<L, FORM>(sections.iter_mut(), v);
+    match (sections, tail_unit) {
+        ([a], _) => run_fixed::<L, 1, false>(&mut [a], data, backward),
+        ([a, b], true) => run_fixed::<L, 2, true>(&mut [a, b], data, backward),
+        ([a, b], false) => run_fixed::<L, 2, false>(&mut [a, b], data, backward),
+        ([a, b, c], true) => run_fixed::<L, 3, true>(&mut [a, b, c], data, backward),
+        ([a, b, c], false) => run_fixed::<L, 3, false>(&mut [a, b, c], data, backward),
+        ([a, b, c, d], true) => run_fixed::<L, 4, true>(&mut [a, b, c, d], data, backward),
+        ([a, b, c, d], false) => run_fixed::<L, 4, false>(&mut [a, b, c, d], data, backward),
+        (sections, _) => {
+            if backward {
+                for v in data.iter_mut().rev() {
+                    step::<L, false>(sections.iter_mut(), v);
+                }
+            } else {
+                for v in data.iter_mut() {
+                    step::<L, false>(sections.iter_mut(), v);
+                }
+            }
         }
     }
 }
@@ -653,16 +637,12 @@ fn run_pair<const L: usize>(
     ahead_sections: &mut [Section<L>],
     ahead: &mut [[f64; L]],
 ) {
-    let form = form_of(back_sections);
+    let tail_unit = back_sections.iter().skip(1).all(|s| s.unit);
     let (together, rest) = ahead.split_at_mut(back.len());
-    match (&mut *back_sections, &mut *ahead_sections, form) {
-        ([a, b], [c, d], UNIT_TAIL) => {
-            run_pair_fixed::<L, 2, UNIT_TAIL>([a, b], back, [c, d], together)
-        }
-        ([a, b], [c, d], BAND) => run_pair_fixed::<L, 2, BAND>([a, b], back, [c, d], together),
-        ([a, b], [c, d], _) => run_pair_fixed::<L, 2, GENERAL>([a, b], back, [c, d], together),
-        ([a], [c], BAND) => run_pair_fixed::<L, 1, BAND>([a], back, [c], together),
-        ([a], [c], _) => run_pair_fixed::<L, 1, GENERAL>([a], back, [c], together),
+    match (&mut *back_sections, &mut *ahead_sections, tail_unit) {
+        ([a, b], [c, d], true) => run_pair_fixed::<L, 2, true>([a, b], back, [c, d], together),
+        ([a, b], [c, d], false) => run_pair_fixed::<L, 2, false>([a, b], back, [c, d], together),
+        ([a], [c], _) => run_pair_fixed::<L, 1, false>([a], back, [c], together),
         _ => {
             // More sections fill the arithmetic units on their own.
             run(back_sections, back, true);
@@ -674,7 +654,7 @@ fn run_pair<const L: usize>(
 
 /// [`run_pair`] with `S` sections in locals, as [`run_fixed`].
 #[inline(always)]
-fn run_pair_fixed<const L: usize, const S: usize, const FORM: u8>(
+fn run_pair_fixed<const L: usize, const S: usize, const TAIL_UNIT: bool>(
     back_sections: [&mut Section<L>; S],
     back: &mut [[f64; L]],
     ahead_sections: [&mut Section<L>; S],
@@ -683,8 +663,8 @@ fn run_pair_fixed<const L: usize, const S: usize, const FORM: u8>(
     let mut b: [Section<L>; S] = std::array::from_fn(|k| *back_sections[k]);
     let mut f: [Section<L>; S] = std::array::from_fn(|k| *ahead_sections[k]);
     for (u, v) in back.iter_mut().rev().zip(ahead.iter_mut()) {
-        step::<L, FORM>(b.iter_mut(), u);
-        step::<L, FORM>(f.iter_mut(), v);
+        step::<L, TAIL_UNIT>(b.iter_mut(), u);
+        step::<L, TAIL_UNIT>(f.iter_mut(), v);
     }
     for (s, l) in back_sections.into_iter().zip(b) {
         *s = l;
@@ -697,7 +677,7 @@ fn run_pair_fixed<const L: usize, const S: usize, const FORM: u8>(
 /// [`run`] with `S` sections, copied in and back out; with `TAIL_UNIT`, every section but the
 /// first has a unit numerator.
 #[inline(always)]
-fn run_fixed<const L: usize, const S: usize, const FORM: u8>(
+fn run_fixed<const L: usize, const S: usize, const TAIL_UNIT: bool>(
     sections: &mut [&mut Section<L>; S],
     data: &mut [[f64; L]],
     backward: bool,
@@ -705,11 +685,11 @@ fn run_fixed<const L: usize, const S: usize, const FORM: u8>(
     let mut local: [Section<L>; S] = std::array::from_fn(|k| *sections[k]);
     if backward {
         for v in data.iter_mut().rev() {
-            step::<L, FORM>(local.iter_mut(), v);
+            step::<L, TAIL_UNIT>(local.iter_mut(), v);
         }
     } else {
         for v in data.iter_mut() {
-            step::<L, FORM>(local.iter_mut(), v);
+            step::<L, TAIL_UNIT>(local.iter_mut(), v);
         }
     }
     for (s, l) in sections.iter_mut().zip(local) {
@@ -717,71 +697,40 @@ fn run_fixed<const L: usize, const S: usize, const FORM: u8>(
     }
 }
 
-/// Sections of any numerators.
-const GENERAL: u8 = 0;
-/// Every section after the first has the numerator (1, b1, 1).
-const UNIT_TAIL: u8 = 1;
-/// Every section has `b1 = 0`, and those after the first the numerator (1, 0, −1).
-const BAND: u8 = 2;
-
-/// The form of `sections`' numerators that [`step`] can save work on.
-#[inline(always)]
-fn form_of<const L: usize>(sections: &[Section<L>]) -> u8 {
-    // The rule of `super::has_band_numerators`, which the scalar recursion follows.
-    let tail = sections.iter().skip(1);
-    if sections.iter().all(|s| s.middle_zero) && tail.clone().all(|s| s.band) {
-        BAND
-    } else if tail.clone().all(|s| s.unit) {
-        UNIT_TAIL
-    } else {
-        GENERAL
-    }
-}
-
 /// One sample of every lane through all sections: [`super::SosState::step`]'s arithmetic
 /// per lane, operation for operation (transposed direct form II, no fused multiply-add,
-/// which Rust never introduces on its own). With [`UNIT_TAIL`], the sections after the first
+/// which Rust never introduces on its own). With `TAIL_UNIT`, the sections after the first
 /// take `x` for `b0·x` and `b2·x`: their `b0` and `b2` are exactly 1, and `1·x` is `x` to
-/// the bit, so only the two multiplications go. With [`BAND`], the recursion is
-/// `SosState`'s for a band-pass (see `super::has_band_numerators`).
+/// the bit, so only the two multiplications go.
 ///
 /// All sections per sample rather than one section over many samples: consecutive
 /// sections are further independent chains the processor overlaps (measured about 2×
-/// faster than section by section). Each formula is written as a whole array at a time:
-/// with one loop over the lanes for all three, LLVM split the band-pass's shorter formulas
-/// into partial vectors and shuffles (three times slower with eight lanes); as arrays, every
-/// lane count vectorises (band-pass 20 % faster with eight lanes than with the general
-/// formulas, 30 % with four).
+/// faster than section by section).
 #[inline(always)]
-fn step<'a, const L: usize, const FORM: u8>(
+// Indexing every array by lane keeps the line-for-line match with the scalar recursion
+// visible; the compiler turns the fixed-length loop into vector instructions either way.
+#[allow(clippy::needless_range_loop)]
+fn step<'a, const L: usize, const TAIL_UNIT: bool>(
     sections: impl Iterator<Item = &'a mut Section<L>>,
     v: &mut [f64; L],
 ) {
     for (k, s) in sections.enumerate() {
-        if FORM == UNIT_TAIL && k > 0 {
-            let x = *v;
-            let y: [f64; L] = std::array::from_fn(|l| x[l] + s.z0[l]);
-            s.z0 = std::array::from_fn(|l| s.b1[l] * x[l] - s.a1[l] * y[l] + s.z1[l]);
-            s.z1 = std::array::from_fn(|l| x[l] - s.a2[l] * y[l]);
-            *v = y;
-        } else if FORM == BAND && k > 0 {
-            let x = *v;
-            let y: [f64; L] = std::array::from_fn(|l| x[l] + s.z0[l]);
-            s.z0 = std::array::from_fn(|l| s.z1[l] - s.a1[l] * y[l]);
-            s.z1 = std::array::from_fn(|l| s.minus_a2[l] * y[l] - x[l]);
-            *v = y;
-        } else if FORM == BAND {
-            let x = *v;
-            let y: [f64; L] = std::array::from_fn(|l| s.b0[l] * x[l] + s.z0[l]);
-            s.z0 = std::array::from_fn(|l| s.z1[l] - s.a1[l] * y[l]);
-            s.z1 = std::array::from_fn(|l| s.b2[l] * x[l] - s.a2[l] * y[l]);
-            *v = y;
+        if TAIL_UNIT && k > 0 {
+            for l in 0..L {
+                let x = v[l];
+                let y = x + s.z0[l];
+                s.z0[l] = s.b1[l] * x - s.a1[l] * y + s.z1[l];
+                s.z1[l] = x - s.a2[l] * y;
+                v[l] = y;
+            }
         } else {
-            let x = *v;
-            let y: [f64; L] = std::array::from_fn(|l| s.b0[l] * x[l] + s.z0[l]);
-            s.z0 = std::array::from_fn(|l| s.b1[l] * x[l] - s.a1[l] * y[l] + s.z1[l]);
-            s.z1 = std::array::from_fn(|l| s.b2[l] * x[l] - s.a2[l] * y[l]);
-            *v = y;
+            for l in 0..L {
+                let x = v[l];
+                let y = s.b0[l] * x + s.z0[l];
+                s.z0[l] = s.b1[l] * x - s.a1[l] * y + s.z1[l];
+                s.z1[l] = s.b2[l] * x - s.a2[l] * y;
+                v[l] = y;
+            }
         }
     }
 }
@@ -796,16 +745,10 @@ struct Section<const L: usize> {
     b2: [f64; L],
     a1: [f64; L],
     a2: [f64; L],
-    /// `−a2`.
-    minus_a2: [f64; L],
     z0: [f64; L],
     z1: [f64; L],
     /// `b0` and `b2` are exactly 1.
     unit: bool,
-    /// The numerator is exactly (1, 0, −1).
-    band: bool,
-    /// `b1` is exactly 0.
-    middle_zero: bool,
 }
 
 impl<const L: usize> Section<L> {
@@ -829,12 +772,9 @@ impl<const L: usize> Section<L> {
             b2: [b2; L],
             a1: [a1; L],
             a2: [a2; L],
-            minus_a2: [-a2; L],
             z0: [0.0; L],
             z1: [0.0; L],
             unit: b0 == 1.0 && b2 == 1.0,
-            band: b1 == 0.0 && (b0 == 1.0 && b2 == -1.0),
-            middle_zero: b1 == 0.0,
         }
     }
 }
@@ -1069,8 +1009,8 @@ mod tests {
     /// that `inf - inf` creates), as long as each lane keeps the scalar operand order.
     #[test]
     fn non_finite_samples_spread_alike() {
-        // A low-pass's sections after the first have the numerator (1, 2, 1), a band-pass's
-        // (1, 0, −1): each has its shortened recursion, which the scalar one must match.
+        // A low-pass's sections after the first have the numerator (1, 2, 1), whose
+        // recursion is shortened; a band-pass's (1, 0, −1) are not.
         let low = Butterworth::design(3, Response::LowPass { cutoff_hz: 1.0 }, 10.0).unwrap();
         let band = super::super::magnav_bandpass(0.1, 0.9, 4, 10.0)
             .unwrap()

@@ -35,7 +35,8 @@ use std::thread;
 /// for `band`, as the two calls in turn would report it; nothing is written then.
 ///
 /// # Panics
-/// If the signals differ in length or `at` is not ascending within them: programming errors.
+/// If the signals and `last_low` differ in length or `at` is not ascending within them:
+/// programming errors.
 pub fn filtfilt_sampled_then_in_place(
     low: &Butterworth,
     at: &[usize],
@@ -219,7 +220,7 @@ impl Columns {
 
     /// Shared views of the low-pass's signals `block`.
     fn read(&self, block: &[usize]) -> Vec<&[f64]> {
-        let width = self.signals.len() - 1;
+        let width = self.signals.len().saturating_sub(1);
         block
             .iter()
             .map(|&i| {
