@@ -12,10 +12,7 @@ pub(crate) fn split_rows(
     columns: &mut [&mut [f64]],
     f: impl Fn(Range<usize>, &mut [&mut [f64]]) + Sync,
 ) {
-    let threads = std::thread::available_parallelism()
-        .map_or(1, |t| t.get())
-        .min(n.div_ceil(PARALLEL_ROWS))
-        .max(1);
+    let threads = threads_for_rows(n);
     if threads == 1 {
         f(0..n, columns);
         return;
@@ -39,10 +36,7 @@ pub(crate) fn split_rows(
 /// with the range of indices its part covers: [`split_rows`] for one column of any type.
 pub(crate) fn split_items<T: Send>(items: &mut [T], f: impl Fn(Range<usize>, &mut [T]) + Sync) {
     let n = items.len();
-    let threads = std::thread::available_parallelism()
-        .map_or(1, |t| t.get())
-        .min(n.div_ceil(PARALLEL_ROWS))
-        .max(1);
+    let threads = threads_for_rows(n);
     let share = n.div_ceil(threads).max(1);
     if threads == 1 {
         f(0..n, items);
@@ -54,6 +48,15 @@ pub(crate) fn split_items<T: Send>(items: &mut [T], f: impl Fn(Range<usize>, &mu
             scope.spawn(move || f(t * share..t * share + part.len(), part));
         }
     });
+}
+
+/// Threads worth starting for `n` rows: one per core, but none for fewer than
+/// [`PARALLEL_ROWS`] rows each.
+fn threads_for_rows(n: usize) -> usize {
+    std::thread::available_parallelism()
+        .map_or(1, |t| t.get())
+        .min(n.div_ceil(PARALLEL_ROWS))
+        .max(1)
 }
 
 /// `rows` cut into consecutive blocks of at most `size` rows.

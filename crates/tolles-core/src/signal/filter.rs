@@ -370,10 +370,7 @@ pub fn filtfilt_sampled_unless_constant(
 ) -> Result<Vec<Vec<f64>>, FilterError> {
     let kernels = Simd::best().0;
     let (n, constant) = constancy(kernels, filter, signals)?;
-    assert!(
-        at.windows(2).all(|w| w[0] < w[1]) && at.last().is_none_or(|&k| k < n),
-        "samples must be ascending and within the signals"
-    );
+    assert_samples_within(at, n);
     let mut varying: Vec<&[f64]> = signals
         .iter()
         .zip(&constant)
@@ -389,7 +386,7 @@ pub fn filtfilt_sampled_unless_constant(
         .iter()
         .zip(constant)
         .map(|(x, constant)| match constant {
-            true => at.iter().map(|&k| x[k]).collect(),
+            true => samples_at(x, at),
             false => filtered.next().expect("one result per varying signal"),
         })
         .collect())
@@ -461,11 +458,7 @@ fn in_shares<S: Send, R: Send>(
     n: usize,
     work: impl Fn(&mut [S]) -> R + Sync,
 ) -> Vec<R> {
-    // Threads only pay off when each has a sizeable share of the work.
-    let threads = std::thread::available_parallelism()
-        .map_or(1, |t| t.get())
-        .min(signals.len())
-        .min(1 + n * signals.len() / PARALLEL_SAMPLES);
+    let threads = threads_for(signals.len(), n * signals.len());
     if threads <= 1 {
         return vec![work(signals)];
     }
@@ -490,6 +483,29 @@ fn in_shares<S: Send, R: Send>(
 /// Samples (signals × length) below which [`filtfilt_many_unless_constant`] uses one thread
 /// for a pass over its signals.
 const PARALLEL_SAMPLES: usize = 2_000_000;
+
+/// Threads worth starting for `pieces` independent pieces of work over `samples` samples in
+/// all: one per core, at most one per piece, and only when each has a sizeable share.
+fn threads_for(pieces: usize, samples: usize) -> usize {
+    std::thread::available_parallelism()
+        .map_or(1, |t| t.get())
+        .min(pieces)
+        .min(1 + samples / PARALLEL_SAMPLES)
+}
+
+/// Panics unless the sample positions `at` are ascending and below `n`: a programming error.
+fn assert_samples_within(at: &[usize], n: usize) {
+    assert!(
+        at.windows(2).all(|w| w[0] < w[1]) && at.last().is_none_or(|&k| k < n),
+        "samples must be ascending and within the signals"
+    );
+}
+
+/// The values of `x` at the positions `at`: what a constant signal gives for its filtered
+/// samples, as it is left alone.
+fn samples_at(x: &[f64], at: &[usize]) -> Vec<f64> {
+    at.iter().map(|&k| x[k]).collect()
+}
 
 /// Two-pass standard deviation of the data shifted by its first sample: the shift keeps
 /// a large offset (e.g. 50 000 nT) from swamping the variance, and makes an exactly

@@ -13,7 +13,10 @@
 //! [`filtfilt_many_unless_constant`], and lanes never mix, so every value is the same bit for
 //! bit whichever core runs which block.
 
-use super::{constancy, lanes, Butterworth, FilterError, Simd, PARALLEL_SAMPLES};
+use super::{
+    assert_samples_within, constancy, lanes, samples_at, threads_for, Butterworth, FilterError,
+    Simd,
+};
 #[cfg(doc)]
 use super::{filtfilt_many_unless_constant, filtfilt_sampled_unless_constant};
 use std::panic::{self, AssertUnwindSafe};
@@ -49,16 +52,13 @@ pub fn filtfilt_sampled_then_in_place(
     let read: Vec<&[f64]> = signals.iter().map(|x| &**x).collect();
     let low_signals: Vec<&[f64]> = read[..width].iter().copied().chain([last_low]).collect();
     let (n, low_constant) = constancy(kernels, low, &low_signals)?;
-    assert!(
-        at.windows(2).all(|w| w[0] < w[1]) && at.last().is_none_or(|&k| k < n),
-        "samples must be ascending and within the signals"
-    );
+    assert_samples_within(at, n);
     let (_, band_constant) = constancy(kernels, band, &read)?;
     // A constant signal's samples are its own values, taken before anything is overwritten.
     let mut out: Vec<Option<Vec<f64>>> = low_signals
         .iter()
         .zip(&low_constant)
-        .map(|(x, &constant)| constant.then(|| at.iter().map(|&k| x[k]).collect()))
+        .map(|(x, &constant)| constant.then(|| samples_at(x, at)))
         .collect();
     let plan = Plan::new(&low_constant, &band_constant);
     let columns = Columns::new(signals, last_low);
@@ -143,10 +143,7 @@ impl Plan {
     fn run<R: Send>(&self, n: usize, work: impl Fn(Task) -> R + Sync) -> Vec<R> {
         let tasks = self.tasks();
         let signals: usize = self.low.iter().chain(&self.band).map(Vec::len).sum();
-        let threads = thread::available_parallelism()
-            .map_or(1, |t| t.get())
-            .min(tasks.len())
-            .min(1 + n * signals / PARALLEL_SAMPLES);
+        let threads = threads_for(tasks.len(), n * signals);
         if threads <= 1 {
             return tasks.into_iter().map(work).collect();
         }
