@@ -49,6 +49,7 @@
 //!    like the linear rows and solves the same ridge problem; the exact fit is kept if its score
 //!    is no worse.
 
+mod basis;
 mod choice;
 pub mod crossval;
 pub mod lag;
@@ -58,6 +59,7 @@ mod qr;
 pub mod ridge;
 
 use crate::compensate::{write_runs, Model};
+use crate::fit::basis::Basis;
 use crate::fit::choice::{choose_design, pick_magnitude, union_of_terms};
 use crate::fit::crossval::{CrossValidation, DEFAULT_FOLDS};
 use crate::fit::levels::LevelDiagnostics;
@@ -508,28 +510,32 @@ fn fit_reusing(
     check_not_constant(scalar, flux.series()[0], &usable)?;
     let designs = settings.candidate_designs();
     let union = union_of_terms(&designs);
+    // The rows hold the columns of `basis.stored`; factors and level rows are mapped onto
+    // `union` before the candidates take theirs.
+    let basis = Basis::of(&union);
+    let stored = &basis.stored;
     let problem = Problem {
         scalar,
         flux: &flux,
         runs: contiguous_runs(&usable, tt),
         filter: settings.filter(fs_hz)?,
-        above: settings.above_band(fs_hz, &union)?,
+        above: settings.above_band(fs_hz, stored)?,
         settings,
         spare,
     };
     // The linear rows are the largest buffer; the reference's calibration uses its first part.
     let longest = problem.runs.iter().map(|r| r.len()).max().unwrap_or(0);
-    spare.reserve(longest * (union.len() + 1));
+    spare.reserve(longest * (stored.len() + 1));
     let mut levels = problem.level_setup(&usable, fs_hz, tt)?;
     let linear = |run: Range<usize>, out: &mut [f64]| {
-        let (a, y) = out.split_at_mut(run.len() * union.len());
+        let (a, y) = out.split_at_mut(run.len() * stored.len());
         settings
             .design
-            .matrix_over(flux.clone(), run.clone(), &union, a);
+            .matrix_over(flux.clone(), run.clone(), stored, a);
         y.copy_from_slice(&scalar[run]);
     };
     let prepared = problem.prepare(
-        union.len(),
+        stored.len(),
         &linear,
         levels.as_ref(),
         problem.above.as_ref(),
@@ -541,14 +547,14 @@ fn fit_reusing(
     let level_plan = levels.as_ref().map(|_| prepared.plan(true, count));
     let plans: Vec<&problem::Plan> = std::iter::once(&band_plan).chain(&level_plan).collect();
     let band = prepared.band_factors(&plans);
-    let band_folds = prepared.fold_factors(&band_plan, 0.0, &band);
+    let band_folds = basis.folds(prepared.fold_factors(&band_plan, 0.0, &band));
     let mut chosen = choose_design(&band_folds, &designs, &union, settings.lambda, 0.0)?;
     if let (Some(setup), Some(plan)) = (levels.as_mut(), &level_plan) {
         chosen = problem.choose_with_levels(setup, &chosen, |setup| {
-            let folds = prepared.fold_factors(plan, setup.weight(), &band);
+            let folds = basis.folds(prepared.fold_factors(plan, setup.weight(), &band));
             Ok((
                 choose_design(&folds, &designs, &union, settings.lambda, setup.weight())?,
-                prepared.levels.clone(),
+                basis.level_rows(&prepared.levels),
             ))
         })?;
     }

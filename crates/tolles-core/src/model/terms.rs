@@ -95,6 +95,27 @@ pub enum Column {
     Bias,
 }
 
+impl Column {
+    /// The column as weights of the plain diagonal columns `xx`, `yy`, `zz` of its kind, when
+    /// it is such a combination: with `|B| = Σ B̂i·Bi` (and `B̂·Ḃ = Σ B̂i·Ḃi`), the traceless
+    /// `zz − aa` is `(xx + yy + zz)/3 − aa` and the trace `(xx + yy + zz)/3`. Equal up to
+    /// rounding, so a fit that holds the diagonals anyway filters and factors these from them.
+    pub fn of_diagonals(self) -> Option<[(Column, f64); 3]> {
+        let weights = |minus: Option<Axis>, plain: fn(Axis, Axis) -> Column| {
+            Axis::ALL.map(|i| {
+                let own = if Some(i) == minus { 1.0 } else { 0.0 };
+                (plain(i, i), 1.0 / 3.0 - own)
+            })
+        };
+        match self {
+            Column::InducedTraceless(a) => Some(weights(Some(a), Column::Induced)),
+            Column::EddyTraceless(a) => Some(weights(Some(a), Column::Eddy)),
+            Column::InducedTrace => Some(weights(None, Column::Induced)),
+            _ => None,
+        }
+    }
+}
+
 impl fmt::Display for Column {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {

@@ -1,0 +1,231 @@
+//! The columns a fit fills, filters and factors: every candidate's terms once, less those that
+//! are combinations of other terms held anyway.
+//!
+//! With the defaults the candidates hold the patent's traceless columns and the plain diagonals
+//! they are made of (see [`Column::of_diagonals`]). A filter is linear and a triangular factor
+//! `R` of some columns gives `R·T` for any combinations `T` of them (`(R·T)ᵀ(R·T) = Tᵀ·AᵀA·T`),
+//! so the four traceless columns are formed from the diagonals' factors and level rows instead
+//! of being filled, filtered and factored over every sample: 18 columns instead of 22.
+
+use super::levels::LevelRows;
+use super::problem::FoldFactor;
+use crate::model::design::Term;
+use nalgebra::DMatrix;
+
+/// The terms whose columns are stored, and every term as a combination of them.
+pub(super) struct Basis {
+    /// Terms whose columns are filled, filtered and factored.
+    pub(super) stored: Vec<Term>,
+    /// Per term, its stored columns and their weights; `None` when every term is stored.
+    terms: Option<Vec<Vec<(usize, f64)>>>,
+}
+
+impl Basis {
+    /// The basis of `terms`: each term whose [`Column::of_diagonals`] are all among `terms`
+    /// (for its own fluxgate) is formed from them; the others are stored, in their order.
+    pub(super) fn of(terms: &[Term]) -> Basis {
+        let parts = |t: &Term| {
+            let parts = t.column.of_diagonals()?;
+            let found = parts.map(|(column, w)| {
+                let part = Term {
+                    fluxgate: t.fluxgate,
+                    column,
+                };
+                terms.contains(&part).then_some((part, w))
+            });
+            found.into_iter().collect::<Option<Vec<_>>>()
+        };
+        let formed: Vec<Option<Vec<(Term, f64)>>> = terms.iter().map(parts).collect();
+        if formed.iter().all(Option::is_none) {
+            return Basis {
+                stored: terms.to_vec(),
+                terms: None,
+            };
+        }
+        let stored: Vec<Term> = terms
+            .iter()
+            .zip(&formed)
+            .filter(|(_, f)| f.is_none())
+            .map(|(t, _)| *t)
+            .collect();
+        let position = |t: &Term| stored.iter().position(|s| s == t).expect("stored");
+        let terms = terms
+            .iter()
+            .zip(formed)
+            .map(|(t, f)| match f {
+                None => vec![(position(t), 1.0)],
+                Some(parts) => parts.iter().map(|(p, w)| (position(p), *w)).collect(),
+            })
+            .collect();
+        Basis {
+            stored,
+            terms: Some(terms),
+        }
+    }
+
+    /// The folds' factors of the stored columns and the target as factors of every term and
+    /// the target.
+    pub(super) fn folds(&self, folds: Vec<FoldFactor>) -> Vec<FoldFactor> {
+        if self.terms.is_none() {
+            return folds;
+        }
+        folds
+            .into_iter()
+            .map(|f| FoldFactor {
+                r: self.on_terms(&f.r, true),
+                level_r: self.on_terms(&f.level_r, true),
+                ..f
+            })
+            .collect()
+    }
+
+    /// Level rows of the stored columns as level rows of every term.
+    pub(super) fn level_rows(&self, rows: &[LevelRows]) -> Vec<LevelRows> {
+        rows.iter()
+            .map(|r| LevelRows {
+                a: self.on_terms(&r.a, false),
+                ..r.clone()
+            })
+            .collect()
+    }
+
+    /// `m`, whose columns are the stored ones (and the target last, `with_target`), with the
+    /// columns of every term: a stored term's column is copied, bit for bit.
+    fn on_terms(&self, m: &DMatrix<f64>, with_target: bool) -> DMatrix<f64> {
+        let Some(terms) = &self.terms else {
+            return m.clone();
+        };
+        let width = terms.len() + usize::from(with_target);
+        let mut out = DMatrix::zeros(m.nrows(), width);
+        for (u, parts) in terms.iter().enumerate() {
+            match parts.as_slice() {
+                [(b, w)] if *w == 1.0 => out.column_mut(u).copy_from(&m.column(*b)),
+                _ => {
+                    for &(b, w) in parts {
+                        out.column_mut(u).axpy(w, &m.column(b), 1.0);
+                    }
+                }
+            }
+        }
+        if with_target {
+            out.column_mut(width - 1)
+                .copy_from(&m.column(m.ncols() - 1));
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fit::qr::triangular_factor;
+    use crate::fit::FitSettings;
+    use crate::model::design::Design;
+    use crate::model::terms::{Axis, Column, TermSet};
+    use crate::model::vector::VectorSeries;
+
+    fn default_union() -> Vec<Term> {
+        let s = FitSettings::recommended();
+        let sets = std::iter::once(s.design.terms).chain(s.alternative_terms.iter().copied());
+        let mut union: Vec<Term> = Vec::new();
+        for terms in sets {
+            for t in Design::new(terms).design_terms() {
+                if !union.contains(&t) {
+                    union.push(t);
+                }
+            }
+        }
+        union
+    }
+
+    /// A wobbling fluxgate, nT.
+    fn flight(n: usize) -> VectorSeries {
+        let w = |k: usize, f: f64, p: f64| (f * k as f64 + p).sin();
+        VectorSeries::new(
+            (0..n)
+                .map(|k| 20_000.0 + 3_000.0 * w(k, 0.05, 0.0))
+                .collect(),
+            (0..n)
+                .map(|k| -4_000.0 + 2_500.0 * w(k, 0.07, 1.0))
+                .collect(),
+            (0..n).map(|k| 45_000.0 + 900.0 * w(k, 0.11, 2.0)).collect(),
+        )
+    }
+
+    fn columns(terms: &[Term], flux: &VectorSeries) -> DMatrix<f64> {
+        let n = flux.len();
+        let mut a = vec![0.0; n * terms.len()];
+        Design::new(TermSet::magnav_default()).matrix_over(flux, 0..n, terms, &mut a);
+        DMatrix::from_vec(n, terms.len(), a)
+    }
+
+    #[test]
+    fn the_defaults_store_the_plain_columns_and_form_the_traceless_ones() {
+        let union = default_union();
+        assert_eq!(union.len(), 22);
+        let basis = Basis::of(&union);
+        assert_eq!(basis.stored.len(), 18);
+        let formed: Vec<Column> = union
+            .iter()
+            .filter(|t| !basis.stored.contains(t))
+            .map(|t| t.column)
+            .collect();
+        assert_eq!(
+            formed,
+            [
+                Column::InducedTraceless(Axis::X),
+                Column::InducedTraceless(Axis::Y),
+                Column::EddyTraceless(Axis::X),
+                Column::EddyTraceless(Axis::Y),
+            ]
+        );
+        // The patent's terms alone lack the diagonals: all stored, nothing to map.
+        let patent = Design::new(TermSet::patent()).design_terms();
+        let alone = Basis::of(&patent);
+        assert_eq!(alone.stored, patent);
+        assert!(alone.terms.is_none());
+    }
+
+    #[test]
+    fn formed_columns_are_the_design_columns_and_stored_ones_their_bits() {
+        let union = default_union();
+        let basis = Basis::of(&union);
+        let flux = flight(400);
+        let stored = columns(&basis.stored, &flux);
+        let full = columns(&union, &flux);
+        let formed = basis.on_terms(&stored, false);
+        for (u, term) in union.iter().enumerate() {
+            let (got, want) = (formed.column(u), full.column(u));
+            if basis.stored.contains(term) {
+                assert_eq!(got, want, "{}", term.column);
+            } else {
+                let scale = want.amax();
+                assert!((got - want).amax() <= 1e-14 * scale, "{}", term.column);
+            }
+        }
+    }
+
+    #[test]
+    fn factors_of_the_stored_columns_give_the_gram_matrix_of_every_term() {
+        let union = default_union();
+        let basis = Basis::of(&union);
+        let flux = flight(600);
+        let target: Vec<f64> = (0..600).map(|k| (0.3 * k as f64).cos()).collect();
+        let with_target = |a: DMatrix<f64>| {
+            let width = a.ncols();
+            let mut m = a.insert_column(width, 0.0);
+            m.column_mut(width).copy_from_slice(&target);
+            m
+        };
+        let factor = |m: &DMatrix<f64>| {
+            let cols: Vec<&[f64]> = m.as_slice().chunks_exact(m.nrows()).collect();
+            triangular_factor(&cols)
+        };
+        let stored = with_target(columns(&basis.stored, &flux));
+        let full = with_target(columns(&union, &flux));
+        let r = basis.on_terms(&factor(&stored), true);
+        let (gram, want) = (r.transpose() * &r, full.transpose() * &full);
+        let scale = want.amax();
+        assert!((gram - want).amax() <= 1e-12 * scale);
+    }
+}
