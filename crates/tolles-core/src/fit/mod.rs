@@ -215,6 +215,16 @@ const EXACT_ITERATIONS: usize = 8;
 /// Relative change of the coefficients below which the exact fit has converged.
 const EXACT_TOLERANCE: f64 = 1e-7;
 
+/// Relative change of the coefficients the next Gauss-Newton iteration is expected to make
+/// (the last step times the last ratio of steps: the iterations converge linearly) below which
+/// an exact fit that clearly loses to the linear one is not refined further: what it reports,
+/// its score, would move by about as little.
+const EXACT_SETTLED: f64 = 1e-9;
+
+/// Relative margin by which the exact fit's score must exceed the linear fit's to lose
+/// clearly: far more than a settled fit's score can still move.
+const EXACT_CLEAR_LOSS: f64 = 1e-3;
+
 /// Relative improvement of held-out RMS an alternative term set with more columns than
 /// `design.terms` needs to be chosen.
 pub const TERM_CHOICE_MARGIN: f64 = 0.02;
@@ -550,7 +560,7 @@ fn fit_reusing(
     let band_folds = basis.folds(prepared.fold_factors(&band_plan, 0.0, &band));
     let mut chosen = choose_design(&band_folds, &designs, &union, settings.lambda, 0.0)?;
     if let (Some(setup), Some(plan)) = (levels.as_mut(), &level_plan) {
-        chosen = problem.choose_with_levels(setup, &chosen, |setup| {
+        chosen = problem.choose_with_levels(setup, &chosen, &union, |setup| {
             let folds = basis.folds(prepared.fold_factors(plan, setup.weight(), &band));
             Ok((
                 choose_design(&folds, &designs, &union, settings.lambda, setup.weight())?,
@@ -565,11 +575,20 @@ fn fit_reusing(
     };
     let (short, runs_used) = (prepared.short, prepared.runs_used());
     spare.give(prepared.into_buffers());
-    let exact = problem.exact(&design, &chosen, levels.as_mut())?;
+    let exact = problem.exact(&design, &chosen, levels.as_ref())?;
     let (magnitude, chosen, iterations) = match exact {
-        Some((exact, iterations)) => pick_magnitude(chosen, exact, iterations, settings.magnitude),
+        Some(exact) => {
+            let picked = pick_magnitude(chosen, exact.chosen, exact.iterations, settings.magnitude);
+            // The level rows describe the fit kept: the Gauss-Newton ones only for the exact.
+            if let (Magnitude::Exact, Some(setup)) = (picked.0, levels.as_mut()) {
+                setup.rows = exact.level_rows;
+                setup.row_terms = exact.terms;
+            }
+            picked
+        }
         None => (Magnitude::Linear, chosen, 0),
     };
+    let terms = design.design_terms();
     let model = Model {
         design: &design,
         coefficients: &chosen.solution.coefficients,
@@ -583,9 +602,9 @@ fn fit_reusing(
         &chosen.solution,
         DiagnosticCounts {
             level_rows: levels.as_ref().map_or(0, |l| l.row_count()),
-            level_rss: levels
-                .as_ref()
-                .map_or(0.0, |l| l.weighted_rss(&chosen.solution.coefficients)),
+            level_rss: levels.as_ref().map_or(0.0, |l| {
+                l.weighted_rss(&terms, &chosen.solution.coefficients)
+            }),
             total: scalar.len(),
             nonfinite: usable.iter().filter(|u| !**u).count(),
             short,
@@ -599,7 +618,7 @@ fn fit_reusing(
         chosen.cross_validation,
         chosen.scores,
     );
-    diagnostics.levels = levels.map(|l| l.diagnostics(&chosen.solution.coefficients));
+    diagnostics.levels = levels.map(|l| l.diagnostics(&terms, &chosen.solution.coefficients));
     diagnostics.exact_iterations = iterations;
     check_finite(&chosen.solution.coefficients, &diagnostics, wanted)?;
     Ok(Fit {
@@ -1018,6 +1037,43 @@ mod tests {
         );
         let coefficients_only = Wanted::Coefficients;
         assert!(check_finite(&[1.0], &diagnostics(f64::NAN), coefficients_only).is_err());
+    }
+
+    #[test]
+    fn an_exact_fit_that_loses_stops_once_settled_and_the_linear_fit_keeps_its_level_rows() {
+        use crate::flight::plan::BoxPlan;
+        use crate::flight::sim::{simulate, Installation};
+        let mut scenario = Installation::Cabin.scenario(2);
+        scenario.extras.current = None;
+        let cal = simulate(&BoxPlan::default().build(), &scenario).unwrap();
+        let fit_with = |magnitude| {
+            let settings = FitSettings {
+                magnitude,
+                ..FitSettings::recommended()
+            };
+            fit(&cal.scalar, &cal.flux, 10.0, Some(&cal.tt), &settings).unwrap()
+        };
+        let exact_score = |f: &Fit| {
+            let mut s = f.diagnostics.term_choice.iter();
+            let exact = s.rfind(|t| t.magnitude == Magnitude::Exact);
+            exact.and_then(|t| t.heldout_rms_nt).unwrap()
+        };
+        let auto = fit_with(MagnitudeChoice::Auto);
+        let converged = fit_with(MagnitudeChoice::Exact);
+        // The exact fit loses, and takes three iterations to converge when it is wanted ...
+        assert_eq!(auto.magnitude, Magnitude::Linear);
+        assert_eq!(converged.diagnostics.exact_iterations, 3);
+        // ... yet the score it reports after two, settled, is the converged fit's.
+        let (early, last) = (exact_score(&auto), exact_score(&converged));
+        assert!((early - last).abs() <= 1e-9 * last, "{early} {last}");
+        // The linear fit kept is described by its own level rows, not the exact fit's.
+        let linear = fit_with(MagnitudeChoice::Linear);
+        let levels = |f: &Fit| f.diagnostics.levels.clone().unwrap();
+        assert_eq!(levels(&auto), levels(&linear));
+        assert_eq!(
+            auto.diagnostics.residual_std_nt,
+            linear.diagnostics.residual_std_nt
+        );
     }
 
     fn turning_fit() -> Fit {

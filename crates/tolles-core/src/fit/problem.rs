@@ -5,9 +5,10 @@ use super::choice::{choose_design, Chosen};
 use super::levels::{self, LevelDiagnostics, LevelRows, LowFrequency, Reference};
 use super::qr::{stacked_factor, triangular_factor};
 use super::{
-    FitError, FitSettings, Lambda, MagnitudeChoice, Target, EXACT_ITERATIONS, EXACT_TOLERANCE,
+    FitError, FitSettings, Lambda, MagnitudeChoice, Target, EXACT_CLEAR_LOSS, EXACT_ITERATIONS,
+    EXACT_SETTLED, EXACT_TOLERANCE,
 };
-use crate::model::design::Design;
+use crate::model::design::{Design, Term};
 use crate::model::magnitude::exact_jacobian_into;
 use crate::model::vector::Fluxgates;
 use crate::parallel::split_rows;
@@ -418,8 +419,11 @@ pub(super) struct LevelSetup {
     pub(super) sigma_nt: f64,
     /// Scatter of a band row (nT).
     pub(super) band_sigma_nt: f64,
-    /// Level rows of the last preparation (centred, unweighted), to measure the misfit.
+    /// Level rows of the fit kept (centred, unweighted), to measure the misfit.
     pub(super) rows: Vec<LevelRows>,
+    /// The terms of the columns of `rows`: every candidate's for the linear rows, the chosen
+    /// design's for the Gauss-Newton ones.
+    pub(super) row_terms: Vec<Term>,
 }
 
 impl LevelSetup {
@@ -431,9 +435,15 @@ impl LevelSetup {
         self.rows.iter().map(|r| r.y.len()).sum()
     }
 
-    /// The level rows' residual sum of squares as the solve saw it, weighted (nT²).
-    pub(super) fn weighted_rss(&self, beta: &[f64]) -> f64 {
-        let misfit = levels::rms_misfit(&self.rows, beta);
+    /// RMS misfit of the level rows (nT) for the coefficients `beta` of `terms`.
+    pub(super) fn misfit(&self, terms: &[Term], beta: &[f64]) -> f64 {
+        levels::rms_misfit(&self.rows, &on_columns(&self.row_terms, terms, beta))
+    }
+
+    /// The level rows' residual sum of squares as the solve saw it, weighted (nT²), for the
+    /// coefficients `beta` of `terms`.
+    pub(super) fn weighted_rss(&self, terms: &[Term], beta: &[f64]) -> f64 {
+        let misfit = self.misfit(terms, beta);
         let count = self.row_count();
         if count == 0 {
             return 0.0;
@@ -441,9 +451,9 @@ impl LevelSetup {
         (self.weight() * misfit).powi(2) * count as f64
     }
 
-    pub(super) fn diagnostics(&self, beta: &[f64]) -> LevelDiagnostics {
+    pub(super) fn diagnostics(&self, terms: &[Term], beta: &[f64]) -> LevelDiagnostics {
         let count = self.row_count();
-        let misfit = levels::rms_misfit(&self.rows, beta);
+        let misfit = self.misfit(terms, beta);
         LevelDiagnostics {
             fluxgate: self.reference.calibration.clone(),
             rows: count,
@@ -581,21 +591,28 @@ impl Problem<'_, '_> {
             sigma_nt,
             band_sigma_nt: f64::NAN,
             rows: Vec::new(),
+            row_terms: Vec::new(),
         }))
     }
 
     /// Refits with the level rows: first weighted by the reference's expected noise, then, if
     /// the rows scatter more than that about the fit, once more with their measured scatter.
+    ///
+    /// The rows `solve` gives have the columns of `union`. Known and kept (it decides default
+    /// fits, see the README): the misfit that decides the second weighting takes the chosen
+    /// candidate's coefficients as those of the first columns, the first candidate's.
     pub(super) fn choose_with_levels(
         &self,
         setup: &mut LevelSetup,
         band_only: &Chosen,
+        union: &[Term],
         solve: impl Fn(&LevelSetup) -> Result<(Chosen, Vec<LevelRows>), FitError>,
     ) -> Result<Chosen, FitError> {
         let s = &band_only.solution;
         setup.band_sigma_nt = (s.rss / s.rows.max(1) as f64).sqrt().max(1e-6);
         let (mut chosen, rows) = solve(setup)?;
         setup.rows = rows;
+        setup.row_terms = union.to_vec();
         let misfit = levels::rms_misfit(&setup.rows, &chosen.solution.coefficients);
         if misfit > 1.5 * setup.sigma_nt {
             setup.sigma_nt = misfit;
@@ -612,8 +629,8 @@ impl Problem<'_, '_> {
         &self,
         design: &Design,
         linear: &Chosen,
-        mut levels: Option<&mut LevelSetup>,
-    ) -> Result<Option<(Chosen, usize)>, FitError> {
+        levels: Option<&LevelSetup>,
+    ) -> Result<Option<Exact>, FitError> {
         // Extra channels and several fluxgates stay linear.
         if self.settings.magnitude == MagnitudeChoice::Linear
             || design.fluxgates != 1
@@ -627,7 +644,8 @@ impl Problem<'_, '_> {
         let series = self.flux.series()[0];
         let count = fold_count(self.settings.lambda);
         let mut beta = linear.solution.coefficients.clone();
-        let mut best: Option<Chosen> = None;
+        let mut best: Option<Exact> = None;
+        let mut last_step = f64::INFINITY;
         for iteration in 1..=EXACT_ITERATIONS {
             let current = beta.clone();
             let fill = |run: Range<usize>, out: &mut [f64]| {
@@ -646,25 +664,63 @@ impl Problem<'_, '_> {
                     }
                 });
             };
-            let mut prepared =
-                self.prepare(terms.len(), &fill, levels.as_deref(), above.as_ref())?;
-            let weight = levels.as_deref().map_or(0.0, LevelSetup::weight);
+            let mut prepared = self.prepare(terms.len(), &fill, levels, above.as_ref())?;
+            let weight = levels.map_or(0.0, LevelSetup::weight);
             let plan = prepared.plan(levels.is_some(), count);
             let band = prepared.band_factors(&[&plan]);
             let folds = prepared.fold_factors(&plan, weight, &band);
             let chosen = choose_design(&folds, &designs, &terms, self.settings.lambda, weight)?;
-            if let Some(setup) = levels.as_deref_mut() {
-                setup.rows = std::mem::take(&mut prepared.levels);
-            }
+            let level_rows = std::mem::take(&mut prepared.levels);
             self.spare.give(prepared.into_buffers());
             let step = relative_change(&beta, &chosen.solution.coefficients);
             beta = chosen.solution.coefficients.clone();
-            best = Some(chosen);
-            if step < EXACT_TOLERANCE {
-                return Ok(best.map(|b| (b, iteration)));
+            let settled_loser = self.settles_losing(&chosen, linear, step, last_step);
+            best = Some(Exact {
+                chosen,
+                iterations: iteration,
+                level_rows,
+                terms: terms.clone(),
+            });
+            if step < EXACT_TOLERANCE || settled_loser {
+                break;
             }
+            last_step = step;
         }
-        Ok(best.map(|b| (b, EXACT_ITERATIONS)))
+        Ok(best)
+    }
+}
+
+/// The exact-magnitude fit: its solution, the Gauss-Newton iterations it took, and its last
+/// level rows (columns `terms`), which describe it rather than the linear fit.
+pub(super) struct Exact {
+    pub(super) chosen: Chosen,
+    pub(super) iterations: usize,
+    pub(super) level_rows: Vec<LevelRows>,
+    pub(super) terms: Vec<Term>,
+}
+
+/// `beta`, the coefficients of `terms`, as coefficients of `columns`: 0 for a column that is
+/// none of `terms`.
+fn on_columns(columns: &[Term], terms: &[Term], beta: &[f64]) -> Vec<f64> {
+    columns
+        .iter()
+        .map(|c| terms.iter().position(|t| t == c).map_or(0.0, |k| beta[k]))
+        .collect()
+}
+
+impl Problem<'_, '_> {
+    /// Whether the exact fit `exact`, after a Gauss-Newton step of `step` that followed one of
+    /// `last_step` (relative changes of the coefficients), may stop: with the magnitude chosen
+    /// by score, when the next step is expected below [`EXACT_SETTLED`] and the exact fit loses
+    /// to `linear` by more than [`EXACT_CLEAR_LOSS`], no further iteration could change the
+    /// choice, and the score it reports is already as good as final.
+    fn settles_losing(&self, exact: &Chosen, linear: &Chosen, step: f64, last_step: f64) -> bool {
+        // The first step, from the linear fit, says nothing of the rate.
+        let expected = step * (step / last_step);
+        self.settings.magnitude == MagnitudeChoice::Auto
+            && last_step.is_finite()
+            && expected < EXACT_SETTLED
+            && exact.score() > linear.score() * (1.0 + EXACT_CLEAR_LOSS)
     }
 }
 
@@ -685,6 +741,24 @@ fn relative_change(a: &[f64], b: &[f64]) -> f64 {
 mod tests {
     use super::*;
     use crate::fit::ridge::Ridge;
+
+    #[test]
+    fn coefficients_go_to_the_columns_of_their_terms() {
+        use crate::model::terms::{Axis, Column};
+        let term = |column| Term {
+            fluxgate: 0,
+            column,
+        };
+        let (x, y, z) = (
+            term(Column::Permanent(Axis::X)),
+            term(Column::Permanent(Axis::Y)),
+            term(Column::Permanent(Axis::Z)),
+        );
+        assert_eq!(
+            on_columns(&[x, y, z], &[z, x], &[3.0, 1.0]),
+            [1.0, 0.0, 3.0]
+        );
+    }
 
     #[test]
     fn level_rows_follow_the_band_row_of_their_sample() {
