@@ -6,6 +6,8 @@
 //! `R` of some columns gives `R·T` for any combinations `T` of them (`(R·T)ᵀ(R·T) = Tᵀ·AᵀA·T`),
 //! so the four traceless columns are formed from the diagonals' factors and level rows instead
 //! of being filled, filtered and factored over every sample: 18 columns instead of 22.
+//!
+//! [`Column::of_diagonals`]: crate::model::terms::Column::of_diagonals
 
 use super::levels::LevelRows;
 use super::problem::FoldFactor;
@@ -21,8 +23,10 @@ pub(super) struct Basis {
 }
 
 impl Basis {
-    /// The basis of `terms`: each term whose [`Column::of_diagonals`] are all among `terms`
-    /// (for its own fluxgate) is formed from them; the others are stored, in their order.
+    /// The basis of `terms`: each term whose parts ([`Column::of_diagonals`]) are all among
+    /// `terms` (for its own fluxgate) is formed from them; the others are stored, in their order.
+    ///
+    /// [`Column::of_diagonals`]: crate::model::terms::Column::of_diagonals
     pub(super) fn of(terms: &[Term]) -> Basis {
         let parts = |t: &Term| {
             let parts = t.column.of_diagonals()?;
