@@ -43,7 +43,7 @@ pub fn read(path: &Path) -> Result<Table, IoError> {
 }
 
 /// Reads an HDF5 file from its bytes; `name` is used in error messages. A file that makes the
-/// HDF5 library panic is reported as not readable (see [`crate::guard`]).
+/// HDF5 library panic is reported as not readable (see the private `guard` module).
 pub fn from_bytes(bytes: Vec<u8>, name: impl AsRef<Path>) -> Result<Table, IoError> {
     let path = name.as_ref();
     crate::guard::contain(

@@ -16,7 +16,7 @@
 //!   parsed while the rows are found, each piece straight into its place in the whole column
 //!   (a count of its lines fixes where; blank lines leave gaps closed afterwards), and handed
 //!   over without a copy ([`RawRows::parse`]); any other column in one later pass on all cores.
-//!   A plain decimal (`-50030.0342`) is converted inline ([`crate::decimal`]), to the same f64
+//!   A plain decimal (`-50030.0342`) is converted inline (the private `decimal` module), to the same f64
 //!   as `str::parse` gives; anything else goes through [`crate::table::parse_cell`], the
 //!   general reader's own rule.
 //! - **Rows written by copying** ([`write_rows`]): a tidy row is the same bytes as the general

@@ -27,7 +27,7 @@ pub fn write(data: &ReportData, dir: &Path) -> Result<PathBuf, ReportError> {
     write_each(std::slice::from_ref(data), dir)
 }
 
-/// The report of `data`, its maps referenced but not written (see [`write`]).
+/// The report of `data`, its maps referenced but not written (see [`write()`]).
 pub fn page(data: &ReportData) -> Report {
     page_with(data, &maps(data, ""))
 }

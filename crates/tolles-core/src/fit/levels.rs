@@ -93,7 +93,7 @@ pub fn reference(
     reference_reusing(flux, usable, fs_hz, tt, settings, &Spare::default())
 }
 
-/// [`reference`] with the calibration fit's buffers from `spare`, and given back to it.
+/// [`reference()`] with the calibration fit's buffers from `spare`, and given back to it.
 pub(super) fn reference_reusing(
     flux: &VectorSeries,
     usable: &[bool],

@@ -14,7 +14,7 @@
 //!    value), so the text is parsed twice, not three times. With the model's level
 //!    ([`LevelChoice::Model`]) this pass is skipped, unless an error is coming: the whole-file
 //!    path counts the rows without a result before it fails, so this path does too.
-//! 3. **Write** ([`write`]) every row with the compensated columns, `scalar − (A·β − level)`.
+//! 3. **Write** ([`write`](mod@write)) every row with the compensated columns, `scalar − (A·β − level)`.
 //!
 //! Memory holds two chunks (rows per chunk as requested, default
 //! [`tolles_io::chunks::DEFAULT_CHUNK_ROWS`]) whatever the length of the file.
