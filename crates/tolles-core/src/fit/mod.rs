@@ -575,6 +575,7 @@ fn fit_reusing(
     };
     let (short, runs_used) = (prepared.short, prepared.runs_used());
     spare.give(prepared.into_buffers());
+    let terms = design.design_terms();
     let exact = problem.exact(&design, &chosen, levels.as_ref())?;
     let (magnitude, chosen, iterations) = match exact {
         Some(exact) => {
@@ -582,13 +583,12 @@ fn fit_reusing(
             // The level rows describe the fit kept: the Gauss-Newton ones only for the exact.
             if let (Magnitude::Exact, Some(setup)) = (picked.0, levels.as_mut()) {
                 setup.rows = exact.level_rows;
-                setup.row_terms = exact.terms;
+                setup.row_terms = terms.clone();
             }
             picked
         }
         None => (Magnitude::Linear, chosen, 0),
     };
-    let terms = design.design_terms();
     let model = Model {
         design: &design,
         coefficients: &chosen.solution.coefficients,

@@ -466,6 +466,50 @@ impl LevelSetup {
 }
 
 impl Problem<'_, '_> {
+    /// Filters a run's `signals` (its columns, then its target) in place and, with `levels`,
+    /// gives its level rows, low-passed from the unfiltered signals: with a band-pass, the two
+    /// filters share the cores as one job.
+    fn filter_run(
+        &self,
+        run: Range<usize>,
+        signals: &mut [&mut [f64]],
+        levels: Option<&LevelSetup>,
+    ) -> Result<Option<LevelRows>, FitError> {
+        let Some(setup) = levels else {
+            match &self.filter {
+                Some(band) => filtfilt_many_unless_constant(band, signals)?,
+                None => self.unfiltered(signals),
+            }
+            return Ok(None);
+        };
+        let reference = levels::reference_over(&setup.reference, run.clone());
+        let mut target = self.spare.take(run.len());
+        let target_part = &mut target[..run.len()];
+        let rows = match &self.filter {
+            Some(band) => setup
+                .low
+                .rows_against_then_band(signals, reference, target_part, band),
+            None => {
+                let (columns, y) = signals.split_at(signals.len() - 1);
+                let columns: Vec<&[f64]> = columns.iter().map(|c| &**c).collect();
+                let rows = setup
+                    .low
+                    .rows_against(&columns, y[0], Some(reference), target_part);
+                self.unfiltered(signals);
+                rows
+            }
+        };
+        self.spare.give([target]);
+        Ok(Some(rows?))
+    }
+
+    /// Without a filter, a reference target's run loses its mean (its intercept).
+    fn unfiltered(&self, signals: &mut [&mut [f64]]) {
+        if self.settings.target == Target::Interference {
+            signals.iter_mut().for_each(|s| remove_mean(s));
+        }
+    }
+
     /// Band rows (and, with `levels`, level rows; with `above_band`, rows above the band) of
     /// every run long enough, from the `width` columns and the target that `fill` writes.
     pub(super) fn prepare(
@@ -517,33 +561,8 @@ impl Problem<'_, '_> {
                 None => None,
             };
             let mut signals: Vec<&mut [f64]> = data.chunks_mut(n).collect();
-            let mut filtered = false;
-            if let Some(setup) = levels {
-                let reference = levels::reference_over(&setup.reference, run.clone());
-                let mut target = self.spare.take(n);
-                let rows = match &self.filter {
-                    // The level rows' low-pass and the band-pass share the cores as one job.
-                    Some(band) => {
-                        filtered = true;
-                        let low = &setup.low;
-                        low.rows_against_then_band(&mut signals, reference, &mut target[..n], band)
-                    }
-                    None => {
-                        let (columns, y) = signals.split_at(width);
-                        let columns: Vec<&[f64]> = columns.iter().map(|c| &**c).collect();
-                        let target = &mut target[..n];
-                        setup
-                            .low
-                            .rows_against(&columns, y[0], Some(reference), target)
-                    }
-                };
-                self.spare.give([target]);
-                level_rows.push(rows?);
-            }
-            if let (Some(f), false) = (&self.filter, filtered) {
-                filtfilt_many_unless_constant(f, &mut signals)?;
-            } else if self.filter.is_none() && self.settings.target == Target::Interference {
-                signals.iter_mut().for_each(|s| remove_mean(s));
+            if let Some(rows) = self.filter_run(run.clone(), &mut signals, levels)? {
+                level_rows.push(rows);
             }
             runs.push(RunRows {
                 data: buffer,
@@ -679,7 +698,6 @@ impl Problem<'_, '_> {
                 chosen,
                 iterations: iteration,
                 level_rows,
-                terms: terms.clone(),
             });
             if step < EXACT_TOLERANCE || settled_loser {
                 break;
@@ -691,12 +709,12 @@ impl Problem<'_, '_> {
 }
 
 /// The exact-magnitude fit: its solution, the Gauss-Newton iterations it took, and its last
-/// level rows (columns `terms`), which describe it rather than the linear fit.
+/// level rows (the columns of its design's terms), which describe it rather than the linear
+/// fit.
 pub(super) struct Exact {
     pub(super) chosen: Chosen,
     pub(super) iterations: usize,
     pub(super) level_rows: Vec<LevelRows>,
-    pub(super) terms: Vec<Term>,
 }
 
 /// `beta`, the coefficients of `terms`, as coefficients of `columns`: 0 for a column that is
