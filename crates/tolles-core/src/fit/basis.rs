@@ -88,7 +88,8 @@ impl Basis {
         rows.iter()
             .map(|r| LevelRows {
                 a: self.on_terms(&r.a, false),
-                ..r.clone()
+                y: r.y.clone(),
+                at: r.at.clone(),
             })
             .collect()
     }

@@ -19,6 +19,7 @@
 //! of the band-passed residual's scatter to theirs.
 
 use crate::fit::problem::Spare;
+use crate::fit::Samples;
 use crate::fit::{Band, FitSettings, Lambda};
 use crate::model::design::Design;
 use crate::model::terms::TermSet;
@@ -28,7 +29,6 @@ use crate::signal::filter::{
     filtfilt_many_unless_constant, filtfilt_sampled_then_in_place,
     filtfilt_sampled_unless_constant, Butterworth, FilterError,
 };
-use crate::signal::segment::contiguous_runs;
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 use std::ops::Range;
@@ -90,18 +90,20 @@ pub fn reference(
     tt: Option<&[f64]>,
     settings: &FitSettings,
 ) -> Option<Reference> {
-    reference_reusing(flux, usable, fs_hz, tt, settings, &Spare::default())
+    let samples = Samples::within(usable.to_vec(), tt);
+    reference_reusing(flux, &samples, fs_hz, settings, &Spare::default())
 }
 
-/// [`reference()`] with the calibration fit's buffers from `spare`, and given back to it.
+/// [`reference()`] on the fit's `samples` (the usable ones of `flux` and their runs), with the
+/// calibration fit's buffers from `spare`, and given back to it.
 pub(super) fn reference_reusing(
     flux: &VectorSeries,
-    usable: &[bool],
+    samples: &Samples,
     fs_hz: f64,
-    tt: Option<&[f64]>,
     settings: &FitSettings,
     spare: &Spare,
 ) -> Option<Reference> {
+    let usable = &samples.usable;
     let n = flux.len();
     let mut magnitude = vec![0.0; n];
     split_rows(n, &mut [&mut magnitude], |rows, out| {
@@ -128,11 +130,17 @@ pub(super) fn reference_reusing(
         magnitude: Default::default(),
         ..settings.clone()
     };
+    // The magnitude is believable wherever the fluxgate is usable (its check bounds it far
+    // below the scalar's limit) and NaN elsewhere, so the fit's samples are the magnitude's.
+    debug_assert!(magnitude
+        .iter()
+        .zip(usable)
+        .all(|(m, u)| crate::fit::scalar_usable(*m) == *u));
     let cal = crate::fit::fit_reusing(
         &magnitude,
         flux.into(),
         fs_hz,
-        tt,
+        samples,
         &calibration_settings,
         spare,
         crate::fit::Wanted::Coefficients,
@@ -141,7 +149,7 @@ pub(super) fn reference_reusing(
     // The calibrated magnitude's correction is written in place and subtracted there; the
     // samples outside the runs (the unusable ones) are NaN.
     let mut values = vec![0.0; n];
-    for run in contiguous_runs(usable, tt) {
+    for run in &samples.runs {
         let part = &mut values[run.clone()];
         design.apply_over_into(flux, run.clone(), &cal.coefficients, part);
     }

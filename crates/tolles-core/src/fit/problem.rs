@@ -5,8 +5,8 @@ use super::choice::{choose_design, Chosen};
 use super::levels::{self, LevelDiagnostics, LevelRows, LowFrequency, Reference};
 use super::qr::{stacked_factor, triangular_factor};
 use super::{
-    FitError, FitSettings, Lambda, MagnitudeChoice, Target, EXACT_CLEAR_LOSS, EXACT_ITERATIONS,
-    EXACT_SETTLED, EXACT_TOLERANCE,
+    FitError, FitSettings, Lambda, MagnitudeChoice, Samples, Target, EXACT_CLEAR_LOSS,
+    EXACT_ITERATIONS, EXACT_SETTLED, EXACT_TOLERANCE,
 };
 use crate::model::design::{Design, Term};
 use crate::model::magnitude::exact_jacobian_into;
@@ -81,7 +81,8 @@ impl Spare {
 pub(super) struct Problem<'p, 'a> {
     pub(super) scalar: &'p [f64],
     pub(super) flux: &'p Fluxgates<'a>,
-    pub(super) runs: Vec<Range<usize>>,
+    /// The samples it uses and their runs.
+    pub(super) samples: &'p Samples,
     pub(super) filter: Option<Butterworth>,
     pub(super) above: Option<AboveBand>,
     pub(super) settings: &'p FitSettings,
@@ -249,11 +250,9 @@ impl Prepared {
         let target = self.width - 1;
         for run in 0..self.runs.len() {
             let all = 0..self.band_rows(run);
-            self.band_column(run, target, &all)
-                .iter()
-                .for_each(|v| before.push(*v));
+            before.push_all(self.band_column(run, target, &all));
             if let Some(above) = &self.runs[run].above {
-                above.column(target).iter().for_each(|v| before.push(*v));
+                before.push_all(above.column(target).as_slice());
             }
         }
         before.std()
@@ -533,6 +532,7 @@ impl Problem<'_, '_> {
             .unwrap_or(0)
             .max(2 * trim + 1);
         let sizes: Vec<usize> = self
+            .samples
             .runs
             .iter()
             .map(|r| {
@@ -547,7 +547,7 @@ impl Problem<'_, '_> {
         let mut runs = Vec::new();
         let mut level_rows = Vec::new();
         let mut short = 0;
-        for (run, used) in self.runs.iter().zip(sizes) {
+        for (run, used) in self.samples.runs.iter().zip(sizes) {
             let n = run.len();
             let mut buffer = buffers.next().expect("one buffer per run");
             if used == 0 {
@@ -582,12 +582,7 @@ impl Problem<'_, '_> {
 
     /// The reference and low-pass for heading levels, when the settings ask for them and the
     /// fluxgate can be calibrated.
-    pub(super) fn level_setup(
-        &self,
-        usable: &[bool],
-        fs_hz: f64,
-        tt: Option<&[f64]>,
-    ) -> Result<Option<LevelSetup>, FitError> {
+    pub(super) fn level_setup(&self, fs_hz: f64) -> Result<Option<LevelSetup>, FitError> {
         let s = self.settings;
         if !s.levels || s.target == Target::Interference || self.flux.count() != 1 {
             return Ok(None);
@@ -596,7 +591,7 @@ impl Problem<'_, '_> {
             return Ok(None);
         };
         let flux = self.flux.series()[0];
-        let Some(reference) = levels::reference_reusing(flux, usable, fs_hz, tt, s, self.spare)
+        let Some(reference) = levels::reference_reusing(flux, self.samples, fs_hz, s, self.spare)
         else {
             return Ok(None);
         };
@@ -617,27 +612,28 @@ impl Problem<'_, '_> {
     /// Refits with the level rows: first weighted by the reference's expected noise, then, if
     /// the rows scatter more than that about the fit, once more with their measured scatter.
     ///
-    /// The rows `solve` gives have the columns of `union`. Known and kept (it decides default
-    /// fits, see the README): the misfit that decides the second weighting takes the chosen
-    /// candidate's coefficients as those of the first columns, the first candidate's.
+    /// `rows` are the level rows on the columns of `union`, the same for every weight (formed
+    /// once: at 10⁷ samples they are 35 MB of fresh memory, 0.1–0.2 s here). Known and kept (it
+    /// decides default fits, see the README): the misfit that decides the second weighting
+    /// takes the chosen candidate's coefficients as those of the first columns, the first
+    /// candidate's.
     pub(super) fn choose_with_levels(
         &self,
         setup: &mut LevelSetup,
         band_only: &Chosen,
         union: &[Term],
-        solve: impl Fn(&LevelSetup) -> Result<(Chosen, Vec<LevelRows>), FitError>,
+        rows: Vec<LevelRows>,
+        solve: impl Fn(&LevelSetup) -> Result<Chosen, FitError>,
     ) -> Result<Chosen, FitError> {
         let s = &band_only.solution;
         setup.band_sigma_nt = (s.rss / s.rows.max(1) as f64).sqrt().max(1e-6);
-        let (mut chosen, rows) = solve(setup)?;
+        let mut chosen = solve(setup)?;
         setup.rows = rows;
         setup.row_terms = union.to_vec();
         let misfit = levels::rms_misfit(&setup.rows, &chosen.solution.coefficients);
         if misfit > 1.5 * setup.sigma_nt {
             setup.sigma_nt = misfit;
-            let (again, rows) = solve(setup)?;
-            chosen = again;
-            setup.rows = rows;
+            chosen = solve(setup)?;
         }
         Ok(chosen)
     }

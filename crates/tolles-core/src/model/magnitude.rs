@@ -202,7 +202,7 @@ pub fn exact_jacobian_into(
         let db = [&db[0][..], &db[1][..], &db[2][..]];
         ws.start(m);
         for (c, (column, beta)) in columns.iter().zip(coefficients).enumerate() {
-            ws.is_field[c] = fields_of(*column, b, db, s, &mut ws.fields[c]);
+            ws.parts[c] = fields_of(*column, b, db, s, &mut ws.fields[c]);
             ws.add_to_h(c, *beta);
         }
         let at = block.start - rows.start..block.end - rows.start;
@@ -219,8 +219,8 @@ pub fn exact_jacobian_into(
                 ws.derivatives(c, out);
             } else {
                 let mut field = std::mem::take(&mut ws.spare);
-                let is_field = fields_of(term.column, b, db, s, &mut field);
-                ws.derivatives_of(is_field, &field, out);
+                let parts = fields_of(term.column, b, db, s, &mut field);
+                ws.derivatives_of(parts, &field, out);
                 ws.spare = field;
             }
         }
@@ -233,10 +233,11 @@ const JACOBIAN_BLOCK_ROWS: usize = 256;
 
 /// One block's fields, total field and direction, reused from block to block.
 struct JacobianBlock {
-    /// Per column, its field's x, y, z over the block (nT per unit of its coefficient).
+    /// Per column, its field's x, y, z over the block (nT per unit of its coefficient); only
+    /// the components of its [`Parts`] are written.
     fields: Vec<[Vec<f64>; 3]>,
-    /// Per column, whether it is a field at all (not the bias).
-    is_field: Vec<bool>,
+    /// Per column, the components its field has, `None` for the bias.
+    parts: Vec<Parts>,
     /// Another column's field, for terms that are not the design's columns.
     spare: [Vec<f64>; 3],
     h: [Vec<f64>; 3],
@@ -248,7 +249,7 @@ impl JacobianBlock {
     fn new(columns: usize) -> Self {
         Self {
             fields: vec![Default::default(); columns],
-            is_field: vec![false; columns],
+            parts: vec![None; columns],
             spare: Default::default(),
             h: Default::default(),
             bias: Vec::new(),
@@ -270,12 +271,21 @@ impl JacobianBlock {
     }
 
     /// Adds `beta` times column `c`'s field to H (the bias to `bias`), as `exact_at` does.
+    ///
+    /// A component the field lacks would add `β·0`, a signed zero, which leaves every sum as it
+    /// is: only the others are added.
     fn add_to_h(&mut self, c: usize, beta: f64) {
-        if !self.is_field[c] {
+        let Some(parts) = self.parts[c] else {
             self.bias.iter_mut().for_each(|b| *b += beta);
             return;
-        }
-        for (h, v) in self.h.iter_mut().zip(&self.fields[c]) {
+        };
+        for ((h, v), _) in self
+            .h
+            .iter_mut()
+            .zip(&self.fields[c])
+            .zip(parts)
+            .filter(|p| p.1)
+        {
             for (h, v) in h.iter_mut().zip(v) {
                 *h += beta * v;
             }
@@ -284,26 +294,39 @@ impl JacobianBlock {
 
     /// Column `c`'s derivative over the block into `out`.
     fn derivatives(&self, c: usize, out: &mut [f64]) {
-        self.derivatives_of(self.is_field[c], &self.fields[c], out);
+        self.derivatives_of(self.parts[c], &self.fields[c], out);
     }
 
-    /// The derivative of a column with field `field` (or the bias) over the block.
-    fn derivatives_of(&self, is_field: bool, field: &[Vec<f64>; 3], out: &mut [f64]) {
-        if !is_field {
+    /// The derivative `∂|B + H|/∂β` of a column with field `field` (components `parts`; `None`:
+    /// the bias, whose derivative is 1) over the block: `d0·v0 + d1·v1 + d2·v2` with `d` the
+    /// direction of `B + H`, summed in that order, without the products by a component the
+    /// field lacks (signed zeros, which change no sum).
+    fn derivatives_of(&self, parts: Parts, field: &[Vec<f64>; 3], out: &mut [f64]) {
+        let Some(parts) = parts else {
             out.fill(1.0);
             return;
-        }
-        let [d0, d1, d2] = &self.direction;
-        let [v0, v1, v2] = field;
-        for (k, o) in out.iter_mut().enumerate() {
-            *o = derivative(Some([v0[k], v1[k], v2[k]]), [d0[k], d1[k], d2[k]]);
+        };
+        let mut first = true;
+        for ((d, v), _) in self.direction.iter().zip(field).zip(parts).filter(|p| p.1) {
+            let terms = out.iter_mut().zip(d).zip(v);
+            if first {
+                terms.for_each(|((o, d), v)| *o = d * v);
+            } else {
+                terms.for_each(|((o, d), v)| *o += d * v);
+            }
+            first = false;
         }
     }
 }
 
+/// Which of x, y, z a column's field has (the others are 0 at every sample), or `None` for a
+/// column that is no field (the bias).
+type Parts = Option<[bool; 3]>;
+
 /// The field of `column` (see [`field_per_unit`]) at every sample of a block with readings `b`
-/// and changes `db` (one slice per component), into `out`; false, leaving `out` alone, for a
-/// column that is no field.
+/// and changes `db` (one slice per component), into the components of `out` it has, which it
+/// returns; `None`, leaving `out` alone, for a column that is no field. The other components
+/// are 0 and left as they were.
 ///
 /// Per sample and component the operations are `field_per_unit`'s, so the values are the same;
 /// but each kind of column is its own loop over the block with its axes fixed, which the
@@ -315,15 +338,24 @@ fn fields_of(
     db: [&[f64]; 3],
     s: f64,
     out: &mut [Vec<f64>; 3],
-) -> bool {
-    if field_per_unit(column, [0.0; 3], [0.0; 3], s).is_none() {
-        return false;
-    }
+) -> Parts {
+    field_per_unit(column, [0.0; 3], [0.0; 3], s)?;
     let m = b[0].len();
-    out.iter_mut().for_each(|o| {
+    let parts = match column {
+        Column::Permanent(i) | Column::Induced(i, _) | Column::Eddy(i, _) => {
+            let mut parts = [false; 3];
+            parts[i.index()] = true;
+            if let Column::Induced(_, j) = column {
+                parts[j.index()] = true;
+            }
+            parts
+        }
+        _ => [true; 3],
+    };
+    for (o, _) in out.iter_mut().zip(parts).filter(|p| p.1) {
         o.clear();
         o.resize(m, 0.0);
-    });
+    }
     match column {
         Column::Permanent(i) => out[i.index()].fill(1.0),
         Column::Induced(i, j) if i == j => divided(b[i.index()], s, &mut out[i.index()]),
@@ -342,7 +374,7 @@ fn fields_of(
         }
         Column::Extra { .. } | Column::Bias => unreachable!("no field, returned above"),
     }
-    true
+    Some(parts)
 }
 
 /// `out = v / d`, sample by sample.
@@ -362,14 +394,6 @@ fn traceless_over(v: [&[f64]; 3], a: usize, s: f64, out: &mut [Vec<f64>; 3]) {
         } else {
             o.iter_mut().zip(v).for_each(|(o, v)| *o = v / 3.0 / s);
         }
-    }
-}
-
-/// `∂|B + H|/∂β` of a column with field `field` (1 for the bias).
-fn derivative(field: Option<[f64; 3]>, direction: [f64; 3]) -> f64 {
-    match field {
-        Some(v) => direction[0] * v[0] + direction[1] * v[1] + direction[2] * v[2],
-        None => 1.0,
     }
 }
 
@@ -434,12 +458,17 @@ mod tests {
         for terms in ["p,i,e,b", "p,it,trace,et"] {
             for column in Design::new(terms.parse().unwrap()).columns() {
                 let mut out: [Vec<f64>; 3] = Default::default();
-                let is_field = fields_of(column, b, d, s, &mut out);
+                let parts = fields_of(column, b, d, s, &mut out);
                 for k in 0..flux.len() {
                     let one = field_per_unit(column, sample(&flux, k), at(&db, k), s);
-                    assert_eq!(is_field, one.is_some(), "{column}");
-                    if let Some(v) = one {
-                        let block = out.each_ref().map(|o| o[k]);
+                    assert_eq!(parts.is_some(), one.is_some(), "{column}");
+                    if let (Some(v), Some(parts)) = (one, parts) {
+                        // A component left out is 0 in the field, and one kept is its value.
+                        let kept = out.each_ref().map(|o| o.get(k).copied());
+                        let block: [f64; 3] = std::array::from_fn(|i| match parts[i] {
+                            true => kept[i].expect("a kept component is written"),
+                            false => 0.0,
+                        });
                         assert_eq!(block.map(f64::to_bits), v.map(f64::to_bits), "{column} {k}");
                     }
                 }
