@@ -19,11 +19,10 @@
 //! of the band-passed residual's scatter to theirs.
 
 use crate::fit::problem::Spare;
-use crate::fit::Samples;
-use crate::fit::{Band, FitSettings, Lambda};
+use crate::fit::{Band, FitSettings, Lambda, Samples};
 use crate::model::design::Design;
 use crate::model::terms::TermSet;
-use crate::model::vector::VectorSeries;
+use crate::model::vector::{Fluxgates, VectorSeries};
 use crate::parallel::split_rows;
 use crate::signal::filter::{
     filtfilt_many_unless_constant, filtfilt_sampled_then_in_place,
@@ -90,7 +89,12 @@ pub fn reference(
     tt: Option<&[f64]>,
     settings: &FitSettings,
 ) -> Option<Reference> {
-    let samples = Samples::within(usable.to_vec(), tt);
+    // As a fit would check them: a fluxgate out of range gives no reference, and a sample it
+    // does not have is not usable whatever `usable` says.
+    crate::fit::check_flux_magnitude(flux).ok()?;
+    let finite = Fluxgates::from(flux).finite_mask();
+    let usable = usable.iter().zip(finite).map(|(u, f)| *u && f).collect();
+    let samples = Samples::within(usable, tt);
     reference_reusing(flux, &samples, fs_hz, settings, &Spare::default())
 }
 
@@ -374,6 +378,28 @@ pub fn reference_over(reference: &Reference, run: Range<usize>) -> &[f64] {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_sample_the_fluxgate_lacks_is_not_usable_whatever_the_mask_says() {
+        use crate::flight::plan::BoxPlan;
+        use crate::flight::sim::{simulate, Installation};
+        let mut flight = simulate(
+            &BoxPlan::default().build(),
+            &Installation::TailStinger.scenario(3),
+        )
+        .unwrap();
+        let n = flight.flux.len();
+        flight.flux.x[n / 2] = f64::NAN;
+        let settings = FitSettings::recommended();
+        let tt = Some(flight.tt.as_slice());
+        let mut without = vec![true; n];
+        without[n / 2] = false;
+        let told = reference(&flight.flux, &without, 10.0, tt, &settings).unwrap();
+        let all = reference(&flight.flux, &vec![true; n], 10.0, tt, &settings).unwrap();
+        let bits = |r: &Reference| r.values.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&all), bits(&told));
+        assert!(all.values[n / 2].is_nan());
+    }
 
     #[test]
     fn the_reference_is_the_calibrated_magnitude_on_usable_samples_and_nan_elsewhere() {

@@ -565,13 +565,7 @@ fn fit_reusing(
         spare,
     };
     // The linear rows are the largest buffer; the reference's calibration uses its first part.
-    let longest = problem
-        .samples
-        .runs
-        .iter()
-        .map(|r| r.len())
-        .max()
-        .unwrap_or(0);
+    let longest = samples.runs.iter().map(|r| r.len()).max().unwrap_or(0);
     spare.reserve(longest * (stored.len() + 1));
     let mut levels = problem.level_setup(fs_hz)?;
     let linear = |run: Range<usize>, out: &mut [f64]| {
