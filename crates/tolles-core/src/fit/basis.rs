@@ -123,6 +123,7 @@ impl Basis {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fit::choice::union_of_terms;
     use crate::fit::qr::triangular_factor;
     use crate::fit::FitSettings;
     use crate::model::design::Design;
@@ -130,17 +131,7 @@ mod tests {
     use crate::model::vector::VectorSeries;
 
     fn default_union() -> Vec<Term> {
-        let s = FitSettings::recommended();
-        let sets = std::iter::once(s.design.terms).chain(s.alternative_terms.iter().copied());
-        let mut union: Vec<Term> = Vec::new();
-        for terms in sets {
-            for t in Design::new(terms).design_terms() {
-                if !union.contains(&t) {
-                    union.push(t);
-                }
-            }
-        }
-        union
+        union_of_terms(&FitSettings::recommended().candidate_designs())
     }
 
     /// A wobbling fluxgate, nT.

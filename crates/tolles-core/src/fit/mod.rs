@@ -821,7 +821,7 @@ fn mean_correction(flux: &Fluxgates, runs: &[Range<usize>], model: Model, spare:
     // Run by run, each summed from its first sample: the same additions as ever.
     let mut sum = 0.0;
     let mut count = 0usize;
-    for run in runs.iter() {
+    for run in runs {
         sum += field[run.clone()].iter().sum::<f64>();
         count += run.len();
     }
@@ -989,13 +989,6 @@ mod tests {
         }
     }
 
-    /// Population standard deviation by two plain passes, for reference.
-    fn two_pass_std(parts: &[Vec<f64>]) -> f64 {
-        let all: Vec<f64> = parts.concat();
-        let mean = all.iter().sum::<f64>() / all.len() as f64;
-        (all.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / all.len() as f64).sqrt()
-    }
-
     proptest! {
         /// Blocks of every length, merged across blocks and calls, and an offset far larger
         /// than the scatter (a band-passed target is centred, a level is not).
@@ -1016,7 +1009,8 @@ mod tests {
                 .collect();
             let mut running = RunningStd::default();
             parts.iter().for_each(|p| running.push_all(p));
-            let want = two_pass_std(&parts);
+            // Two plain passes over all the values.
+            let want = crate::signal::metrics::std_dev(&parts.concat());
             if lengths.iter().sum::<usize>() == 0 {
                 prop_assert!(running.std().is_nan());
             } else {
