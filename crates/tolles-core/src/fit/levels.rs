@@ -284,8 +284,13 @@ impl LowFrequency {
         Ok(LevelRows::from_sampled(sampled, keep))
     }
 
+    /// The low-pass.
+    pub(super) fn filter(&self) -> &Butterworth {
+        &self.filter
+    }
+
     /// The samples of a run of `n` that give level rows; `None` if it is too short for any.
-    fn kept(&self, n: usize) -> Option<Vec<usize>> {
+    pub(super) fn kept(&self, n: usize) -> Option<Vec<usize>> {
         if n <= self.filter.padlen() + 1 || n <= 2 * self.trim + self.step {
             return None;
         }
@@ -316,7 +321,7 @@ pub struct LevelRows {
 
 impl LevelRows {
     /// No rows, for `columns` columns.
-    fn none(columns: usize) -> Self {
+    pub(super) fn none(columns: usize) -> Self {
         LevelRows {
             a: DMatrix::zeros(0, columns),
             y: Vec::new(),
@@ -325,7 +330,7 @@ impl LevelRows {
     }
 
     /// The rows at `at` from the low-passed samples of each column, then of the target.
-    fn from_sampled(mut sampled: Vec<Vec<f64>>, at: Vec<usize>) -> Self {
+    pub(super) fn from_sampled(mut sampled: Vec<Vec<f64>>, at: Vec<usize>) -> Self {
         let y = sampled.pop().expect("the target is filtered last");
         let a = DMatrix::from_iterator(at.len(), sampled.len(), sampled.into_iter().flatten());
         LevelRows { a, y, at }

@@ -564,29 +564,27 @@ fn fit_reusing(
         settings,
         spare,
     };
-    // The linear rows are the largest buffer; the reference's calibration uses its first part.
-    let longest = samples.runs.iter().map(|r| r.len()).max().unwrap_or(0);
-    spare.reserve(longest * (stored.len() + 1));
     let mut levels = problem.level_setup(fs_hz)?;
-    let linear = |run: Range<usize>, out: &mut [f64]| {
-        let (a, y) = out.split_at_mut(run.len() * stored.len());
+    let above = problem.above.as_ref();
+    // The linear rows are the largest buffer; the reference's calibration used its first part.
+    let longest = samples.runs.iter().map(|r| r.len()).max().unwrap_or(0);
+    spare.reserve(problem.buffer_len(longest, stored.len(), levels.as_ref(), above));
+    let linear = |run: Range<usize>, rows: Range<usize>, out: &mut [f64]| {
+        let (a, y) = out.split_at_mut(rows.len() * stored.len());
         settings
             .design
-            .matrix_over(flux.clone(), run.clone(), stored, a);
-        y.copy_from_slice(&scalar[run]);
+            .matrix_rows_over(flux.clone(), run.clone(), rows.clone(), stored, a);
+        y.copy_from_slice(&scalar[run.start + rows.start..run.start + rows.end]);
     };
-    let prepared = problem.prepare(
-        stored.len(),
-        &linear,
-        levels.as_ref(),
-        problem.above.as_ref(),
-    )?;
     let count = fold_count(settings.lambda);
     // The band rows are factored once, cut where the folds of either plan start: the folds
     // move when the level rows join.
-    let band_plan = prepared.plan(false, count);
-    let level_plan = levels.as_ref().map(|_| prepared.plan(true, count));
+    let mut plans = problem.plans_ahead(levels.as_ref(), above, &[false, true], count);
+    let level_plan = plans.pop().filter(|_| levels.is_some());
+    let band_plan = plans.pop().expect("the band rows' plan");
     let plans: Vec<&problem::Plan> = std::iter::once(&band_plan).chain(&level_plan).collect();
+    let prepared = problem.prepare(stored.len(), &linear, levels.as_ref(), above, &plans)?;
+    debug_assert!(prepared.plan(false, count) == band_plan);
     let band = prepared.band_factors(&plans);
     let band_folds = basis.folds(prepared.fold_factors(&band_plan, 0.0, &band));
     let mut chosen = choose_design(&band_folds, &designs, &union, settings.lambda, 0.0)?;
@@ -1169,6 +1167,56 @@ mod tests {
             auto.diagnostics.residual_std_nt,
             linear.diagnostics.residual_std_nt
         );
+    }
+
+    #[test]
+    fn a_long_run_done_in_windows_fits_as_when_done_whole() {
+        use problem::windows_in_tests::{ALLOWED, DONE};
+        let (fs, n) = (10.0, 100_000);
+        let t = |k: usize| k as f64 / fs;
+        let roll = |k: usize| 0.3 * (0.9 * t(k)).sin() + 0.1 * (0.013 * t(k)).sin();
+        let pitch = |k: usize| 0.2 * (1.3 * t(k) + 1.0).sin();
+        let yaw = |k: usize| 0.002 * t(k) + 0.2 * (0.4 * t(k)).sin();
+        let flux = VectorSeries::new(
+            (0..n)
+                .map(|k| 20_000.0 * yaw(k).cos() * pitch(k).cos())
+                .collect(),
+            (0..n)
+                .map(|k| 20_000.0 * yaw(k).sin() + 900.0 * roll(k))
+                .collect(),
+            (0..n)
+                .map(|k| 45_000.0 + 8_000.0 * pitch(k) * roll(k).cos())
+                .collect(),
+        );
+        let scalar: Vec<f64> = (0..n)
+            .map(|k| {
+                let u = [flux.x[k], flux.y[k], flux.z[k]].map(|c| c / flux.magnitude(k));
+                50_000.0 + 40.0 * u[0] - 25.0 * u[2]
+                    + 3e-3 * flux.y[k] * u[1]
+                    + 0.01 * (7.1 * t(k)).sin()
+            })
+            .collect();
+        let settings = FitSettings::recommended();
+        DONE.set(0);
+        let windowed = fit(&scalar, &flux, fs, None, &settings).unwrap();
+        assert!(DONE.get() > 0, "the run was done in windows");
+        ALLOWED.set(false);
+        let whole = fit(&scalar, &flux, fs, None, &settings);
+        ALLOWED.set(true);
+        let whole = whole.unwrap();
+        let d = (&windowed.diagnostics, &whole.diagnostics);
+        assert_eq!(d.0.exact_iterations, d.1.exact_iterations);
+        assert_eq!(windowed.columns, whole.columns);
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs()).max(1e-3);
+        for (a, b) in windowed.coefficients.iter().zip(&whole.coefficients) {
+            assert!(close(*a, *b), "{a} vs {b}");
+        }
+        assert!(close(d.0.residual_std_nt, d.1.residual_std_nt));
+        assert!(close(
+            d.0.filtered_std_before_nt,
+            d.1.filtered_std_before_nt
+        ));
+        assert!(close(windowed.level_nt, whole.level_nt));
     }
 
     fn turning_fit() -> Fit {

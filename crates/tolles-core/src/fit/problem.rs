@@ -12,15 +12,39 @@ use crate::model::design::{Design, Term};
 use crate::model::magnitude::exact_jacobian_into;
 use crate::model::vector::Fluxgates;
 use crate::parallel::split_rows;
-use crate::signal::filter::{filtfilt_many_unless_constant, Butterworth};
+use crate::signal::filter::{
+    filtfilt_many_unless_constant, filtfilt_window, filtfilt_window_sampled_then_in_place,
+    Butterworth, Ends,
+};
 use nalgebra::DMatrix;
 use std::ops::Range;
 use std::sync::Mutex;
 
-/// Writes a run's unfiltered columns and, after them, its target into the slice given
-/// (column-major, one value per sample of the run each), every value of it: the slice holds
-/// whatever a [`Spare`] buffer last held.
-pub(super) type FillRun<'m> = dyn Fn(Range<usize>, &mut [f64]) + Sync + 'm;
+/// Writes the rows `rows` (counted from the run's start) of a run's unfiltered columns and,
+/// after them, of its target into the slice given (column-major, `rows.len()` values each),
+/// every value of it: the slice holds whatever a [`Spare`] buffer last held. A row's values
+/// are those of the whole run's (its changes taken over the run).
+pub(super) type FillRun<'m> = dyn Fn(Range<usize>, Range<usize>, &mut [f64]) + Sync + 'm;
+
+/// Samples per window of a long run, which is filtered and factored window by window: the
+/// rows of a whole run need not be held at once (at 10⁷ samples and 19 columns they are 1.5 GB,
+/// which on a virtual machine take seconds to fault in), and a window's stay in the caches
+/// between its filters and its factor. Runs shorter than two windows are done whole.
+#[cfg(not(test))]
+const WINDOW_SAMPLES: usize = 1 << 19;
+/// Shorter in tests, so that runs of tens of thousands of samples are done in windows.
+#[cfg(test)]
+const WINDOW_SAMPLES: usize = 1 << 15;
+
+/// In tests, whether long runs may be done in windows, and how many were.
+#[cfg(test)]
+pub(super) mod windows_in_tests {
+    use std::cell::Cell;
+    thread_local! {
+        pub(in crate::fit) static ALLOWED: Cell<bool> = const { Cell::new(true) };
+        pub(in crate::fit) static DONE: Cell<usize> = const { Cell::new(0) };
+    }
+}
 
 /// Buffers a fit has finished with, for its next step to reuse. On a long flight, touching
 /// fresh memory costs more than the arithmetic done in it (on a virtual machine, gigabytes take
@@ -134,11 +158,29 @@ impl AboveBand {
 /// The filtered rows of one run.
 struct RunRows {
     /// The columns and the target, column-major, `len` samples each, filtered but not trimmed,
-    /// at the start of a buffer that may be longer.
+    /// at the start of a buffer that may be longer; empty for a run done in windows.
     data: Vec<f64>,
     len: usize,
     /// Rows above the band (trimmed), the target last; with extra channels only.
     above: Option<DMatrix<f64>>,
+    /// For a run done in windows, its band rows already factored.
+    factored: Option<Factored>,
+}
+
+/// The band rows of a run done window by window, factored as they were filtered.
+struct Factored {
+    /// Consecutive ranges of band rows, cut where windows and the folds of the plans given
+    /// to [`Problem::prepare`] start, and their factors.
+    pieces: Vec<(Range<usize>, DMatrix<f64>)>,
+    /// The scatter of its filtered target over its band rows.
+    target: super::RunningStd,
+}
+
+/// A used run's rows as the folds count them.
+struct RowCounts<'l> {
+    band: usize,
+    level_at: &'l [usize],
+    above: usize,
 }
 
 /// Rows of every run ready for the folds: band rows (the filtered runs, read from `trim` on),
@@ -179,6 +221,58 @@ pub(super) struct FoldFactor {
     /// Factor of its (weighted) level rows alone.
     pub(super) level_r: DMatrix<f64>,
     pub(super) level_rows: usize,
+}
+
+/// [`Prepared::plan`] of runs with the rows `runs`.
+fn plan_of(runs: &[RowCounts], trim: usize, count: usize) -> Plan {
+    let kinds: Vec<Option<Vec<u8>>> = runs
+        .iter()
+        .map(|r| {
+            (!r.level_at.is_empty() || r.above > 0)
+                .then(|| merged_kinds(r.band, trim, r.level_at, r.above))
+        })
+        .collect();
+    let length = |run: usize| kinds[run].as_ref().map_or(runs[run].band, Vec::len);
+    let total: usize = (0..runs.len()).map(length).sum();
+    let mut plan: Plan = vec![Vec::new(); count];
+    let mut r = 0;
+    for (run, kind) in kinds.iter().enumerate() {
+        let n = length(run);
+        let mut counts = [0usize; 3];
+        let mut start = 0;
+        while start < n {
+            let fold = (r + start) * count / total;
+            let fold_end = ((fold + 1) * total).div_ceil(count);
+            let end = (fold_end - r).min(n);
+            let before = counts;
+            match kind {
+                Some(k) => k[start..end].iter().for_each(|&k| counts[k as usize] += 1),
+                None => counts[BAND as usize] += end - start,
+            }
+            plan[fold].push(Piece {
+                run,
+                band: before[0]..counts[0],
+                level: before[1]..counts[1],
+                above: before[2]..counts[2],
+            });
+            start = end;
+        }
+        r += n;
+    }
+    plan
+}
+
+/// Where the plans cut the band rows `0..band` of run `run`, its ends included, in order.
+fn cuts_of(plans: &[&Plan], run: usize, band: usize) -> Vec<usize> {
+    let mut cuts = vec![0, band];
+    for piece in plans.iter().flat_map(|p| p.iter().flatten()) {
+        if piece.run == run {
+            cuts.extend([piece.band.start, piece.band.end]);
+        }
+    }
+    cuts.sort_unstable();
+    cuts.dedup();
+    cuts
 }
 
 /// Kinds of rows, in the order the folds take them.
@@ -224,6 +318,7 @@ fn merged_kinds(band: usize, trim: usize, level_at: &[usize], above: usize) -> V
 impl Prepared {
     /// The buffers of the runs, for another preparation to reuse.
     pub(super) fn into_buffers(self) -> Vec<Vec<f64>> {
+        // A run done in windows holds none (an empty one is not kept).
         self.runs.into_iter().map(|r| r.data).collect()
     }
 
@@ -249,6 +344,10 @@ impl Prepared {
         let mut before = super::RunningStd::default();
         let target = self.width - 1;
         for run in 0..self.runs.len() {
+            if let Some(factored) = &self.runs[run].factored {
+                before.merge(factored.target);
+                continue;
+            }
             let all = 0..self.band_rows(run);
             before.push_all(self.band_column(run, target, &all));
             if let Some(above) = &self.runs[run].above {
@@ -261,68 +360,40 @@ impl Prepared {
     /// Cuts the rows, in time order over all runs, into `count` contiguous folds: row r of
     /// `total` goes to fold ⌊r·count/total⌋. Level rows count only `with_levels`.
     pub(super) fn plan(&self, with_levels: bool, count: usize) -> Plan {
-        let kinds: Vec<Option<Vec<u8>>> = (0..self.runs.len())
-            .map(|run| {
-                let level_at = match self.levels.get(run) {
+        let runs: Vec<RowCounts> = (0..self.runs.len())
+            .map(|run| RowCounts {
+                band: self.band_rows(run),
+                level_at: match self.levels.get(run) {
                     Some(l) if with_levels => l.at.as_slice(),
                     _ => &[],
-                };
-                let above = self.runs[run].above.as_ref().map_or(0, |a| a.nrows());
-                (!level_at.is_empty() || above > 0)
-                    .then(|| merged_kinds(self.band_rows(run), self.trim, level_at, above))
+                },
+                above: self.runs[run].above.as_ref().map_or(0, |a| a.nrows()),
             })
             .collect();
-        let length = |run: usize| kinds[run].as_ref().map_or(self.band_rows(run), Vec::len);
-        let total: usize = (0..self.runs.len()).map(length).sum();
-        let mut plan: Plan = vec![Vec::new(); count];
-        let mut r = 0;
-        for (run, kind) in kinds.iter().enumerate() {
-            let n = length(run);
-            let mut counts = [0usize; 3];
-            let mut start = 0;
-            while start < n {
-                let fold = (r + start) * count / total;
-                let fold_end = ((fold + 1) * total).div_ceil(count);
-                let end = (fold_end - r).min(n);
-                let before = counts;
-                match kind {
-                    Some(k) => k[start..end].iter().for_each(|&k| counts[k as usize] += 1),
-                    None => counts[BAND as usize] += end - start,
-                }
-                plan[fold].push(Piece {
-                    run,
-                    band: before[0]..counts[0],
-                    level: before[1]..counts[1],
-                    above: before[2]..counts[2],
-                });
-                start = end;
-            }
-            r += n;
-        }
-        plan
+        plan_of(&runs, self.trim, count)
     }
 
     /// Factors the band rows of every run, cut where a fold of any of `plans` starts.
+    ///
+    /// A run done in windows was factored as it was filtered, cut where the plans given to
+    /// [`Problem::prepare`] cut it; `plans` must cut it nowhere else.
     pub(super) fn band_factors(&self, plans: &[&Plan]) -> BandFactors {
-        let mut cuts: Vec<Vec<usize>> = (0..self.runs.len())
-            .map(|run| vec![0, self.band_rows(run)])
-            .collect();
-        for piece in plans.iter().flat_map(|p| p.iter().flatten()) {
-            cuts[piece.run].extend([piece.band.start, piece.band.end]);
-        }
-        let runs = cuts
-            .into_iter()
-            .enumerate()
-            .map(|(run, mut cuts)| {
-                cuts.sort_unstable();
-                cuts.dedup();
+        let runs = (0..self.runs.len())
+            .map(|run| {
+                let cuts = cuts_of(plans, run, self.band_rows(run));
                 cuts.windows(2)
                     .map(|w| {
                         let rows = w[0]..w[1];
-                        let columns: Vec<&[f64]> = (0..self.width)
-                            .map(|c| self.band_column(run, c, &rows))
-                            .collect();
-                        (rows, triangular_factor(&columns))
+                        let factor = match &self.runs[run].factored {
+                            Some(factored) => factored.within(&rows),
+                            None => {
+                                let columns: Vec<&[f64]> = (0..self.width)
+                                    .map(|c| self.band_column(run, c, &rows))
+                                    .collect();
+                                triangular_factor(&columns)
+                            }
+                        };
+                        (rows, factor)
                     })
                     .collect()
             })
@@ -399,6 +470,176 @@ impl Prepared {
                 }
             })
             .collect()
+    }
+}
+
+/// A long run done window by window: each window is the run's samples of its core (about
+/// [`WINDOW_SAMPLES`]) widened by `margin` on each side within the run, filled, filtered with
+/// open ends where the run goes on, and its core's band rows factored; the margins' values are
+/// thrown away once their filters have settled.
+struct Windows {
+    run: Range<usize>,
+    margin: usize,
+    /// Columns, the target not included.
+    width: usize,
+    trim: usize,
+}
+
+impl Windows {
+    /// The run's band rows factored (cut at the band rows `cuts` and where windows start), the
+    /// scatter of its filtered target and, with `levels`, its level rows (not centred), in
+    /// windows of `buffer`; `None` if a column or a target is constant or nearly so over the
+    /// run (the filters leave a constant signal alone, which only the whole run can tell).
+    fn factor(
+        &self,
+        problem: &Problem,
+        fill: &FillRun<'_>,
+        levels: Option<&LevelSetup>,
+        cuts: &[usize],
+        buffer: &mut [f64],
+    ) -> Option<(Factored, Option<LevelRows>)> {
+        let n = self.run.len();
+        let band = problem.filter.as_ref().expect("windows are band-passed");
+        let core = n.div_ceil(n.div_ceil(WINDOW_SAMPLES));
+        let signals = self.width + 1;
+        let mut factored = Factored {
+            pieces: Vec::new(),
+            target: super::RunningStd::default(),
+        };
+        let kept = levels.and_then(|l| l.low.kept(n));
+        let mut sampled = vec![Vec::new(); signals];
+        let mut target = problem.spare.take(core + 2 * self.margin);
+        let reference = levels.map(|l| levels::reference_over(&l.reference, self.run.clone()));
+        for start in (0..n).step_by(core) {
+            let core = start..(start + core).min(n);
+            let window = core.start.saturating_sub(self.margin)..(core.end + self.margin).min(n);
+            let m = window.len();
+            let data = &mut buffer[..m * signals];
+            fill(self.run.clone(), window.clone(), data);
+            let low_target = &mut target[..m];
+            if let Some(reference) = reference {
+                let y = &data[self.width * m..];
+                for ((t, y), r) in low_target.iter_mut().zip(y).zip(&reference[window.clone()]) {
+                    *t = y - r;
+                }
+            }
+            let varying = || {
+                data.chunks(m).all(|c| surely_varying(c, n))
+                    && (reference.is_none() || surely_varying(low_target, n))
+            };
+            if start == 0 && !varying() {
+                problem.spare.give([target]);
+                return None;
+            }
+            let ends = Ends::of_window(&window, n);
+            let mut columns: Vec<&mut [f64]> = data.chunks_mut(m).collect();
+            match (levels, &kept) {
+                (Some(setup), Some(kept)) => {
+                    let at: Vec<usize> = kept
+                        .iter()
+                        .filter(|k| core.contains(k))
+                        .map(|k| k - window.start)
+                        .collect();
+                    let part = filtfilt_window_sampled_then_in_place(
+                        setup.low.filter(),
+                        &at,
+                        low_target,
+                        band,
+                        &mut columns,
+                        ends,
+                    );
+                    for (all, p) in sampled.iter_mut().zip(part) {
+                        all.extend(p);
+                    }
+                }
+                _ => filtfilt_window(band, &mut columns, ends),
+            }
+            self.factor_core(&columns, &window, &core, cuts, &mut factored);
+        }
+        problem.spare.give([target]);
+        let rows = levels.map(|_| match kept {
+            Some(kept) => LevelRows::from_sampled(sampled, kept),
+            None => LevelRows::none(self.width),
+        });
+        Some((factored, rows))
+    }
+
+    /// Factors the band rows among the samples `core` of the filtered `columns` of `window`,
+    /// cut at `cuts`, into `factored`, and adds their target to its scatter.
+    fn factor_core(
+        &self,
+        columns: &[&mut [f64]],
+        window: &Range<usize>,
+        core: &Range<usize>,
+        cuts: &[usize],
+        factored: &mut Factored,
+    ) {
+        let n = self.run.len();
+        let samples = core.start.max(self.trim)..core.end.min(n - self.trim);
+        if samples.is_empty() {
+            return;
+        }
+        let rows = samples.start - self.trim..samples.end - self.trim;
+        let at = |row: usize| row + self.trim - window.start;
+        for w in cuts.windows(2) {
+            let piece = w[0].max(rows.start)..w[1].min(rows.end);
+            if piece.is_empty() {
+                continue;
+            }
+            let part: Vec<&[f64]> = columns
+                .iter()
+                .map(|c| &c[at(piece.start)..at(piece.end)])
+                .collect();
+            factored.pieces.push((piece, triangular_factor(&part)));
+        }
+        let target = &columns[self.width];
+        factored
+            .target
+            .push_all(&target[at(rows.start)..at(rows.end)]);
+    }
+}
+
+/// Samples at the start of a run in which [`surely_varying`] looks.
+const PREFIX: usize = 4096;
+
+/// True when the first [`PREFIX`] samples of `x` hold two so far apart that any signal of `n`
+/// samples holding them has a sample standard deviation surely above `f64::EPSILON`, the
+/// filters' test for a constant signal, which they leave alone: two samples `a`, `b` bound it
+/// below by `|a − b| / √(2(n − 1))`, and twice that leaves a margin far beyond rounding.
+fn surely_varying(x: &[f64], n: usize) -> bool {
+    let prefix = &x[..x.len().min(PREFIX)];
+    let (lo, hi) = prefix
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
+            (lo.min(v), hi.max(v))
+        });
+    hi - lo > 2.0 * f64::EPSILON * (2.0 * (n as f64 - 1.0)).sqrt()
+}
+
+impl Factored {
+    /// The factor of the band rows `rows`, which start and end where pieces do.
+    fn within(&self, rows: &Range<usize>) -> DMatrix<f64> {
+        let inside: Vec<DMatrix<f64>> = self
+            .pieces
+            .iter()
+            .filter(|(r, _)| r.start >= rows.start && r.end <= rows.end)
+            .map(|(_, f)| f.clone())
+            .collect();
+        let covered: usize = self
+            .pieces
+            .iter()
+            .filter(|(r, _)| r.start >= rows.start && r.end <= rows.end)
+            .map(|(r, _)| r.len())
+            .sum();
+        assert_eq!(
+            covered,
+            rows.len(),
+            "a run done in windows is cut where it was planned"
+        );
+        match inside.len() {
+            1 => inside.into_iter().next().expect("one piece"),
+            _ => stacked_factor(&inside),
+        }
     }
 }
 
@@ -509,15 +750,8 @@ impl Problem<'_, '_> {
         }
     }
 
-    /// Band rows (and, with `levels`, level rows; with `above_band`, rows above the band) of
-    /// every run long enough, from the `width` columns and the target that `fill` writes.
-    pub(super) fn prepare(
-        &self,
-        width: usize,
-        fill: &FillRun<'_>,
-        levels: Option<&LevelSetup>,
-        above_band: Option<&AboveBand>,
-    ) -> Result<Prepared, FitError> {
+    /// Samples trimmed at each end of a run, and the fewest a run needs to give rows.
+    fn trim_and_needed(&self, above_band: Option<&AboveBand>) -> (usize, usize) {
         let trim = if self.filter.is_some() {
             self.settings.trim
         } else {
@@ -531,16 +765,114 @@ impl Problem<'_, '_> {
             .max()
             .unwrap_or(0)
             .max(2 * trim + 1);
+        (trim, needed)
+    }
+
+    /// The plans [`Prepared::plan`] will give, for each of `with_levels`, for the rows
+    /// [`Problem::prepare`] will make with `levels` and `above_band`: known before, so that long
+    /// runs can be factored as they are filtered, cut where the folds start.
+    pub(super) fn plans_ahead(
+        &self,
+        levels: Option<&LevelSetup>,
+        above_band: Option<&AboveBand>,
+        with_levels: &[bool],
+        count: usize,
+    ) -> Vec<Plan> {
+        let (trim, needed) = self.trim_and_needed(above_band);
+        let used: Vec<usize> = self
+            .samples
+            .runs
+            .iter()
+            .map(|r| r.len())
+            .filter(|&n| n >= needed)
+            .collect();
+        let kept: Vec<Vec<usize>> = used
+            .iter()
+            .map(|&n| levels.and_then(|l| l.low.kept(n)).unwrap_or_default())
+            .collect();
+        with_levels
+            .iter()
+            .map(|&with| {
+                let runs: Vec<RowCounts> = used
+                    .iter()
+                    .zip(&kept)
+                    .map(|(&n, at)| RowCounts {
+                        band: n - 2 * trim,
+                        level_at: if with { at } else { &[] },
+                        above: if above_band.is_some() {
+                            n - 2 * trim
+                        } else {
+                            0
+                        },
+                    })
+                    .collect();
+                plan_of(&runs, trim, count)
+            })
+            .collect()
+    }
+
+    /// Overlap (samples) of the windows of a run done in windows: the longer settling length of
+    /// the band-pass and the low-pass. `None` when runs are done whole: without a band-pass,
+    /// with rows above the band, or with filters that take too long to settle for the overlap
+    /// to stay small beside a window.
+    fn window_margin(
+        &self,
+        levels: Option<&LevelSetup>,
+        above_band: Option<&AboveBand>,
+    ) -> Option<usize> {
+        let band = self.filter.as_ref()?;
+        if above_band.is_some() {
+            return None;
+        }
+        let margin = levels
+            .map_or(0, |l| l.low.filter().settling_samples())
+            .max(band.settling_samples());
+        #[cfg(test)]
+        if !windows_in_tests::ALLOWED.get() {
+            return None;
+        }
+        (margin <= WINDOW_SAMPLES / 4).then_some(margin)
+    }
+
+    /// Values a run of `n` samples needs in its buffer, `width` columns and the target: all of
+    /// them, or a window's when it is done in windows.
+    pub(super) fn buffer_len(
+        &self,
+        n: usize,
+        width: usize,
+        levels: Option<&LevelSetup>,
+        above_band: Option<&AboveBand>,
+    ) -> usize {
+        match self.window_margin(levels, above_band) {
+            Some(margin) if n >= 2 * WINDOW_SAMPLES => {
+                (n.div_ceil(n.div_ceil(WINDOW_SAMPLES)) + 2 * margin) * (width + 1)
+            }
+            _ => n * (width + 1),
+        }
+    }
+
+    /// Band rows (and, with `levels`, level rows; with `above_band`, rows above the band) of
+    /// every run long enough, from the `width` columns and the target that `fill` writes.
+    ///
+    /// Runs of two windows or more are filtered and factored window by window, their band
+    /// rows cut where the folds of `plans` start (see [`Problem::plans_ahead`]).
+    pub(super) fn prepare(
+        &self,
+        width: usize,
+        fill: &FillRun<'_>,
+        levels: Option<&LevelSetup>,
+        above_band: Option<&AboveBand>,
+        plans: &[&Plan],
+    ) -> Result<Prepared, FitError> {
+        let (trim, needed) = self.trim_and_needed(above_band);
+        let margin = self.window_margin(levels, above_band);
         let sizes: Vec<usize> = self
             .samples
             .runs
             .iter()
-            .map(|r| {
-                if r.len() < needed {
-                    0
-                } else {
-                    r.len() * (width + 1)
-                }
+            .map(|r| match r.len() < needed {
+                true => 0,
+                false => self.buffer_len(r.len(), width, levels, above_band),
             })
             .collect();
         let mut buffers = self.spare.take_each(&sizes).into_iter();
@@ -554,8 +886,34 @@ impl Problem<'_, '_> {
                 short += n;
                 continue;
             }
-            let data = &mut buffer[..used];
-            fill(run.clone(), data);
+            if let (Some(margin), true) = (margin, n >= 2 * WINDOW_SAMPLES) {
+                let windows = Windows {
+                    run: run.clone(),
+                    margin,
+                    width,
+                    trim,
+                };
+                let cuts = cuts_of(plans, runs.len(), n - 2 * trim);
+                if let Some((factored, rows)) =
+                    windows.factor(self, fill, levels, &cuts, &mut buffer)
+                {
+                    #[cfg(test)]
+                    windows_in_tests::DONE.set(windows_in_tests::DONE.get() + 1);
+                    self.spare.give([buffer]);
+                    level_rows.extend(rows);
+                    runs.push(RunRows {
+                        data: Vec::new(),
+                        len: n,
+                        above: None,
+                        factored: Some(factored),
+                    });
+                    continue;
+                }
+                // A constant column: the whole run decides what its filters do.
+                buffer.resize(n * (width + 1), 0.0);
+            }
+            let data = &mut buffer[..n * (width + 1)];
+            fill(run.clone(), 0..n, data);
             let above = match above_band {
                 Some(above) => Some(above.rows(data, n, trim)?),
                 None => None,
@@ -568,6 +926,7 @@ impl Problem<'_, '_> {
                 data: buffer,
                 len: n,
                 above,
+                factored: None,
             });
         }
         levels::centre(&mut level_rows);
@@ -661,27 +1020,32 @@ impl Problem<'_, '_> {
         let mut beta = linear.solution.coefficients.clone();
         let mut best: Option<Exact> = None;
         let mut last_step = f64::INFINITY;
+        let plan = self
+            .plans_ahead(levels, above.as_ref(), &[levels.is_some()], count)
+            .pop()
+            .expect("one plan asked for");
         for iteration in 1..=EXACT_ITERATIONS {
             let current = beta.clone();
-            let fill = |run: Range<usize>, out: &mut [f64]| {
-                let n = run.len();
+            let fill = |run: Range<usize>, rows: Range<usize>, out: &mut [f64]| {
                 let series = [&series.x, &series.y, &series.z].map(|c| &c[run.clone()]);
                 let scalar = &self.scalar[run];
-                let mut columns: Vec<&mut [f64]> = out.chunks_mut(n).collect();
-                split_rows(n, &mut columns, |rows, parts| {
+                let mut columns: Vec<&mut [f64]> = out.chunks_mut(rows.len()).collect();
+                split_rows(rows.len(), &mut columns, |part, parts| {
                     let (j, y) = parts.split_at_mut(terms.len());
                     let y = &mut *y[0];
-                    exact_jacobian_into(design, series, &current, &terms, rows.clone(), j, y);
+                    let part = rows.start + part.start..rows.start + part.end;
+                    exact_jacobian_into(design, series, &current, &terms, part.clone(), j, y);
                     // `y` holds the correction Δ; the target is the scalar − Δ + J·β.
                     for (r, v) in y.iter_mut().enumerate() {
                         let linearised: f64 = j.iter().zip(&current).map(|(c, b)| c[r] * b).sum();
-                        *v = scalar[rows.start + r] - *v + linearised;
+                        *v = scalar[part.start + r] - *v + linearised;
                     }
                 });
             };
-            let mut prepared = self.prepare(terms.len(), &fill, levels, above.as_ref())?;
+            let mut prepared =
+                self.prepare(terms.len(), &fill, levels, above.as_ref(), &[&plan])?;
             let weight = levels.map_or(0.0, LevelSetup::weight);
-            let plan = prepared.plan(levels.is_some(), count);
+            debug_assert!(prepared.plan(levels.is_some(), count) == plan);
             let band = prepared.band_factors(&[&plan]);
             let folds = prepared.fold_factors(&plan, weight, &band);
             let chosen = choose_design(&folds, &designs, &terms, self.settings.lambda, weight)?;
@@ -807,6 +1171,7 @@ mod tests {
                 len: n,
                 above: above
                     .then(|| DMatrix::from_fn(n - 2 * trim, width, |k, c| value(run + 9, k, c))),
+                factored: None,
             })
             .collect();
         let levels = lengths

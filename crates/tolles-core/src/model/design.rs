@@ -240,12 +240,29 @@ impl Design {
         terms: &[Term],
         out: &mut [f64],
     ) {
+        let rows = 0..span.len();
+        self.matrix_rows_over(flux, span, rows, terms, out);
+    }
+
+    /// The rows `rows` (samples of the span, counted from its start) of
+    /// [`Design::matrix_over`], the same values: `out` holds `rows.len()` values per column.
+    ///
+    /// # Panics
+    /// As [`Design::matrix_over`], or if `rows` is not within the span.
+    pub fn matrix_rows_over<'a>(
+        &self,
+        flux: impl Into<Fluxgates<'a>>,
+        span: Range<usize>,
+        rows: Range<usize>,
+        terms: &[Term],
+        out: &mut [f64],
+    ) {
         let inputs = Spans::new(&flux.into(), span);
         let mut columns: Vec<&mut [f64]> = out
-            .chunks_exact_mut(inputs.len.max(1))
+            .chunks_exact_mut(rows.len().max(1))
             .take(terms.len())
             .collect();
-        inputs.by_blocks(&mut columns, |components, rows, columns| {
+        inputs.by_blocks(rows, &mut columns, |components, rows, columns| {
             for (column, term) in columns.iter_mut().zip(terms) {
                 self.write_column(components, &inputs.extras, rows.clone(), *term, column);
             }
@@ -341,7 +358,7 @@ impl Design {
         );
         assert_eq!(out.len(), span.len(), "one output per sample of the span");
         let inputs = Spans::new(&flux.into(), span);
-        inputs.by_blocks(&mut [out], |components, rows, out| {
+        inputs.by_blocks(0..inputs.len, &mut [out], |components, rows, out| {
             // Each term's column is written, then added times its coefficient: per sample the
             // sum of `Design::row`'s values times β in column order, as `A·β` row by row.
             let mut column = vec![0.0; rows.len()];
@@ -386,15 +403,18 @@ impl<'a> Spans<'a> {
         }
     }
 
-    /// Calls `f` on consecutive blocks of the span's samples, on all cores, with every
+    /// Calls `f` on consecutive blocks of the span's samples `rows`, on all cores, with every
     /// fluxgate's [`Components`] at the block, its rows within the span and the block's rows
-    /// of each of `columns` (each as long as the span).
+    /// of each of `columns` (each `rows.len()` long).
     fn by_blocks(
         &self,
+        rows: Range<usize>,
         columns: &mut [&mut [f64]],
         f: impl Fn(&[Components], Range<usize>, &mut [&mut [f64]]) + Sync,
     ) {
-        split_rows(self.len, columns, |part, columns| {
+        assert!(rows.end <= self.len, "rows within the span");
+        split_rows(rows.len(), columns, |part, columns| {
+            let part = rows.start + part.start..rows.start + part.end;
             for rows in blocks(part.clone(), BLOCK_ROWS) {
                 let at = rows.start - part.start..rows.end - part.start;
                 let mut block: Vec<&mut [f64]> =

@@ -46,6 +46,46 @@ mod lanes;
 mod together;
 
 pub use together::filtfilt_sampled_then_in_place;
+pub(crate) use together::filtfilt_window_sampled_then_in_place;
+
+/// Which ends of the signals a forward-backward filter is given are the signals' own.
+///
+/// A long signal can be filtered window by window: a window whose end is not the signal's
+/// (an [`End::Open`] one) starts that end's pass from the steady state of its sample there
+/// instead of an odd extension, and its values are right only beyond
+/// [`Butterworth::settling_samples`] from that end, where the start's error has died away.
+/// Windows overlapping by that much on each side give the whole signal's values to rounding.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Ends {
+    pub start: End,
+    pub end: End,
+}
+
+/// One end of the samples given to a filter: see [`Ends`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum End {
+    /// The signal's own end, padded with its odd extension as [`Butterworth::filtfilt`] does.
+    Padded,
+    /// The signal goes on beyond it.
+    Open,
+}
+
+impl Ends {
+    /// A whole signal.
+    pub const WHOLE: Ends = Ends {
+        start: End::Padded,
+        end: End::Padded,
+    };
+
+    /// A window of samples `window` of a signal of `n` samples.
+    pub fn of_window(window: &std::ops::Range<usize>, n: usize) -> Self {
+        let end = |own: bool| if own { End::Padded } else { End::Open };
+        Ends {
+            start: end(window.start == 0),
+            end: end(window.end == n),
+        }
+    }
+}
 
 /// Pass band (Hz) of a zero-phase Butterworth filter, MagNav's `pass1`/`pass2`.
 ///
@@ -163,6 +203,27 @@ impl Butterworth {
         let b2_zero = self.sections.iter().filter(|s| s[2] == 0.0).count();
         let a2_zero = self.sections.iter().filter(|s| s[5] == 0.0).count();
         3 * (2 * self.sections.len() + 1 - b2_zero.min(a2_zero))
+    }
+
+    /// Samples after which the response to any starting state has fallen below 10⁻²⁰ of its
+    /// size: the overlap an [`End::Open`] window needs at that end (see [`Ends`]).
+    ///
+    /// From the largest pole radius `r`: a transient decays as `rᵏ` (the poles of a Butterworth
+    /// filter are simple), and twice the samples that take to reach 10⁻²⁰ leave room for the
+    /// factor in front, which grows as poles crowd towards 1.
+    pub fn settling_samples(&self) -> usize {
+        let radius = self
+            .sections
+            .iter()
+            .map(|s| pole_radius(s[4], s[5]))
+            .fold(0.0, f64::max);
+        if radius <= 0.0 {
+            return 1;
+        }
+        if radius >= 1.0 {
+            return usize::MAX;
+        }
+        (2.0 * (1e-20f64).ln() / radius.ln()).ceil() as usize
     }
 
     /// Steady-state section states (transposed direct form II) for a unit step input,
@@ -347,7 +408,7 @@ pub fn filtfilt_many_unless_constant_with(
         .map(|(x, _)| &mut **x)
         .collect();
     in_shares(&mut varying, n, |share| {
-        (kernels.filtfilt_all)(filter, share)
+        (kernels.filtfilt_all)(filter, share, Ends::WHOLE)
     });
     Ok(())
 }
@@ -378,7 +439,7 @@ pub fn filtfilt_sampled_unless_constant(
         .map(|(x, _)| *x)
         .collect();
     let mut filtered = in_shares(&mut varying, n, |share| {
-        (kernels.filtfilt_sampled_all)(filter, share, at)
+        (kernels.filtfilt_sampled_all)(filter, share, at, Ends::WHOLE)
     })
     .into_iter()
     .flatten();
@@ -491,6 +552,34 @@ fn threads_for(pieces: usize, samples: usize) -> usize {
         .map_or(1, |t| t.get())
         .min(pieces)
         .min(1 + samples / PARALLEL_SAMPLES)
+}
+
+/// The larger modulus of the roots of `z² + a1·z + a2`, a section's poles.
+fn pole_radius(a1: f64, a2: f64) -> f64 {
+    let discriminant = a1 * a1 - 4.0 * a2;
+    if discriminant < 0.0 {
+        a2.sqrt()
+    } else {
+        (a1.abs() + discriminant.sqrt()) / 2.0
+    }
+}
+
+/// [`filtfilt_many_unless_constant`] of a window of longer signals, `ends` saying which of its
+/// ends are theirs (see [`Ends`]), every signal filtered: whether one is constant is a question
+/// about the whole signals, which their caller answers.
+///
+/// # Panics
+/// If the signals differ in length or are not longer than the filter's `padlen` samples.
+pub(crate) fn filtfilt_window(filter: &Butterworth, signals: &mut [&mut [f64]], ends: Ends) {
+    let kernels = Simd::best().0;
+    let n = signals.first().map_or(0, |s| s.len());
+    assert!(
+        signals.iter().all(|s| s.len() == n),
+        "signals of equal length"
+    );
+    in_shares(signals, n, |share| {
+        (kernels.filtfilt_all)(filter, share, ends)
+    });
 }
 
 /// Panics unless the sample positions `at` are ascending and below `n`: a programming error.
@@ -789,6 +878,7 @@ impl Zpk {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::ops::Range;
 
     fn bp(lo: f64, hi: f64) -> Response {
         Response::BandPass {
@@ -963,6 +1053,91 @@ mod tests {
         for (&xi, &yi) in x.iter().zip(&batch) {
             assert_eq!(state.step(xi), yi);
         }
+    }
+
+    /// Nine signals of `n` samples that wander slowly and wiggle fast, as a fit's columns do.
+    fn wandering(n: usize) -> Vec<Vec<f64>> {
+        (0..9)
+            .map(|j| {
+                (0..n)
+                    .map(|i| {
+                        let t = i as f64 * 0.1;
+                        5e4 * (1e-3 * t * (j + 1) as f64).cos() + 3e2 * (0.7 * t + j as f64).sin()
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// The windows `core` long of `n` samples, each widened by `margin` on both sides.
+    fn windows(n: usize, core: usize, margin: usize) -> Vec<(Range<usize>, Range<usize>)> {
+        (0..n)
+            .step_by(core)
+            .map(|c0| {
+                let c1 = (c0 + core).min(n);
+                (c0..c1, c0.saturating_sub(margin)..(c1 + margin).min(n))
+            })
+            .collect()
+    }
+
+    #[test]
+    fn windows_overlapping_by_the_settling_length_filter_as_the_whole_signal() {
+        let band = magnav_bandpass(0.1, 0.9, 4, 10.0).unwrap().unwrap();
+        let low = Butterworth::design(4, Response::LowPass { cutoff_hz: 0.1 }, 10.0).unwrap();
+        let margin = band.settling_samples().max(low.settling_samples());
+        assert!((2_000..10_000).contains(&margin), "{margin}");
+        let n = 5 * margin + 123;
+        let signals = wandering(n);
+        let at: Vec<usize> = (7..n).step_by(50).collect();
+        let mut whole = signals.clone();
+        let mut views: Vec<&mut [f64]> = whole.iter_mut().map(|s| s.as_mut_slice()).collect();
+        let (last_low, rest) = views.split_last_mut().unwrap();
+        let whole_low = filtfilt_sampled_then_in_place(&low, &at, last_low, &band, rest).unwrap();
+        let mut windowed = vec![Vec::new(); 8];
+        let mut low_parts = vec![Vec::new(); 9];
+        for (core, window) in windows(n, 2 * margin, margin) {
+            let mut part: Vec<Vec<f64>> =
+                signals.iter().map(|s| s[window.clone()].to_vec()).collect();
+            let (last_low, rest) = part.split_last_mut().unwrap();
+            let mut rest: Vec<&mut [f64]> = rest.iter_mut().map(|s| s.as_mut_slice()).collect();
+            let kept: Vec<usize> = at
+                .iter()
+                .filter(|k| core.contains(k))
+                .map(|k| k - window.start)
+                .collect();
+            let ends = Ends::of_window(&window, n);
+            let low_part = filtfilt_window_sampled_then_in_place(
+                &low, &kept, last_low, &band, &mut rest, ends,
+            );
+            for (all, p) in low_parts.iter_mut().zip(low_part) {
+                all.extend(p);
+            }
+            let inner = core.start - window.start..core.end - window.start;
+            for (all, s) in windowed.iter_mut().zip(&rest) {
+                all.extend_from_slice(&s[inner.clone()]);
+            }
+        }
+        let close = |a: &[f64], b: &[f64]| {
+            let scale = a.iter().fold(1.0f64, |m, v| m.max(v.abs()));
+            a.iter().zip(b).all(|(x, y)| (x - y).abs() <= 1e-13 * scale)
+        };
+        for (w, s) in windowed.iter().zip(&whole) {
+            assert!(close(s, w));
+        }
+        for (w, s) in low_parts.iter().zip(&whole_low) {
+            assert!(close(s, w));
+        }
+        // Too short an overlap is seen.
+        let mut part = signals[0][..3 * margin].to_vec();
+        filtfilt_window(
+            &band,
+            &mut [part.as_mut_slice()],
+            Ends::of_window(&(0..3 * margin), n),
+        );
+        assert!(!close(
+            &whole[0][2 * margin..3 * margin],
+            &part[2 * margin..]
+        ));
     }
 
     #[test]

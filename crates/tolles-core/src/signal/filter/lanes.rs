@@ -13,7 +13,7 @@
 //! Neither extension enables fused multiply-add (Rust never contracts `a * b + c` on its
 //! own anyway), so every path gives the same bits.
 
-use super::Butterworth;
+use super::{Butterworth, End, Ends};
 use multiversion::{inherit_target, multiversion, target::match_target};
 use std::sync::OnceLock;
 
@@ -23,7 +23,7 @@ pub(super) struct Kernels {
     /// The instruction set, for people: "portable", "AVX2" or "AVX-512".
     pub name: &'static str,
     /// [`filtfilt_all`].
-    pub filtfilt_all: fn(&Butterworth, &mut [&mut [f64]]),
+    pub filtfilt_all: fn(&Butterworth, &mut [&mut [f64]], Ends),
     /// [`filtfilt_sampled_all`].
     pub filtfilt_sampled_all: SampledKernel,
     /// [`constant`].
@@ -31,7 +31,7 @@ pub(super) struct Kernels {
 }
 
 /// Filters signals (equally long) and returns each one's samples at the given positions.
-type SampledKernel = fn(&Butterworth, &[&[f64]], &[usize]) -> Vec<Vec<f64>>;
+type SampledKernel = fn(&Butterworth, &[&[f64]], &[usize], Ends) -> Vec<Vec<f64>>;
 
 /// The kernels for the target the crate is compiled for (SSE2 on plain x86-64).
 const PORTABLE: Kernels = Kernels {
@@ -53,16 +53,21 @@ macro_rules! compiled_for {
             match_target! {
                 $target => {
                     #[inherit_target]
-                    fn filtfilt_all_here(filter: &Butterworth, signals: &mut [&mut [f64]]) {
-                        filtfilt_all(filter, signals)
+                    fn filtfilt_all_here(
+                        filter: &Butterworth,
+                        signals: &mut [&mut [f64]],
+                        ends: Ends,
+                    ) {
+                        filtfilt_all(filter, signals, ends)
                     }
                     #[inherit_target]
                     fn filtfilt_sampled_all_here(
                         filter: &Butterworth,
                         signals: &[&[f64]],
                         at: &[usize],
+                        ends: Ends,
                     ) -> Vec<Vec<f64>> {
-                        filtfilt_sampled_all(filter, signals, at)
+                        filtfilt_sampled_all(filter, signals, at, ends)
                     }
                     #[inherit_target]
                     fn constant_here(signals: &[&[f64]]) -> Vec<bool> {
@@ -113,25 +118,26 @@ pub(super) const LANES: usize = 8;
 const TILE: usize = 32;
 
 /// [`Butterworth::filtfilt`] of every one of `signals` (equally long, longer than
-/// `filter.padlen()` samples), written back in place, in blocks of up to [`LANES`].
+/// `filter.padlen()` samples), written back in place, in blocks of up to [`LANES`]; with an
+/// open end of `ends`, of a window of longer signals (see [`Ends`]).
 ///
 /// The last, partial block uses a narrower kernel, since idle lanes cost as much as busy
 /// ones once the arithmetic units are saturated.
 #[inline(always)]
-pub(super) fn filtfilt_all(filter: &Butterworth, signals: &mut [&mut [f64]]) {
+pub(super) fn filtfilt_all(filter: &Butterworth, signals: &mut [&mut [f64]], ends: Ends) {
     let mut blocks = signals.chunks_exact_mut(LANES);
     if blocks.len() > 0 {
         let mut ws = Workspace::<LANES>::new(filter);
         for block in &mut blocks {
-            filtfilt_block(block, &mut ws);
+            filtfilt_block(block, &mut ws, ends);
         }
     }
     let rest = blocks.into_remainder();
     match rest.len() {
         0 => {}
-        1..=2 => filtfilt_block(rest, &mut Workspace::<2>::new(filter)),
-        3..=4 => filtfilt_block(rest, &mut Workspace::<4>::new(filter)),
-        _ => filtfilt_block(rest, &mut Workspace::<LANES>::new(filter)),
+        1..=2 => filtfilt_block(rest, &mut Workspace::<2>::new(filter), ends),
+        3..=4 => filtfilt_block(rest, &mut Workspace::<4>::new(filter), ends),
+        _ => filtfilt_block(rest, &mut Workspace::<LANES>::new(filter), ends),
     }
 }
 
@@ -145,21 +151,22 @@ pub(super) fn filtfilt_sampled_all(
     filter: &Butterworth,
     signals: &[&[f64]],
     at: &[usize],
+    ends: Ends,
 ) -> Vec<Vec<f64>> {
     let mut out = Vec::with_capacity(signals.len());
     let mut blocks = signals.chunks_exact(LANES);
     if blocks.len() > 0 {
         let mut ws = Workspace::<LANES>::new(filter);
         for block in &mut blocks {
-            out.extend(filtfilt_sampled_block(block, at, &mut ws));
+            out.extend(filtfilt_sampled_block(block, at, &mut ws, ends));
         }
     }
     let rest = blocks.remainder();
     out.extend(match rest.len() {
         0 => Vec::new(),
-        1..=2 => filtfilt_sampled_block(rest, at, &mut Workspace::<2>::new(filter)),
-        3..=4 => filtfilt_sampled_block(rest, at, &mut Workspace::<4>::new(filter)),
-        _ => filtfilt_sampled_block(rest, at, &mut Workspace::<LANES>::new(filter)),
+        1..=2 => filtfilt_sampled_block(rest, at, &mut Workspace::<2>::new(filter), ends),
+        3..=4 => filtfilt_sampled_block(rest, at, &mut Workspace::<4>::new(filter), ends),
+        _ => filtfilt_sampled_block(rest, at, &mut Workspace::<LANES>::new(filter), ends),
     });
     out
 }
@@ -343,6 +350,36 @@ impl<const L: usize> Workspace<L> {
         self.steady(self.pad[padlen - 1]);
         run(&mut self.sections, &mut self.pad, true);
     }
+
+    /// The delays the forward pass starts the signals from: after the leading extension at a
+    /// padded start, the steady state of their first samples at an open one.
+    #[inline(always)]
+    fn start_forward_at<S: AsRef<[f64]>>(&mut self, signals: &[S], start: End) {
+        match start {
+            End::Padded => self.start_forward(signals),
+            End::Open => {
+                let mut x0 = [0.0; L];
+                for (l, x) in signals.iter().enumerate() {
+                    x0[l] = x.as_ref()[0];
+                }
+                self.steady(x0);
+            }
+        }
+    }
+
+    /// The delays the backward pass starts from once the forward pass has left its delays
+    /// after the signals' last sample, whose output is `last`: from the trailing extension
+    /// (taken into `pad` beforehand) at a padded end, the steady state of `last` at an open one.
+    #[inline(always)]
+    fn start_backward_at(&mut self, end: End, last: [f64; L]) {
+        match end {
+            End::Padded => {
+                run(&mut self.sections, &mut self.pad, false);
+                self.start_backward();
+            }
+            End::Open => self.steady(last),
+        }
+    }
 }
 
 /// [`Butterworth::filtfilt`] of each of `signals` (at most `L`, equally long, longer than
@@ -354,7 +391,7 @@ impl<const L: usize> Workspace<L> {
 /// backward pass starts from it. The signals themselves hold the forward output in
 /// between, so there is no buffer of the signals' length.
 #[inline(always)]
-fn filtfilt_block<const L: usize>(signals: &mut [&mut [f64]], ws: &mut Workspace<L>) {
+fn filtfilt_block<const L: usize>(signals: &mut [&mut [f64]], ws: &mut Workspace<L>, ends: Ends) {
     assert!(signals.len() <= L, "at most {L} signals per block");
     let Some(n) = signals.first().map(|s| s.len()) else {
         return;
@@ -371,21 +408,23 @@ fn filtfilt_block<const L: usize>(signals: &mut [&mut [f64]], ws: &mut Workspace
     // A full block parks the forward output interleaved, as it comes, where the tile's
     // samples were; a partial one has too few signals to hold all lanes, and writes them back.
     let parked = signals.len() == L;
-    ws.start_forward(signals);
+    ws.start_forward_at(signals, ends.start);
     // The trailing extension is taken before the forward pass overwrites the signals.
-    ws.trailing_extension(signals);
+    if ends.end == End::Padded {
+        ws.trailing_extension(signals);
+    }
+    let mut last = [0.0; L];
     for start in (0..n).step_by(TILE) {
         let tile = &mut ws.tile[..TILE.min(n - start)];
         gather(signals, start, tile);
         run(&mut ws.sections, tile, false);
+        last = tile[tile.len() - 1];
         match parked {
             true => park(tile, start, signals),
             false => scatter(tile, start, signals),
         }
     }
-    run(&mut ws.sections, &mut ws.pad, false);
-
-    ws.start_backward();
+    ws.start_backward_at(ends.end, last);
     for start in (0..n).step_by(TILE).rev() {
         let tile = &mut ws.tile[..TILE.min(n - start)];
         match parked {
@@ -458,6 +497,7 @@ fn filtfilt_sampled_block<const L: usize>(
     signals: &[&[f64]],
     at: &[usize],
     ws: &mut Workspace<L>,
+    ends: Ends,
 ) -> Vec<Vec<f64>> {
     assert!(signals.len() <= L, "at most {L} signals per block");
     let Some(n) = signals.first().map(|s| s.len()) else {
@@ -469,19 +509,22 @@ fn filtfilt_sampled_block<const L: usize>(
     if signals.len() < L {
         ws.pad.fill([0.0; L]);
     }
-    ws.start_forward(signals);
+    ws.start_forward_at(signals, ends.start);
     let starts: Vec<usize> = (0..n).step_by(STRETCH).collect();
     let mut delays = Vec::with_capacity(starts.len() * ws.sections.len());
+    let mut last = [0.0; L];
     for &start in &starts {
         delays.extend(ws.sections.iter().map(Section::delays));
         let stretch = &mut current[..STRETCH.min(n - start)];
         gather(signals, start, stretch);
         run(&mut ws.sections, stretch, false);
+        last = stretch[stretch.len() - 1];
     }
-    ws.trailing_extension(signals);
+    if ends.end == End::Padded {
+        ws.trailing_extension(signals);
+    }
     let mut forward = ws.sections.clone();
-    run(&mut ws.sections, &mut ws.pad, false);
-    ws.start_backward();
+    ws.start_backward_at(ends.end, last);
 
     let stretch_of = |index: usize| starts[index]..(starts[index] + STRETCH).min(n);
     let sections = forward.len();
@@ -783,7 +826,7 @@ impl<const L: usize> Section<L> {
 mod tests {
     use super::super::{
         filtfilt_many_unless_constant, filtfilt_sampled_unless_constant, filtfilt_unless_constant,
-        sample_std, Butterworth, Response,
+        sample_std, Butterworth, Ends, Response,
     };
     use super::{available, best};
     use proptest::prelude::*;
@@ -906,12 +949,12 @@ mod tests {
                 .collect();
             let kernels = best();
             prop_assert_eq!((kernels.constant)(&read_only(&original)), by_rule);
-            (kernels.filtfilt_all)(&f, &mut views);
+            (kernels.filtfilt_all)(&f, &mut views, Ends::WHOLE);
             for (x, y) in original.iter().zip(&all) {
                 prop_assert!(same_bits(&f.filtfilt(x).unwrap(), y));
             }
             let at = some_samples(n, seed);
-            let sampled = (kernels.filtfilt_sampled_all)(&f, &read_only(&original), &at);
+            let sampled = (kernels.filtfilt_sampled_all)(&f, &read_only(&original), &at, Ends::WHOLE);
             prop_assert_eq!(sampled.len(), original.len());
             for (whole, some) in all.iter().zip(&sampled) {
                 let wanted: Vec<f64> = at.iter().map(|&k| whole[k]).collect();
@@ -944,9 +987,9 @@ mod tests {
             let mut views: Vec<&mut [f64]> =
                 expected.iter_mut().map(|c| c.as_mut_slice()).collect();
             let expected_constant = (portable.constant)(&read_only(&original));
-            (portable.filtfilt_all)(&f, &mut views);
+            (portable.filtfilt_all)(&f, &mut views, Ends::WHOLE);
             let at = some_samples(n, seed);
-            let expected_sampled = (portable.filtfilt_sampled_all)(&f, &read_only(&original), &at);
+            let expected_sampled = (portable.filtfilt_sampled_all)(&f, &read_only(&original), &at, Ends::WHOLE);
             for kernels in others {
                 let mut got = original.clone();
                 let mut views: Vec<&mut [f64]> =
@@ -957,11 +1000,11 @@ mod tests {
                     "{}",
                     kernels.name
                 );
-                (kernels.filtfilt_all)(&f, &mut views);
+                (kernels.filtfilt_all)(&f, &mut views, Ends::WHOLE);
                 for (x, y) in expected.iter().zip(&got) {
                     prop_assert!(same_bits(x, y), "{}", kernels.name);
                 }
-                let sampled = (kernels.filtfilt_sampled_all)(&f, &read_only(&original), &at);
+                let sampled = (kernels.filtfilt_sampled_all)(&f, &read_only(&original), &at, Ends::WHOLE);
                 for (x, y) in expected_sampled.iter().zip(&sampled) {
                     prop_assert!(same_bits(x, y), "{}", kernels.name);
                 }
@@ -1030,7 +1073,7 @@ mod tests {
         for kernels in available() {
             let mut all = original.clone();
             let mut views: Vec<&mut [f64]> = all.iter_mut().map(|c| c.as_mut_slice()).collect();
-            (kernels.filtfilt_all)(f, &mut views);
+            (kernels.filtfilt_all)(f, &mut views, Ends::WHOLE);
             for (x, y) in original.iter().zip(&all) {
                 let alone = f.filtfilt(x).unwrap();
                 let bits = |v: &[f64]| v.iter().map(|s| s.to_bits()).collect::<Vec<_>>();

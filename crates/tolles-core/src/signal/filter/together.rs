@@ -14,8 +14,8 @@
 //! bit whichever core runs which block.
 
 use super::{
-    assert_samples_within, constancy, lanes, samples_at, threads_for, Butterworth, FilterError,
-    Simd,
+    assert_samples_within, constancy, lanes, samples_at, threads_for, Butterworth, Ends,
+    FilterError, Simd,
 };
 #[cfg(doc)]
 use super::{filtfilt_many_unless_constant, filtfilt_sampled_unless_constant};
@@ -54,22 +54,81 @@ pub fn filtfilt_sampled_then_in_place(
     let (n, low_constant) = constancy(kernels, low, &low_signals)?;
     assert_samples_within(at, n);
     let (_, band_constant) = constancy(kernels, band, &read)?;
+    Ok(sampled_then_in_place(
+        kernels,
+        (low, band),
+        at,
+        last_low,
+        signals,
+        (&low_constant, &band_constant),
+        Ends::WHOLE,
+    ))
+}
+
+/// [`filtfilt_sampled_then_in_place`] of a window of longer signals, `ends` saying which of
+/// its ends are theirs (see [`Ends`]), and every signal filtered: whether one is constant is a
+/// question about the whole signals, which their caller answers.
+///
+/// # Panics
+/// If the signals and `last_low` differ in length or `at` is not ascending within them.
+pub(crate) fn filtfilt_window_sampled_then_in_place(
+    low: &Butterworth,
+    at: &[usize],
+    last_low: &[f64],
+    band: &Butterworth,
+    signals: &mut [&mut [f64]],
+    ends: Ends,
+) -> Vec<Vec<f64>> {
+    let n = last_low.len();
+    assert!(
+        signals.iter().all(|s| s.len() == n),
+        "signals of equal length"
+    );
+    assert_samples_within(at, n);
+    let varying = vec![false; signals.len()];
+    sampled_then_in_place(
+        Simd::best().0,
+        (low, band),
+        at,
+        last_low,
+        signals,
+        (&varying, &varying),
+        ends,
+    )
+}
+
+/// The work of [`filtfilt_sampled_then_in_place`] once the constant signals (of the low-pass,
+/// then of the band-pass) are known.
+fn sampled_then_in_place(
+    kernels: lanes::Kernels,
+    (low, band): (&Butterworth, &Butterworth),
+    at: &[usize],
+    last_low: &[f64],
+    signals: &mut [&mut [f64]],
+    (low_constant, band_constant): (&[bool], &[bool]),
+    ends: Ends,
+) -> Vec<Vec<f64>> {
+    let n = last_low.len();
+    let width = signals.len().saturating_sub(1);
+    let read: Vec<&[f64]> = signals.iter().map(|x| &**x).collect();
+    let low_signals: Vec<&[f64]> = read[..width].iter().copied().chain([last_low]).collect();
     // A constant signal's samples are its own values, taken before anything is overwritten.
     let mut out: Vec<Option<Vec<f64>>> = low_signals
         .iter()
-        .zip(&low_constant)
+        .zip(low_constant)
         .map(|(x, &constant)| constant.then(|| samples_at(x, at)))
         .collect();
-    let plan = Plan::new(&low_constant, &band_constant);
+    let plan = Plan::new(low_constant, band_constant);
     let columns = Columns::new(signals, last_low);
     let filtered = plan.run(n, |task| match task {
         Task::Low(block) => Some((kernels.filtfilt_sampled_all)(
             low,
             &columns.read(block),
             at,
+            ends,
         )),
         Task::Band(block) => {
-            (kernels.filtfilt_all)(band, &mut columns.write(block));
+            (kernels.filtfilt_all)(band, &mut columns.write(block), ends);
             None
         }
     });
@@ -77,10 +136,9 @@ pub fn filtfilt_sampled_then_in_place(
     for slot in out.iter_mut().filter(|slot| slot.is_none()) {
         *slot = filtered.next();
     }
-    Ok(out
-        .into_iter()
+    out.into_iter()
         .map(|v| v.expect("one result per varying signal"))
-        .collect())
+        .collect()
 }
 
 /// One block of work: the indices of the signals it filters (in the low-pass's numbering,
