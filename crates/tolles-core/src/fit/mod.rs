@@ -564,11 +564,12 @@ fn fit_reusing(
         settings,
         spare,
     };
-    let mut levels = problem.level_setup(fs_hz)?;
     let above = problem.above.as_ref();
-    // The linear rows are the largest buffer; the reference's calibration used its first part.
+    // The linear rows are the largest buffer; the reference's calibration uses its first part.
     let longest = samples.runs.iter().map(|r| r.len()).max().unwrap_or(0);
-    spare.reserve(problem.buffer_len(longest, stored.len(), levels.as_ref(), above));
+    let low = problem.level_low_pass(fs_hz)?;
+    spare.reserve(problem.buffer_len(longest, stored.len(), low.as_ref(), above));
+    let mut levels = problem.level_setup(fs_hz)?;
     let linear = |run: Range<usize>, rows: Range<usize>, out: &mut [f64]| {
         let (a, y) = out.split_at_mut(rows.len() * stored.len());
         settings

@@ -14,7 +14,7 @@ use crate::model::vector::Fluxgates;
 use crate::parallel::split_rows;
 use crate::signal::filter::{
     filtfilt_many_unless_constant, filtfilt_window, filtfilt_window_sampled_then_in_place,
-    Butterworth, Ends,
+    surely_varying, Butterworth, Ends,
 };
 use nalgebra::DMatrix;
 use std::ops::Range;
@@ -35,6 +35,12 @@ const WINDOW_SAMPLES: usize = 1 << 19;
 /// Shorter in tests, so that runs of tens of thousands of samples are done in windows.
 #[cfg(test)]
 const WINDOW_SAMPLES: usize = 1 << 15;
+
+/// Samples of each window's own part (its core) of a run of `n` samples done in windows: the
+/// run cut into equal parts of at most [`WINDOW_SAMPLES`].
+fn window_core(n: usize) -> usize {
+    n.div_ceil(n.div_ceil(WINDOW_SAMPLES))
+}
 
 /// In tests, whether long runs may be done in windows, and how many were.
 #[cfg(test)]
@@ -500,7 +506,7 @@ impl Windows {
     ) -> Option<(Factored, Option<LevelRows>)> {
         let n = self.run.len();
         let band = problem.filter.as_ref().expect("windows are band-passed");
-        let core = n.div_ceil(n.div_ceil(WINDOW_SAMPLES));
+        let core = window_core(n);
         let signals = self.width + 1;
         let mut factored = Factored {
             pieces: Vec::new(),
@@ -599,38 +605,16 @@ impl Windows {
     }
 }
 
-/// Samples at the start of a run in which [`surely_varying`] looks.
-const PREFIX: usize = 4096;
-
-/// True when the first [`PREFIX`] samples of `x` hold two so far apart that any signal of `n`
-/// samples holding them has a sample standard deviation surely above `f64::EPSILON`, the
-/// filters' test for a constant signal, which they leave alone: two samples `a`, `b` bound it
-/// below by `|a − b| / √(2(n − 1))`, and twice that leaves a margin far beyond rounding.
-fn surely_varying(x: &[f64], n: usize) -> bool {
-    let prefix = &x[..x.len().min(PREFIX)];
-    let (lo, hi) = prefix
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
-            (lo.min(v), hi.max(v))
-        });
-    hi - lo > 2.0 * f64::EPSILON * (2.0 * (n as f64 - 1.0)).sqrt()
-}
-
 impl Factored {
     /// The factor of the band rows `rows`, which start and end where pieces do.
     fn within(&self, rows: &Range<usize>) -> DMatrix<f64> {
-        let inside: Vec<DMatrix<f64>> = self
-            .pieces
-            .iter()
-            .filter(|(r, _)| r.start >= rows.start && r.end <= rows.end)
-            .map(|(_, f)| f.clone())
-            .collect();
-        let covered: usize = self
-            .pieces
-            .iter()
-            .filter(|(r, _)| r.start >= rows.start && r.end <= rows.end)
-            .map(|(r, _)| r.len())
-            .sum();
+        let (mut inside, mut covered) = (Vec::new(), 0);
+        for (r, factor) in &self.pieces {
+            if r.start >= rows.start && r.end <= rows.end {
+                inside.push(factor.clone());
+                covered += r.len();
+            }
+        }
         assert_eq!(
             covered,
             rows.len(),
@@ -811,21 +795,23 @@ impl Problem<'_, '_> {
             .collect()
     }
 
-    /// Overlap (samples) of the windows of a run done in windows: the longer settling length of
-    /// the band-pass and the low-pass. `None` when runs are done whole: without a band-pass,
-    /// with rows above the band, or with filters that take too long to settle for the overlap
-    /// to stay small beside a window.
+    /// Overlap (samples) of the windows of a run of `n` samples done in windows: the longer
+    /// settling length of the band-pass and the level rows' low-pass `low`. `None` when the run
+    /// is done whole: shorter than two windows, without a band-pass, with rows above the band,
+    /// or with filters that take too long to settle for the overlap to stay small beside a
+    /// window.
     fn window_margin(
         &self,
-        levels: Option<&LevelSetup>,
+        n: usize,
+        low: Option<&LowFrequency>,
         above_band: Option<&AboveBand>,
     ) -> Option<usize> {
         let band = self.filter.as_ref()?;
-        if above_band.is_some() {
+        if above_band.is_some() || n < 2 * WINDOW_SAMPLES {
             return None;
         }
-        let margin = levels
-            .map_or(0, |l| l.low.filter().settling_samples())
+        let margin = low
+            .map_or(0, |l| l.filter().settling_samples())
             .max(band.settling_samples());
         #[cfg(test)]
         if !windows_in_tests::ALLOWED.get() {
@@ -835,19 +821,17 @@ impl Problem<'_, '_> {
     }
 
     /// Values a run of `n` samples needs in its buffer, `width` columns and the target: all of
-    /// them, or a window's when it is done in windows.
+    /// them, or a window's when it is done in windows (see [`Problem::window_margin`]).
     pub(super) fn buffer_len(
         &self,
         n: usize,
         width: usize,
-        levels: Option<&LevelSetup>,
+        low: Option<&LowFrequency>,
         above_band: Option<&AboveBand>,
     ) -> usize {
-        match self.window_margin(levels, above_band) {
-            Some(margin) if n >= 2 * WINDOW_SAMPLES => {
-                (n.div_ceil(n.div_ceil(WINDOW_SAMPLES)) + 2 * margin) * (width + 1)
-            }
-            _ => n * (width + 1),
+        match self.window_margin(n, low, above_band) {
+            Some(margin) => (window_core(n) + 2 * margin) * (width + 1),
+            None => n * (width + 1),
         }
     }
 
@@ -865,14 +849,14 @@ impl Problem<'_, '_> {
         plans: &[&Plan],
     ) -> Result<Prepared, FitError> {
         let (trim, needed) = self.trim_and_needed(above_band);
-        let margin = self.window_margin(levels, above_band);
+        let low = levels.map(|l| &l.low);
         let sizes: Vec<usize> = self
             .samples
             .runs
             .iter()
             .map(|r| match r.len() < needed {
                 true => 0,
-                false => self.buffer_len(r.len(), width, levels, above_band),
+                false => self.buffer_len(r.len(), width, low, above_band),
             })
             .collect();
         let mut buffers = self.spare.take_each(&sizes).into_iter();
@@ -886,7 +870,7 @@ impl Problem<'_, '_> {
                 short += n;
                 continue;
             }
-            if let (Some(margin), true) = (margin, n >= 2 * WINDOW_SAMPLES) {
+            if let Some(margin) = self.window_margin(n, low, above_band) {
                 let windows = Windows {
                     run: run.clone(),
                     margin,
@@ -939,14 +923,22 @@ impl Problem<'_, '_> {
         })
     }
 
-    /// The reference and low-pass for heading levels, when the settings ask for them and the
-    /// fluxgate can be calibrated.
-    pub(super) fn level_setup(&self, fs_hz: f64) -> Result<Option<LevelSetup>, FitError> {
+    /// The low-pass of the heading levels' rows, when the settings ask for levels and they can
+    /// have them (the fluxgate's calibration, which [`Problem::level_setup`] then needs, may
+    /// still fail).
+    pub(super) fn level_low_pass(&self, fs_hz: f64) -> Result<Option<LowFrequency>, FitError> {
         let s = self.settings;
         if !s.levels || s.target == Target::Interference || self.flux.count() != 1 {
             return Ok(None);
         }
-        let Some(low) = LowFrequency::new(s.band, s.order, s.trim, fs_hz)? else {
+        Ok(LowFrequency::new(s.band, s.order, s.trim, fs_hz)?)
+    }
+
+    /// The reference and low-pass for heading levels, when the settings ask for them and the
+    /// fluxgate can be calibrated.
+    pub(super) fn level_setup(&self, fs_hz: f64) -> Result<Option<LevelSetup>, FitError> {
+        let s = self.settings;
+        let Some(low) = self.level_low_pass(fs_hz)? else {
             return Ok(None);
         };
         let flux = self.flux.series()[0];

@@ -582,6 +582,30 @@ pub(crate) fn filtfilt_window(filter: &Butterworth, signals: &mut [&mut [f64]], 
     });
 }
 
+/// Samples at the start of a signal in which [`surely_varying`] looks.
+const PREFIX: usize = 4096;
+
+/// True when the first [`PREFIX`] samples of `x` hold two so far apart that any signal of `n`
+/// samples holding them has a sample standard deviation surely above `f64::EPSILON`, the test
+/// for a constant signal ([`filtfilt_unless_constant`]), so it is not constant.
+///
+/// Two samples `a`, `b` of `n` bound the sample standard deviation below by
+/// `|a − b| / √(2(n − 1))`; a range above twice `f64::EPSILON·√(2(n − 1))` leaves a margin far
+/// larger than the sums' rounding (a relative `n·2⁻⁵³`, under 10⁻⁶ for a billion samples),
+/// so the decision is `sample_std`'s. `min` and `max` pass over NaN: a signal holding one is
+/// not constant by `sample_std` either (its deviation is NaN).
+#[inline(always)]
+pub(crate) fn surely_varying(x: &[f64], n: usize) -> bool {
+    let needed = 2.0 * f64::EPSILON * (2.0 * (n as f64 - 1.0)).sqrt();
+    let prefix = &x[..x.len().min(PREFIX)];
+    let (mut lo, mut hi) = (prefix[0], prefix[0]);
+    for &v in prefix {
+        lo = lo.min(v);
+        hi = hi.max(v);
+    }
+    hi - lo > needed
+}
+
 /// Panics unless the sample positions `at` are ascending and below `n`: a programming error.
 fn assert_samples_within(at: &[usize], n: usize) {
     assert!(

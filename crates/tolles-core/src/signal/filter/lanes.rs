@@ -201,31 +201,15 @@ pub(super) fn constant(signals: &[&[f64]]) -> Vec<bool> {
     out
 }
 
-/// Samples [`clearly_varying`] looks at, from the start.
-const PREFIX: usize = 4096;
-
-/// True when every one of `signals` (equally long, at least 2 samples) has two samples among
-/// its first [`PREFIX`] so far apart that its sample standard deviation is surely above
-/// `f64::EPSILON`, so the two passes of [`sample_std_block`] can be skipped.
-///
-/// Two samples `a`, `b` of `n` bound the sample standard deviation below by
-/// `|a − b| / √(2(n − 1))`; a range above twice `f64::EPSILON·√(2(n − 1))` leaves a margin far
-/// larger than the sums' rounding (a relative `n·2⁻⁵³`, under 10⁻⁶ for a billion samples),
-/// so the decision is `sample_std`'s. `min` and `max` pass over NaN: a signal holding one is
-/// not constant by `sample_std` either (its deviation is NaN).
+/// True when every one of `signals` (equally long, at least 2 samples) is
+/// [`super::surely_varying`] over its own length, so the two passes of [`sample_std_block`]
+/// can be skipped.
 #[inline(always)]
 fn clearly_varying(signals: &[&[f64]]) -> bool {
     let n = signals[0].len();
-    let needed = 2.0 * f64::EPSILON * (2.0 * (n as f64 - 1.0)).sqrt();
     let mut all = true;
     for x in signals {
-        let prefix = &x[..n.min(PREFIX)];
-        let (mut lo, mut hi) = (prefix[0], prefix[0]);
-        for &v in prefix {
-            lo = lo.min(v);
-            hi = hi.max(v);
-        }
-        all &= hi - lo > needed;
+        all &= super::surely_varying(x, n);
     }
     all
 }
