@@ -2,6 +2,33 @@
 
 use std::ops::Range;
 
+thread_local! {
+    /// Cores this thread may use, when a caller has said (see [`on_one_core`]).
+    static CORES: std::cell::Cell<Option<usize>> = const { std::cell::Cell::new(None) };
+}
+
+/// Cores the work of this thread may spread over: the machine's, or one inside
+/// [`on_one_core`].
+pub(crate) fn cores() -> usize {
+    CORES
+        .get()
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |t| t.get()))
+}
+
+/// Runs `f` with every step inside it on this thread alone: for work dealt to the cores in
+/// whole pieces, whose steps would otherwise each start a thread per core.
+pub(crate) fn on_one_core<R>(f: impl FnOnce() -> R) -> R {
+    on_cores(1, f)
+}
+
+/// Runs `f` as if the machine had `cores` cores (at least one).
+pub(crate) fn on_cores<R>(cores: usize, f: impl FnOnce() -> R) -> R {
+    let before = CORES.replace(Some(cores.max(1)));
+    let out = f();
+    CORES.set(before);
+    out
+}
+
 /// Rows below which a thread costs more than it saves.
 const PARALLEL_ROWS: usize = 100_000;
 
@@ -53,10 +80,7 @@ pub(crate) fn split_items<T: Send>(items: &mut [T], f: impl Fn(Range<usize>, &mu
 /// Threads worth starting for `n` rows: one per core, but none for fewer than
 /// [`PARALLEL_ROWS`] rows each.
 fn threads_for_rows(n: usize) -> usize {
-    std::thread::available_parallelism()
-        .map_or(1, |t| t.get())
-        .min(n.div_ceil(PARALLEL_ROWS))
-        .max(1)
+    cores().min(n.div_ceil(PARALLEL_ROWS)).max(1)
 }
 
 /// `rows` cut into consecutive blocks of at most `size` rows.

@@ -240,10 +240,7 @@ fn exact_field(
     }
     // Blocks on all cores: every row's value is the same sum as over its whole run, because
     // each block carries the neighbours its central differences need.
-    let threads = std::thread::available_parallelism()
-        .map_or(1, |t| t.get())
-        .min(blocks.len())
-        .max(1);
+    let threads = crate::parallel::cores().min(blocks.len()).max(1);
     let mut shares: Vec<Vec<(&Block, &mut [f64])>> = (0..threads).map(|_| Vec::new()).collect();
     for (b, output) in outputs.into_iter().enumerate() {
         shares[b % threads].push(output);

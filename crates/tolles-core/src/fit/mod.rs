@@ -866,9 +866,14 @@ const STD_BLOCK: usize = 2048;
 
 impl RunningStd {
     fn push_all(&mut self, values: &[f64]) {
-        for block in values.chunks(STD_BLOCK) {
-            self.merge(Self::of_block(block));
+        for block in Self::blocks(values) {
+            self.merge(block);
         }
+    }
+
+    /// The blocks [`RunningStd::push_all`] merges, each on its own.
+    fn blocks(values: &[f64]) -> impl Iterator<Item = Self> + '_ {
+        values.chunks(STD_BLOCK).map(Self::of_block)
     }
 
     /// Count, mean and squared deviations of `x` (not empty); [`sum4`] lets the additions
@@ -1170,9 +1175,8 @@ mod tests {
         );
     }
 
-    #[test]
-    fn a_long_run_done_in_windows_fits_as_when_done_whole() {
-        use problem::windows_in_tests::{ALLOWED, DONE};
+    /// A run of 100 000 samples at 10 Hz, done in windows in tests: its scalar and fluxgate.
+    fn long_run() -> (Vec<f64>, VectorSeries) {
         let (fs, n) = (10.0, 100_000);
         let t = |k: usize| k as f64 / fs;
         let roll = |k: usize| 0.3 * (0.9 * t(k)).sin() + 0.1 * (0.013 * t(k)).sin();
@@ -1197,6 +1201,14 @@ mod tests {
                     + 0.01 * (7.1 * t(k)).sin()
             })
             .collect();
+        (scalar, flux)
+    }
+
+    #[test]
+    fn a_long_run_done_in_windows_fits_as_when_done_whole() {
+        use problem::windows_in_tests::{ALLOWED, DONE};
+        let (scalar, flux) = long_run();
+        let fs = 10.0;
         let settings = FitSettings::recommended();
         DONE.set(0);
         let windowed = fit(&scalar, &flux, fs, None, &settings).unwrap();
@@ -1218,6 +1230,56 @@ mod tests {
             d.1.filtered_std_before_nt
         ));
         assert!(close(windowed.level_nt, whole.level_nt));
+    }
+
+    /// A run whose first window is not surely varying (here: level and steady for its first
+    /// 5 000 samples) is done whole, on however many cores, the other windows' work dropped.
+    #[test]
+    fn a_run_steady_at_its_start_is_done_whole() {
+        use problem::windows_in_tests::{ALLOWED, DONE};
+        let (mut scalar, mut flux) = long_run();
+        for k in 0..5_000 {
+            (flux.x[k], flux.y[k], flux.z[k], scalar[k]) =
+                (flux.x[0], flux.y[0], flux.z[0], scalar[0]);
+        }
+        let settings = FitSettings::recommended();
+        DONE.set(0);
+        let dealt = crate::parallel::on_cores(3, || fit(&scalar, &flux, 10.0, None, &settings));
+        assert_eq!(DONE.get(), 0, "no run was done in windows");
+        ALLOWED.set(false);
+        let whole = crate::parallel::on_cores(3, || fit(&scalar, &flux, 10.0, None, &settings));
+        ALLOWED.set(true);
+        let bits = |f: &Fit| {
+            f.coefficients
+                .iter()
+                .map(|c| c.to_bits())
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(bits(&dealt.unwrap()), bits(&whole.unwrap()));
+    }
+
+    /// Each window is worked on one core and the windows' parts are put together in order, so
+    /// how many cores share them changes no bit.
+    #[test]
+    fn windows_dealt_to_any_number_of_cores_give_the_same_bits() {
+        use problem::windows_in_tests::DONE;
+        let (scalar, flux) = long_run();
+        let settings = FitSettings::recommended();
+        let on = |cores| {
+            crate::parallel::on_cores(cores, || {
+                fit(&scalar, &flux, 10.0, None, &settings).unwrap()
+            })
+        };
+        DONE.set(0);
+        let (one, three) = (on(1), on(3));
+        assert!(DONE.get() >= 2, "both fits were done in windows");
+        let bits = |f: &Fit| {
+            let d = &f.diagnostics;
+            let mut v: Vec<u64> = f.coefficients.iter().map(|c| c.to_bits()).collect();
+            v.extend([d.residual_std_nt, d.filtered_std_before_nt, f.level_nt].map(f64::to_bits));
+            v
+        };
+        assert_eq!(bits(&one), bits(&three));
     }
 
     fn turning_fit() -> Fit {

@@ -18,6 +18,7 @@ use crate::signal::filter::{
 };
 use nalgebra::DMatrix;
 use std::ops::Range;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 
 /// Writes the rows `rows` (counted from the run's start) of a run's unfiltered columns and,
@@ -26,12 +27,13 @@ use std::sync::Mutex;
 /// are those of the whole run's (its changes taken over the run).
 pub(super) type FillRun<'m> = dyn Fn(Range<usize>, Range<usize>, &mut [f64]) + Sync + 'm;
 
-/// Samples per window of a long run, which is filtered and factored window by window: the
-/// rows of a whole run need not be held at once (at 10⁷ samples and 19 columns they are 1.5 GB,
-/// which on a virtual machine take seconds to fault in), and a window's stay in the caches
-/// between its filters and its factor. Runs shorter than two windows are done whole.
+/// Samples per window of a long run, which is filtered and factored window by window, the
+/// windows dealt whole to the cores: the rows of a whole run need not be held at once (at 10⁷
+/// samples and 19 columns they are 1.5 GB, which on a virtual machine take seconds to fault in).
+/// Runs shorter than two windows are done whole. 2¹⁶ to 2¹⁹ timed the same at 10⁷ samples;
+/// 2¹⁸ keeps the overlap a thirtieth of a window and two windows' buffers near 85 MB.
 #[cfg(not(test))]
-const WINDOW_SAMPLES: usize = 1 << 19;
+const WINDOW_SAMPLES: usize = 1 << 18;
 /// Shorter in tests, so that runs of tens of thousands of samples are done in windows.
 #[cfg(test)]
 const WINDOW_SAMPLES: usize = 1 << 15;
@@ -491,11 +493,37 @@ struct Windows {
     trim: usize,
 }
 
+/// What one window of a run done in windows gives: its band rows' factors, its filtered
+/// target's scatter (block by block, merged in order afterwards), and with levels the samples of
+/// its level rows, per signal.
+struct WindowPart {
+    pieces: Vec<(Range<usize>, DMatrix<f64>)>,
+    target: Vec<super::RunningStd>,
+    sampled: Vec<Vec<f64>>,
+}
+
+/// What every window of a run shares.
+struct WindowInputs<'w, 'p, 'a> {
+    problem: &'w Problem<'p, 'a>,
+    fill: &'w FillRun<'w>,
+    levels: Option<&'w LevelSetup>,
+    cuts: &'w [usize],
+    /// The samples of the run its level rows are taken at.
+    kept: Option<Vec<usize>>,
+    /// The heading levels' reference over the run.
+    reference: Option<&'w [f64]>,
+}
+
 impl Windows {
     /// The run's band rows factored (cut at the band rows `cuts` and where windows start), the
     /// scatter of its filtered target and, with `levels`, its level rows (not centred), in
-    /// windows of `buffer`; `None` if a column or a target is constant or nearly so over the
-    /// run (the filters leave a constant signal alone, which only the whole run can tell).
+    /// windows dealt whole to the cores, each with its share of `buffer` (see
+    /// [`Problem::buffer_len`]); `None` if a column or a target is constant or nearly so over
+    /// the run (the filters leave a constant signal alone, which only the whole run can tell).
+    ///
+    /// Whole windows rather than each step of one spread over the cores: a window's fill,
+    /// filters and factor stay on one core and in its caches, and a fit of few columns (the
+    /// fluxgate's calibration: fewer signals than vector lanes on one core) keeps both busy.
     fn factor(
         &self,
         problem: &Problem,
@@ -505,88 +533,173 @@ impl Windows {
         buffer: &mut [f64],
     ) -> Option<(Factored, Option<LevelRows>)> {
         let n = self.run.len();
-        let band = problem.filter.as_ref().expect("windows are band-passed");
         let core = window_core(n);
-        let signals = self.width + 1;
+        let inputs = WindowInputs {
+            problem,
+            fill,
+            levels,
+            cuts,
+            kept: levels.and_then(|l| l.low.kept(n)),
+            reference: levels.map(|l| levels::reference_over(&l.reference, self.run.clone())),
+        };
+        let starts: Vec<usize> = (0..n).step_by(core).collect();
+        let shares: Vec<&mut [f64]> = buffer
+            .chunks_exact_mut((core + 2 * self.margin) * (self.width + 1))
+            .take(starts.len())
+            .collect();
+        let dealt = shares.len();
+        let mut targets = problem
+            .spare
+            .take_each(&vec![core + 2 * self.margin; dealt]);
+        let given_up = AtomicBool::new(false);
+        let deal = |(t, (share, target)): (usize, (&mut [f64], &mut Vec<f64>))| {
+            let mine = starts.iter().enumerate().skip(t).step_by(dealt);
+            let mut parts = Vec::new();
+            for (index, &start) in mine {
+                if given_up.load(Ordering::Relaxed) {
+                    break;
+                }
+                match self.window(&inputs, start..(start + core).min(n), share, target) {
+                    Some(part) => parts.push((index, part)),
+                    None => given_up.store(true, Ordering::Relaxed),
+                }
+            }
+            parts
+        };
+        let work = shares.into_iter().zip(targets.iter_mut()).enumerate();
+        let mut parts: Vec<(usize, WindowPart)> = match dealt {
+            1 => work.flat_map(deal).collect(),
+            _ => std::thread::scope(|scope| {
+                let handles: Vec<_> = work
+                    .map(|w| scope.spawn(|| crate::parallel::on_one_core(|| deal(w))))
+                    .collect();
+                handles
+                    .into_iter()
+                    .flat_map(|h| h.join().expect("a window's thread does not panic"))
+                    .collect()
+            }),
+        };
+        problem.spare.give(targets);
+        if given_up.into_inner() {
+            return None;
+        }
+        parts.sort_by_key(|(index, _)| *index);
+        let parts = parts.into_iter().map(|(_, p)| p);
+        Some(self.gathered(parts, levels.map(|_| inputs.kept)))
+    }
+
+    /// The windows' parts, in order, as one run's; with `levels` (the samples the level rows
+    /// are taken at, if any), its level rows.
+    fn gathered(
+        &self,
+        parts: impl Iterator<Item = WindowPart>,
+        levels: Option<Option<Vec<usize>>>,
+    ) -> (Factored, Option<LevelRows>) {
         let mut factored = Factored {
             pieces: Vec::new(),
             target: super::RunningStd::default(),
         };
-        let kept = levels.and_then(|l| l.low.kept(n));
-        let mut sampled = vec![Vec::new(); signals];
-        let mut target = problem.spare.take(core + 2 * self.margin);
-        let reference = levels.map(|l| levels::reference_over(&l.reference, self.run.clone()));
-        for start in (0..n).step_by(core) {
-            let core = start..(start + core).min(n);
-            let window = core.start.saturating_sub(self.margin)..(core.end + self.margin).min(n);
-            let m = window.len();
-            let data = &mut buffer[..m * signals];
-            fill(self.run.clone(), window.clone(), data);
-            let low_target = &mut target[..m];
-            if let Some(reference) = reference {
-                let y = &data[self.width * m..];
-                for ((t, y), r) in low_target.iter_mut().zip(y).zip(&reference[window.clone()]) {
-                    *t = y - r;
-                }
+        let mut sampled = vec![Vec::new(); self.width + 1];
+        for part in parts {
+            factored.pieces.extend(part.pieces);
+            for block in part.target {
+                factored.target.merge(block);
             }
-            let varying = || {
-                data.chunks(m).all(|c| surely_varying(c, n))
-                    && (reference.is_none() || surely_varying(low_target, n))
-            };
-            if start == 0 && !varying() {
-                problem.spare.give([target]);
-                return None;
+            for (all, p) in sampled.iter_mut().zip(part.sampled) {
+                all.extend(p);
             }
-            let ends = Ends::of_window(&window, n);
-            let mut columns: Vec<&mut [f64]> = data.chunks_mut(m).collect();
-            match (levels, &kept) {
-                (Some(setup), Some(kept)) => {
-                    let at: Vec<usize> = kept
-                        .iter()
-                        .filter(|k| core.contains(k))
-                        .map(|k| k - window.start)
-                        .collect();
-                    let part = filtfilt_window_sampled_then_in_place(
-                        setup.low.filter(),
-                        &at,
-                        low_target,
-                        band,
-                        &mut columns,
-                        ends,
-                    );
-                    for (all, p) in sampled.iter_mut().zip(part) {
-                        all.extend(p);
-                    }
-                }
-                _ => filtfilt_window(band, &mut columns, ends),
-            }
-            self.factor_core(&columns, &window, &core, cuts, &mut factored);
         }
-        problem.spare.give([target]);
-        let rows = levels.map(|_| match kept {
+        let rows = levels.map(|kept| match kept {
             Some(kept) => LevelRows::from_sampled(sampled, kept),
             None => LevelRows::none(self.width),
         });
-        Some((factored, rows))
+        (factored, rows)
     }
 
-    /// Factors the band rows among the samples `core` of the filtered `columns` of `window`,
-    /// cut at `cuts`, into `factored`, and adds their target to its scatter.
+    /// One window: its samples `core` of the run and the margins either side filled into
+    /// `buffer`, filtered and factored; `None` if it is the run's first and a column or the
+    /// target is not surely varying there.
+    fn window(
+        &self,
+        inputs: &WindowInputs,
+        core: Range<usize>,
+        buffer: &mut [f64],
+        target: &mut [f64],
+    ) -> Option<WindowPart> {
+        let n = self.run.len();
+        let band = inputs
+            .problem
+            .filter
+            .as_ref()
+            .expect("windows are band-passed");
+        let signals = self.width + 1;
+        let window = core.start.saturating_sub(self.margin)..(core.end + self.margin).min(n);
+        let m = window.len();
+        let data = &mut buffer[..m * signals];
+        (inputs.fill)(self.run.clone(), window.clone(), data);
+        let low_target = &mut target[..m];
+        if let Some(reference) = inputs.reference {
+            let y = &data[self.width * m..];
+            for ((t, y), r) in low_target.iter_mut().zip(y).zip(&reference[window.clone()]) {
+                *t = y - r;
+            }
+        }
+        let varying = || {
+            data.chunks(m).all(|c| surely_varying(c, n))
+                && (inputs.reference.is_none() || surely_varying(low_target, n))
+        };
+        if core.start == 0 && !varying() {
+            return None;
+        }
+        let ends = Ends::of_window(&window, n);
+        let mut columns: Vec<&mut [f64]> = data.chunks_mut(m).collect();
+        let sampled = match (inputs.levels, &inputs.kept) {
+            (Some(setup), Some(kept)) => {
+                let at: Vec<usize> = kept
+                    .iter()
+                    .filter(|k| core.contains(k))
+                    .map(|k| k - window.start)
+                    .collect();
+                filtfilt_window_sampled_then_in_place(
+                    setup.low.filter(),
+                    &at,
+                    low_target,
+                    band,
+                    &mut columns,
+                    ends,
+                )
+            }
+            _ => {
+                filtfilt_window(band, &mut columns, ends);
+                Vec::new()
+            }
+        };
+        let (pieces, target) = self.factor_core(&columns, &window, &core, inputs.cuts);
+        Some(WindowPart {
+            pieces,
+            target,
+            sampled,
+        })
+    }
+
+    /// The factors of the band rows among the samples `core` of the filtered `columns` of
+    /// `window`, cut at `cuts`, and their target's scatter block by block.
+    #[allow(clippy::type_complexity)]
     fn factor_core(
         &self,
         columns: &[&mut [f64]],
         window: &Range<usize>,
         core: &Range<usize>,
         cuts: &[usize],
-        factored: &mut Factored,
-    ) {
+    ) -> (Vec<(Range<usize>, DMatrix<f64>)>, Vec<super::RunningStd>) {
         let n = self.run.len();
         let samples = core.start.max(self.trim)..core.end.min(n - self.trim);
         if samples.is_empty() {
-            return;
+            return (Vec::new(), Vec::new());
         }
         let rows = samples.start - self.trim..samples.end - self.trim;
         let at = |row: usize| row + self.trim - window.start;
+        let mut pieces = Vec::new();
         for w in cuts.windows(2) {
             let piece = w[0].max(rows.start)..w[1].min(rows.end);
             if piece.is_empty() {
@@ -596,12 +709,10 @@ impl Windows {
                 .iter()
                 .map(|c| &c[at(piece.start)..at(piece.end)])
                 .collect();
-            factored.pieces.push((piece, triangular_factor(&part)));
+            pieces.push((piece, triangular_factor(&part)));
         }
-        let target = &columns[self.width];
-        factored
-            .target
-            .push_all(&target[at(rows.start)..at(rows.end)]);
+        let target = &columns[self.width][at(rows.start)..at(rows.end)];
+        (pieces, super::RunningStd::blocks(target).collect())
     }
 }
 
@@ -830,7 +941,11 @@ impl Problem<'_, '_> {
         above_band: Option<&AboveBand>,
     ) -> usize {
         match self.window_margin(n, low, above_band) {
-            Some(margin) => (window_core(n) + 2 * margin) * (width + 1),
+            Some(margin) => {
+                let windows = n.div_ceil(window_core(n));
+                let dealt = crate::parallel::cores().min(windows);
+                dealt * (window_core(n) + 2 * margin) * (width + 1)
+            }
             None => n * (width + 1),
         }
     }

@@ -38,10 +38,7 @@ pub(crate) fn triangular_factor(columns: &[&[f64]]) -> DMatrix<f64> {
     let threads = if m * k < PARALLEL_ENTRIES {
         1
     } else {
-        std::thread::available_parallelism()
-            .map_or(1, |t| t.get())
-            .min(m / CHUNK_ROWS)
-            .max(1)
+        crate::parallel::cores().min(m / CHUNK_ROWS).max(1)
     };
     if threads == 1 {
         return trimmed(factor_rows(columns, 0..m), m);

@@ -548,8 +548,7 @@ const PARALLEL_SAMPLES: usize = 2_000_000;
 /// Threads worth starting for `pieces` independent pieces of work over `samples` samples in
 /// all: one per core, at most one per piece, and only when each has a sizeable share.
 fn threads_for(pieces: usize, samples: usize) -> usize {
-    std::thread::available_parallelism()
-        .map_or(1, |t| t.get())
+    crate::parallel::cores()
         .min(pieces)
         .min(1 + samples / PARALLEL_SAMPLES)
 }

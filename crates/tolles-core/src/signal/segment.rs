@@ -100,7 +100,7 @@ const STEPS_ON_ONE_CORE: usize = 1 << 18;
 /// [`step_counts`] of consecutive parts of `tt` (overlapping by a sample, so every step is in
 /// exactly one), on all cores.
 fn step_counts_on_all_cores(tt: &[f64]) -> Vec<Option<Vec<(f64, usize)>>> {
-    let threads = std::thread::available_parallelism().map_or(1, |t| t.get());
+    let threads = crate::parallel::cores();
     if threads == 1 || tt.len() < STEPS_ON_ONE_CORE {
         return vec![step_counts(tt)];
     }
