@@ -522,8 +522,9 @@ impl Windows {
     /// the run (the filters leave a constant signal alone, which only the whole run can tell).
     ///
     /// Whole windows rather than each step of one spread over the cores: a window's fill,
-    /// filters and factor stay on one core and in its caches, and a fit of few columns (the
-    /// fluxgate's calibration: fewer signals than vector lanes on one core) keeps both busy.
+    /// filters and factor stay on one core with no thread started per step, and a fit of few
+    /// columns (the fluxgate's calibration: 10 signals, an 8-lane block on one core and a
+    /// 2-lane one on the other when its filters were shared) keeps both cores busy.
     fn factor(
         &self,
         problem: &Problem,
