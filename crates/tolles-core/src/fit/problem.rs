@@ -44,6 +44,12 @@ fn window_core(n: usize) -> usize {
     n.div_ceil(n.div_ceil(WINDOW_SAMPLES))
 }
 
+/// Samples of the longest window of a run of `n` samples done in windows overlapping by
+/// `margin`: a core and a margin on each side.
+fn window_len(n: usize, margin: usize) -> usize {
+    window_core(n) + 2 * margin
+}
+
 /// In tests, whether long runs may be done in windows, and how many were.
 #[cfg(test)]
 pub(super) mod windows_in_tests {
@@ -544,14 +550,13 @@ impl Windows {
             reference: levels.map(|l| levels::reference_over(&l.reference, self.run.clone())),
         };
         let starts: Vec<usize> = (0..n).step_by(core).collect();
+        let longest = window_len(n, self.margin);
         let shares: Vec<&mut [f64]> = buffer
-            .chunks_exact_mut((core + 2 * self.margin) * (self.width + 1))
+            .chunks_exact_mut(longest * (self.width + 1))
             .take(starts.len())
             .collect();
         let dealt = shares.len();
-        let mut targets = problem
-            .spare
-            .take_each(&vec![core + 2 * self.margin; dealt]);
+        let mut targets = problem.spare.take_each(&vec![longest; dealt]);
         let given_up = AtomicBool::new(false);
         let deal = |(t, (share, target)): (usize, (&mut [f64], &mut Vec<f64>))| {
             let mine = starts.iter().enumerate().skip(t).step_by(dealt);
@@ -945,7 +950,7 @@ impl Problem<'_, '_> {
             Some(margin) => {
                 let windows = n.div_ceil(window_core(n));
                 let dealt = crate::parallel::cores().min(windows);
-                dealt * (window_core(n) + 2 * margin) * (width + 1)
+                dealt * window_len(n, margin) * (width + 1)
             }
             None => n * (width + 1),
         }

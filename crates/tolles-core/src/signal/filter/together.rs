@@ -85,14 +85,14 @@ pub(crate) fn filtfilt_window_sampled_then_in_place(
         "signals of equal length"
     );
     assert_samples_within(at, n);
-    let varying = vec![false; signals.len()];
+    let none_constant = vec![false; signals.len()];
     sampled_then_in_place(
         Simd::best().0,
         (low, band),
         at,
         last_low,
         signals,
-        (&varying, &varying),
+        (&none_constant, &none_constant),
         ends,
     )
 }
