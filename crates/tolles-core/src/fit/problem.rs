@@ -50,6 +50,12 @@ fn window_len(n: usize, margin: usize) -> usize {
     window_core(n) + 2 * margin
 }
 
+/// Windows of a run of `n` samples done in windows that are worked on at once: one per core,
+/// at most one per window. A window's buffer is taken for each.
+fn windows_dealt(n: usize) -> usize {
+    crate::parallel::cores().min(n.div_ceil(window_core(n)))
+}
+
 /// In tests, whether long runs may be done in windows, and how many were.
 #[cfg(test)]
 pub(super) mod windows_in_tests {
@@ -181,11 +187,14 @@ struct RunRows {
     factored: Option<Factored>,
 }
 
+/// Consecutive ranges of a run's band rows and their factors.
+type Pieces = Vec<(Range<usize>, DMatrix<f64>)>;
+
 /// The band rows of a run done window by window, factored as they were filtered.
 struct Factored {
     /// Consecutive ranges of band rows, cut where windows and the folds of the plans given
     /// to [`Problem::prepare`] start, and their factors.
-    pieces: Vec<(Range<usize>, DMatrix<f64>)>,
+    pieces: Pieces,
     /// The scatter of its filtered target over its band rows.
     target: super::RunningStd,
 }
@@ -224,7 +233,7 @@ pub(super) type Plan = Vec<Vec<Piece>>;
 /// The factors of the band rows of each run, cut where any fold of any plan starts.
 pub(super) struct BandFactors {
     /// Per run, consecutive ranges of band rows and their factors.
-    runs: Vec<Vec<(Range<usize>, DMatrix<f64>)>>,
+    runs: Vec<Pieces>,
 }
 
 /// One fold's rows reduced to triangular factors of all the columns and the target.
@@ -503,7 +512,7 @@ struct Windows {
 /// target's scatter (block by block, merged in order afterwards), and with levels the samples of
 /// its level rows, per signal.
 struct WindowPart {
-    pieces: Vec<(Range<usize>, DMatrix<f64>)>,
+    pieces: Pieces,
     target: Vec<super::RunningStd>,
     sampled: Vec<Vec<f64>>,
 }
@@ -551,9 +560,11 @@ impl Windows {
         };
         let starts: Vec<usize> = (0..n).step_by(core).collect();
         let longest = window_len(n, self.margin);
+        // The buffer may be longer than this run asked for (a spare one of a wider fit's), so
+        // its shares are counted as they were sized, not by how many it holds.
         let shares: Vec<&mut [f64]> = buffer
             .chunks_exact_mut(longest * (self.width + 1))
-            .take(starts.len())
+            .take(windows_dealt(n))
             .collect();
         let dealt = shares.len();
         let mut targets = problem.spare.take_each(&vec![longest; dealt]);
@@ -690,14 +701,13 @@ impl Windows {
 
     /// The factors of the band rows among the samples `core` of the filtered `columns` of
     /// `window`, cut at `cuts`, and their target's scatter block by block.
-    #[allow(clippy::type_complexity)]
     fn factor_core(
         &self,
         columns: &[&mut [f64]],
         window: &Range<usize>,
         core: &Range<usize>,
         cuts: &[usize],
-    ) -> (Vec<(Range<usize>, DMatrix<f64>)>, Vec<super::RunningStd>) {
+    ) -> (Pieces, Vec<super::RunningStd>) {
         let n = self.run.len();
         let samples = core.start.max(self.trim)..core.end.min(n - self.trim);
         if samples.is_empty() {
@@ -947,11 +957,7 @@ impl Problem<'_, '_> {
         above_band: Option<&AboveBand>,
     ) -> usize {
         match self.window_margin(n, low, above_band) {
-            Some(margin) => {
-                let windows = n.div_ceil(window_core(n));
-                let dealt = crate::parallel::cores().min(windows);
-                dealt * window_len(n, margin) * (width + 1)
-            }
+            Some(margin) => windows_dealt(n) * window_len(n, margin) * (width + 1),
             None => n * (width + 1),
         }
     }
