@@ -109,18 +109,23 @@ fn bandpass(c: &mut Criterion) {
 }
 
 /// The heading-level rows' low-pass: 4th order below 0.1 Hz at 10 Hz, one sample in 50 kept,
-/// of the 19 signals a default fit's linear step low-passes.
+/// of the 19 signals a default fit's linear step low-passes: `jumps` as a fit does it (the
+/// kept samples evenly spaced, the delays jumping from one to the next), `every_sample` with
+/// one more kept sample off the stride, which makes the recursion run through every sample.
 fn lowpass_sampled(c: &mut Criterion) {
     let filter = Butterworth::design(4, Response::LowPass { cutoff_hz: 0.1 }, FS_HZ).unwrap();
     let input = signals();
     let views: Vec<&[f64]> = input[..19].iter().map(Vec::as_slice).collect();
-    let at: Vec<usize> = (50..SAMPLES - 50).step_by(50).collect();
+    let even: Vec<usize> = (50..SAMPLES - 50).step_by(50).collect();
+    let uneven: Vec<usize> = even.iter().copied().chain([SAMPLES - 1]).collect();
     let mut group = c.benchmark_group("lowpass_sampled_19x1e6");
     group.sample_size(10).sampling_mode(SamplingMode::Flat);
     group.throughput(Throughput::Elements((19 * SAMPLES) as u64));
-    group.bench_function("blocks", |b| {
-        b.iter(|| filtfilt_sampled_unless_constant(&filter, black_box(&views), &at).unwrap())
-    });
+    for (name, at) in [("jumps", &even), ("every_sample", &uneven)] {
+        group.bench_function(name, |b| {
+            b.iter(|| filtfilt_sampled_unless_constant(&filter, black_box(&views), at).unwrap())
+        });
+    }
     group.finish();
 }
 

@@ -6,13 +6,15 @@
 //! side by side in fixed-size arrays let the compiler put them in SIMD registers (two per
 //! SSE2 register, the x86-64 baseline) and fill the pipeline. Each lane performs exactly
 //! the operations of [`Butterworth::filtfilt`] in the same order, so the results are
-//! bit-for-bit the same.
+//! bit-for-bit the same; but for kept samples at an even stride, where the delays jump from
+//! one to the next ([`Jump`]) and the values agree to rounding.
 //!
 //! The kernels are compiled three times: for the baseline, for AVX2 (four lanes per
 //! register) and for AVX-512 (eight), and [`best`] picks the widest the processor has.
 //! Neither extension enables fused multiply-add (Rust never contracts `a * b + c` on its
 //! own anyway), so every path gives the same bits.
 
+use super::jump::Jump;
 use super::{Butterworth, End, Ends};
 use multiversion::{inherit_target, multiversion, target::match_target};
 use std::sync::OnceLock;
@@ -154,19 +156,21 @@ pub(super) fn filtfilt_sampled_all(
     ends: Ends,
 ) -> Vec<Vec<f64>> {
     let mut out = Vec::with_capacity(signals.len());
+    let jump = Jump::between(filter, at);
+    let jump = jump.as_ref();
     let mut blocks = signals.chunks_exact(LANES);
     if blocks.len() > 0 {
         let mut ws = Workspace::<LANES>::new(filter);
         for block in &mut blocks {
-            out.extend(filtfilt_sampled_block(block, at, &mut ws, ends));
+            out.extend(filtfilt_sampled_block(block, at, &mut ws, ends, jump));
         }
     }
     let rest = blocks.remainder();
     out.extend(match rest.len() {
         0 => Vec::new(),
-        1..=2 => filtfilt_sampled_block(rest, at, &mut Workspace::<2>::new(filter), ends),
-        3..=4 => filtfilt_sampled_block(rest, at, &mut Workspace::<4>::new(filter), ends),
-        _ => filtfilt_sampled_block(rest, at, &mut Workspace::<LANES>::new(filter), ends),
+        1..=2 => filtfilt_sampled_block(rest, at, &mut Workspace::<2>::new(filter), ends, jump),
+        3..=4 => filtfilt_sampled_block(rest, at, &mut Workspace::<4>::new(filter), ends, jump),
+        _ => filtfilt_sampled_block(rest, at, &mut Workspace::<LANES>::new(filter), ends, jump),
     });
     out
 }
@@ -465,9 +469,11 @@ fn unpark<const L: usize>(signals: &[&mut [f64]], start: usize, tile: &mut [[f64
 /// stays in the L2 cache between the two passes over it.
 const STRETCH: usize = 2048;
 
-/// [`filtfilt_block`] of `signals` (at most `L`), keeping only the samples at `at`.
+/// [`filtfilt_block`] of `signals` (at most `L`), keeping only the samples at `at`; by
+/// [`jumping`] when `jump` (those samples evenly spaced) is given and the filter has at most 8
+/// delays.
 ///
-/// The forward pass runs twice instead of being stored: once over the whole signals for the
+/// Otherwise the forward pass runs twice instead of being stored: once over the whole signals for the
 /// delays at the start of every stretch of [`STRETCH`] samples, then again stretch by stretch,
 /// from the last, one stretch ahead of the backward pass. The same operations on the same
 /// delays give the same bits, and nothing of the signals' length is held.
@@ -482,12 +488,20 @@ fn filtfilt_sampled_block<const L: usize>(
     at: &[usize],
     ws: &mut Workspace<L>,
     ends: Ends,
+    jump: Option<&Jump>,
 ) -> Vec<Vec<f64>> {
     assert!(signals.len() <= L, "at most {L} signals per block");
     let Some(n) = signals.first().map(|s| s.len()) else {
         return Vec::new();
     };
     assert!(n > ws.pad.len(), "signals must be longer than padlen");
+    match jump.map(|j| j.delays) {
+        Some(2) => return jumping::<L, 2, 4>(signals, at, ws, ends, jump.expect("a jump")),
+        Some(4) => return jumping::<L, 4, 8>(signals, at, ws, ends, jump.expect("a jump")),
+        Some(6) => return jumping::<L, 6, 12>(signals, at, ws, ends, jump.expect("a jump")),
+        Some(8) => return jumping::<L, 8, 16>(signals, at, ws, ends, jump.expect("a jump")),
+        _ => {}
+    }
     let mut current = vec![[0.0; L]; STRETCH.min(n)];
     let mut ahead = current.clone();
     if signals.len() < L {
@@ -545,6 +559,87 @@ fn filtfilt_sampled_block<const L: usize>(
         std::mem::swap(&mut current, &mut ahead);
     }
     out
+}
+
+/// [`filtfilt_sampled_block`] at evenly spaced samples `at`, by [`Jump`]: the recursion runs
+/// only up to the first kept sample (forward) and from the last one to the end and back, and
+/// the delays jump from kept sample to kept sample in between, signal by signal. `D` is the
+/// filter's number of delays, `R = 2·D`.
+#[inline(always)]
+fn jumping<const L: usize, const D: usize, const R: usize>(
+    signals: &[&[f64]],
+    at: &[usize],
+    ws: &mut Workspace<L>,
+    ends: Ends,
+    jump: &Jump,
+) -> Vec<Vec<f64>> {
+    let n = signals[0].len();
+    let (first, last) = (at[0], at[at.len() - 1]);
+    if signals.len() < L {
+        ws.pad.fill([0.0; L]);
+    }
+    ws.start_forward_at(signals, ends.start);
+    let mut stretch = vec![[0.0; L]; STRETCH.min(n)];
+    for start in (0..first).step_by(STRETCH) {
+        let part = &mut stretch[..STRETCH.min(first - start)];
+        gather(signals, start, part);
+        run(&mut ws.sections, part, false);
+    }
+    let weights = jump.weights::<R>();
+    // Plain loops rather than iterator adapters, whose closures would be compiled on their
+    // own at the baseline instead of into the kernels' instruction sets.
+    let mut forward = Vec::with_capacity(signals.len());
+    for (l, x) in signals.iter().enumerate() {
+        let f = jump.forward::<D, R>(&weights, x, at, delays_of(&ws.sections, l));
+        set_delays_of(&mut ws.sections, l, &f.states[f.states.len() - 1]);
+        forward.push(f);
+    }
+    // From the last kept sample to the end: its forward output, kept for the backward pass.
+    let mut tail = vec![[0.0; L]; n - last];
+    gather(signals, last, &mut tail);
+    run(&mut ws.sections, &mut tail, false);
+    let end_output = tail[tail.len() - 1];
+    if ends.end == End::Padded {
+        ws.trailing_extension(signals);
+    }
+    ws.start_backward_at(ends.end, end_output);
+    run(&mut ws.sections, &mut tail[1..], true);
+    let mut before_last = Vec::with_capacity(signals.len());
+    for l in 0..signals.len() {
+        before_last.push(delays_of::<L, D>(&ws.sections, l));
+    }
+    run(&mut ws.sections, &mut tail[..1], true);
+    let mut out = vec![vec![0.0; at.len()]; signals.len()];
+    for (l, (f, o)) in forward.iter().zip(&mut out).enumerate() {
+        o[at.len() - 1] = tail[0][l];
+        jump.backward::<D>(f, before_last[l], o);
+    }
+    out
+}
+
+/// Lane `l`'s delays of every section, `z0` then `z1` of each in turn.
+#[inline(always)]
+fn delays_of<const L: usize, const D: usize>(sections: &[Section<L>], l: usize) -> [f64; D] {
+    std::array::from_fn(|i| {
+        let s = &sections[i / 2];
+        match i % 2 {
+            0 => s.z0[l],
+            _ => s.z1[l],
+        }
+    })
+}
+
+/// Sets lane `l`'s delays of every section, the inverse of [`delays_of`].
+#[inline(always)]
+fn set_delays_of<const L: usize, const D: usize>(
+    sections: &mut [Section<L>],
+    l: usize,
+    delays: &[f64; D],
+) {
+    for (s, pair) in sections.iter_mut().zip(delays.chunks_exact(2)) {
+        s.z0[l] = pair[0];
+        s.z1[l] = pair[1];
+    }
 }
 
 /// Loads the samples `range` of `signals` into `buffer`, and the forward pass's delays at its
@@ -808,11 +903,12 @@ impl<const L: usize> Section<L> {
 
 #[cfg(test)]
 mod tests {
+    use super::super::End;
     use super::super::{
         filtfilt_many_unless_constant, filtfilt_sampled_unless_constant, filtfilt_unless_constant,
         sample_std, Butterworth, Ends, Response,
     };
-    use super::{available, best};
+    use super::{available, best, filtfilt_sampled_block, Jump, Workspace, LANES};
     use proptest::prelude::*;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
@@ -911,6 +1007,21 @@ mod tests {
         a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
     }
 
+    /// The same bits, or with `scale` (the largest magnitude of the signal filtered) within
+    /// 1e-12 of it: the rounding of samples reached by [`Jump`]s.
+    fn same_values(a: &[f64], b: &[f64], scale: Option<f64>) -> bool {
+        match scale {
+            None => same_bits(a, b),
+            Some(scale) => {
+                a.len() == b.len() && a.iter().zip(b).all(|(x, y)| (x - y).abs() <= 1e-12 * scale)
+            }
+        }
+    }
+
+    fn scale_of(x: &[f64]) -> f64 {
+        x.iter().fold(0.0f64, |m, v| m.max(v.abs()))
+    }
+
     proptest! {
         /// Every block width and partial blocks: 1–23 signals, from `padlen + 1` samples
         /// up, bit for bit as one signal at a time, constant signals untouched and judged
@@ -940,9 +1051,10 @@ mod tests {
             let at = some_samples(n, seed);
             let sampled = (kernels.filtfilt_sampled_all)(&f, &read_only(&original), &at, Ends::WHOLE);
             prop_assert_eq!(sampled.len(), original.len());
-            for (whole, some) in all.iter().zip(&sampled) {
+            let jumped = Jump::between(&f, &at).is_some();
+            for ((x, whole), some) in original.iter().zip(&all).zip(&sampled) {
                 let wanted: Vec<f64> = at.iter().map(|&k| whole[k]).collect();
-                prop_assert!(same_bits(&wanted, some));
+                prop_assert!(same_values(&wanted, some, jumped.then(|| scale_of(x))));
             }
 
             let mut many = original.clone();
@@ -996,6 +1108,50 @@ mod tests {
         }
     }
 
+    proptest! {
+        /// Evenly spaced kept samples, reached by [`Jump`]s, match the recursion through
+        /// every sample to rounding, at every kind of end, for every block width; and the
+        /// kernels of every instruction set give the same bits.
+        #[test]
+        fn jumps_match_the_recursion(
+            f in filter_strategy(),
+            kinds in prop::collection::vec(0u8..6, 1..=11),
+            extra in 0usize..3000,
+            stride in prop_oneof![8usize..=64, 65usize..=700],
+            first in 0usize..100,
+            ends in (any::<bool>(), any::<bool>()),
+            seed in any::<u64>(),
+        ) {
+            let n = f.padlen() + 1 + extra;
+            let original = columns(&kinds, n, seed);
+            let read = read_only(&original);
+            let at: Vec<usize> = (first.min(n - 1)..n).step_by(stride).collect();
+            let end = |open: bool| if open { End::Open } else { End::Padded };
+            let ends = Ends { start: end(ends.0), end: end(ends.1) };
+            let jump = Jump::between(&f, &at);
+            prop_assume!(jump.is_some());
+            let mut ws = Workspace::<LANES>::new(&f);
+            let blocks: Vec<&[&[f64]]> = read.chunks(LANES).collect();
+            for block in blocks {
+                let expected = filtfilt_sampled_block(block, &at, &mut ws, ends, None);
+                let got = filtfilt_sampled_block(block, &at, &mut ws, ends, jump.as_ref());
+                for (x, (e, g)) in block.iter().zip(expected.iter().zip(&got)) {
+                    prop_assert!(same_values(e, g, Some(scale_of(x))));
+                }
+            }
+            let [portable, others @ ..] = &available()[..] else {
+                unreachable!("the portable kernels are always available");
+            };
+            let expected = (portable.filtfilt_sampled_all)(&f, &read, &at, ends);
+            for kernels in others {
+                let got = (kernels.filtfilt_sampled_all)(&f, &read, &at, ends);
+                for (x, y) in expected.iter().zip(&got) {
+                    prop_assert!(same_bits(x, y), "{}", kernels.name);
+                }
+            }
+        }
+    }
+
     /// The processor this runs on picks the widest kernels it has, so that the tests above
     /// check what `filtfilt_many_unless_constant` runs.
     #[test]
@@ -1024,11 +1180,16 @@ mod tests {
         }
         assert!(same_bits(&original[5], &many[5]));
 
-        let at: Vec<usize> = (7..100_003).step_by(50).collect();
-        let sampled = filtfilt_sampled_unless_constant(&f, &read_only(&original), &at).unwrap();
-        for (whole, some) in many.iter().zip(&sampled) {
-            let wanted: Vec<f64> = at.iter().map(|&k| whole[k]).collect();
-            assert!(same_bits(&wanted, some));
+        // Evenly spaced, so jumped to; then once more unevenly, through every sample.
+        let even: Vec<usize> = (7..100_003).step_by(50).collect();
+        let uneven: Vec<usize> = even.iter().copied().chain([100_002]).collect();
+        for at in [even, uneven] {
+            let jumped = Jump::between(&f, &at).is_some();
+            let sampled = filtfilt_sampled_unless_constant(&f, &read_only(&original), &at).unwrap();
+            for ((x, whole), some) in original.iter().zip(&many).zip(&sampled) {
+                let wanted: Vec<f64> = at.iter().map(|&k| whole[k]).collect();
+                assert!(same_values(&wanted, some, jumped.then(|| scale_of(x))));
+            }
         }
     }
 
