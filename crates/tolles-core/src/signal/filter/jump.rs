@@ -183,6 +183,14 @@ impl Jump {
     }
 }
 
+impl Jump {
+    /// The filter's output for the sample `y` taken with the delays `delays`.
+    #[inline(always)]
+    pub(super) fn output(&self, delays: &[f64], y: f64) -> f64 {
+        weigh(&self.c, delays) + self.direct * y
+    }
+}
+
 /// What the forward pass of one signal leaves at its kept samples.
 pub(super) struct Forward<const D: usize> {
     /// The delays before each kept sample (the last's included).

@@ -156,23 +156,43 @@ pub(super) fn filtfilt_sampled_all(
     ends: Ends,
 ) -> Vec<Vec<f64>> {
     let mut out = Vec::with_capacity(signals.len());
-    let jump = Jump::between(filter, at);
+    // Only the fourth-order low-pass of a fit's level rows (4 delays) jumps, and only in
+    // blocks of all lanes: each compiled copy of `jumping` adds to the crate's build, and the
+    // rest is little work.
+    let jump = Jump::between(filter, at).filter(|j| j.delays == JUMP_DELAYS);
     let jump = jump.as_ref();
     let mut blocks = signals.chunks_exact(LANES);
     if blocks.len() > 0 {
         let mut ws = Workspace::<LANES>::new(filter);
         for block in &mut blocks {
-            out.extend(filtfilt_sampled_block(block, at, &mut ws, ends, jump));
+            out.extend(sampled_widest(block, at, &mut ws, ends, jump));
         }
     }
     let rest = blocks.remainder();
     out.extend(match rest.len() {
         0 => Vec::new(),
-        1..=2 => filtfilt_sampled_block(rest, at, &mut Workspace::<2>::new(filter), ends, jump),
-        3..=4 => filtfilt_sampled_block(rest, at, &mut Workspace::<4>::new(filter), ends, jump),
-        _ => filtfilt_sampled_block(rest, at, &mut Workspace::<LANES>::new(filter), ends, jump),
+        1..=2 => filtfilt_sampled_block(rest, at, &mut Workspace::<2>::new(filter), ends),
+        3..=4 => filtfilt_sampled_block(rest, at, &mut Workspace::<4>::new(filter), ends),
+        _ => sampled_widest(rest, at, &mut Workspace::<LANES>::new(filter), ends, jump),
     });
     out
+}
+
+/// A block of up to [`LANES`] signals of [`filtfilt_sampled_all`]: by [`jumping`] with `jump`,
+/// else through every sample. A function rather than a closure, which would be compiled on
+/// its own at the baseline instead of into the kernels' instruction sets.
+#[inline(always)]
+fn sampled_widest(
+    block: &[&[f64]],
+    at: &[usize],
+    ws: &mut Workspace<LANES>,
+    ends: Ends,
+    jump: Option<&Jump>,
+) -> Vec<Vec<f64>> {
+    match jump {
+        Some(jump) => jumping::<LANES, JUMP_DELAYS, { 2 * JUMP_DELAYS }>(block, at, ws, ends, jump),
+        None => filtfilt_sampled_block(block, at, ws, ends),
+    }
 }
 
 /// Whether each of `signals` (equally long) counts as constant by
@@ -469,11 +489,10 @@ fn unpark<const L: usize>(signals: &[&mut [f64]], start: usize, tile: &mut [[f64
 /// stays in the L2 cache between the two passes over it.
 const STRETCH: usize = 2048;
 
-/// [`filtfilt_block`] of `signals` (at most `L`), keeping only the samples at `at`; by
-/// [`jumping`] when `jump` (those samples evenly spaced) is given and the filter has at most 8
-/// delays.
+/// [`filtfilt_block`] of `signals` (at most `L`), keeping only the samples at `at`, through
+/// every sample ([`jumping`] reaches evenly spaced ones faster).
 ///
-/// Otherwise the forward pass runs twice instead of being stored: once over the whole signals for the
+/// The forward pass runs twice instead of being stored: once over the whole signals for the
 /// delays at the start of every stretch of [`STRETCH`] samples, then again stretch by stretch,
 /// from the last, one stretch ahead of the backward pass. The same operations on the same
 /// delays give the same bits, and nothing of the signals' length is held.
@@ -488,20 +507,12 @@ fn filtfilt_sampled_block<const L: usize>(
     at: &[usize],
     ws: &mut Workspace<L>,
     ends: Ends,
-    jump: Option<&Jump>,
 ) -> Vec<Vec<f64>> {
     assert!(signals.len() <= L, "at most {L} signals per block");
     let Some(n) = signals.first().map(|s| s.len()) else {
         return Vec::new();
     };
     assert!(n > ws.pad.len(), "signals must be longer than padlen");
-    match jump.map(|j| j.delays) {
-        Some(2) => return jumping::<L, 2, 4>(signals, at, ws, ends, jump.expect("a jump")),
-        Some(4) => return jumping::<L, 4, 8>(signals, at, ws, ends, jump.expect("a jump")),
-        Some(6) => return jumping::<L, 6, 12>(signals, at, ws, ends, jump.expect("a jump")),
-        Some(8) => return jumping::<L, 8, 16>(signals, at, ws, ends, jump.expect("a jump")),
-        _ => {}
-    }
     let mut current = vec![[0.0; L]; STRETCH.min(n)];
     let mut ahead = current.clone();
     if signals.len() < L {
@@ -583,7 +594,7 @@ fn jumping<const L: usize, const D: usize, const R: usize>(
     for start in (0..first).step_by(STRETCH) {
         let part = &mut stretch[..STRETCH.min(first - start)];
         gather(signals, start, part);
-        run(&mut ws.sections, part, false);
+        run_two(&mut ws.sections, part, false);
     }
     let weights = jump.weights::<R>();
     // Plain loops rather than iterator adapters, whose closures would be compiled on their
@@ -597,25 +608,35 @@ fn jumping<const L: usize, const D: usize, const R: usize>(
     // From the last kept sample to the end: its forward output, kept for the backward pass.
     let mut tail = vec![[0.0; L]; n - last];
     gather(signals, last, &mut tail);
-    run(&mut ws.sections, &mut tail, false);
+    run_two(&mut ws.sections, &mut tail, false);
     let end_output = tail[tail.len() - 1];
     if ends.end == End::Padded {
         ws.trailing_extension(signals);
     }
     ws.start_backward_at(ends.end, end_output);
-    run(&mut ws.sections, &mut tail[1..], true);
-    let mut before_last = Vec::with_capacity(signals.len());
-    for l in 0..signals.len() {
-        before_last.push(delays_of::<L, D>(&ws.sections, l));
-    }
-    run(&mut ws.sections, &mut tail[..1], true);
+    run_two(&mut ws.sections, &mut tail[1..], true);
     let mut out = vec![vec![0.0; at.len()]; signals.len()];
     for (l, (f, o)) in forward.iter().zip(&mut out).enumerate() {
-        o[at.len() - 1] = tail[0][l];
-        jump.backward::<D>(f, before_last[l], o);
+        let before_last = delays_of::<L, D>(&ws.sections, l);
+        o[at.len() - 1] = jump.output(&before_last, tail[0][l]);
+        jump.backward::<D>(f, before_last, o);
     }
     out
 }
+
+/// [`run`] of the two sections of a filter with [`JUMP_DELAYS`] delays: [`jumping`]'s three
+/// recursions each compile two forms instead of [`run`]'s seven.
+#[inline(always)]
+fn run_two<const L: usize>(sections: &mut [Section<L>], data: &mut [[f64; L]], backward: bool) {
+    match sections {
+        [a, b] if b.unit => run_fixed::<L, 2, true>(&mut [a, b], data, backward),
+        [a, b] => run_fixed::<L, 2, false>(&mut [a, b], data, backward),
+        _ => unreachable!("a filter with {JUMP_DELAYS} delays has two sections"),
+    }
+}
+
+/// Delays of the filters whose kept samples [`jumping`] reaches: a fourth-order low-pass's.
+const JUMP_DELAYS: usize = 4;
 
 /// Lane `l`'s delays of every section, `z0` then `z1` of each in turn.
 #[inline(always)]
@@ -908,7 +929,9 @@ mod tests {
         filtfilt_many_unless_constant, filtfilt_sampled_unless_constant, filtfilt_unless_constant,
         sample_std, Butterworth, Ends, Response,
     };
-    use super::{available, best, filtfilt_sampled_block, Jump, Workspace, LANES};
+    use super::{
+        available, best, filtfilt_sampled_block, jumping, Jump, Workspace, JUMP_DELAYS, LANES,
+    };
     use proptest::prelude::*;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
@@ -1114,7 +1137,7 @@ mod tests {
         /// kernels of every instruction set give the same bits.
         #[test]
         fn jumps_match_the_recursion(
-            f in filter_strategy(),
+            f in filter_strategy().prop_filter("jumping delays", |f| 2 * f.sections().len() == JUMP_DELAYS),
             kinds in prop::collection::vec(0u8..6, 1..=11),
             extra in 0usize..3000,
             stride in prop_oneof![8usize..=64, 65usize..=700],
@@ -1130,11 +1153,12 @@ mod tests {
             let ends = Ends { start: end(ends.0), end: end(ends.1) };
             let jump = Jump::between(&f, &at);
             prop_assume!(jump.is_some());
+            let jump = jump.expect("a jump");
             let mut ws = Workspace::<LANES>::new(&f);
             let blocks: Vec<&[&[f64]]> = read.chunks(LANES).collect();
             for block in blocks {
-                let expected = filtfilt_sampled_block(block, &at, &mut ws, ends, None);
-                let got = filtfilt_sampled_block(block, &at, &mut ws, ends, jump.as_ref());
+                let expected = filtfilt_sampled_block(block, &at, &mut ws, ends);
+                let got = jumping::<LANES, JUMP_DELAYS, 8>(block, &at, &mut ws, ends, &jump);
                 for (x, (e, g)) in block.iter().zip(expected.iter().zip(&got)) {
                     prop_assert!(same_values(e, g, Some(scale_of(x))));
                 }
