@@ -69,7 +69,9 @@ impl Jump {
             [first, second, ..] => second.checked_sub(*first)?,
             _ => return None,
         };
-        let even = at.windows(2).all(|w| w[1] - w[0] == stride);
+        let even = at
+            .windows(2)
+            .all(|w| w[1].checked_sub(w[0]) == Some(stride));
         (even && (MIN_STRIDE..=MAX_STRIDE).contains(&stride)).then(|| Self::new(filter, stride))
     }
 

@@ -156,10 +156,11 @@ pub(super) fn filtfilt_sampled_all(
     ends: Ends,
 ) -> Vec<Vec<f64>> {
     let mut out = Vec::with_capacity(signals.len());
-    // Only the fourth-order low-pass of a fit's level rows (4 delays) jumps, and only in
-    // blocks of all lanes: each compiled copy of `jumping` adds to the crate's build, and the
-    // rest is little work.
-    let jump = Jump::between(filter, at).filter(|j| j.delays == JUMP_DELAYS);
+    // Only the fourth-order low-pass of a fit's level rows (4 delays) jumps, and always with
+    // all lanes: each compiled copy of `jumping` adds to the crate's build.
+    let jump = (2 * filter.sections().len() == JUMP_DELAYS)
+        .then(|| Jump::between(filter, at))
+        .flatten();
     let jump = jump.as_ref();
     let mut blocks = signals.chunks_exact(LANES);
     if blocks.len() > 0 {
@@ -168,11 +169,13 @@ pub(super) fn filtfilt_sampled_all(
             out.extend(sampled_widest(block, at, &mut ws, ends, jump));
         }
     }
+    // A partial block that jumps takes all lanes too: the jumps go signal by signal, so the
+    // idle lanes cost little, and a signal's values then do not depend on the block it is in.
     let rest = blocks.remainder();
-    out.extend(match rest.len() {
-        0 => Vec::new(),
-        1..=2 => filtfilt_sampled_block(rest, at, &mut Workspace::<2>::new(filter), ends),
-        3..=4 => filtfilt_sampled_block(rest, at, &mut Workspace::<4>::new(filter), ends),
+    out.extend(match (rest.len(), jump) {
+        (0, _) => Vec::new(),
+        (1..=2, None) => filtfilt_sampled_block(rest, at, &mut Workspace::<2>::new(filter), ends),
+        (3..=4, None) => filtfilt_sampled_block(rest, at, &mut Workspace::<4>::new(filter), ends),
         _ => sampled_widest(rest, at, &mut Workspace::<LANES>::new(filter), ends, jump),
     });
     out
