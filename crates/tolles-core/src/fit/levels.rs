@@ -22,7 +22,7 @@ use crate::fit::problem::Spare;
 use crate::fit::{Band, FitSettings, Lambda, Samples};
 use crate::model::design::Design;
 use crate::model::terms::TermSet;
-use crate::model::vector::{Fluxgates, VectorSeries};
+use crate::model::vector::{norms3_into, Fluxgates, VectorSeries};
 use crate::parallel::split_rows;
 use crate::signal::filter::{
     filtfilt_many_unless_constant, filtfilt_sampled_then_in_place,
@@ -111,12 +111,12 @@ pub(super) fn reference_reusing(
     let n = flux.len();
     let mut magnitude = vec![0.0; n];
     split_rows(n, &mut [&mut magnitude], |rows, out| {
-        for (m, k) in out[0].iter_mut().zip(rows) {
-            *m = if usable[k] {
-                flux.magnitude(k)
-            } else {
-                f64::NAN
-            };
+        let components = [&flux.x, &flux.y, &flux.z].map(|c| &c[rows.clone()]);
+        norms3_into(components, out[0]);
+        for (m, u) in out[0].iter_mut().zip(&usable[rows]) {
+            if !u {
+                *m = f64::NAN;
+            }
         }
     });
     let design = Design::new(TermSet {

@@ -24,8 +24,9 @@
 use crate::model::extra::ExtraChannel;
 pub use crate::model::terms::TermSet;
 use crate::model::terms::{Axis, Column};
-use crate::model::vector::Fluxgates;
+use crate::model::vector::{norms3_into, Fluxgates};
 use crate::parallel::{blocks, split_rows};
+use multiversion::multiversion;
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 use std::ops::Range;
@@ -279,26 +280,7 @@ impl Design {
         out: &mut [f64],
     ) {
         let c = &components[term.fluxgate];
-        let scaled = |out: &mut [f64], u: &[f64], v: &[f64]| {
-            for ((o, u), v) in out.iter_mut().zip(u).zip(v) {
-                *o = u * v / self.bt_scale;
-            }
-        };
-        match term.column {
-            Column::Permanent(i) => out.copy_from_slice(&c.unit[i.index()]),
-            Column::Induced(i, j) => scaled(out, &c.unit[i.index()], c.b[j.index()]),
-            Column::Eddy(i, j) => scaled(out, &c.unit[i.index()], &c.db[j.index()]),
-            Column::InducedTraceless(a) => c.traceless(out, false, a.index(), self.bt_scale),
-            Column::EddyTraceless(a) => c.traceless(out, true, a.index(), self.bt_scale),
-            Column::InducedTrace => c.trace(out, self.bt_scale),
-            Column::Extra { channel, axis } => {
-                let values = &extras[channel][rows];
-                for ((o, u), v) in out.iter_mut().zip(&c.unit[axis.index()]).zip(values) {
-                    *o = u * v;
-                }
-            }
-            Column::Bias => out.fill(1.0),
-        }
+        column_into(self.bt_scale, c, extras, rows, term.column, out);
     }
 
     /// The design matrix of one contiguous series (rows = samples), all columns.
@@ -378,6 +360,43 @@ impl Design {
     }
 }
 
+/// [`Design::write_column`]'s work: the column `column` of one fluxgate's block `c` (rows
+/// `rows`, for the extra channels) into `out`, with Bt scale `s` (nT).
+///
+/// Compiled also for AVX2 and AVX-512 and chosen at run time, like the filters' lanes (the
+/// crate's baseline, SSE2, does two divisions at a time); the same operations on every path,
+/// so the same bits.
+#[multiversion(targets("x86_64+avx512f", "x86_64+avx2"))]
+fn column_into(
+    s: f64,
+    c: &Components,
+    extras: &[&[f64]],
+    rows: Range<usize>,
+    column: Column,
+    out: &mut [f64],
+) {
+    let scaled = |out: &mut [f64], u: &[f64], v: &[f64]| {
+        for ((o, u), v) in out.iter_mut().zip(u).zip(v) {
+            *o = u * v / s;
+        }
+    };
+    match column {
+        Column::Permanent(i) => out.copy_from_slice(&c.unit[i.index()]),
+        Column::Induced(i, j) => scaled(out, &c.unit[i.index()], c.b[j.index()]),
+        Column::Eddy(i, j) => scaled(out, &c.unit[i.index()], &c.db[j.index()]),
+        Column::InducedTraceless(a) => c.traceless(out, false, a.index(), s),
+        Column::EddyTraceless(a) => c.traceless(out, true, a.index(), s),
+        Column::InducedTrace => c.trace(out, s),
+        Column::Extra { channel, axis } => {
+            let values = &extras[channel][rows];
+            for ((o, u), v) in out.iter_mut().zip(&c.unit[axis.index()]).zip(values) {
+                *o = u * v;
+            }
+        }
+        Column::Bias => out.fill(1.0),
+    }
+}
+
 /// Samples per block of the column builders: a block's fluxgate values, unit vectors and
 /// changes stay in the first-level caches while every column of it is written.
 const BLOCK_ROWS: usize = 2048;
@@ -442,6 +461,7 @@ struct Components<'a> {
 
 impl<'a> Components<'a> {
     /// Writes the traceless column `(B̂·v/3 − B̂a·va) / s` with v = B, or Ḃ when `eddy`.
+    #[inline(always)]
     fn traceless(&self, out: &mut [f64], eddy: bool, a: usize, s: f64) {
         let v: [&[f64]; 3] = if eddy {
             [&self.db[0], &self.db[1], &self.db[2]]
@@ -452,12 +472,14 @@ impl<'a> Components<'a> {
     }
 
     /// Writes the trace column `B̂·B / (3s)`.
+    #[inline(always)]
     fn trace(&self, out: &mut [f64], s: f64) {
         self.each_sample(out, self.b, |unit, v| trace(unit, v) / s);
     }
 
     /// Writes `f(B̂, v)` for every sample, by iterators rather than indices so the loop carries
     /// no bounds checks.
+    #[inline(always)]
     fn each_sample(&self, out: &mut [f64], v: [&[f64]; 3], f: impl Fn([f64; 3], [f64; 3]) -> f64) {
         let units = self.unit[0].iter().zip(&self.unit[1]).zip(&self.unit[2]);
         let values = v[0].iter().zip(v[1]).zip(v[2]);
@@ -469,25 +491,31 @@ impl<'a> Components<'a> {
     /// The components `series` (x, y, z; nT) at the samples `rows`, with their changes as
     /// [`central_difference`] gives them over the whole series.
     fn of(series: [&'a [f64]; 3], rows: Range<usize>) -> Self {
-        let b = series.map(|c| &c[rows.clone()]);
-        let norm: Vec<f64> = rows
-            .clone()
-            .map(|k| crate::model::vector::norm3(series.map(|c| c[k])))
-            .collect();
-        Self {
-            b,
-            db: series.map(|c| central_difference_over(c, rows.clone())),
-            unit: b.map(|c| c.iter().zip(&norm).map(|(v, m)| v / m).collect()),
-        }
+        components_of(series, rows)
+    }
+}
+
+/// [`Components::of`], compiled also for AVX2 and AVX-512 as [`column_into`] is.
+#[multiversion(targets("x86_64+avx512f", "x86_64+avx2"))]
+fn components_of<'a>(series: [&'a [f64]; 3], rows: Range<usize>) -> Components<'a> {
+    let b = series.map(|c| &c[rows.clone()]);
+    let mut norm = vec![0.0; rows.len()];
+    norms3_into(b, &mut norm);
+    Components {
+        b,
+        db: series.map(|c| central_difference_over(c, rows.clone())),
+        unit: b.map(|c| c.iter().zip(&norm).map(|(v, m)| v / m).collect()),
     }
 }
 
 /// `û·v/3 − ûa·va`: the projection on û of the traceless field `(1/3 − e_a e_aᵀ)·v`.
+#[inline(always)]
 fn traceless(unit: [f64; 3], v: [f64; 3], a: usize) -> f64 {
     (unit[0] * v[0] + unit[1] * v[1] + unit[2] * v[2]) / 3.0 - unit[a] * v[a]
 }
 
 /// `û·v/3`: the projection on û of the isotropic field `v/3`.
+#[inline(always)]
 fn trace(unit: [f64; 3], v: [f64; 3]) -> f64 {
     (unit[0] * v[0] + unit[1] * v[1] + unit[2] * v[2]) / 3.0
 }
@@ -508,6 +536,7 @@ pub fn central_difference(x: &[f64]) -> Vec<f64> {
 ///
 /// # Panics
 /// If `rows` is not within `x`: a programming error.
+#[inline(always)]
 pub fn central_difference_over(x: &[f64], rows: Range<usize>) -> Vec<f64> {
     let n = x.len();
     assert!(

@@ -31,7 +31,8 @@
 
 use crate::model::design::{central_difference, central_difference_over, Design, Term};
 use crate::model::terms::Column;
-use crate::model::vector::VectorSeries;
+use crate::model::vector::{norms3_into, VectorSeries};
+use multiversion::multiversion;
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 
@@ -174,8 +175,12 @@ pub fn exact_jacobian(
 /// callers can share a series' samples between threads and decide where the rows live,
 /// without copying the series. The changes per sample are those of the whole series.
 ///
+/// Compiled also for AVX2 and AVX-512 and chosen at run time (its loops are over blocks of
+/// samples); the same operations on every path, so the same bits.
+///
 /// # Panics
 /// If `rows` is not within the series or a slice is shorter than `rows`: programming errors.
+#[multiversion(targets("x86_64+avx512f", "x86_64+avx2"))]
 pub fn exact_jacobian_into(
     design: &Design,
     flux: [&[f64]; 3],
@@ -206,13 +211,7 @@ pub fn exact_jacobian_into(
             ws.add_to_h(c, *beta);
         }
         let at = block.start - rows.start..block.end - rows.start;
-        for (k, value) in delta[at.clone()].iter_mut().enumerate() {
-            let bk = [b[0][k], b[1][k], b[2][k]];
-            let hk = [ws.h[0][k], ws.h[1][k], ws.h[2][k]];
-            let (v, direction) = change_of_magnitude(bk, hk, ws.bias[k]);
-            *value = v;
-            (0..3).for_each(|i| ws.direction[i][k] = direction[i]);
-        }
+        ws.change_of_magnitude(b, &mut delta[at.clone()]);
         for (c, (out, term)) in jacobian.iter_mut().zip(terms).enumerate() {
             let out = &mut out[at.clone()];
             if same {
@@ -243,6 +242,9 @@ struct JacobianBlock {
     h: [Vec<f64>; 3],
     bias: Vec<f64>,
     direction: [Vec<f64>; 3],
+    /// `|B|` and `|B + H|` over the block (nT).
+    norm_b: Vec<f64>,
+    norm_total: Vec<f64>,
 }
 
 impl JacobianBlock {
@@ -254,10 +256,13 @@ impl JacobianBlock {
             h: Default::default(),
             bias: Vec::new(),
             direction: Default::default(),
+            norm_b: Vec::new(),
+            norm_total: Vec::new(),
         }
     }
 
     /// Clears the sums for a block of `m` samples.
+    #[inline(always)]
     fn start(&mut self, m: usize) {
         let zero = |v: &mut Vec<f64>| {
             v.clear();
@@ -270,10 +275,44 @@ impl JacobianBlock {
         zero(&mut self.bias);
     }
 
+    /// [`change_of_magnitude`] of every sample of the block, whose readings are `b`, into
+    /// `delta`, and the direction of `B + H`: the same operations sample by sample, as loops
+    /// over the block the compiler vectorises.
+    #[inline(always)]
+    fn change_of_magnitude(&mut self, b: [&[f64]; 3], delta: &mut [f64]) {
+        let m = delta.len();
+        for ((t, b), h) in self.direction.iter_mut().zip(b).zip(&self.h) {
+            t.iter_mut()
+                .zip(b)
+                .zip(h)
+                .for_each(|((t, b), h)| *t = b + h);
+        }
+        self.norm_b.resize(m, 0.0);
+        self.norm_total.resize(m, 0.0);
+        norms3_into(b, &mut self.norm_b);
+        let [t0, t1, t2] = &self.direction;
+        norms3_into([t0, t1, t2], &mut self.norm_total);
+        let [h0, h1, h2] = &self.h;
+        for (k, value) in delta.iter_mut().enumerate() {
+            let (b, h) = ([b[0][k], b[1][k], b[2][k]], [h0[k], h1[k], h2[k]]);
+            let dot = 2.0 * (b[0] * h[0] + b[1] * h[1] + b[2] * h[2])
+                + h[0] * h[0]
+                + h[1] * h[1]
+                + h[2] * h[2];
+            *value = dot / (self.norm_total[k] + self.norm_b[k]) + self.bias[k];
+        }
+        for t in &mut self.direction {
+            t.iter_mut()
+                .zip(&self.norm_total)
+                .for_each(|(t, n)| *t /= n);
+        }
+    }
+
     /// Adds `beta` times column `c`'s field to H (the bias to `bias`), as `exact_at` does.
     ///
     /// A component the field lacks would add `β·0`, a signed zero, which leaves every sum as it
     /// is: only the others are added.
+    #[inline(always)]
     fn add_to_h(&mut self, c: usize, beta: f64) {
         let Some(parts) = self.parts[c] else {
             self.bias.iter_mut().for_each(|b| *b += beta);
@@ -293,6 +332,7 @@ impl JacobianBlock {
     }
 
     /// Column `c`'s derivative over the block into `out`.
+    #[inline(always)]
     fn derivatives(&self, c: usize, out: &mut [f64]) {
         self.derivatives_of(self.parts[c], &self.fields[c], out);
     }
@@ -301,6 +341,7 @@ impl JacobianBlock {
     /// the bias, whose derivative is 1) over the block: `d0·v0 + d1·v1 + d2·v2` with `d` the
     /// direction of `B + H`, summed in that order, without the products by a component the
     /// field lacks (signed zeros, which change no sum).
+    #[inline(always)]
     fn derivatives_of(&self, parts: Parts, field: &[Vec<f64>; 3], out: &mut [f64]) {
         let Some(parts) = parts else {
             out.fill(1.0);
@@ -332,6 +373,7 @@ type Parts = Option<[bool; 3]>;
 /// but each kind of column is its own loop over the block with its axes fixed, which the
 /// compiler vectorises (a match on the column per sample kept it scalar, a third of the exact
 /// fit's Jacobian).
+#[inline(always)]
 fn fields_of(
     column: Column,
     b: [&[f64]; 3],

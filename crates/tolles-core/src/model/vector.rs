@@ -87,6 +87,41 @@ pub fn norm3(v: [f64; 3]) -> f64 {
     scale * (x * x + y * y + z * z).sqrt()
 }
 
+/// [`norm3`] of every sample of the components `v` (x, y, z, equally long) into `out`, the
+/// same values to the bit.
+///
+/// The common case, a sum of squares safely in range, is one loop the compiler vectorises
+/// (a call of `norm3` per sample, with its branches, stays scalar); a block with any sample
+/// outside it (NaN, infinite, tiny) is gone through again, those samples by `norm3`.
+///
+/// # Panics
+/// If the slices differ in length: a programming error.
+#[inline(always)]
+pub fn norms3_into(v: [&[f64]; 3], out: &mut [f64]) {
+    assert!(
+        v.iter().all(|c| c.len() == out.len()),
+        "components and output equally long"
+    );
+    let [x, y, z] = v;
+    let squares = |x: &f64, y: &f64, z: &f64| x * x + y * y + z * z;
+    let in_range = |s: f64| s.is_finite() && s > f64::MIN_POSITIVE;
+    let components = || x.iter().zip(y).zip(z);
+    let mut all_in_range = true;
+    for (o, ((x, y), z)) in out.iter_mut().zip(components()) {
+        let s = squares(x, y, z);
+        all_in_range &= in_range(s);
+        *o = s.sqrt();
+    }
+    if all_in_range {
+        return;
+    }
+    for (o, ((x, y), z)) in out.iter_mut().zip(components()) {
+        if !in_range(squares(x, y, z)) {
+            *o = norm3([*x, *y, *z]);
+        }
+    }
+}
+
 /// One or more fluxgates sampled together: the input of a design over several fluxgates.
 ///
 /// A single series converts into it, so every function taking `impl Into<Fluxgates>` also
@@ -249,6 +284,44 @@ mod tests {
         let mask = flux.finite_mask();
         assert_eq!(mask, (0..n).map(|k| flux.is_finite(k)).collect::<Vec<_>>());
         assert!(mask.iter().any(|m| *m) && mask.iter().any(|m| !*m));
+    }
+
+    #[test]
+    fn norms_of_a_block_are_norm3_to_the_bit_odd_samples_included() {
+        let odd = [
+            0.0,
+            -0.0,
+            1e155,
+            -1e200,
+            3e-200,
+            -5e-324,
+            2.5,
+            4e4,
+            f64::NAN,
+            f64::INFINITY,
+        ];
+        let plain = |k: usize| 20_000.0 + 1_000.0 * (k as f64 * 0.37).sin();
+        for with_odd in [false, true] {
+            let n = 300;
+            let column = |shift: usize| -> Vec<f64> {
+                (0..n)
+                    .map(|k| match with_odd && k % 13 == shift {
+                        true => odd[(k + shift) % odd.len()],
+                        false => plain(k + 100 * shift),
+                    })
+                    .collect()
+            };
+            let v = [column(0), column(1), column(2)];
+            let mut out = vec![f64::NAN; n];
+            norms3_into([&v[0], &v[1], &v[2]], &mut out);
+            for (k, o) in out.iter().enumerate() {
+                let want = norm3([v[0][k], v[1][k], v[2][k]]);
+                assert!(
+                    o.to_bits() == want.to_bits() || (o.is_nan() && want.is_nan()),
+                    "{k}"
+                );
+            }
+        }
     }
 
     #[test]
