@@ -1153,12 +1153,12 @@ impl Problem<'_, '_> {
                 split_rows(rows.len(), &mut columns, |part, parts| {
                     // Block by block, so the target is formed while the block's Jacobian is
                     // still in the cache.
+                    let start = rows.start + part.start;
                     for block in blocks(0..part.len(), TARGET_BLOCK_ROWS) {
                         let mut j: Vec<&mut [f64]> =
                             parts.iter_mut().map(|c| &mut c[block.clone()]).collect();
                         let (j, y) = j.split_at_mut(terms.len());
                         let y = &mut *y[0];
-                        let start = rows.start + part.start;
                         let block = start + block.start..start + block.end;
                         exact_jacobian_into(design, series, &current, &terms, block.clone(), j, y);
                         linearised_target(j, &current, &scalar[block], y);

@@ -447,7 +447,7 @@ impl<'a> Spans<'a> {
     fn components(&self, rows: Range<usize>) -> Vec<Components<'a>> {
         self.series
             .iter()
-            .map(|b| Components::of(*b, rows.clone()))
+            .map(|b| components_of(*b, rows.clone()))
             .collect()
     }
 }
@@ -487,15 +487,11 @@ impl<'a> Components<'a> {
             *o = f([*u0, *u1, *u2], [*v0, *v1, *v2]);
         }
     }
-
-    /// The components `series` (x, y, z; nT) at the samples `rows`, with their changes as
-    /// [`central_difference`] gives them over the whole series.
-    fn of(series: [&'a [f64]; 3], rows: Range<usize>) -> Self {
-        components_of(series, rows)
-    }
 }
 
-/// [`Components::of`], compiled also for AVX2 and AVX-512 as [`column_into`] is.
+/// One fluxgate's [`Components`] (x, y, z of `series`; nT) at the samples `rows`, with their
+/// changes as [`central_difference`] gives them over the whole series. Compiled also for AVX2
+/// and AVX-512, as [`column_into`] is.
 #[multiversion(targets("x86_64+avx512f", "x86_64+avx2"))]
 fn components_of<'a>(series: [&'a [f64]; 3], rows: Range<usize>) -> Components<'a> {
     let b = series.map(|c| &c[rows.clone()]);

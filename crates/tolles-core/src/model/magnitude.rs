@@ -120,9 +120,16 @@ pub fn exact_at(
 fn change_of_magnitude(b: [f64; 3], h: [f64; 3], bias: f64) -> (f64, [f64; 3]) {
     let total = [b[0] + h[0], b[1] + h[1], b[2] + h[2]];
     let (nb, nt) = (norm(b), norm(total));
+    (change_from_norms(b, h, nb, nt, bias), total.map(|c| c / nt))
+}
+
+/// `(2B·H + H·H)/(|B + H| + |B|) + bias` (nT), given `nb = |B|` and `nt = |B + H|`: the one
+/// formula of the change of magnitude, sample by sample or over a block.
+#[inline(always)]
+fn change_from_norms(b: [f64; 3], h: [f64; 3], nb: f64, nt: f64, bias: f64) -> f64 {
     let dot =
         2.0 * (b[0] * h[0] + b[1] * h[1] + b[2] * h[2]) + h[0] * h[0] + h[1] * h[1] + h[2] * h[2];
-    (dot / (nt + nb) + bias, total.map(|c| c / nt))
+    dot / (nt + nb) + bias
 }
 
 /// The correction (nT) of a model for every sample of one contiguous series from one fluxgate:
@@ -295,11 +302,7 @@ impl JacobianBlock {
         let [h0, h1, h2] = &self.h;
         for (k, value) in delta.iter_mut().enumerate() {
             let (b, h) = ([b[0][k], b[1][k], b[2][k]], [h0[k], h1[k], h2[k]]);
-            let dot = 2.0 * (b[0] * h[0] + b[1] * h[1] + b[2] * h[2])
-                + h[0] * h[0]
-                + h[1] * h[1]
-                + h[2] * h[2];
-            *value = dot / (self.norm_total[k] + self.norm_b[k]) + self.bias[k];
+            *value = change_from_norms(b, h, self.norm_b[k], self.norm_total[k], self.bias[k]);
         }
         for t in &mut self.direction {
             t.iter_mut()
