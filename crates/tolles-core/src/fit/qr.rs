@@ -86,44 +86,124 @@ fn trimmed(r: DMatrix<f64>, m: usize) -> DMatrix<f64> {
 
 /// The `k×k` factor of `rows` of the columns, absorbed chunk by chunk.
 fn factor_rows(columns: &[&[f64]], rows: Range<usize>) -> DMatrix<f64> {
-    let k = columns.len();
-    let mut chunk = Vec::with_capacity(CHUNK_ROWS * k);
-    let arch = Arch::new();
-    let mut groups = Vec::new();
-    let mut start = rows.start;
-    while start < rows.end {
-        // A factor absorbs at most GROUP_CHUNKS chunks before the groups' factors are stacked:
-        // a long chain of updates would accumulate rounding like a long sum does.
-        let group_end = (start + GROUP_CHUNKS * CHUNK_ROWS).min(rows.end);
-        let mut r = vec![0.0; k * k];
-        while start < group_end {
-            let end = (start + CHUNK_ROWS).min(group_end);
-            chunk.clear();
-            for column in columns {
-                chunk.extend_from_slice(&column[start..end]);
-            }
-            arch.dispatch(Absorb {
-                r: &mut r,
-                chunk: &mut chunk,
-                rows: end - start,
-                k,
-            });
-            start = end;
-        }
-        groups.push(DMatrix::from_row_slice(k, k, &r));
-        if groups.len() == GROUP_CHUNKS {
-            let merged = stacked_factor(&groups);
-            groups = vec![merged];
+    let mut factor = RowFactor::new(columns.len());
+    let part: Vec<&[f64]> = columns.iter().map(|c| &c[rows.clone()]).collect();
+    factor.push(&part);
+    factor.square()
+}
+
+/// The triangular factor of rows of `k` columns given a few at a time, in any order: each
+/// [`CHUNK_ROWS`] rows as they fill a chunk are absorbed into the factor so far.
+pub(crate) struct RowFactor {
+    k: usize,
+    /// Rows taken so far.
+    rows: usize,
+    /// Column-major, [`CHUNK_ROWS`] per column, `filled` of them taken.
+    chunk: Vec<f64>,
+    filled: usize,
+    /// The factor of the current group, row-major `k×k`, and the chunks it has absorbed.
+    r: Vec<f64>,
+    absorbed: usize,
+    /// Factors of the groups before.
+    groups: Vec<DMatrix<f64>>,
+    arch: Arch,
+}
+
+impl RowFactor {
+    /// No rows yet, of `k` columns.
+    pub(crate) fn new(k: usize) -> Self {
+        Self {
+            k,
+            rows: 0,
+            chunk: vec![0.0; CHUNK_ROWS * k],
+            filled: 0,
+            r: vec![0.0; k * k],
+            absorbed: 0,
+            groups: Vec::new(),
+            arch: Arch::new(),
         }
     }
-    match groups.len() {
-        0 => DMatrix::zeros(k, k),
-        1 => groups.pop().expect("one group"),
-        _ => stacked_factor(&groups),
+
+    /// Takes the rows of `columns` (one slice per column, all as long).
+    pub(crate) fn push(&mut self, columns: &[&[f64]]) {
+        debug_assert_eq!(columns.len(), self.k, "one slice per column");
+        let n = columns.first().map_or(0, |c| c.len());
+        let mut at = 0;
+        while at < n {
+            let take = (CHUNK_ROWS - self.filled).min(n - at);
+            for (j, c) in columns.iter().enumerate() {
+                let to = j * CHUNK_ROWS + self.filled;
+                self.chunk[to..to + take].copy_from_slice(&c[at..at + take]);
+            }
+            self.filled += take;
+            at += take;
+            if self.filled == CHUNK_ROWS {
+                self.absorb_chunk();
+            }
+        }
+        self.rows += n;
+    }
+
+    /// Absorbs the rows in the chunk into the current group's factor.
+    fn absorb_chunk(&mut self) {
+        let (k, rows) = (self.k, self.filled);
+        if rows < CHUNK_ROWS {
+            // `Absorb` takes the columns one after the other.
+            for j in 1..k {
+                self.chunk
+                    .copy_within(j * CHUNK_ROWS..j * CHUNK_ROWS + rows, j * rows);
+            }
+        }
+        self.arch.dispatch(Absorb {
+            r: &mut self.r,
+            chunk: &mut self.chunk[..rows * k],
+            rows,
+            k,
+        });
+        self.filled = 0;
+        self.absorbed += 1;
+        if self.absorbed == GROUP_CHUNKS {
+            self.close_group();
+        }
+    }
+
+    /// Ends the current group: its factor joins the groups', which are stacked into one once
+    /// there are [`GROUP_CHUNKS`] of them.
+    fn close_group(&mut self) {
+        let k = self.k;
+        self.groups.push(DMatrix::from_row_slice(k, k, &self.r));
+        self.r.fill(0.0);
+        self.absorbed = 0;
+        if self.groups.len() == GROUP_CHUNKS {
+            let merged = stacked_factor(&self.groups);
+            self.groups = vec![merged];
+        }
+    }
+
+    /// The `k×k` factor of every row taken (zero if none).
+    fn square(mut self) -> DMatrix<f64> {
+        if self.filled > 0 {
+            self.absorb_chunk();
+        }
+        if self.absorbed > 0 {
+            self.close_group();
+        }
+        match self.groups.len() {
+            0 => DMatrix::zeros(self.k, self.k),
+            1 => self.groups.pop().expect("one group"),
+            _ => stacked_factor(&self.groups),
+        }
+    }
+
+    /// The factor of every row taken, `min(rows, k) × k`, as [`triangular_factor`] gives it.
+    pub(crate) fn factor(self) -> DMatrix<f64> {
+        let rows = self.rows;
+        trimmed(self.square(), rows)
     }
 }
 
-/// Chunks one factor absorbs, and factors stacked at once, at most.
+/// Chunks one factor absorbs, and factors stacked at once, at most: a long chain of updates
+/// would accumulate rounding like a long sum does.
 const GROUP_CHUNKS: usize = 64;
 
 /// Absorbs a column-major chunk of `rows × k` into the row-major `k×k` upper triangular `r`.
@@ -332,7 +412,43 @@ mod tests {
         assert_same_gram(&r, &direct(&cols));
     }
 
+    /// [`RowFactor`] of `cols` given in pieces cut at `cuts` (fractions of the rows).
+    fn in_pieces(cols: &[Vec<f64>], cuts: &[f64]) -> DMatrix<f64> {
+        let m = cols[0].len();
+        let mut at: Vec<usize> = cuts.iter().map(|c| (c * m as f64) as usize).collect();
+        at.extend([0, m]);
+        at.sort_unstable();
+        let mut factor = RowFactor::new(cols.len());
+        for w in at.windows(2) {
+            let piece: Vec<&[f64]> = cols.iter().map(|c| &c[w[0]..w[1]]).collect();
+            factor.push(&piece);
+        }
+        factor.factor()
+    }
+
+    #[test]
+    fn rows_in_pieces_across_groups_give_one_factor_s_bits() {
+        let cols = columns((GROUP_CHUNKS + 1) * CHUNK_ROWS + 17, 3, 0.7);
+        let refs: Vec<&[f64]> = cols.iter().map(Vec::as_slice).collect();
+        let whole = triangular_factor(&refs);
+        assert_eq!(in_pieces(&cols, &[0.3, 0.31, 0.9]), whole);
+        assert_same_gram(&whole, &direct(&cols));
+    }
+
     proptest! {
+        /// However the rows are cut into pieces, the chunks are the same, and so are the bits.
+        #[test]
+        fn rows_in_pieces_give_one_factor_s_bits(
+            m in 1usize..2000,
+            k in 1usize..7,
+            cuts in prop::collection::vec(0.0f64..1.0, 0..6),
+            seed in -3.0f64..3.0,
+        ) {
+            let cols = columns(m, k, seed);
+            let refs: Vec<&[f64]> = cols.iter().map(Vec::as_slice).collect();
+            prop_assert_eq!(in_pieces(&cols, &cuts), triangular_factor(&refs));
+        }
+
         #[test]
         fn the_factor_reproduces_the_gram_matrix(m in 1usize..300, k in 1usize..8, seed in -3.0f64..3.0) {
             let cols = columns(m, k, seed);

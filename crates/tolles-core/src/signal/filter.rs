@@ -45,9 +45,9 @@ use thiserror::Error;
 mod jump;
 mod lanes;
 mod together;
+mod transpose;
 
 pub use together::filtfilt_sampled_then_in_place;
-pub(crate) use together::filtfilt_window_sampled_then_in_place;
 
 /// Which ends of the signals a forward-backward filter is given are the signals' own.
 ///
@@ -570,21 +570,49 @@ fn pole_radius(a1: f64, a2: f64) -> f64 {
 }
 
 /// [`filtfilt_many_unless_constant`] of a window of longer signals, `ends` saying which of its
-/// ends are theirs (see [`Ends`]), every signal filtered: whether one is constant is a question
-/// about the whole signals, which their caller answers.
+/// ends are theirs (see [`Ends`]), every signal filtered (whether one is constant is a question
+/// about the whole signals, which their caller answers), and its output from sample `from` on
+/// handed to `take(start, columns)` stretch by stretch, from the last, instead of written back
+/// (one slice per signal of the samples from `start` on; the stretches start where multiples
+/// of 256 samples do, or at `from`): a consumer of whole rows reads them while they are in the
+/// cache. The signals are left holding the forward pass's output. One core does it all.
 ///
 /// # Panics
 /// If the signals differ in length or are not longer than the filter's `padlen` samples.
-pub(crate) fn filtfilt_window(filter: &Butterworth, signals: &mut [&mut [f64]], ends: Ends) {
-    let kernels = Simd::best().0;
+pub(crate) fn filtfilt_window_handed(
+    filter: &Butterworth,
+    signals: &mut [&mut [f64]],
+    ends: Ends,
+    from: usize,
+    take: &mut dyn FnMut(usize, &[&[f64]]),
+) {
     let n = signals.first().map_or(0, |s| s.len());
     assert!(
         signals.iter().all(|s| s.len() == n),
         "signals of equal length"
     );
-    in_shares(signals, n, |share| {
-        (kernels.filtfilt_all)(filter, share, ends)
-    });
+    (Simd::best().0.filtfilt_all_handed)(filter, signals, ends, from, take);
+}
+
+/// [`filtfilt_sampled_unless_constant`] of a window of longer signals, `ends` saying which of
+/// its ends are theirs, every signal filtered (see [`filtfilt_window_handed`]). One core does
+/// it all.
+///
+/// # Panics
+/// If the signals differ in length or a sample of `at` is out of range or out of order.
+pub(crate) fn filtfilt_window_sampled(
+    filter: &Butterworth,
+    signals: &[&[f64]],
+    at: &[usize],
+    ends: Ends,
+) -> Vec<Vec<f64>> {
+    let n = signals.first().map_or(0, |s| s.len());
+    assert!(
+        signals.iter().all(|s| s.len() == n),
+        "signals of equal length"
+    );
+    assert_samples_within(at, n);
+    (Simd::best().0.filtfilt_sampled_all)(filter, signals, at, ends)
 }
 
 /// Samples at the start of a signal in which [`surely_varying`] looks.
@@ -1123,7 +1151,7 @@ mod tests {
         let (last_low, rest) = views.split_last_mut().unwrap();
         let whole_low = filtfilt_sampled_then_in_place(&low, &at, last_low, &band, rest).unwrap();
         let mut windowed = vec![Vec::new(); 8];
-        let mut low_parts = vec![Vec::new(); 9];
+        let mut low_parts = vec![Vec::new(); 8];
         for (core, window) in windows(n, 2 * margin, margin) {
             let mut part: Vec<Vec<f64>> =
                 signals.iter().map(|s| s[window.clone()].to_vec()).collect();
@@ -1135,15 +1163,19 @@ mod tests {
                 .map(|k| k - window.start)
                 .collect();
             let ends = Ends::of_window(&window, n);
-            let low_part = filtfilt_window_sampled_then_in_place(
-                &low, &kept, last_low, &band, &mut rest, ends,
-            );
+            // The low-pass takes `last_low` in place of the band-pass's last signal.
+            let mut read: Vec<&[f64]> = rest[..7].iter().map(|s| &**s).collect();
+            read.push(last_low);
+            let low_part = filtfilt_window_sampled(&low, &read, &kept, ends);
             for (all, p) in low_parts.iter_mut().zip(low_part) {
                 all.extend(p);
             }
             let inner = core.start - window.start..core.end - window.start;
-            for (all, s) in windowed.iter_mut().zip(&rest) {
-                all.extend_from_slice(&s[inner.clone()]);
+            for (all, s) in windowed
+                .iter_mut()
+                .zip(handed(&band, &mut rest, ends, &inner))
+            {
+                all.extend_from_slice(&s);
             }
         }
         let close = |a: &[f64], b: &[f64]| {
@@ -1158,15 +1190,40 @@ mod tests {
         }
         // Too short an overlap is seen.
         let mut part = signals[0][..3 * margin].to_vec();
-        filtfilt_window(
+        let short = handed(
             &band,
             &mut [part.as_mut_slice()],
             Ends::of_window(&(0..3 * margin), n),
+            &(2 * margin..3 * margin),
         );
-        assert!(!close(
-            &whole[0][2 * margin..3 * margin],
-            &part[2 * margin..]
-        ));
+        assert!(!close(&whole[0][2 * margin..3 * margin], &short[0]));
+    }
+
+    /// [`filtfilt_window_handed`]'s output over the samples `keep`, gathered per signal.
+    fn handed(
+        band: &Butterworth,
+        signals: &mut [&mut [f64]],
+        ends: Ends,
+        keep: &Range<usize>,
+    ) -> Vec<Vec<f64>> {
+        let mut out = vec![vec![f64::NAN; keep.len()]; signals.len()];
+        filtfilt_window_handed(band, signals, ends, keep.start, &mut |start, columns| {
+            for (o, c) in out.iter_mut().zip(columns) {
+                for (k, v) in c.iter().enumerate() {
+                    if let Some(slot) = (start + k)
+                        .checked_sub(keep.start)
+                        .and_then(|i| o.get_mut(i))
+                    {
+                        *slot = *v;
+                    }
+                }
+            }
+        });
+        assert!(
+            out.iter().flatten().all(|v| !v.is_nan()),
+            "every sample handed"
+        );
+        out
     }
 
     #[test]

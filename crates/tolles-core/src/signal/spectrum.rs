@@ -212,7 +212,7 @@ impl Welch {
         let n = self.window.len();
         let window_power = self.window.iter().map(|w| w * w).sum::<f64>();
         let scale = 1.0 / (self.fs_hz * window_power * self.segments as f64);
-        let has_nyquist_bin = n % 2 == 0;
+        let has_nyquist_bin = n.is_multiple_of(2);
         let last = self.sum.len() - 1;
         let density = self
             .sum

@@ -15,6 +15,9 @@
 //! own anyway), so every path gives the same bits.
 
 use super::jump::Jump;
+#[cfg(target_arch = "x86_64")]
+use super::transpose::Avx512;
+use super::transpose::{Plain, Transpose};
 use super::{Butterworth, End, Ends};
 use multiversion::{inherit_target, multiversion, target::match_target};
 use std::sync::OnceLock;
@@ -30,26 +33,41 @@ pub(super) struct Kernels {
     pub filtfilt_sampled_all: SampledKernel,
     /// [`constant`].
     pub constant: fn(&[&[f64]]) -> Vec<bool>,
+    /// [`filtfilt_all_handed`].
+    pub filtfilt_all_handed: HandedKernel,
 }
 
 /// Filters signals (equally long) and returns each one's samples at the given positions.
 type SampledKernel = fn(&Butterworth, &[&[f64]], &[usize], Ends) -> Vec<Vec<f64>>;
 
+/// Filters signals (equally long) and hands their output from a sample on to a consumer.
+type HandedKernel = fn(&Butterworth, &mut [&mut [f64]], Ends, usize, &mut Take);
+
+/// What [`filtfilt_all_handed`] hands its output to: `take(start, columns)`, one slice per
+/// signal of its samples from `start` on.
+pub(super) type Take<'t> = dyn FnMut(usize, &[&[f64]]) + 't;
+
 /// The kernels for the target the crate is compiled for (SSE2 on plain x86-64).
 const PORTABLE: Kernels = Kernels {
     name: "portable",
-    filtfilt_all,
-    filtfilt_sampled_all,
-    constant,
+    filtfilt_all: |filter, signals, ends| filtfilt_all(Plain, filter, signals, ends),
+    filtfilt_sampled_all: |filter, signals, at, ends| {
+        filtfilt_sampled_all(Plain, filter, signals, at, ends)
+    },
+    constant: |signals| constant(Plain, signals),
+    filtfilt_all_handed: |filter, signals, ends, from, take| {
+        filtfilt_all_handed(Plain, filter, signals, ends, from, take)
+    },
 };
 
 /// Defines `$name() -> Option<Kernels>`: the kernels compiled for `$target` (a
 /// `multiversion` target string) if the running processor has it, else `None`.
 ///
 /// The kernels' helpers are all `#[inline(always)]`, so they are compiled into these
-/// copies with the target's instructions rather than called at the baseline.
+/// copies with the target's instructions rather than called at the baseline. `$transpose`
+/// is the copy's [`Transpose`].
 macro_rules! compiled_for {
-    ($name:ident, $target:tt, $label:literal) => {
+    ($name:ident, $target:tt, $label:literal, $transpose:expr) => {
         #[multiversion(targets($target))]
         fn $name() -> Option<Kernels> {
             match_target! {
@@ -60,7 +78,7 @@ macro_rules! compiled_for {
                         signals: &mut [&mut [f64]],
                         ends: Ends,
                     ) {
-                        filtfilt_all(filter, signals, ends)
+                        filtfilt_all($transpose, filter, signals, ends)
                     }
                     #[inherit_target]
                     fn filtfilt_sampled_all_here(
@@ -69,17 +87,28 @@ macro_rules! compiled_for {
                         at: &[usize],
                         ends: Ends,
                     ) -> Vec<Vec<f64>> {
-                        filtfilt_sampled_all(filter, signals, at, ends)
+                        filtfilt_sampled_all($transpose, filter, signals, at, ends)
                     }
                     #[inherit_target]
                     fn constant_here(signals: &[&[f64]]) -> Vec<bool> {
-                        constant(signals)
+                        constant($transpose, signals)
+                    }
+                    #[inherit_target]
+                    fn filtfilt_all_handed_here(
+                        filter: &Butterworth,
+                        signals: &mut [&mut [f64]],
+                        ends: Ends,
+                        from: usize,
+                        take: &mut Take,
+                    ) {
+                        filtfilt_all_handed($transpose, filter, signals, ends, from, take)
                     }
                     Some(Kernels {
                         name: $label,
                         filtfilt_all: filtfilt_all_here,
                         filtfilt_sampled_all: filtfilt_sampled_all_here,
                         constant: constant_here,
+                        filtfilt_all_handed: filtfilt_all_handed_here,
                     })
                 }
                 _ => None,
@@ -88,10 +117,16 @@ macro_rules! compiled_for {
     };
 }
 
-compiled_for!(avx2, "x86_64+avx2", "AVX2");
+compiled_for!(avx2, "x86_64+avx2", "AVX2", Plain);
 // `multiversion` requires Ice Lake's AVX-512 extensions on top, so that processors which
 // slow their clock down for AVX-512 (Skylake-SP and its kin) run the AVX2 copy instead.
-compiled_for!(avx512, "x86_64+avx512f", "AVX-512");
+compiled_for!(
+    avx512,
+    "x86_64+avx512f",
+    "AVX-512",
+    // SAFETY: this copy runs only where the processor has AVX-512 (chosen at run time).
+    unsafe { Avx512::assumed() }
+);
 
 /// Every copy of the kernels the running processor can execute, portable first.
 pub(super) fn available() -> Vec<Kernels> {
@@ -126,20 +161,25 @@ const TILE: usize = 32;
 /// The last, partial block uses a narrower kernel, since idle lanes cost as much as busy
 /// ones once the arithmetic units are saturated.
 #[inline(always)]
-pub(super) fn filtfilt_all(filter: &Butterworth, signals: &mut [&mut [f64]], ends: Ends) {
+pub(super) fn filtfilt_all(
+    transpose: impl Transpose,
+    filter: &Butterworth,
+    signals: &mut [&mut [f64]],
+    ends: Ends,
+) {
     let mut blocks = signals.chunks_exact_mut(LANES);
     if blocks.len() > 0 {
         let mut ws = Workspace::<LANES>::new(filter);
         for block in &mut blocks {
-            filtfilt_block(block, &mut ws, ends);
+            filtfilt_block(transpose, block, &mut ws, ends);
         }
     }
     let rest = blocks.into_remainder();
     match rest.len() {
         0 => {}
-        1..=2 => filtfilt_block(rest, &mut Workspace::<2>::new(filter), ends),
-        3..=4 => filtfilt_block(rest, &mut Workspace::<4>::new(filter), ends),
-        _ => filtfilt_block(rest, &mut Workspace::<LANES>::new(filter), ends),
+        1..=2 => filtfilt_block(transpose, rest, &mut Workspace::<2>::new(filter), ends),
+        3..=4 => filtfilt_block(transpose, rest, &mut Workspace::<4>::new(filter), ends),
+        _ => filtfilt_block(transpose, rest, &mut Workspace::<LANES>::new(filter), ends),
     }
 }
 
@@ -150,6 +190,7 @@ pub(super) fn filtfilt_all(filter: &Butterworth, signals: &mut [&mut [f64]], end
 /// Blocks of signals as in [`filtfilt_all`].
 #[inline(always)]
 pub(super) fn filtfilt_sampled_all(
+    transpose: impl Transpose,
     filter: &Butterworth,
     signals: &[&[f64]],
     at: &[usize],
@@ -166,7 +207,7 @@ pub(super) fn filtfilt_sampled_all(
     if blocks.len() > 0 {
         let mut ws = Workspace::<LANES>::new(filter);
         for block in &mut blocks {
-            out.extend(sampled_widest(block, at, &mut ws, ends, jump));
+            out.extend(sampled_widest(transpose, block, at, &mut ws, ends, jump));
         }
     }
     // A partial block that jumps takes all lanes too: the jumps go signal by signal, so the
@@ -174,9 +215,20 @@ pub(super) fn filtfilt_sampled_all(
     let rest = blocks.remainder();
     out.extend(match (rest.len(), jump) {
         (0, _) => Vec::new(),
-        (1..=2, None) => filtfilt_sampled_block(rest, at, &mut Workspace::<2>::new(filter), ends),
-        (3..=4, None) => filtfilt_sampled_block(rest, at, &mut Workspace::<4>::new(filter), ends),
-        _ => sampled_widest(rest, at, &mut Workspace::<LANES>::new(filter), ends, jump),
+        (1..=2, None) => {
+            filtfilt_sampled_block(transpose, rest, at, &mut Workspace::<2>::new(filter), ends)
+        }
+        (3..=4, None) => {
+            filtfilt_sampled_block(transpose, rest, at, &mut Workspace::<4>::new(filter), ends)
+        }
+        _ => sampled_widest(
+            transpose,
+            rest,
+            at,
+            &mut Workspace::<LANES>::new(filter),
+            ends,
+            jump,
+        ),
     });
     out
 }
@@ -186,6 +238,7 @@ pub(super) fn filtfilt_sampled_all(
 /// its own at the baseline instead of into the kernels' instruction sets.
 #[inline(always)]
 fn sampled_widest(
+    transpose: impl Transpose,
     block: &[&[f64]],
     at: &[usize],
     ws: &mut Workspace<LANES>,
@@ -193,8 +246,10 @@ fn sampled_widest(
     jump: Option<&Jump>,
 ) -> Vec<Vec<f64>> {
     match jump {
-        Some(jump) => jumping::<LANES, JUMP_DELAYS, { 2 * JUMP_DELAYS }>(block, at, ws, ends, jump),
-        None => filtfilt_sampled_block(block, at, ws, ends),
+        Some(jump) => {
+            jumping::<LANES, JUMP_DELAYS, { 2 * JUMP_DELAYS }>(transpose, block, at, ws, ends, jump)
+        }
+        None => filtfilt_sampled_block(transpose, block, at, ws, ends),
     }
 }
 
@@ -206,7 +261,7 @@ fn sampled_widest(
 /// waits on for one signal; eight signals side by side overlap them. Per lane the
 /// operations and their order are `sample_std`'s, so the decision is the same.
 #[inline(always)]
-pub(super) fn constant(signals: &[&[f64]]) -> Vec<bool> {
+pub(super) fn constant(transpose: impl Transpose, signals: &[&[f64]]) -> Vec<bool> {
     let n = signals.first().map_or(0, |x| x.len());
     if n < 2 {
         return vec![false; signals.len()];
@@ -220,7 +275,7 @@ pub(super) fn constant(signals: &[&[f64]]) -> Vec<bool> {
             out.extend(std::iter::repeat_n(false, block.len()));
             continue;
         }
-        let std = sample_std_block(block, &mut tile);
+        let std = sample_std_block(transpose, block, &mut tile);
         for &s in &std[..block.len()] {
             out.push(s <= f64::EPSILON);
         }
@@ -245,7 +300,11 @@ fn clearly_varying(signals: &[&[f64]]) -> bool {
 /// samples) in its lane; unused lanes hold 0.
 #[allow(clippy::needless_range_loop)] // as in `step`: the per-lane formula stays visible
 #[inline(always)]
-fn sample_std_block<const L: usize>(signals: &[&[f64]], tile: &mut [[f64; L]]) -> [f64; L] {
+fn sample_std_block<const L: usize>(
+    transpose: impl Transpose,
+    signals: &[&[f64]],
+    tile: &mut [[f64; L]],
+) -> [f64; L] {
     let n = signals[0].len();
     if signals.len() < L {
         tile.fill([0.0; L]);
@@ -258,7 +317,7 @@ fn sample_std_block<const L: usize>(signals: &[&[f64]], tile: &mut [[f64; L]]) -
     let mut sum = [-0.0; L];
     for start in (0..n).step_by(TILE) {
         let tile = &mut tile[..TILE.min(n - start)];
-        gather(signals, start, tile);
+        gather(transpose, signals, start, tile);
         for v in tile.iter() {
             for l in 0..L {
                 sum[l] += v[l] - x0[l];
@@ -269,7 +328,7 @@ fn sample_std_block<const L: usize>(signals: &[&[f64]], tile: &mut [[f64; L]]) -
     let mut ss = [-0.0; L];
     for start in (0..n).step_by(TILE) {
         let tile = &mut tile[..TILE.min(n - start)];
-        gather(signals, start, tile);
+        gather(transpose, signals, start, tile);
         for v in tile.iter() {
             for l in 0..L {
                 // `powi(2)` is this one multiplication.
@@ -402,11 +461,34 @@ impl<const L: usize> Workspace<L> {
 /// backward pass starts from it. The signals themselves hold the forward output in
 /// between, so there is no buffer of the signals' length.
 #[inline(always)]
-fn filtfilt_block<const L: usize>(signals: &mut [&mut [f64]], ws: &mut Workspace<L>, ends: Ends) {
-    assert!(signals.len() <= L, "at most {L} signals per block");
+fn filtfilt_block<const L: usize>(
+    transpose: impl Transpose,
+    signals: &mut [&mut [f64]],
+    ws: &mut Workspace<L>,
+    ends: Ends,
+) {
     let Some(n) = signals.first().map(|s| s.len()) else {
         return;
     };
+    forward_block(transpose, signals, ws, ends);
+    for start in (0..n).step_by(TILE).rev() {
+        let len = TILE.min(n - start);
+        backward_tile(transpose, signals, ws, start, len);
+        scatter(transpose, &ws.tile[..len], start, signals);
+    }
+}
+
+/// The forward pass of [`filtfilt_block`] over `signals` (at least one), its output left in
+/// them, and `ws` made ready for the backward pass ([`backward_tile`]).
+#[inline(always)]
+fn forward_block<const L: usize>(
+    transpose: impl Transpose,
+    signals: &mut [&mut [f64]],
+    ws: &mut Workspace<L>,
+    ends: Ends,
+) {
+    assert!(signals.len() <= L, "at most {L} signals per block");
+    let n = signals[0].len();
     let padlen = ws.pad.len();
     assert!(n > padlen, "signals must be longer than padlen");
     if signals.len() < L {
@@ -427,23 +509,163 @@ fn filtfilt_block<const L: usize>(signals: &mut [&mut [f64]], ws: &mut Workspace
     let mut last = [0.0; L];
     for start in (0..n).step_by(TILE) {
         let tile = &mut ws.tile[..TILE.min(n - start)];
-        gather(signals, start, tile);
+        gather(transpose, signals, start, tile);
         run(&mut ws.sections, tile, false);
         last = tile[tile.len() - 1];
         match parked {
             true => park(tile, start, signals),
-            false => scatter(tile, start, signals),
+            false => scatter(transpose, tile, start, signals),
         }
     }
     ws.start_backward_at(ends.end, last);
-    for start in (0..n).step_by(TILE).rev() {
-        let tile = &mut ws.tile[..TILE.min(n - start)];
-        match parked {
-            true => unpark(signals, start, tile),
-            false => gather(signals, start, tile),
+}
+
+/// The backward pass of [`filtfilt_block`] over the tile of samples `start..start + len`
+/// (one of the forward pass's tiles, the last one not yet done), its output left in
+/// `ws.tile[..len]`.
+#[inline(always)]
+fn backward_tile<const L: usize>(
+    transpose: impl Transpose,
+    signals: &[&mut [f64]],
+    ws: &mut Workspace<L>,
+    start: usize,
+    len: usize,
+) {
+    let tile = &mut ws.tile[..len];
+    match signals.len() == L {
+        true => unpark(signals, start, tile),
+        false => gather(transpose, signals, start, tile),
+    }
+    run(&mut ws.sections, tile, true);
+}
+
+/// Samples per stretch that [`filtfilt_all_handed`] hands over at once: 256 samples of 19
+/// signals are 38 KiB, about a core's L1 data cache.
+pub(super) const HANDED: usize = 256;
+
+/// [`filtfilt_all`] of `signals` (at least one) whose output from sample `from` on is handed
+/// to `take` instead of written back: stretch by stretch, from the last, as `take(start,
+/// columns)` with one slice per signal of its samples `start..` up to the next stretch's start.
+/// Stretches start at multiples of [`HANDED`] (or at `from`). The backward pass stops at
+/// `from`, and `signals` are left holding the forward pass's output.
+///
+/// The blocks of lanes go backward in step, so a stretch of every signal is ready at once,
+/// while it is in the cache: a consumer of whole rows (a fit's factor) reads them there
+/// instead of from memory, and nothing is written back.
+#[inline(always)]
+pub(super) fn filtfilt_all_handed(
+    transpose: impl Transpose,
+    filter: &Butterworth,
+    signals: &mut [&mut [f64]],
+    ends: Ends,
+    from: usize,
+    take: &mut Take,
+) {
+    let count = signals.len();
+    let Some(n) = signals.first().map(|s| s.len()) else {
+        return;
+    };
+    let mut blocks: Vec<Block> = signals
+        .chunks_mut(LANES)
+        .map(|b| Block::new(filter, b))
+        .collect();
+    for block in &mut blocks {
+        block.forward(transpose, ends);
+    }
+    let mut stretch = vec![vec![0.0; HANDED]; count];
+    let mut end = n;
+    while end > from {
+        let start = (end - 1) / HANDED * HANDED;
+        let first_tile = start.max(from / TILE * TILE);
+        for tile in (first_tile..end).step_by(TILE).rev() {
+            let len = TILE.min(n - tile);
+            for (block, out) in blocks.iter_mut().zip(stretch.chunks_mut(LANES)) {
+                block.prefetch(tile.saturating_sub(AHEAD * TILE));
+                block.backward(transpose, tile, len, out, tile - start);
+            }
         }
-        run(&mut ws.sections, tile, true);
-        scatter(tile, start, signals);
+        let handed = start.max(from);
+        let columns: Vec<&[f64]> = stretch
+            .iter()
+            .map(|c| &c[handed - start..end - start])
+            .collect();
+        take(handed, &columns);
+        end = start;
+    }
+}
+
+/// Tiles ahead of the backward pass that [`filtfilt_all_handed`] asks the cache for: all
+/// blocks in step read as many streams backward as there are signals, more than the
+/// processor's prefetcher follows.
+const AHEAD: usize = 2;
+
+/// One block of [`filtfilt_all_handed`]'s signals and its workspace, as wide as it needs.
+enum Block<'s, 'a> {
+    Two(&'s mut [&'a mut [f64]], Workspace<2>),
+    Four(&'s mut [&'a mut [f64]], Workspace<4>),
+    Eight(&'s mut [&'a mut [f64]], Workspace<LANES>),
+}
+
+impl<'s, 'a> Block<'s, 'a> {
+    /// The narrowest of [`filtfilt_all`]'s widths for `signals` (at most [`LANES`]).
+    #[inline(always)]
+    fn new(filter: &Butterworth, signals: &'s mut [&'a mut [f64]]) -> Self {
+        match signals.len() {
+            1..=2 => Self::Two(signals, Workspace::new(filter)),
+            3..=4 => Self::Four(signals, Workspace::new(filter)),
+            _ => Self::Eight(signals, Workspace::new(filter)),
+        }
+    }
+
+    /// [`forward_block`].
+    #[inline(always)]
+    fn forward(&mut self, transpose: impl Transpose, ends: Ends) {
+        match self {
+            Self::Two(s, ws) => forward_block(transpose, s, ws, ends),
+            Self::Four(s, ws) => forward_block(transpose, s, ws, ends),
+            Self::Eight(s, ws) => forward_block(transpose, s, ws, ends),
+        }
+    }
+
+    /// Asks the cache for the tile of samples from `start` on of every signal.
+    #[inline(always)]
+    fn prefetch(&self, start: usize) {
+        let signals = match self {
+            Self::Two(s, _) | Self::Four(s, _) | Self::Eight(s, _) => &**s,
+        };
+        for x in signals {
+            if let Some(tile) = x.get(start..start + TILE) {
+                for line in tile.chunks(8) {
+                    prefetch_line(line);
+                }
+            }
+        }
+    }
+
+    /// [`backward_tile`], its output written into `out` (one per signal) from `at` on.
+    #[inline(always)]
+    fn backward(
+        &mut self,
+        transpose: impl Transpose,
+        start: usize,
+        len: usize,
+        out: &mut [Vec<f64>],
+        at: usize,
+    ) {
+        match self {
+            Self::Two(s, ws) => {
+                backward_tile(transpose, s, ws, start, len);
+                scatter(transpose, &ws.tile[..len], at, out);
+            }
+            Self::Four(s, ws) => {
+                backward_tile(transpose, s, ws, start, len);
+                scatter(transpose, &ws.tile[..len], at, out);
+            }
+            Self::Eight(s, ws) => {
+                backward_tile(transpose, s, ws, start, len);
+                scatter(transpose, &ws.tile[..len], at, out);
+            }
+        }
     }
 }
 
@@ -506,6 +728,7 @@ const STRETCH: usize = 2048;
 /// operations, two side by side fill those waits.
 #[inline(always)]
 fn filtfilt_sampled_block<const L: usize>(
+    transpose: impl Transpose,
     signals: &[&[f64]],
     at: &[usize],
     ws: &mut Workspace<L>,
@@ -528,7 +751,7 @@ fn filtfilt_sampled_block<const L: usize>(
     for &start in &starts {
         delays.extend(ws.sections.iter().map(Section::delays));
         let stretch = &mut current[..STRETCH.min(n - start)];
-        gather(signals, start, stretch);
+        gather(transpose, signals, start, stretch);
         run(&mut ws.sections, stretch, false);
         last = stretch[stretch.len() - 1];
     }
@@ -543,6 +766,7 @@ fn filtfilt_sampled_block<const L: usize>(
     let saved = |index: usize| &delays[index * sections..(index + 1) * sections];
     let last = starts.len() - 1;
     load(
+        transpose,
         signals,
         stretch_of(last),
         saved(last),
@@ -558,7 +782,14 @@ fn filtfilt_sampled_block<const L: usize>(
         let stretch = &mut current[..range.len()];
         if index > 0 {
             let before = stretch_of(index - 1);
-            load(signals, before, saved(index - 1), &mut ahead, &mut forward);
+            load(
+                transpose,
+                signals,
+                before,
+                saved(index - 1),
+                &mut ahead,
+                &mut forward,
+            );
             run_pair(&mut ws.sections, stretch, &mut forward, &mut ahead);
         } else {
             run(&mut ws.sections, stretch, true);
@@ -581,6 +812,7 @@ fn filtfilt_sampled_block<const L: usize>(
 /// filter's number of delays, `R = 2·D`.
 #[inline(always)]
 fn jumping<const L: usize, const D: usize, const R: usize>(
+    transpose: impl Transpose,
     signals: &[&[f64]],
     at: &[usize],
     ws: &mut Workspace<L>,
@@ -596,7 +828,7 @@ fn jumping<const L: usize, const D: usize, const R: usize>(
     let mut stretch = vec![[0.0; L]; STRETCH.min(n)];
     for start in (0..first).step_by(STRETCH) {
         let part = &mut stretch[..STRETCH.min(first - start)];
-        gather(signals, start, part);
+        gather(transpose, signals, start, part);
         run_two(&mut ws.sections, part, false);
     }
     let weights = jump.weights::<R>();
@@ -610,7 +842,7 @@ fn jumping<const L: usize, const D: usize, const R: usize>(
     }
     // From the last kept sample to the end: its forward output, kept for the backward pass.
     let mut tail = vec![[0.0; L]; n - last];
-    gather(signals, last, &mut tail);
+    gather(transpose, signals, last, &mut tail);
     run_two(&mut ws.sections, &mut tail, false);
     let end_output = tail[tail.len() - 1];
     if ends.end == End::Padded {
@@ -674,6 +906,7 @@ fn set_delays_of<const L: usize, const D: usize>(
 /// `#[inline(always)]` chain that puts every helper into the kernels' instruction sets.
 #[inline(always)]
 fn load<const L: usize>(
+    transpose: impl Transpose,
     signals: &[&[f64]],
     range: std::ops::Range<usize>,
     saved: &[[[f64; L]; 2]],
@@ -683,18 +916,23 @@ fn load<const L: usize>(
     for (s, d) in forward.iter_mut().zip(saved) {
         s.set_delays(d);
     }
-    gather(signals, range.start, &mut buffer[..range.len()]);
+    gather(transpose, signals, range.start, &mut buffer[..range.len()]);
 }
 
 /// Interleaves samples `start..start + tile.len()` of `signals` (at most `L`) into `tile`,
 /// one signal per lane; lanes without a signal are set to 0.
 ///
-/// Eight samples of every signal are read at once and transposed in registers. Writing each
+/// Eight samples of every signal are read at once and transposed (`transpose`). Writing each
 /// signal's samples down its lane instead is a strided store, which the compiler turns into
 /// AVX-512 scatter instructions: they took half the time of a low-pass of 19 signals.
 #[inline(always)]
-fn gather<const L: usize, S: AsRef<[f64]>>(signals: &[S], start: usize, tile: &mut [[f64; L]]) {
-    const GROUP: usize = 8;
+fn gather<const L: usize, S: AsRef<[f64]>>(
+    transpose: impl Transpose,
+    signals: &[S],
+    start: usize,
+    tile: &mut [[f64; L]],
+) {
+    const { assert!(L <= GROUP, "a tile's lanes fit a transposed block") };
     let len = tile.len();
     let columns: [&[f64]; L] = std::array::from_fn(|l| match signals.get(l) {
         Some(x) => &x.as_ref()[start..start + len],
@@ -703,14 +941,15 @@ fn gather<const L: usize, S: AsRef<[f64]>>(signals: &[S], start: usize, tile: &m
     let mut groups = tile.chunks_exact_mut(GROUP);
     let mut t = 0;
     for rows in &mut groups {
-        let mut block = [[0.0; GROUP]; L];
+        let mut block = [[0.0; GROUP]; GROUP];
         for (b, x) in block.iter_mut().zip(&columns) {
             if let Some(x) = x.get(t..t + GROUP) {
                 b.copy_from_slice(x);
             }
         }
-        for (i, row) in rows.iter_mut().enumerate() {
-            *row = std::array::from_fn(|l| block[l][i]);
+        let block = transpose.transpose8(&block);
+        for (row, b) in rows.iter_mut().zip(&block) {
+            *row = std::array::from_fn(|l| b[l]);
         }
         t += GROUP;
     }
@@ -721,23 +960,48 @@ fn gather<const L: usize, S: AsRef<[f64]>>(signals: &[S], start: usize, tile: &m
 
 /// The inverse of [`gather`], by the same transposes of eight samples.
 #[inline(always)]
-fn scatter<const L: usize>(tile: &[[f64; L]], start: usize, signals: &mut [&mut [f64]]) {
-    const GROUP: usize = 8;
+fn scatter<const L: usize, S: AsMut<[f64]>>(
+    transpose: impl Transpose,
+    tile: &[[f64; L]],
+    start: usize,
+    signals: &mut [S],
+) {
+    const { assert!(L <= GROUP, "a tile's lanes fit a transposed block") };
     let mut groups = tile.chunks_exact(GROUP);
     let mut t = start;
     for rows in &mut groups {
-        let block: [[f64; GROUP]; L] = std::array::from_fn(|l| std::array::from_fn(|i| rows[i][l]));
+        let mut block = [[0.0; GROUP]; GROUP];
+        for (b, row) in block.iter_mut().zip(rows) {
+            b[..L].copy_from_slice(row);
+        }
+        let block = transpose.transpose8(&block);
         for (x, b) in signals.iter_mut().zip(&block) {
-            x[t..t + GROUP].copy_from_slice(b);
+            x.as_mut()[t..t + GROUP].copy_from_slice(b);
         }
         t += GROUP;
     }
     for (i, row) in groups.remainder().iter().enumerate() {
         for (x, v) in signals.iter_mut().zip(row) {
-            x[t + i] = *v;
+            x.as_mut()[t + i] = *v;
         }
     }
 }
+
+/// A hint to bring the cache line holding `values` into the L1 cache; it reads nothing.
+#[inline(always)]
+fn prefetch_line(values: &[f64]) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        // SAFETY: a prefetch only hints at an address (here of live data) and never faults.
+        unsafe { _mm_prefetch::<_MM_HINT_T0>(values.as_ptr().cast()) };
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = values;
+}
+
+/// Samples transposed at once between signals and a tile.
+const GROUP: usize = 8;
 
 /// Runs `data` (time-major, oldest sample first) through all sections in place, forward
 /// in time or, if `backward`, from the last sample to the first, carrying the delays on.
@@ -933,7 +1197,8 @@ mod tests {
         sample_std, Butterworth, Ends, Response,
     };
     use super::{
-        available, best, filtfilt_sampled_block, jumping, Jump, Workspace, JUMP_DELAYS, LANES,
+        available, best, filtfilt_sampled_block, jumping, Jump, Plain, Workspace, JUMP_DELAYS,
+        LANES,
     };
     use proptest::prelude::*;
     use rand::{Rng, SeedableRng};
@@ -1135,6 +1400,52 @@ mod tests {
     }
 
     proptest! {
+        /// Every copy of the kernels hands over, from any sample on and at any kind of end,
+        /// exactly the bits the portable `filtfilt_all` writes back, each sample once.
+        #[test]
+        fn handed_output_is_the_written_one(
+            f in filter_strategy(),
+            kinds in prop::collection::vec(0u8..6, 1..=23),
+            extra in prop_oneof![0usize..4, 0usize..200, 0usize..3000],
+            from_share in 0.0f64..1.0,
+            ends in (any::<bool>(), any::<bool>()),
+            seed in any::<u64>(),
+        ) {
+            let n = f.padlen() + 1 + extra;
+            let ends = Ends {
+                start: if ends.0 { End::Padded } else { End::Open },
+                end: if ends.1 { End::Padded } else { End::Open },
+            };
+            let from = (from_share * n as f64) as usize;
+            let original = columns(&kinds, n, seed);
+            let mut expected = original.clone();
+            let mut views: Vec<&mut [f64]> =
+                expected.iter_mut().map(|c| c.as_mut_slice()).collect();
+            (available()[0].filtfilt_all)(&f, &mut views, ends);
+            for kernels in available() {
+                let mut scratch = original.clone();
+                let mut views: Vec<&mut [f64]> =
+                    scratch.iter_mut().map(|c| c.as_mut_slice()).collect();
+                let mut got = vec![vec![f64::NAN; n - from]; kinds.len()];
+                let mut next = n;
+                (kernels.filtfilt_all_handed)(&f, &mut views, ends, from, &mut |start, columns| {
+                    // From the last stretch back to `from`, each ending where the one after starts.
+                    assert_eq!(start + columns[0].len(), next);
+                    assert!(start == from || start % super::HANDED == 0);
+                    next = start;
+                    for (g, c) in got.iter_mut().zip(columns) {
+                        g[start - from..start - from + c.len()].copy_from_slice(c);
+                    }
+                });
+                prop_assert_eq!(next, from.min(n));
+                for (x, y) in expected.iter().zip(&got) {
+                    prop_assert!(same_bits(&x[from..], y), "{}", kernels.name);
+                }
+            }
+        }
+    }
+
+    proptest! {
         /// Evenly spaced kept samples, reached by [`Jump`]s, match the recursion through
         /// every sample to rounding, at every kind of end, for every block width; and the
         /// kernels of every instruction set give the same bits.
@@ -1160,8 +1471,8 @@ mod tests {
             let mut ws = Workspace::<LANES>::new(&f);
             let blocks: Vec<&[&[f64]]> = read.chunks(LANES).collect();
             for block in blocks {
-                let expected = filtfilt_sampled_block(block, &at, &mut ws, ends);
-                let got = jumping::<LANES, JUMP_DELAYS, 8>(block, &at, &mut ws, ends, &jump);
+                let expected = filtfilt_sampled_block(Plain, block, &at, &mut ws, ends);
+                let got = jumping::<LANES, JUMP_DELAYS, 8>(Plain, block, &at, &mut ws, ends, &jump);
                 for (x, (e, g)) in block.iter().zip(expected.iter().zip(&got)) {
                     prop_assert!(same_values(e, g, Some(scale_of(x))));
                 }

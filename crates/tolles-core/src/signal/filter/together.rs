@@ -65,38 +65,6 @@ pub fn filtfilt_sampled_then_in_place(
     ))
 }
 
-/// [`filtfilt_sampled_then_in_place`] of a window of longer signals, `ends` saying which of
-/// its ends are theirs (see [`Ends`]), and every signal filtered: whether one is constant is a
-/// question about the whole signals, which their caller answers.
-///
-/// # Panics
-/// If the signals and `last_low` differ in length or `at` is not ascending within them.
-pub(crate) fn filtfilt_window_sampled_then_in_place(
-    low: &Butterworth,
-    at: &[usize],
-    last_low: &[f64],
-    band: &Butterworth,
-    signals: &mut [&mut [f64]],
-    ends: Ends,
-) -> Vec<Vec<f64>> {
-    let n = last_low.len();
-    assert!(
-        signals.iter().all(|s| s.len() == n),
-        "signals of equal length"
-    );
-    assert_samples_within(at, n);
-    let none_constant = vec![false; signals.len()];
-    sampled_then_in_place(
-        Simd::best().0,
-        (low, band),
-        at,
-        last_low,
-        signals,
-        (&none_constant, &none_constant),
-        ends,
-    )
-}
-
 /// The work of [`filtfilt_sampled_then_in_place`] once the constant signals (of the low-pass,
 /// then of the band-pass) are known.
 fn sampled_then_in_place(
