@@ -12,7 +12,11 @@
 //! The kernels are compiled three times: for the baseline, for AVX2 (four lanes per
 //! register) and for AVX-512 (eight), and [`best`] picks the widest the processor has.
 //! Neither extension enables fused multiply-add (Rust never contracts `a * b + c` on its
-//! own anyway), so every path gives the same bits.
+//! own anyway), so every path gives the same bits. The AVX-512 copy also moves samples
+//! between the signals and its tiles by shuffles ([`super::transpose`]).
+//!
+//! [`filtfilt_all_handed`] hands its output to a consumer of whole rows (a fit's factor) as
+//! the backward pass makes it, all blocks of lanes in step, instead of writing it back.
 
 use super::jump::Jump;
 #[cfg(target_arch = "x86_64")]

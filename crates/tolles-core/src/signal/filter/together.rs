@@ -61,7 +61,6 @@ pub fn filtfilt_sampled_then_in_place(
         last_low,
         signals,
         (&low_constant, &band_constant),
-        Ends::WHOLE,
     ))
 }
 
@@ -74,8 +73,8 @@ fn sampled_then_in_place(
     last_low: &[f64],
     signals: &mut [&mut [f64]],
     (low_constant, band_constant): (&[bool], &[bool]),
-    ends: Ends,
 ) -> Vec<Vec<f64>> {
+    let ends = Ends::WHOLE;
     let n = last_low.len();
     let width = signals.len().saturating_sub(1);
     let read: Vec<&[f64]> = signals.iter().map(|x| &**x).collect();
