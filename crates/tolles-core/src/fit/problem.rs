@@ -273,7 +273,7 @@ fn plan_of(runs: &[RowCounts], trim: usize, count: usize) -> Plan {
             let fold_end = ((fold + 1) * total).div_ceil(count);
             let end = (fold_end - r).min(n);
             let before = rows.counts;
-            rows.take(end - start);
+            rows.take(end - start, |_, _| {});
             let after = rows.counts;
             plan[fold].push(Piece {
                 run,
@@ -314,11 +314,12 @@ impl<'k> Counter<'k> {
         }
     }
 
-    /// Takes the next `rows` rows.
-    fn take(&mut self, mut rows: usize) {
+    /// Takes the next `rows` rows, handing each part of a stretch taken to `each(kind, rows)`.
+    fn take(&mut self, mut rows: usize, mut each: impl FnMut(u8, usize)) {
         while rows > 0 {
             let stretch = self.kinds[self.next];
             let taken = (stretch.rows - self.used).min(rows);
+            each(stretch.kind, taken);
             self.counts[stretch.kind as usize] += taken;
             self.used += taken;
             rows -= taken;
@@ -393,24 +394,12 @@ fn merged_kinds(band: usize, trim: usize, level_at: &[usize], above: usize) -> V
                 false => hi = mid,
             }
         }
-        copy_rows(&mut rows, lo - taken, &mut out);
+        rows.take(lo - taken, |kind, n| extend(&mut out, kind, n));
         taken = lo;
         extend(&mut out, ABOVE, 1);
     }
-    copy_rows(&mut rows, n1 - taken, &mut out);
+    rows.take(n1 - taken, |kind, n| extend(&mut out, kind, n));
     out
-}
-
-/// Appends the next `count` rows of `rows`' stretches to `out`.
-fn copy_rows(rows: &mut Counter, count: usize, out: &mut Vec<Stretch>) {
-    let mut left = count;
-    while left > 0 {
-        let stretch = rows.kinds[rows.next];
-        let taken = (stretch.rows - rows.used).min(left);
-        extend(out, stretch.kind, taken);
-        rows.take(taken);
-        left -= taken;
-    }
 }
 
 impl Prepared {

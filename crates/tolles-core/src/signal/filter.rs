@@ -469,11 +469,7 @@ fn constancy(
     filter: &Butterworth,
     signals: &[&[f64]],
 ) -> Result<(usize, Vec<bool>), FilterError> {
-    let n = signals.first().map_or(0, |s| s.len());
-    assert!(
-        signals.iter().all(|s| s.len() == n),
-        "signals must have equal lengths"
-    );
+    let n = equal_length(signals);
     let mut shared = signals.to_vec();
     let constant: Vec<bool> = in_shares(&mut shared, n, |share| (kernels.constant)(share))
         .into_iter()
@@ -584,13 +580,9 @@ pub(crate) fn filtfilt_window_handed(
     signals: &mut [&mut [f64]],
     ends: Ends,
     from: usize,
-    take: &mut dyn FnMut(usize, &[&[f64]]),
+    take: &mut lanes::Take,
 ) {
-    let n = signals.first().map_or(0, |s| s.len());
-    assert!(
-        signals.iter().all(|s| s.len() == n),
-        "signals of equal length"
-    );
+    equal_length(signals);
     (Simd::best().0.filtfilt_all_handed)(filter, signals, ends, from, take);
 }
 
@@ -606,13 +598,21 @@ pub(crate) fn filtfilt_window_sampled(
     at: &[usize],
     ends: Ends,
 ) -> Vec<Vec<f64>> {
-    let n = signals.first().map_or(0, |s| s.len());
-    assert!(
-        signals.iter().all(|s| s.len() == n),
-        "signals of equal length"
-    );
-    assert_samples_within(at, n);
+    assert_samples_within(at, equal_length(signals));
     (Simd::best().0.filtfilt_sampled_all)(filter, signals, at, ends)
+}
+
+/// The length of `signals`, all as long (0 for none).
+///
+/// # Panics
+/// If they differ in length: a programming error of the caller.
+fn equal_length<S: AsRef<[f64]>>(signals: &[S]) -> usize {
+    let n = signals.first().map_or(0, |s| s.as_ref().len());
+    assert!(
+        signals.iter().all(|s| s.as_ref().len() == n),
+        "signals must have equal lengths"
+    );
+    n
 }
 
 /// Samples at the start of a signal in which [`surely_varying`] looks.
