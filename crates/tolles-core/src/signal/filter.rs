@@ -196,6 +196,25 @@ impl Butterworth {
         &self.sections
     }
 
+    /// How each section's recursion is computed ([`Numerator`]): the first by the general
+    /// formula (it carries the gain), the others by their shared form if the filter has at
+    /// most [`Numerator::MOST_BAND_SECTIONS`] sections.
+    pub(crate) fn forms(&self) -> Vec<Numerator> {
+        let tail = self.sections.get(1..).unwrap_or_default();
+        let shared = match tail.first().map(Numerator::of) {
+            Some(form)
+                if self.sections.len() <= Numerator::MOST_BAND_SECTIONS
+                    && tail.iter().all(|s| Numerator::of(s) == form) =>
+            {
+                form
+            }
+            _ => Numerator::General,
+        };
+        (0..self.sections.len())
+            .map(|k| if k == 0 { Numerator::General } else { shared })
+            .collect()
+    }
+
     /// Edge padding in samples used by [`Butterworth::filtfilt`], identical to scipy's
     /// `sosfiltfilt` default `3 * (2 * n_sections + 1 - min(#{b2 == 0}, #{a2 == 0}))`.
     pub fn padlen(&self) -> usize {
@@ -276,11 +295,47 @@ impl Butterworth {
     }
 }
 
+/// The numerator `(b0, b1, b2)` of a section, as far as its recursion leaves multiplications
+/// out.
+///
+/// A band-pass's sections after the first have numerator (1, 0, −1): its recursion needs the
+/// multiplications by `a1` and `a2` only. Multiplications by 1 and −1 are exact, so leaving
+/// them out changes no bits; leaving out `0·x` changes at most the sign of an exact zero (and
+/// gives ±∞ rather than NaN after an infinite sample, whose output is lost either way). The
+/// scalar recursion ([`SosState::step`]) and the vector lanes use the same forms, so they
+/// agree to the bit. (A low- or high-pass's (1, ±2, 1) would save two multiplications of five,
+/// but every form is compiled into every lane kernel for every width and instruction set, and
+/// the build time is what limits them.)
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u8)]
+pub(crate) enum Numerator {
+    /// Any numerator: `y = b0·x + z0`, `z0 = b1·x − a1·y + z1`, `z1 = b2·x − a2·y`.
+    General,
+    /// (1, 0, −1): `y = x + z0`, `z0 = z1 − a1·y`, `z1 = (−a2)·y − x`; two multiplications
+    /// and three additions instead of five and four.
+    Band,
+}
+
+impl Numerator {
+    /// The most sections a filter computed in [`Numerator::Band`] form has: the default
+    /// fourth-order band-pass's four. Each count is compiled apart in the lane kernels.
+    pub(crate) const MOST_BAND_SECTIONS: usize = 4;
+
+    /// The form of `[b0, b1, b2, a0, a1, a2]`.
+    pub(crate) fn of(section: &[f64; 6]) -> Self {
+        match section[..3] {
+            [1.0, 0.0, -1.0] => Self::Band,
+            _ => Self::General,
+        }
+    }
+}
+
 /// Streaming state of a [`Butterworth`] filter, one sample (same units as the input)
 /// in and one out per [`SosState::step`]; for causal, real-time use.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SosState {
     sections: Vec<[f64; 6]>,
+    forms: Vec<Numerator>,
     state: Vec<[f64; 2]>,
 }
 
@@ -289,6 +344,7 @@ impl SosState {
     pub fn new(filter: &Butterworth) -> Self {
         Self {
             sections: filter.sections.clone(),
+            forms: filter.forms(),
             state: vec![[0.0; 2]; filter.sections.len()],
         }
     }
@@ -302,6 +358,7 @@ impl SosState {
             .collect();
         Self {
             sections: filter.sections.clone(),
+            forms: filter.forms(),
             state,
         }
     }
@@ -310,11 +367,20 @@ impl SosState {
     #[inline]
     pub fn step(&mut self, x: f64) -> f64 {
         let mut v = x;
-        for (s, z) in self.sections.iter().zip(self.state.iter_mut()) {
+        let sections = self.sections.iter().zip(&self.forms);
+        for ((s, form), z) in sections.zip(self.state.iter_mut()) {
             // Transposed direct form II: two delays per section, good rounding behaviour.
             let y = s[0] * v + z[0];
-            z[0] = s[1] * v - s[4] * y + z[1];
-            z[1] = s[2] * v - s[5] * y;
+            match form {
+                Numerator::Band => {
+                    z[0] = z[1] - s[4] * y;
+                    z[1] = (-s[5]) * y - v;
+                }
+                _ => {
+                    z[0] = s[1] * v - s[4] * y + z[1];
+                    z[1] = s[2] * v - s[5] * y;
+                }
+            }
             v = y;
         }
         v
@@ -1068,6 +1134,52 @@ mod tests {
             let y = hp.filtfilt(&[3.0; 200]).unwrap();
             assert!(y.iter().all(|v| v.abs() < 1e-9));
         }
+    }
+
+    #[test]
+    fn sections_after_the_first_take_their_shared_form() {
+        use Numerator::{Band, General};
+        let forms = |order, response| Butterworth::design(order, response, 10.0).unwrap().forms();
+        assert_eq!(forms(4, bp(0.1, 0.9)), [General, Band, Band, Band]);
+        assert_eq!(forms(1, bp(0.1, 0.9)), [General]);
+        let low = Response::LowPass { cutoff_hz: 1.0 };
+        let high = Response::HighPass { cutoff_hz: 1.0 };
+        assert_eq!(forms(4, low), [General, General]);
+        assert_eq!(forms(5, high), [General, General, General]);
+        assert_eq!(forms(5, bp(0.1, 0.9)), [General; 5]);
+        assert_eq!(Numerator::of(&[1.0, 0.5, -1.0, 1.0, 0.1, 0.2]), General);
+    }
+
+    /// The general transposed direct form II over `sections`, from rest.
+    fn by_general_formula(sections: &[[f64; 6]], x: &[f64]) -> Vec<f64> {
+        let mut z = vec![[0.0; 2]; sections.len()];
+        let step = |mut v: f64, z: &mut [[f64; 2]]| {
+            for (s, z) in sections.iter().zip(z.iter_mut()) {
+                let y = s[0] * v + z[0];
+                z[0] = s[1] * v - s[4] * y + z[1];
+                z[1] = s[2] * v - s[5] * y;
+                v = y;
+            }
+            v
+        };
+        x.iter().map(|&v| step(v, &mut z)).collect()
+    }
+
+    #[test]
+    fn band_form_gives_the_general_formulas_bits() {
+        // Leaving out 0·x and (−1)·x can only change the sign of an exact zero: on samples
+        // that give none, every output bit is the general formula's.
+        let f = Butterworth::design(4, bp(0.1, 0.9), 10.0).unwrap();
+        let x: Vec<f64> = (0..5000)
+            .map(|i| (i as f64 * 0.37).sin() * 300.0 + (i as f64 * 0.011).cos() * 4e4 + 0.3)
+            .collect();
+        let expected = by_general_formula(f.sections(), &x);
+        let got = f.filter(&x);
+        assert!(got.iter().all(|v| *v != 0.0));
+        assert_eq!(
+            got.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+            expected.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+        );
     }
 
     #[test]

@@ -22,7 +22,7 @@ use super::jump::Jump;
 #[cfg(target_arch = "x86_64")]
 use super::transpose::Avx512;
 use super::transpose::{Plain, Transpose};
-use super::{Butterworth, End, Ends};
+use super::{Butterworth, End, Ends, Numerator};
 use multiversion::{inherit_target, multiversion, target::match_target};
 use std::sync::OnceLock;
 
@@ -350,7 +350,12 @@ impl<const L: usize> Workspace<L> {
     #[inline(always)]
     fn new(filter: &Butterworth) -> Self {
         Self {
-            sections: filter.sections.iter().map(Section::new).collect(),
+            sections: filter
+                .sections
+                .iter()
+                .zip(filter.forms())
+                .map(|(s, form)| Section::new(s, form))
+                .collect(),
             zi: filter.sosfilt_zi(),
             tile: vec![[0.0; L]; TILE],
             pad: vec![[0.0; L]; filter.padlen()],
@@ -855,12 +860,14 @@ fn jumping<const L: usize, const D: usize, const R: usize>(
 }
 
 /// [`run`] of the two sections of a filter with [`JUMP_DELAYS`] delays: [`jumping`]'s three
-/// recursions each compile two forms instead of [`run`]'s seven.
+/// recursions each compile two forms instead of all of [`run`]'s.
 #[inline(always)]
 fn run_two<const L: usize>(sections: &mut [Section<L>], data: &mut [[f64; L]], backward: bool) {
     match sections {
-        [a, b] if b.unit => run_fixed::<L, 2, true>(&mut [a, b], data, backward),
-        [a, b] => run_fixed::<L, 2, false>(&mut [a, b], data, backward),
+        [a, b] => match b.form {
+            Numerator::Band => run_fixed::<L, 2, BAND>(&mut [a, b], data, backward),
+            Numerator::General => run_fixed::<L, 2, GENERAL>(&mut [a, b], data, backward),
+        },
         _ => unreachable!("a filter with {JUMP_DELAYS} delays has two sections"),
     }
 }
@@ -1002,34 +1009,42 @@ const GROUP: usize = 8;
 /// in time or, if `backward`, from the last sample to the first, carrying the delays on.
 #[inline(always)]
 fn run<const L: usize>(sections: &mut [Section<L>], data: &mut [[f64; L]], backward: bool) {
-    // A Butterworth low- or high-pass's gain sits in its first section; the others have
-    // numerators (1, ±2, 1) (see `Section::unit`), whose two multiplications by 1 are left
-    // out. A band-pass's are (1, 0, −1): leaving out its ±1s, exact with `(−a2)·y − x`, was
-    // vectorised into partial vectors and shuffles, 1.4–2.3× slower.
-    let tail_unit = sections.iter().skip(1).all(|s| s.unit);
     // A fixed number of sections copied into locals keeps the delays in registers for
     // the tile; through the slice they go to memory and back every sample, which lengthens
     // each section's chain of dependent operations by the store-to-load latency.
-    match (sections, tail_unit) {
-        ([a], _) => run_fixed::<L, 1, false>(&mut [a], data, backward),
-        ([a, b], true) => run_fixed::<L, 2, true>(&mut [a, b], data, backward),
-        ([a, b], false) => run_fixed::<L, 2, false>(&mut [a, b], data, backward),
-        ([a, b, c], true) => run_fixed::<L, 3, true>(&mut [a, b, c], data, backward),
-        ([a, b, c], false) => run_fixed::<L, 3, false>(&mut [a, b, c], data, backward),
-        ([a, b, c, d], true) => run_fixed::<L, 4, true>(&mut [a, b, c, d], data, backward),
-        ([a, b, c, d], false) => run_fixed::<L, 4, false>(&mut [a, b, c, d], data, backward),
+    // A band-pass's gain sits in its first section; the others' multiplications by 1, −1
+    // and 0 are left out ([`Numerator`]).
+    let tail = tail_form(sections);
+    match (sections, tail) {
+        ([a, b], Numerator::Band) => run_fixed::<L, 2, BAND>(&mut [a, b], data, backward),
+        ([a, b, c], Numerator::Band) => run_fixed::<L, 3, BAND>(&mut [a, b, c], data, backward),
+        ([a, b, c, d], Numerator::Band) => {
+            run_fixed::<L, 4, BAND>(&mut [a, b, c, d], data, backward)
+        }
+        ([a], _) => run_fixed::<L, 1, GENERAL>(&mut [a], data, backward),
+        ([a, b], _) => run_fixed::<L, 2, GENERAL>(&mut [a, b], data, backward),
+        ([a, b, c], _) => run_fixed::<L, 3, GENERAL>(&mut [a, b, c], data, backward),
+        ([a, b, c, d], _) => run_fixed::<L, 4, GENERAL>(&mut [a, b, c, d], data, backward),
+        // Filters of more sections are computed in the general form (see
+        // `Numerator::MOST_BAND_SECTIONS`).
         (sections, _) => {
             if backward {
                 for v in data.iter_mut().rev() {
-                    step::<L, false>(sections.iter_mut(), v);
+                    step::<L, GENERAL>(sections.iter_mut(), v);
                 }
             } else {
                 for v in data.iter_mut() {
-                    step::<L, false>(sections.iter_mut(), v);
+                    step::<L, GENERAL>(sections.iter_mut(), v);
                 }
             }
         }
     }
+}
+
+/// The form of the sections after the first ([`Butterworth::forms`] gives them all one).
+#[inline(always)]
+fn tail_form<const L: usize>(sections: &[Section<L>]) -> Numerator {
+    sections.get(1).map_or(Numerator::General, |s| s.form)
 }
 
 /// [`run`] backward over `back` with `back_sections` and forward over `ahead` (at least as
@@ -1042,12 +1057,16 @@ fn run_pair<const L: usize>(
     ahead_sections: &mut [Section<L>],
     ahead: &mut [[f64; L]],
 ) {
-    let tail_unit = back_sections.iter().skip(1).all(|s| s.unit);
+    let tail = tail_form(back_sections);
     let (together, rest) = ahead.split_at_mut(back.len());
-    match (&mut *back_sections, &mut *ahead_sections, tail_unit) {
-        ([a, b], [c, d], true) => run_pair_fixed::<L, 2, true>([a, b], back, [c, d], together),
-        ([a, b], [c, d], false) => run_pair_fixed::<L, 2, false>([a, b], back, [c, d], together),
-        ([a], [c], _) => run_pair_fixed::<L, 1, false>([a], back, [c], together),
+    match (&mut *back_sections, &mut *ahead_sections, tail) {
+        ([a, b], [c, d], Numerator::Band) => {
+            run_pair_fixed::<L, 2, BAND>([a, b], back, [c, d], together)
+        }
+        ([a, b], [c, d], Numerator::General) => {
+            run_pair_fixed::<L, 2, GENERAL>([a, b], back, [c, d], together)
+        }
+        ([a], [c], _) => run_pair_fixed::<L, 1, GENERAL>([a], back, [c], together),
         _ => {
             // More sections fill the arithmetic units on their own.
             run(back_sections, back, true);
@@ -1059,7 +1078,7 @@ fn run_pair<const L: usize>(
 
 /// [`run_pair`] with `S` sections in locals, as [`run_fixed`].
 #[inline(always)]
-fn run_pair_fixed<const L: usize, const S: usize, const TAIL_UNIT: bool>(
+fn run_pair_fixed<const L: usize, const S: usize, const TAIL: u8>(
     back_sections: [&mut Section<L>; S],
     back: &mut [[f64; L]],
     ahead_sections: [&mut Section<L>; S],
@@ -1068,8 +1087,8 @@ fn run_pair_fixed<const L: usize, const S: usize, const TAIL_UNIT: bool>(
     let mut b: [Section<L>; S] = std::array::from_fn(|k| *back_sections[k]);
     let mut f: [Section<L>; S] = std::array::from_fn(|k| *ahead_sections[k]);
     for (u, v) in back.iter_mut().rev().zip(ahead.iter_mut()) {
-        step::<L, TAIL_UNIT>(b.iter_mut(), u);
-        step::<L, TAIL_UNIT>(f.iter_mut(), v);
+        step::<L, TAIL>(b.iter_mut(), u);
+        step::<L, TAIL>(f.iter_mut(), v);
     }
     for (s, l) in back_sections.into_iter().zip(b) {
         *s = l;
@@ -1079,10 +1098,10 @@ fn run_pair_fixed<const L: usize, const S: usize, const TAIL_UNIT: bool>(
     }
 }
 
-/// [`run`] with `S` sections, copied in and back out; with `TAIL_UNIT`, every section but the
-/// first has a unit numerator.
+/// [`run`] with `S` sections, copied in and back out; every section but the first has the
+/// numerator form `TAIL`.
 #[inline(always)]
-fn run_fixed<const L: usize, const S: usize, const TAIL_UNIT: bool>(
+fn run_fixed<const L: usize, const S: usize, const TAIL: u8>(
     sections: &mut [&mut Section<L>; S],
     data: &mut [[f64; L]],
     backward: bool,
@@ -1090,11 +1109,11 @@ fn run_fixed<const L: usize, const S: usize, const TAIL_UNIT: bool>(
     let mut local: [Section<L>; S] = std::array::from_fn(|k| *sections[k]);
     if backward {
         for v in data.iter_mut().rev() {
-            step::<L, TAIL_UNIT>(local.iter_mut(), v);
+            step::<L, TAIL>(local.iter_mut(), v);
         }
     } else {
         for v in data.iter_mut() {
-            step::<L, TAIL_UNIT>(local.iter_mut(), v);
+            step::<L, TAIL>(local.iter_mut(), v);
         }
     }
     for (s, l) in sections.iter_mut().zip(local) {
@@ -1104,9 +1123,9 @@ fn run_fixed<const L: usize, const S: usize, const TAIL_UNIT: bool>(
 
 /// One sample of every lane through all sections: [`super::SosState::step`]'s arithmetic
 /// per lane, operation for operation (transposed direct form II, no fused multiply-add,
-/// which Rust never introduces on its own). With `TAIL_UNIT`, the sections after the first
-/// take `x` for `b0·x` and `b2·x`: their `b0` and `b2` are exactly 1, and `1·x` is `x` to
-/// the bit, so only the two multiplications go.
+/// which Rust never introduces on its own). The sections after the first take the form
+/// `TAIL` ([`Numerator`]): with `BAND`, only their multiplications by `a1` and `−a2` are
+/// left, as in the scalar recursion.
 ///
 /// All sections per sample rather than one section over many samples: consecutive
 /// sections are further independent chains the processor overlaps (measured about 2×
@@ -1115,30 +1134,37 @@ fn run_fixed<const L: usize, const S: usize, const TAIL_UNIT: bool>(
 // Indexing every array by lane keeps the line-for-line match with the scalar recursion
 // visible; the compiler turns the fixed-length loop into vector instructions either way.
 #[allow(clippy::needless_range_loop)]
-fn step<'a, const L: usize, const TAIL_UNIT: bool>(
+fn step<'a, const L: usize, const TAIL: u8>(
     sections: impl Iterator<Item = &'a mut Section<L>>,
     v: &mut [f64; L],
 ) {
     for (k, s) in sections.enumerate() {
-        if TAIL_UNIT && k > 0 {
-            for l in 0..L {
-                let x = v[l];
-                let y = x + s.z0[l];
-                s.z0[l] = s.b1[l] * x - s.a1[l] * y + s.z1[l];
-                s.z1[l] = x - s.a2[l] * y;
-                v[l] = y;
+        match if k > 0 { TAIL } else { GENERAL } {
+            BAND => {
+                // Whole arrays per formula: as one loop over the lanes, the compiler cut it
+                // into partial vectors and shuffles (1.4× slower than the general form).
+                let x = *v;
+                let y: [f64; L] = std::array::from_fn(|l| x[l] + s.z0[l]);
+                s.z0 = std::array::from_fn(|l| s.z1[l] - s.a1[l] * y[l]);
+                s.z1 = std::array::from_fn(|l| s.minus_a2[l] * y[l] - x[l]);
+                *v = y;
             }
-        } else {
-            for l in 0..L {
-                let x = v[l];
-                let y = s.b0[l] * x + s.z0[l];
-                s.z0[l] = s.b1[l] * x - s.a1[l] * y + s.z1[l];
-                s.z1[l] = s.b2[l] * x - s.a2[l] * y;
-                v[l] = y;
+            _ => {
+                for l in 0..L {
+                    let x = v[l];
+                    let y = s.b0[l] * x + s.z0[l];
+                    s.z0[l] = s.b1[l] * x - s.a1[l] * y + s.z1[l];
+                    s.z1[l] = s.b2[l] * x - s.a2[l] * y;
+                    v[l] = y;
+                }
             }
         }
     }
 }
+
+/// [`Numerator`]s as `step`'s constant parameter.
+const GENERAL: u8 = Numerator::General as u8;
+const BAND: u8 = Numerator::Band as u8;
 
 /// A section's coefficients (dimensionless) repeated in every lane, so the vector loop
 /// loads them rather than broadcasting a scalar every sample, next to its two delays per
@@ -1150,10 +1176,12 @@ struct Section<const L: usize> {
     b2: [f64; L],
     a1: [f64; L],
     a2: [f64; L],
+    /// `−a2`, for [`Numerator::Band`].
+    minus_a2: [f64; L],
     z0: [f64; L],
     z1: [f64; L],
-    /// `b0` and `b2` are exactly 1.
-    unit: bool,
+    /// How [`step`] computes it.
+    form: Numerator,
 }
 
 impl<const L: usize> Section<L> {
@@ -1169,17 +1197,18 @@ impl<const L: usize> Section<L> {
         self.z1 = z1;
     }
 
-    /// From `[b0, b1, b2, a0, a1, a2]` with `a0 = 1`, delays at rest.
-    fn new(&[b0, b1, b2, _, a1, a2]: &[f64; 6]) -> Self {
+    /// From `[b0, b1, b2, a0, a1, a2]` with `a0 = 1`, computed in `form`, delays at rest.
+    fn new(&[b0, b1, b2, _, a1, a2]: &[f64; 6], form: Numerator) -> Self {
         Self {
             b0: [b0; L],
             b1: [b1; L],
             b2: [b2; L],
             a1: [a1; L],
             a2: [a2; L],
+            minus_a2: [-a2; L],
             z0: [0.0; L],
             z1: [0.0; L],
-            unit: b0 == 1.0 && b2 == 1.0,
+            form,
         }
     }
 }
