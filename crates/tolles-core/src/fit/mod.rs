@@ -570,12 +570,16 @@ fn fit_reusing(
     let low = problem.level_low_pass(fs_hz)?;
     spare.reserve(problem.buffer_len(longest, stored.len(), low.as_ref(), above));
     let mut levels = problem.level_setup(fs_hz)?;
-    let linear = |run: Range<usize>, rows: Range<usize>, out: &mut [f64]| {
-        let (a, y) = out.split_at_mut(rows.len() * stored.len());
-        settings
-            .design
-            .matrix_rows_over(flux.clone(), run.clone(), rows.clone(), stored, a);
-        y.copy_from_slice(&scalar[run.start + rows.start..run.start + rows.end]);
+    let linear = |run: Range<usize>, rows: Range<usize>, out: &mut [&mut [f64]]| {
+        let (a, y) = out.split_at_mut(stored.len());
+        settings.design.matrix_rows_into_columns(
+            flux.clone(),
+            run.clone(),
+            rows.clone(),
+            stored,
+            a,
+        );
+        y[0].copy_from_slice(&scalar[run.start + rows.start..run.start + rows.end]);
     };
     let count = fold_count(settings.lambda);
     // The band rows are factored once, cut where the folds of either plan start: the folds

@@ -14,7 +14,7 @@ use crate::model::vector::Fluxgates;
 use crate::parallel::{blocks, split_rows};
 use crate::signal::filter::{
     filtfilt_many_unless_constant, filtfilt_window_handed, filtfilt_window_sampled, surely_varying,
-    Butterworth, Ends,
+    Butterworth, Ends, Fed, Jumps, PREFIX,
 };
 use multiversion::multiversion;
 use nalgebra::DMatrix;
@@ -23,10 +23,10 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Mutex;
 
 /// Writes the rows `rows` (counted from the run's start) of a run's unfiltered columns and,
-/// after them, of its target into the slice given (column-major, `rows.len()` values each),
-/// every value of it: the slice holds whatever a [`Spare`] buffer last held. A row's values
-/// are those of the whole run's (its changes taken over the run).
-pub(super) type FillRun<'m> = dyn Fn(Range<usize>, Range<usize>, &mut [f64]) + Sync + 'm;
+/// after them, of its target into the slices given (one per column, `rows.len()` values
+/// each), every value of them: they hold whatever a [`Spare`] buffer last held. A row's values
+/// are those of the whole run's (its changes taken over the run), however the rows are cut.
+pub(super) type FillRun<'m> = dyn Fn(Range<usize>, Range<usize>, &mut [&mut [f64]]) + Sync + 'm;
 
 /// Samples per window of a long run, which is filtered and factored window by window, each
 /// window taken whole by the next core free: the rows of a whole run need not be held at once (at 10⁷
@@ -685,18 +685,32 @@ impl Windows {
             pieces: Vec::new(),
             target: super::RunningStd::default(),
         };
-        let mut sampled = vec![Vec::new(); self.width + 1];
+        let count = match &levels {
+            Some(Some(kept)) => kept.len(),
+            _ => 0,
+        };
+        // The level rows go straight to their place in one matrix: columns grown window by
+        // window and then copied into it took fresh memory twice, on one core between passes.
+        let mut a = vec![0.0; count * self.width];
+        let mut y = Vec::with_capacity(count);
         for part in parts {
             factored.pieces.extend(part.pieces);
             for block in part.target {
                 factored.target.merge(block);
             }
-            for (all, p) in sampled.iter_mut().zip(part.sampled) {
-                all.extend(p);
+            if let Some((target, columns)) = part.sampled.split_last() {
+                for (c, values) in columns.iter().enumerate() {
+                    a[c * count + y.len()..][..values.len()].copy_from_slice(values);
+                }
+                y.extend_from_slice(target);
             }
         }
         let rows = levels.map(|kept| match kept {
-            Some(kept) => LevelRows::from_sampled(sampled, kept),
+            Some(at) => LevelRows {
+                a: DMatrix::from_vec(count, self.width, a),
+                y,
+                at,
+            },
             None => LevelRows::none(self.width),
         });
         (factored, rows)
@@ -705,6 +719,12 @@ impl Windows {
     /// One window: its samples `core` of the run and the margins either side filled into
     /// `buffer`, filtered and factored; `None` if it is the run's first and a column or the
     /// target is not surely varying there.
+    ///
+    /// The window is filled a stretch at a time as the band-pass's forward pass asks for it
+    /// ([`Fed`]), and the level rows' low-pass takes each stretch as it is filled: the
+    /// unfiltered window (40 MB at 19 columns, more than this machine's last-level cache) is
+    /// never written whole and read again from memory by each filter in turn. A low-pass that
+    /// cannot jump ([`Jumps`]) needs the whole window first, and gets it.
     fn window(
         &self,
         inputs: &WindowInputs,
@@ -721,45 +741,56 @@ impl Windows {
         let signals = self.width + 1;
         let window = core.start.saturating_sub(self.margin)..(core.end + self.margin).min(n);
         let m = window.len();
-        let data = &mut buffer[..m * signals];
-        (inputs.fill)(self.run.clone(), window.clone(), data);
-        let low_target = &mut target[..m];
-        if let Some(reference) = inputs.reference {
-            let y = &data[self.width * m..];
-            for ((t, y), r) in low_target.iter_mut().zip(y).zip(&reference[window.clone()]) {
-                *t = y - r;
-            }
-        }
-        let varying = || {
-            data.chunks(m).all(|c| surely_varying(c, n))
-                && (inputs.reference.is_none() || surely_varying(low_target, n))
+        let mut columns: Vec<&mut [f64]> = buffer[..m * signals].chunks_mut(m).collect();
+        let mut source = Source {
+            inputs,
+            run: self.run.clone(),
+            window: window.clone(),
+            filled: 0,
+            low_target: &mut target[..m],
         };
-        if core.start == 0 && !varying() {
-            return None;
+        if core.start == 0 {
+            source.fill(&mut columns, PREFIX.min(m));
+            if !source.varying(&columns, n) {
+                return None;
+            }
         }
         let ends = Ends::of_window(&window, n);
-        let mut columns: Vec<&mut [f64]> = data.chunks_mut(m).collect();
-        let sampled = match (inputs.levels, &inputs.kept) {
-            (Some(setup), Some(kept)) => {
-                let at: Vec<usize> = kept
-                    .iter()
-                    .filter(|k| core.contains(k))
-                    .map(|k| k - window.start)
-                    .collect();
-                // The level rows' low-pass reads the columns before the band-pass overwrites
-                // them, with the target less the reference in the target's place.
-                let mut low: Vec<&[f64]> = columns[..self.width].iter().map(|c| &**c).collect();
-                low.push(low_target);
-                filtfilt_window_sampled(setup.low.filter(), &low, &at, ends)
+        let (mut jumps, mut sampled) = (None, Vec::new());
+        if let (Some(setup), Some(kept)) = (inputs.levels, &inputs.kept) {
+            let at: Vec<usize> = kept
+                .iter()
+                .filter(|k| core.contains(k))
+                .map(|k| k - window.start)
+                .collect();
+            let low = setup.low.filter();
+            jumps = Jumps::new(low, &at, ends, signals, m);
+            if jumps.is_none() {
+                source.fill(&mut columns, m);
+                sampled = filtfilt_window_sampled(low, &source.low_signals(&columns), &at, ends);
             }
-            _ => Vec::new(),
+        }
+        let lookback = jumps.as_ref().map_or(0, Jumps::lookback);
+        let mut feed = |rows: Range<usize>, columns: &mut [&mut [f64]]| {
+            source.fill(columns, rows.end);
+            if let Some(j) = jumps.as_mut() {
+                let low = source.low_signals(columns);
+                j.advance(&low, rows.end);
+                if rows.end == m {
+                    sampled = jumps.take().expect("jumps until the end").finish(&low);
+                }
+            }
+        };
+        let mut fed = Fed {
+            feed: &mut feed,
+            lookback,
         };
         let core = Core {
             window: &window,
             core: &core,
             ends,
         };
-        let (pieces, target) = self.factor_core(band, &mut columns, &core, inputs.cuts);
+        let (pieces, target) = self.factor_core(band, &mut columns, &core, inputs.cuts, &mut fed);
         Some(WindowPart {
             pieces,
             target,
@@ -780,6 +811,7 @@ impl Windows {
         columns: &mut [&mut [f64]],
         core: &Core,
         cuts: &[usize],
+        fed: &mut Fed,
     ) -> (Pieces, Vec<super::RunningStd>) {
         let n = self.run.len();
         let window_start = core.window.start;
@@ -818,7 +850,7 @@ impl Windows {
             let values = &handed[self.width][index(stretch.start)..index(stretch.end)];
             target.push(super::RunningStd::of_block(values));
         };
-        filtfilt_window_handed(band, columns, core.ends, first, &mut take);
+        filtfilt_window_handed(band, columns, core.ends, first, fed, &mut take);
         // The stretches came from the last.
         target.reverse();
         let pieces = pieces
@@ -826,6 +858,65 @@ impl Windows {
             .map(|(piece, factor)| (piece, factor.factor()))
             .collect();
         (pieces, target)
+    }
+}
+
+/// Where a window's unfiltered values come from, filled row by row in order.
+struct Source<'s, 'w, 'p, 'a> {
+    inputs: &'s WindowInputs<'w, 'p, 'a>,
+    run: Range<usize>,
+    /// The window's samples of the run.
+    window: Range<usize>,
+    /// Rows of the window filled so far.
+    filled: usize,
+    /// The target less the heading levels' reference (nT), as far as filled, with levels.
+    low_target: &'s mut [f64],
+}
+
+impl Source<'_, '_, '_, '_> {
+    /// Fills the window's `columns` (its columns, then its target) up to row `upto`.
+    fn fill(&mut self, columns: &mut [&mut [f64]], upto: usize) {
+        let rows = self.filled..upto.max(self.filled);
+        if rows.is_empty() {
+            return;
+        }
+        let mut part: Vec<&mut [f64]> = columns.iter_mut().map(|c| &mut c[rows.clone()]).collect();
+        let start = self.window.start;
+        (self.inputs.fill)(
+            self.run.clone(),
+            start + rows.start..start + rows.end,
+            &mut part,
+        );
+        if let Some(reference) = self.inputs.reference {
+            let y = &part[part.len() - 1];
+            let r = &reference[start + rows.start..start + rows.end];
+            for ((t, y), r) in self.low_target[rows.clone()]
+                .iter_mut()
+                .zip(y.iter())
+                .zip(r)
+            {
+                *t = y - r;
+            }
+        }
+        self.filled = rows.end;
+    }
+
+    /// Whether the columns and the target less the reference, filled as far as the test
+    /// needs ([`PREFIX`]), are surely varying over the run's `n` samples.
+    fn varying(&self, columns: &[&mut [f64]], n: usize) -> bool {
+        columns.iter().all(|c| surely_varying(c, n))
+            && (self.inputs.reference.is_none() || surely_varying(self.low_target, n))
+    }
+
+    /// What the level rows' low-pass reads: the unfiltered columns, and the target less the
+    /// reference in the target's place.
+    fn low_signals<'c>(&'c self, columns: &'c [&mut [f64]]) -> Vec<&'c [f64]> {
+        let width = columns.len() - 1;
+        columns[..width]
+            .iter()
+            .map(|c| &**c)
+            .chain([&*self.low_target])
+            .collect()
     }
 }
 
@@ -1128,7 +1219,11 @@ impl Problem<'_, '_> {
                 buffer.resize(n * (width + 1), 0.0);
             }
             let data = &mut buffer[..n * (width + 1)];
-            fill(run.clone(), 0..n, data);
+            fill(
+                run.clone(),
+                0..n,
+                &mut data.chunks_mut(n).collect::<Vec<_>>(),
+            );
             let above = match above_band {
                 Some(above) => Some(above.rows(data, n, trim)?),
                 None => None,
@@ -1249,11 +1344,10 @@ impl Problem<'_, '_> {
             .expect("one plan asked for");
         for iteration in 1..=EXACT_ITERATIONS {
             let current = beta.clone();
-            let fill = |run: Range<usize>, rows: Range<usize>, out: &mut [f64]| {
+            let fill = |run: Range<usize>, rows: Range<usize>, columns: &mut [&mut [f64]]| {
                 let series = [&series.x, &series.y, &series.z].map(|c| &c[run.clone()]);
                 let scalar = &self.scalar[run];
-                let mut columns: Vec<&mut [f64]> = out.chunks_mut(rows.len()).collect();
-                split_rows(rows.len(), &mut columns, |part, parts| {
+                split_rows(rows.len(), columns, |part, parts| {
                     // Block by block, so the target is formed while the block's Jacobian is
                     // still in the cache.
                     let start = rows.start + part.start;

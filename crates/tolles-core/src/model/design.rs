@@ -258,12 +258,28 @@ impl Design {
         terms: &[Term],
         out: &mut [f64],
     ) {
-        let inputs = Spans::new(&flux.into(), span);
         let mut columns: Vec<&mut [f64]> = out
             .chunks_exact_mut(rows.len().max(1))
             .take(terms.len())
             .collect();
-        inputs.by_blocks(rows, &mut columns, |components, rows, columns| {
+        self.matrix_rows_into_columns(flux, span, rows, terms, &mut columns);
+    }
+
+    /// [`Design::matrix_rows_over`] into one slice per column (of `terms`), each
+    /// `rows.len()` long.
+    ///
+    /// # Panics
+    /// As [`Design::matrix_rows_over`].
+    pub fn matrix_rows_into_columns<'a>(
+        &self,
+        flux: impl Into<Fluxgates<'a>>,
+        span: Range<usize>,
+        rows: Range<usize>,
+        terms: &[Term],
+        columns: &mut [&mut [f64]],
+    ) {
+        let inputs = Spans::new(&flux.into(), span);
+        inputs.by_blocks(rows, columns, |components, rows, columns| {
             for (column, term) in columns.iter_mut().zip(terms) {
                 self.write_column(components, &inputs.extras, rows.clone(), *term, column);
             }

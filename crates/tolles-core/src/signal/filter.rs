@@ -47,6 +47,7 @@ mod lanes;
 mod together;
 mod transpose;
 
+pub(crate) use lanes::{Fed, Jumps};
 pub use together::filtfilt_sampled_then_in_place;
 
 /// Which ends of the signals a forward-backward filter is given are the signals' own.
@@ -631,9 +632,10 @@ fn pole_radius(a1: f64, a2: f64) -> f64 {
     }
 }
 
-/// [`filtfilt_many_unless_constant`] of a window of longer signals, `ends` saying which of its
-/// ends are theirs (see [`Ends`]), every signal filtered (whether one is constant is a question
-/// about the whole signals, which their caller answers), and its output from sample `from` on
+/// [`filtfilt_many_unless_constant`] of a window of longer signals, written by `fed` as the
+/// forward pass goes (see [`Fed`]), `ends` saying which of its ends are theirs (see [`Ends`]),
+/// every signal filtered (whether one is constant is a question about the whole signals, which
+/// their caller answers), and its output from sample `from` on
 /// handed to `take(start, columns)` stretch by stretch, from the last, instead of written back
 /// (one slice per signal of the samples from `start` on; the stretches start where multiples
 /// of 256 samples do, or at `from`): a consumer of whole rows reads them while they are in the
@@ -646,10 +648,11 @@ pub(crate) fn filtfilt_window_handed(
     signals: &mut [&mut [f64]],
     ends: Ends,
     from: usize,
+    fed: &mut Fed,
     take: &mut lanes::Take,
 ) {
     equal_length(signals);
-    (Simd::best().0.filtfilt_all_handed)(filter, signals, ends, from, take);
+    (Simd::best().0.filtfilt_all_handed)(filter, signals, ends, from, fed, take);
 }
 
 /// [`filtfilt_sampled_unless_constant`] of a window of longer signals, `ends` saying which of
@@ -682,7 +685,7 @@ fn equal_length<S: AsRef<[f64]>>(signals: &[S]) -> usize {
 }
 
 /// Samples at the start of a signal in which [`surely_varying`] looks.
-const PREFIX: usize = 4096;
+pub(crate) const PREFIX: usize = 4096;
 
 /// True when the first [`PREFIX`] samples of `x` hold two so far apart that any signal of `n`
 /// samples holding them has a sample standard deviation surely above `f64::EPSILON`, the test
@@ -1319,18 +1322,30 @@ mod tests {
         keep: &Range<usize>,
     ) -> Vec<Vec<f64>> {
         let mut out = vec![vec![f64::NAN; keep.len()]; signals.len()];
-        filtfilt_window_handed(band, signals, ends, keep.start, &mut |start, columns| {
-            for (o, c) in out.iter_mut().zip(columns) {
-                for (k, v) in c.iter().enumerate() {
-                    if let Some(slot) = (start + k)
-                        .checked_sub(keep.start)
-                        .and_then(|i| o.get_mut(i))
-                    {
-                        *slot = *v;
+        let mut written = |_: std::ops::Range<usize>, _: &mut [&mut [f64]]| {};
+        let mut fed = Fed {
+            feed: &mut written,
+            lookback: 0,
+        };
+        filtfilt_window_handed(
+            band,
+            signals,
+            ends,
+            keep.start,
+            &mut fed,
+            &mut |start, columns| {
+                for (o, c) in out.iter_mut().zip(columns) {
+                    for (k, v) in c.iter().enumerate() {
+                        if let Some(slot) = (start + k)
+                            .checked_sub(keep.start)
+                            .and_then(|i| o.get_mut(i))
+                        {
+                            *slot = *v;
+                        }
                     }
                 }
-            }
-        });
+            },
+        );
         assert!(
             out.iter().flatten().all(|v| !v.is_nan()),
             "every sample handed"

@@ -130,23 +130,40 @@ impl Jump {
         weigh(&self.c, delays) + self.direct * y
     }
 
-    /// The forward pass over `x` from the delays `start` at the first of the kept samples
-    /// `at` (evenly spaced by the stride), as far as the last: see [`Forward`].
+    /// Samples from one kept sample to the next.
+    pub(super) fn stride(&self) -> usize {
+        self.stride
+    }
+
+    /// A forward pass from the delays `start` at the first of `kept` kept samples, to be
+    /// taken on by [`Jump::forward_until`].
     #[inline(always)]
-    pub(super) fn forward<const D: usize, const R: usize>(
+    pub(super) fn forward_from<const D: usize>(&self, kept: usize, start: [f64; D]) -> Forward<D> {
+        Forward {
+            states: Vec::with_capacity(kept),
+            outputs: Vec::with_capacity(kept),
+            sums: Vec::with_capacity(kept.saturating_sub(1)),
+            current: start,
+        }
+    }
+
+    /// `forward` taken on over `x` across every stretch from its current kept sample of `at`
+    /// (evenly spaced by the stride) to the next that ends before sample `upto`, as far as
+    /// the last kept sample: see [`Forward`]. Reads `x` from the current kept sample on.
+    #[inline(always)]
+    pub(super) fn forward_until<const D: usize, const R: usize>(
         &self,
         weights: &[[f64; R]],
+        forward: &mut Forward<D>,
         x: &[f64],
         at: &[usize],
-        start: [f64; D],
-    ) -> Forward<D> {
-        let mut forward = Forward {
-            states: Vec::with_capacity(at.len()),
-            outputs: Vec::with_capacity(at.len()),
-            sums: Vec::with_capacity(at.len().saturating_sub(1)),
-        };
-        let mut s = start;
-        for &k in &at[..at.len() - 1] {
+        upto: usize,
+    ) {
+        let mut s = forward.current;
+        for &k in &at[forward.sums.len()..at.len() - 1] {
+            if k + self.stride >= upto {
+                break;
+            }
             let both = dot_stretch(weights, &x[k..=k + self.stride]);
             forward.states.push(s);
             forward.outputs.push(self.output(&s, x[k]));
@@ -154,8 +171,7 @@ impl Jump {
             s = std::array::from_fn(|i| moved[i] + both[i]);
             forward.sums.push(std::array::from_fn(|i| both[D + i]));
         }
-        forward.states.push(s);
-        forward
+        forward.current = s;
     }
 
     /// The filtered values at every kept sample but the last, from the forward pass's
@@ -180,8 +196,10 @@ impl Jump {
 
 /// What the forward pass of one signal leaves at its kept samples.
 pub(super) struct Forward<const D: usize> {
-    /// The delays before each kept sample (the last's included).
-    pub states: Vec<[f64; D]>,
+    /// The delays before each kept sample whose stretch is done.
+    states: Vec<[f64; D]>,
+    /// The delays before the next kept sample (once all stretches are done, the last's).
+    pub current: [f64; D],
     /// The output at each kept sample but the last: stored while the stretch is in the cache,
     /// since the backward pass, reading its sample again, waited on memory there.
     outputs: Vec<f64>,

@@ -15,15 +15,18 @@
 //! own anyway), so every path gives the same bits. The AVX-512 copy also moves samples
 //! between the signals and its tiles by shuffles ([`super::transpose`]).
 //!
-//! [`filtfilt_all_handed`] hands its output to a consumer of whole rows (a fit's factor) as
-//! the backward pass makes it, all blocks of lanes in step, instead of writing it back.
+//! [`filtfilt_all_handed`] is fed its input a stretch at a time as the forward pass goes
+//! ([`Fed`]) and hands its output to a consumer of whole rows (a fit's factor) as the backward
+//! pass makes it, all blocks of lanes in step, instead of writing it back; [`Jumps`] take a
+//! low-pass's kept samples from the same stretches as they come.
 
-use super::jump::Jump;
+use super::jump::{Forward, Jump};
 #[cfg(target_arch = "x86_64")]
 use super::transpose::Avx512;
 use super::transpose::{Plain, Transpose};
 use super::{Butterworth, End, Ends, Numerator};
 use multiversion::{inherit_target, multiversion, target::match_target};
+use std::ops::Range;
 use std::sync::OnceLock;
 
 /// The lane kernels compiled for one instruction set.
@@ -39,17 +42,43 @@ pub(super) struct Kernels {
     pub constant: fn(&[&[f64]]) -> Vec<bool>,
     /// [`filtfilt_all_handed`].
     pub filtfilt_all_handed: HandedKernel,
+    /// [`Jumps::advance`].
+    pub jumps_advance: fn(&mut Jumps, &[&[f64]], usize),
+    /// [`Jumps::finish`].
+    pub jumps_finish: JumpsFinish,
 }
+
+/// Gives the kept samples of a low-pass whose every sample is taken.
+type JumpsFinish = fn(Jumps, &[&[f64]]) -> Vec<Vec<f64>>;
 
 /// Filters signals (equally long) and returns each one's samples at the given positions.
 type SampledKernel = fn(&Butterworth, &[&[f64]], &[usize], Ends) -> Vec<Vec<f64>>;
 
-/// Filters signals (equally long) and hands their output from a sample on to a consumer.
-type HandedKernel = fn(&Butterworth, &mut [&mut [f64]], Ends, usize, &mut Take);
+/// Filters signals (equally long), fed as it goes, and hands their output from a sample on
+/// to a consumer.
+type HandedKernel = fn(&Butterworth, &mut [&mut [f64]], Ends, usize, &mut Fed, &mut Take);
 
 /// What [`filtfilt_all_handed`] hands its output to: `take(start, columns)`, one slice per
 /// signal of its samples from `start` on.
 pub(super) type Take<'t> = dyn FnMut(usize, &[&[f64]]) + 't;
+
+/// What writes [`filtfilt_all_handed`]'s signals as its forward pass goes: see [`Fed`].
+pub(crate) type Feed<'f> = dyn FnMut(Range<usize>, &mut [&mut [f64]]) + 'f;
+
+/// The source of [`filtfilt_all_handed`]'s signals: `feed(rows, signals)` is called for
+/// consecutive stretches of rows from the first, each before the forward pass reads it, and
+/// writes or reads the signals there. Once a call returns, the pass may overwrite the rows
+/// before that stretch, so a call may still read the stretch fed before it, which is at least
+/// `lookback` rows long.
+///
+/// The signals of a fit's window need not be written whole before they are filtered: each
+/// stretch is written, read by whatever else needs the unfiltered values and filtered while
+/// it is in the cache.
+pub(crate) struct Fed<'f> {
+    pub feed: &'f mut Feed<'f>,
+    /// Rows (samples) a call reads before its stretch.
+    pub lookback: usize,
+}
 
 /// The kernels for the target the crate is compiled for (SSE2 on plain x86-64).
 const PORTABLE: Kernels = Kernels {
@@ -59,9 +88,11 @@ const PORTABLE: Kernels = Kernels {
         filtfilt_sampled_all(Plain, filter, signals, at, ends)
     },
     constant: |signals| constant(Plain, signals),
-    filtfilt_all_handed: |filter, signals, ends, from, take| {
-        filtfilt_all_handed(Plain, filter, signals, ends, from, take)
+    filtfilt_all_handed: |filter, signals, ends, from, fed, take| {
+        filtfilt_all_handed(Plain, filter, signals, ends, from, fed, take)
     },
+    jumps_advance: |jumps, signals, upto| jumps.advance_with(Plain, signals, upto),
+    jumps_finish: |jumps, signals| jumps.finish_with(Plain, signals),
 };
 
 /// Defines `$name() -> Option<Kernels>`: the kernels compiled for `$target` (a
@@ -103,9 +134,18 @@ macro_rules! compiled_for {
                         signals: &mut [&mut [f64]],
                         ends: Ends,
                         from: usize,
+                        fed: &mut Fed,
                         take: &mut Take,
                     ) {
-                        filtfilt_all_handed($transpose, filter, signals, ends, from, take)
+                        filtfilt_all_handed($transpose, filter, signals, ends, from, fed, take)
+                    }
+                    #[inherit_target]
+                    fn jumps_advance_here(jumps: &mut Jumps, signals: &[&[f64]], upto: usize) {
+                        jumps.advance_with($transpose, signals, upto)
+                    }
+                    #[inherit_target]
+                    fn jumps_finish_here(jumps: Jumps, signals: &[&[f64]]) -> Vec<Vec<f64>> {
+                        jumps.finish_with($transpose, signals)
                     }
                     Some(Kernels {
                         name: $label,
@@ -113,6 +153,8 @@ macro_rules! compiled_for {
                         filtfilt_sampled_all: filtfilt_sampled_all_here,
                         constant: constant_here,
                         filtfilt_all_handed: filtfilt_all_handed_here,
+                        jumps_advance: jumps_advance_here,
+                        jumps_finish: jumps_finish_here,
                     })
                 }
                 _ => None,
@@ -171,8 +213,8 @@ pub(super) fn filtfilt_all(
     signals: &mut [&mut [f64]],
     ends: Ends,
 ) {
-    for block in signals.chunks_mut(LANES) {
-        Block::new(filter, block).filtfilt(transpose, ends);
+    for mut block in blocks_of(filter, signals.len()) {
+        block.filtfilt(transpose, signals, ends);
     }
 }
 
@@ -189,61 +231,37 @@ pub(super) fn filtfilt_sampled_all(
     at: &[usize],
     ends: Ends,
 ) -> Vec<Vec<f64>> {
+    let n = signals.first().map_or(0, |s| s.len());
+    if let Some(mut jumps) = Jumps::new(filter, at, ends, signals.len(), n) {
+        jumps.advance_with(transpose, signals, n);
+        return jumps.finish_with(transpose, signals);
+    }
     let mut out = Vec::with_capacity(signals.len());
-    // Only the fourth-order low-pass of a fit's level rows (4 delays) jumps, and always with
-    // all lanes: each compiled copy of `jumping` adds to the crate's build.
-    let jump = (2 * filter.sections().len() == JUMP_DELAYS)
-        .then(|| Jump::between(filter, at))
-        .flatten();
-    let jump = jump.as_ref();
     let mut blocks = signals.chunks_exact(LANES);
     if blocks.len() > 0 {
         let mut ws = Workspace::<LANES>::new(filter);
         for block in &mut blocks {
-            out.extend(sampled_widest(transpose, block, at, &mut ws, ends, jump));
+            out.extend(filtfilt_sampled_block(transpose, block, at, &mut ws, ends));
         }
     }
-    // A partial block that jumps takes all lanes too: the jumps go signal by signal, so the
-    // idle lanes cost little, and a signal's values then do not depend on the block it is in.
     let rest = blocks.remainder();
-    out.extend(match (rest.len(), jump) {
-        (0, _) => Vec::new(),
-        (1..=2, None) => {
+    out.extend(match rest.len() {
+        0 => Vec::new(),
+        1..=2 => {
             filtfilt_sampled_block(transpose, rest, at, &mut Workspace::<2>::new(filter), ends)
         }
-        (3..=4, None) => {
+        3..=4 => {
             filtfilt_sampled_block(transpose, rest, at, &mut Workspace::<4>::new(filter), ends)
         }
-        _ => sampled_widest(
+        _ => filtfilt_sampled_block(
             transpose,
             rest,
             at,
             &mut Workspace::<LANES>::new(filter),
             ends,
-            jump,
         ),
     });
     out
-}
-
-/// A block of up to [`LANES`] signals of [`filtfilt_sampled_all`]: by [`jumping`] with `jump`,
-/// else through every sample. A function rather than a closure, which would be compiled on
-/// its own at the baseline instead of into the kernels' instruction sets.
-#[inline(always)]
-fn sampled_widest(
-    transpose: impl Transpose,
-    block: &[&[f64]],
-    at: &[usize],
-    ws: &mut Workspace<LANES>,
-    ends: Ends,
-    jump: Option<&Jump>,
-) -> Vec<Vec<f64>> {
-    match jump {
-        Some(jump) => {
-            jumping::<LANES, JUMP_DELAYS, { 2 * JUMP_DELAYS }>(transpose, block, at, ws, ends, jump)
-        }
-        None => filtfilt_sampled_block(transpose, block, at, ws, ends),
-    }
 }
 
 /// Whether each of `signals` (equally long) counts as constant by
@@ -344,6 +362,8 @@ struct Workspace<const L: usize> {
     tile: Vec<[f64; L]>,
     /// The `padlen` samples of odd extension at one end, time-major like `tile`.
     pad: Vec<[f64; L]>,
+    /// The forward pass's output at the last sample it has taken.
+    last: [f64; L],
 }
 
 impl<const L: usize> Workspace<L> {
@@ -359,6 +379,7 @@ impl<const L: usize> Workspace<L> {
             zi: filter.sosfilt_zi(),
             tile: vec![[0.0; L]; TILE],
             pad: vec![[0.0; L]; filter.padlen()],
+            last: [0.0; L],
         }
     }
 
@@ -485,37 +506,53 @@ fn forward_block<const L: usize>(
     ws: &mut Workspace<L>,
     ends: Ends,
 ) {
+    forward_begin(signals, ws, ends);
+    // The trailing extension is taken before the forward pass overwrites the signals.
+    if ends.end == End::Padded {
+        ws.trailing_extension(signals);
+    }
+    forward_tiles(transpose, signals, ws, 0..signals[0].len());
+    ws.start_backward_at(ends.end, ws.last);
+}
+
+/// The delays [`forward_block`] starts `signals` from, from their first `padlen + 1`
+/// samples.
+#[inline(always)]
+fn forward_begin<const L: usize>(signals: &[&mut [f64]], ws: &mut Workspace<L>, ends: Ends) {
     assert!(signals.len() <= L, "at most {L} signals per block");
     let n = signals[0].len();
-    let padlen = ws.pad.len();
-    assert!(n > padlen, "signals must be longer than padlen");
+    assert!(n > ws.pad.len(), "signals must be longer than padlen");
     if signals.len() < L {
         // Unused lanes stay exactly 0 (zero input, zero delays): no subnormal slow paths,
         // and lanes never mix anyway.
         ws.pad.fill([0.0; L]);
         ws.tile.fill([0.0; L]);
     }
+    ws.start_forward_at(signals, ends.start);
+}
 
+/// [`forward_block`]'s pass over the samples `rows` (starting where a tile does), after those
+/// before them.
+#[inline(always)]
+fn forward_tiles<const L: usize>(
+    transpose: impl Transpose,
+    signals: &mut [&mut [f64]],
+    ws: &mut Workspace<L>,
+    rows: Range<usize>,
+) {
     // A full block parks the forward output interleaved, as it comes, where the tile's
     // samples were; a partial one has too few signals to hold all lanes, and writes them back.
     let parked = signals.len() == L;
-    ws.start_forward_at(signals, ends.start);
-    // The trailing extension is taken before the forward pass overwrites the signals.
-    if ends.end == End::Padded {
-        ws.trailing_extension(signals);
-    }
-    let mut last = [0.0; L];
-    for start in (0..n).step_by(TILE) {
-        let tile = &mut ws.tile[..TILE.min(n - start)];
+    for start in rows.clone().step_by(TILE) {
+        let tile = &mut ws.tile[..TILE.min(rows.end - start)];
         gather(transpose, signals, start, tile);
         run(&mut ws.sections, tile, false);
-        last = tile[tile.len() - 1];
+        ws.last = tile[tile.len() - 1];
         match parked {
             true => park(tile, start, signals),
             false => scatter(transpose, tile, start, signals),
         }
     }
-    ws.start_backward_at(ends.end, last);
 }
 
 /// The backward pass of [`filtfilt_block`] over the tile of samples `start..start + len`
@@ -541,14 +578,16 @@ fn backward_tile<const L: usize>(
 /// signals are 38 KiB, about a core's L1 data cache.
 pub(super) const HANDED: usize = 256;
 
-/// [`filtfilt_all`] of `signals` (at least one) whose output from sample `from` on is handed
-/// to `take` instead of written back: stretch by stretch, from the last, as `take(start,
-/// columns)` with one slice per signal of its samples `start..` up to the next stretch's start.
-/// Stretches start at multiples of [`HANDED`] (or at `from`). The backward pass stops at
-/// `from`, and `signals` are left holding the forward pass's output.
+/// [`filtfilt_all`] of `signals` (at least one), written by `fed` as the forward pass goes
+/// (see [`Fed`]), whose output from sample `from` on is handed to `take` instead of written
+/// back: stretch by stretch, from the last, as `take(start, columns)` with one slice per signal
+/// of its samples `start..` up to the next stretch's start. Stretches start at multiples of
+/// [`HANDED`] (or at `from`). The backward pass stops at `from`, and `signals` are left
+/// holding the forward pass's output.
 ///
-/// The blocks of lanes go backward in step, so a stretch of every signal is ready at once,
-/// while it is in the cache: a consumer of whole rows (a fit's factor) reads them there
+/// The blocks of lanes go forward and backward in step, so a stretch of every signal is
+/// ready at once, while it is in the cache: the feed writes rows that the forward pass reads
+/// from there, and a consumer of whole rows (a fit's factor) reads the backward pass's there
 /// instead of from memory, and nothing is written back.
 #[inline(always)]
 pub(super) fn filtfilt_all_handed(
@@ -557,19 +596,15 @@ pub(super) fn filtfilt_all_handed(
     signals: &mut [&mut [f64]],
     ends: Ends,
     from: usize,
+    fed: &mut Fed,
     take: &mut Take,
 ) {
     let count = signals.len();
     let Some(n) = signals.first().map(|s| s.len()) else {
         return;
     };
-    let mut blocks: Vec<Block> = signals
-        .chunks_mut(LANES)
-        .map(|b| Block::new(filter, b))
-        .collect();
-    for block in &mut blocks {
-        block.forward(transpose, ends);
-    }
+    let mut blocks = blocks_of(filter, count);
+    forward_fed(transpose, &mut blocks, signals, ends, fed);
     let mut stretch = vec![vec![0.0; HANDED]; count];
     let mut end = n;
     while end > from {
@@ -578,8 +613,8 @@ pub(super) fn filtfilt_all_handed(
         for tile in (first_tile..end).step_by(TILE).rev() {
             let len = TILE.min(n - tile);
             for (block, out) in blocks.iter_mut().zip(stretch.chunks_mut(LANES)) {
-                block.prefetch(tile.saturating_sub(AHEAD * TILE));
-                block.backward(transpose, tile, len, out, tile - start);
+                block.prefetch(signals, tile.saturating_sub(AHEAD * TILE));
+                block.backward(transpose, signals, tile, len, out, tile - start);
             }
         }
         let handed = start.max(from);
@@ -597,59 +632,167 @@ pub(super) fn filtfilt_all_handed(
 /// processor's prefetcher follows.
 const AHEAD: usize = 2;
 
-/// One block of signals and its workspace, as wide as it needs.
-enum Block<'s, 'a> {
-    Two(&'s mut [&'a mut [f64]], Workspace<2>),
-    Four(&'s mut [&'a mut [f64]], Workspace<4>),
-    Eight(&'s mut [&'a mut [f64]], Workspace<LANES>),
+/// Rows [`forward_fed`] asks its feed for at a time (but for the last, and more if the filters
+/// or the feed look back further): two such stretches of a fit's 19 columns are 300 KB, in a
+/// core's second-level cache.
+const FED: usize = 1024;
+
+/// The forward pass of every block of `signals` in step, stretch by stretch as `fed` writes
+/// them (see [`Fed`]), `blocks` made ready for the backward pass. The pass over a stretch
+/// waits until the stretch after it is fed, so a feed may read the stretch before its own.
+#[inline(always)]
+fn forward_fed(
+    transpose: impl Transpose,
+    blocks: &mut [Block],
+    signals: &mut [&mut [f64]],
+    ends: Ends,
+    fed: &mut Fed,
+) {
+    let n = signals[0].len();
+    let padlen = blocks.first().map_or(0, Block::padlen);
+    // A stretch at least `padlen + 1` long holds the samples each end's extension is taken
+    // from, the last's in the last two stretches, which are fed before either is overwritten.
+    let length = FED.max(padlen + 1).max(fed.lookback).next_multiple_of(TILE);
+    let stretches: Vec<Range<usize>> = (0..n)
+        .step_by(length)
+        .map(|s| s..(s + length).min(n))
+        .collect();
+    let trailing = |blocks: &mut [Block], signals: &mut [&mut [f64]]| {
+        if ends.end == End::Padded {
+            blocks
+                .iter_mut()
+                .for_each(|b| b.trailing_extension(signals));
+        }
+    };
+    (fed.feed)(stretches[0].clone(), signals);
+    blocks.iter_mut().for_each(|b| b.begin(signals, ends));
+    if stretches.len() == 1 {
+        trailing(blocks, signals);
+    }
+    for (index, rows) in stretches.iter().enumerate() {
+        if let Some(next) = stretches.get(index + 1) {
+            (fed.feed)(next.clone(), signals);
+            if index + 2 == stretches.len() {
+                trailing(blocks, signals);
+            }
+        }
+        for block in blocks.iter_mut() {
+            block.forward_tiles(transpose, signals, rows.clone());
+        }
+    }
+    blocks.iter_mut().for_each(|b| b.end(ends));
 }
 
-/// `$body` with `$signals` and `$ws`, the block's signals and workspace, whatever its width.
+/// Blocks of [`LANES`] signals of `count`, the last as narrow as it can be.
+#[inline(always)]
+fn blocks_of(filter: &Butterworth, count: usize) -> Vec<Block> {
+    (0..count)
+        .step_by(LANES)
+        .map(|start| Block::new(filter, start..(start + LANES).min(count)))
+        .collect()
+}
+
+/// One block of signals (their indices) and its workspace, as wide as it needs.
+enum Block {
+    Two(Range<usize>, Workspace<2>),
+    Four(Range<usize>, Workspace<4>),
+    Eight(Range<usize>, Workspace<LANES>),
+}
+
+/// `$body` with `$signals`, the block's of `$all`, and `$ws`, its workspace, whatever its
+/// width.
 macro_rules! on_block {
-    ($block:expr, |$signals:ident, $ws:ident| $body:expr) => {
+    ($block:expr, $all:expr, |$signals:ident, $ws:ident| $body:expr) => {
         match $block {
-            Block::Two($signals, $ws) => $body,
-            Block::Four($signals, $ws) => $body,
-            Block::Eight($signals, $ws) => $body,
+            Block::Two(range, $ws) => {
+                let $signals = &mut $all[range.clone()];
+                $body
+            }
+            Block::Four(range, $ws) => {
+                let $signals = &mut $all[range.clone()];
+                $body
+            }
+            Block::Eight(range, $ws) => {
+                let $signals = &mut $all[range.clone()];
+                $body
+            }
         }
     };
 }
 
-impl<'s, 'a> Block<'s, 'a> {
-    /// The narrowest width for `signals` (at most [`LANES`]): idle lanes cost as much as busy
-    /// ones once the arithmetic units are saturated.
+impl Block {
+    /// The narrowest width for the signals `range` (at most [`LANES`]): idle lanes cost as
+    /// much as busy ones once the arithmetic units are saturated.
     #[inline(always)]
-    fn new(filter: &Butterworth, signals: &'s mut [&'a mut [f64]]) -> Self {
-        match signals.len() {
-            1..=2 => Self::Two(signals, Workspace::new(filter)),
-            3..=4 => Self::Four(signals, Workspace::new(filter)),
-            _ => Self::Eight(signals, Workspace::new(filter)),
+    fn new(filter: &Butterworth, range: Range<usize>) -> Self {
+        match range.len() {
+            1..=2 => Self::Two(range, Workspace::new(filter)),
+            3..=4 => Self::Four(range, Workspace::new(filter)),
+            _ => Self::Eight(range, Workspace::new(filter)),
+        }
+    }
+
+    /// The filter's `padlen`.
+    #[inline(always)]
+    fn padlen(&self) -> usize {
+        match self {
+            Block::Two(_, ws) => ws.pad.len(),
+            Block::Four(_, ws) => ws.pad.len(),
+            Block::Eight(_, ws) => ws.pad.len(),
         }
     }
 
     /// [`filtfilt_block`].
     #[inline(always)]
-    fn filtfilt(&mut self, transpose: impl Transpose, ends: Ends) {
-        on_block!(self, |s, ws| filtfilt_block(transpose, s, ws, ends))
+    fn filtfilt(&mut self, transpose: impl Transpose, all: &mut [&mut [f64]], ends: Ends) {
+        on_block!(self, all, |s, ws| filtfilt_block(transpose, s, ws, ends))
     }
 
-    /// [`forward_block`].
+    /// [`forward_begin`].
     #[inline(always)]
-    fn forward(&mut self, transpose: impl Transpose, ends: Ends) {
-        on_block!(self, |s, ws| forward_block(transpose, s, ws, ends))
+    fn begin(&mut self, all: &mut [&mut [f64]], ends: Ends) {
+        on_block!(self, all, |s, ws| forward_begin(s, ws, ends))
+    }
+
+    /// [`Workspace::trailing_extension`].
+    #[inline(always)]
+    fn trailing_extension(&mut self, all: &mut [&mut [f64]]) {
+        on_block!(self, all, |s, ws| ws.trailing_extension(s))
+    }
+
+    /// [`forward_tiles`].
+    #[inline(always)]
+    fn forward_tiles(
+        &mut self,
+        transpose: impl Transpose,
+        all: &mut [&mut [f64]],
+        rows: Range<usize>,
+    ) {
+        on_block!(self, all, |s, ws| forward_tiles(transpose, s, ws, rows))
+    }
+
+    /// The end of the forward pass: [`Workspace::start_backward_at`].
+    #[inline(always)]
+    fn end(&mut self, ends: Ends) {
+        match self {
+            Block::Two(_, ws) => ws.start_backward_at(ends.end, ws.last),
+            Block::Four(_, ws) => ws.start_backward_at(ends.end, ws.last),
+            Block::Eight(_, ws) => ws.start_backward_at(ends.end, ws.last),
+        }
     }
 
     /// Asks the cache for the tile of samples from `start` on of every signal.
     #[inline(always)]
-    fn prefetch(&self, start: usize) {
-        let signals: &[&mut [f64]] = on_block!(self, |s, _ws| s);
-        for x in signals {
-            if let Some(tile) = x.get(start..start + TILE) {
-                for line in tile.chunks(8) {
-                    prefetch_line(line);
+    fn prefetch(&mut self, all: &mut [&mut [f64]], start: usize) {
+        on_block!(self, all, |s, _ws| {
+            for x in s.iter() {
+                if let Some(tile) = x.get(start..start + TILE) {
+                    for line in tile.chunks(8) {
+                        prefetch_line(line);
+                    }
                 }
             }
-        }
+        })
     }
 
     /// [`backward_tile`], its output written into `out` (one per signal) from `at` on.
@@ -657,12 +800,13 @@ impl<'s, 'a> Block<'s, 'a> {
     fn backward(
         &mut self,
         transpose: impl Transpose,
+        all: &mut [&mut [f64]],
         start: usize,
         len: usize,
         out: &mut [Vec<f64>],
         at: usize,
     ) {
-        on_block!(self, |s, ws| {
+        on_block!(self, all, |s, ws| {
             backward_tile(transpose, s, ws, start, len);
             scatter(transpose, &ws.tile[..len], at, out);
         })
@@ -715,7 +859,7 @@ fn unpark<const L: usize>(signals: &[&mut [f64]], start: usize, tile: &mut [[f64
 const STRETCH: usize = 2048;
 
 /// [`filtfilt_block`] of `signals` (at most `L`), keeping only the samples at `at`, through
-/// every sample ([`jumping`] reaches evenly spaced ones faster).
+/// every sample ([`Jumps`] reach evenly spaced ones faster).
 ///
 /// The forward pass runs twice instead of being stored: once over the whole signals for the
 /// delays at the start of every stretch of [`STRETCH`] samples, then again stretch by stretch,
@@ -806,60 +950,189 @@ fn filtfilt_sampled_block<const L: usize>(
     out
 }
 
-/// [`filtfilt_sampled_block`] at evenly spaced samples `at`, by [`Jump`]: the recursion runs
-/// only up to the first kept sample (forward) and from the last one to the end and back, and
-/// the delays jump from kept sample to kept sample in between, signal by signal. `D` is the
-/// filter's number of delays, `R = 2·D`.
-#[inline(always)]
-fn jumping<const L: usize, const D: usize, const R: usize>(
-    transpose: impl Transpose,
-    signals: &[&[f64]],
-    at: &[usize],
-    ws: &mut Workspace<L>,
+/// [`filtfilt_sampled_all`] at evenly spaced samples, by [`Jump`], taken as the signals come:
+/// [`Jumps::advance_with`] takes each stretch of samples once, from the first, and
+/// [`Jumps::finish_with`] gives the kept samples. The recursion runs only up to the first kept
+/// sample (forward) and from the last one to the end and back, and the delays jump from kept
+/// sample to kept sample in between, signal by signal.
+///
+/// Only the fourth-order low-pass of a fit's level rows (4 delays) jumps, and always with all
+/// lanes: each compiled copy adds to the crate's build, and the jumps go signal by signal, so
+/// a partial block's idle lanes cost little and a signal's values do not depend on its block.
+pub(crate) struct Jumps {
+    jump: Jump,
+    /// [`Jump::weights`].
+    weights: Vec<[f64; 2 * JUMP_DELAYS]>,
+    at: Vec<usize>,
     ends: Ends,
-    jump: &Jump,
-) -> Vec<Vec<f64>> {
-    let n = signals[0].len();
-    let (first, last) = (at[0], at[at.len() - 1]);
-    if signals.len() < L {
-        ws.pad.fill([0.0; L]);
-    }
-    ws.start_forward_at(signals, ends.start);
-    let mut stretch = vec![[0.0; L]; STRETCH.min(n)];
-    for start in (0..first).step_by(STRETCH) {
-        let part = &mut stretch[..STRETCH.min(first - start)];
-        gather(transpose, signals, start, part);
-        run_two(&mut ws.sections, part, false);
-    }
-    let weights = jump.weights::<R>();
-    // Plain loops rather than iterator adapters, whose closures would be compiled on their
-    // own at the baseline instead of into the kernels' instruction sets.
-    let mut forward = Vec::with_capacity(signals.len());
-    for (l, x) in signals.iter().enumerate() {
-        let f = jump.forward::<D, R>(&weights, x, at, delays_of(&ws.sections, l));
-        set_delays_of(&mut ws.sections, l, &f.states[f.states.len() - 1]);
-        forward.push(f);
-    }
-    // From the last kept sample to the end: its forward output, kept for the backward pass.
-    let mut tail = vec![[0.0; L]; n - last];
-    gather(transpose, signals, last, &mut tail);
-    run_two(&mut ws.sections, &mut tail, false);
-    let end_output = tail[tail.len() - 1];
-    if ends.end == End::Padded {
-        ws.trailing_extension(signals);
-    }
-    ws.start_backward_at(ends.end, end_output);
-    run_two(&mut ws.sections, &mut tail[1..], true);
-    let mut out = vec![vec![0.0; at.len()]; signals.len()];
-    for (l, (f, o)) in forward.iter().zip(&mut out).enumerate() {
-        let before_last = delays_of::<L, D>(&ws.sections, l);
-        o[at.len() - 1] = jump.output(&before_last, tail[0][l]);
-        jump.backward::<D>(f, before_last, o);
-    }
-    out
+    /// Samples per signal.
+    n: usize,
+    /// Samples taken so far.
+    taken: usize,
+    blocks: Vec<JumpBlock>,
 }
 
-/// [`run`] of the two sections of a filter with [`JUMP_DELAYS`] delays: [`jumping`]'s three
+/// What [`Jumps`] holds for one block of up to [`LANES`] signals.
+struct JumpBlock {
+    /// The block's signals (their indices).
+    signals: Range<usize>,
+    ws: Workspace<LANES>,
+    /// Each signal's forward pass over the kept samples, once the first is reached.
+    forward: Vec<Forward<JUMP_DELAYS>>,
+    /// The samples from the last kept one to the end, interleaved.
+    tail: Vec<[f64; LANES]>,
+}
+
+impl Jumps {
+    /// The jumps of `filter` through `count` signals of `n` samples to the samples `at`
+    /// (ascending, below `n`), at `ends`; `None` unless the filter has [`JUMP_DELAYS`] delays
+    /// and `at` are evenly spaced at a stride worth jumping ([`Jump::between`]).
+    pub(crate) fn new(
+        filter: &Butterworth,
+        at: &[usize],
+        ends: Ends,
+        count: usize,
+        n: usize,
+    ) -> Option<Self> {
+        if 2 * filter.sections().len() != JUMP_DELAYS {
+            return None;
+        }
+        let jump = Jump::between(filter, at)?;
+        let last = at[at.len() - 1];
+        assert!(
+            last < n && n > filter.padlen(),
+            "kept samples within longer signals"
+        );
+        let blocks = (0..count)
+            .step_by(LANES)
+            .map(|start| JumpBlock {
+                signals: start..(start + LANES).min(count),
+                ws: Workspace::new(filter),
+                forward: Vec::new(),
+                tail: vec![[0.0; LANES]; n - last],
+            })
+            .collect();
+        Some(Self {
+            weights: jump.weights(),
+            jump,
+            at: at.to_vec(),
+            ends,
+            n,
+            taken: 0,
+            blocks,
+        })
+    }
+
+    /// [`Jumps::advance_with`] in the widest kernels the processor has.
+    pub(crate) fn advance(&mut self, signals: &[&[f64]], upto: usize) {
+        (best().jumps_advance)(self, signals, upto)
+    }
+
+    /// [`Jumps::finish_with`] in the widest kernels the processor has.
+    pub(crate) fn finish(self, signals: &[&[f64]]) -> Vec<Vec<f64>> {
+        (best().jumps_finish)(self, signals)
+    }
+
+    /// Samples before the newest that [`Jumps::advance_with`] may read: the signals must still
+    /// hold them.
+    pub(crate) fn lookback(&self) -> usize {
+        self.jump.stride().max(self.blocks[0].ws.pad.len() + 1)
+    }
+
+    /// Takes the samples from the last taken up to `upto` (exclusive) of `signals`; it reads
+    /// no sample more than [`Jumps::lookback`] before the first of them.
+    #[inline(always)]
+    pub(super) fn advance_with(
+        &mut self,
+        transpose: impl Transpose,
+        signals: &[&[f64]],
+        upto: usize,
+    ) {
+        let (from, upto) = (self.taken, upto.min(self.n));
+        if upto <= from {
+            return;
+        }
+        let (first, last) = (self.at[0], self.at[self.at.len() - 1]);
+        for b in &mut self.blocks {
+            let x = &signals[b.signals.clone()];
+            if from == 0 {
+                if x.len() < LANES {
+                    b.ws.pad.fill([0.0; LANES]);
+                }
+                b.ws.start_forward_at(x, self.ends.start);
+            }
+            let mut start = from;
+            while start < first.min(upto) {
+                let tile = &mut b.ws.tile[..TILE.min(first.min(upto) - start)];
+                gather(transpose, x, start, tile);
+                run_two(&mut b.ws.sections, tile, false);
+                start += tile.len();
+            }
+            if from <= first && first < upto {
+                for l in 0..x.len() {
+                    let delays = delays_of(&b.ws.sections, l);
+                    b.forward
+                        .push(self.jump.forward_from(self.at.len(), delays));
+                }
+            }
+            if upto > first {
+                for (f, x) in b.forward.iter_mut().zip(x) {
+                    self.jump.forward_until(&self.weights, f, x, &self.at, upto);
+                }
+            }
+            let tail_from = from.max(last);
+            if upto > tail_from {
+                let part = &mut b.tail[tail_from - last..upto - last];
+                gather(transpose, x, tail_from, part);
+            }
+        }
+        self.taken = upto;
+    }
+
+    /// The filtered values at the kept samples, one vector per signal, once every sample is
+    /// taken; `signals` must still hold their last [`Jumps::lookback`] samples.
+    ///
+    /// # Panics
+    /// If some samples are not taken yet: a programming error of the caller.
+    #[inline(always)]
+    pub(super) fn finish_with(
+        mut self,
+        transpose: impl Transpose,
+        signals: &[&[f64]],
+    ) -> Vec<Vec<f64>> {
+        let _ = transpose;
+        assert_eq!(
+            self.taken, self.n,
+            "every sample is taken before the jumps finish"
+        );
+        let kept = self.at.len();
+        let mut out = Vec::with_capacity(signals.len());
+        for b in &mut self.blocks {
+            let x = &signals[b.signals.clone()];
+            for (l, f) in b.forward.iter().enumerate() {
+                set_delays_of(&mut b.ws.sections, l, &f.current);
+            }
+            // From the last kept sample to the end: its forward output, then back.
+            run_two(&mut b.ws.sections, &mut b.tail, false);
+            let end_output = b.tail[b.tail.len() - 1];
+            if self.ends.end == End::Padded {
+                b.ws.trailing_extension(x);
+            }
+            b.ws.start_backward_at(self.ends.end, end_output);
+            run_two(&mut b.ws.sections, &mut b.tail[1..], true);
+            for (l, f) in b.forward.iter().enumerate() {
+                let mut o = vec![0.0; kept];
+                let before_last = delays_of::<LANES, JUMP_DELAYS>(&b.ws.sections, l);
+                o[kept - 1] = self.jump.output(&before_last, b.tail[0][l]);
+                self.jump.backward::<JUMP_DELAYS>(f, before_last, &mut o);
+                out.push(o);
+            }
+        }
+        out
+    }
+}
+
+/// [`run`] of the two sections of a filter with [`JUMP_DELAYS`] delays: [`Jumps`]'s three
 /// recursions each compile two forms instead of all of [`run`]'s.
 #[inline(always)]
 fn run_two<const L: usize>(sections: &mut [Section<L>], data: &mut [[f64; L]], backward: bool) {
@@ -872,7 +1145,7 @@ fn run_two<const L: usize>(sections: &mut [Section<L>], data: &mut [[f64; L]], b
     }
 }
 
-/// Delays of the filters whose kept samples [`jumping`] reaches: a fourth-order low-pass's.
+/// Delays of the filters whose kept samples [`Jumps`] reach: a fourth-order low-pass's.
 const JUMP_DELAYS: usize = 4;
 
 /// Lane `l`'s delays of every section, `z0` then `z1` of each in turn.
@@ -1221,8 +1494,7 @@ mod tests {
         sample_std, Butterworth, Ends, Response,
     };
     use super::{
-        available, best, filtfilt_sampled_block, jumping, Jump, Plain, Workspace, JUMP_DELAYS,
-        LANES,
+        available, best, filtfilt_sampled_block, Jump, Jumps, Plain, Workspace, JUMP_DELAYS, LANES,
     };
     use proptest::prelude::*;
     use rand::{Rng, SeedableRng};
@@ -1429,9 +1701,33 @@ mod tests {
         }
     }
 
+    /// A feed for [`super::filtfilt_all_handed`] that copies `original` into signals which
+    /// start as NaN, checking that it is asked for consecutive stretches from the first, at
+    /// least `lookback` long but for the last, and that the stretch before is still its own.
+    fn copying_feed<'o>(
+        original: &'o [Vec<f64>],
+        lookback: usize,
+    ) -> impl FnMut(std::ops::Range<usize>, &mut [&mut [f64]]) + 'o {
+        let mut before = 0..0;
+        move |rows, signals| {
+            assert_eq!(rows.start, before.end, "consecutive stretches");
+            assert!(rows.len() >= lookback || rows.end == original[0].len());
+            for (x, o) in signals.iter_mut().zip(original) {
+                assert!(
+                    same_bits(&x[before.clone()], &o[before.clone()]),
+                    "kept unfiltered"
+                );
+                x[rows.clone()].copy_from_slice(&o[rows.clone()]);
+            }
+            before = rows;
+        }
+    }
+
     proptest! {
         /// Every copy of the kernels hands over, from any sample on and at any kind of end,
-        /// exactly the bits the portable `filtfilt_all` writes back, each sample once.
+        /// exactly the bits the portable `filtfilt_all` writes back, each sample once, whether
+        /// the signals are written beforehand or fed as the forward pass goes (from NaN, so a
+        /// sample read before it is fed shows).
         #[test]
         fn handed_output_is_the_written_one(
             f in filter_strategy(),
@@ -1439,6 +1735,7 @@ mod tests {
             extra in prop_oneof![0usize..4, 0usize..200, 0usize..3000],
             from_share in 0.0f64..1.0,
             ends in ends_strategy(),
+            lookback in prop_oneof![Just(0usize), 1usize..2000],
             seed in any::<u64>(),
         ) {
             let n = f.padlen() + 1 + extra;
@@ -1448,13 +1745,22 @@ mod tests {
             let mut views: Vec<&mut [f64]> =
                 expected.iter_mut().map(|c| c.as_mut_slice()).collect();
             (available()[0].filtfilt_all)(&f, &mut views, ends);
-            for kernels in available() {
-                let mut scratch = original.clone();
+            for (kernels, fed) in available().into_iter().flat_map(|k| [(k, false), (k, true)]) {
+                let mut scratch = match fed {
+                    true => vec![vec![f64::NAN; n]; kinds.len()],
+                    false => original.clone(),
+                };
                 let mut views: Vec<&mut [f64]> =
                     scratch.iter_mut().map(|c| c.as_mut_slice()).collect();
                 let mut got = vec![vec![f64::NAN; n - from]; kinds.len()];
                 let mut next = n;
-                (kernels.filtfilt_all_handed)(&f, &mut views, ends, from, &mut |start, columns| {
+                let mut nothing = |_: std::ops::Range<usize>, _: &mut [&mut [f64]]| {};
+                let mut copying = copying_feed(&original, lookback);
+                let mut fed = match fed {
+                    true => super::Fed { feed: &mut copying, lookback },
+                    false => super::Fed { feed: &mut nothing, lookback: 0 },
+                };
+                (kernels.filtfilt_all_handed)(&f, &mut views, ends, from, &mut fed, &mut |start, columns| {
                     // From the last stretch back to `from`, each ending where the one after starts.
                     assert_eq!(start + columns[0].len(), next);
                     assert!(start == from || start % super::HANDED == 0);
@@ -1484,21 +1790,22 @@ mod tests {
             first in 0usize..100,
             ends in ends_strategy(),
             seed in any::<u64>(),
+            cuts_seed in any::<u64>(),
         ) {
             let n = f.padlen() + 1 + extra;
             let original = columns(&kinds, n, seed);
             let read = read_only(&original);
             let at: Vec<usize> = (first.min(n - 1)..n).step_by(stride).collect();
-            let jump = Jump::between(&f, &at);
-            prop_assume!(jump.is_some());
-            let jump = jump.expect("a jump");
+            prop_assume!(Jump::between(&f, &at).is_some());
+            let jumps = || Jumps::new(&f, &at, ends, kinds.len(), n).expect("jumps");
+            let got = taken_in_pieces(jumps, &original, cuts_seed);
             let mut ws = Workspace::<LANES>::new(&f);
             let blocks: Vec<&[&[f64]]> = read.chunks(LANES).collect();
+            let mut got = got.iter();
             for block in blocks {
                 let expected = filtfilt_sampled_block(Plain, block, &at, &mut ws, ends);
-                let got = jumping::<LANES, JUMP_DELAYS, 8>(Plain, block, &at, &mut ws, ends, &jump);
-                for (x, (e, g)) in block.iter().zip(expected.iter().zip(&got)) {
-                    prop_assert!(same_values(e, g, Some(scale_of(x))));
+                for (x, e) in block.iter().zip(&expected) {
+                    prop_assert!(same_values(e, got.next().expect("a signal"), Some(scale_of(x))));
                 }
             }
             let [portable, others @ ..] = &available()[..] else {
@@ -1512,6 +1819,43 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Jumps (from `jumps`) taken through `original` in pieces cut at random (from `seed`),
+    /// each at least [`Jumps::lookback`] long but for the last, every sample before the piece
+    /// before the newest overwritten by NaN as a fit's band-pass would: their values, checked
+    /// to be the bits of the jumps taken whole.
+    fn taken_in_pieces(
+        jumps: impl Fn() -> Jumps,
+        original: &[Vec<f64>],
+        seed: u64,
+    ) -> Vec<Vec<f64>> {
+        let n = original[0].len();
+        let read = read_only(original);
+        let mut whole = jumps();
+        whole.advance(&read, n);
+        let whole = whole.finish(&read);
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut jumps = jumps();
+        let (lookback, kept) = (jumps.lookback(), jumps.at.len());
+        let mut signals = original.to_vec();
+        let (mut start, mut before) = (0, 0);
+        while start < n {
+            let end = (start + lookback + rng.random_range(0..3 * lookback)).min(n);
+            for x in &mut signals {
+                x[..before].fill(f64::NAN);
+            }
+            jumps.advance(&read_only(&signals), end);
+            (before, start) = (start, end);
+        }
+        // The last piece's call finishes, so the piece before it is still whole.
+        let got = jumps.finish(&read_only(&signals));
+        assert_eq!(got.len(), original.len());
+        for (w, g) in whole.iter().zip(&got) {
+            assert_eq!(g.len(), kept);
+            assert!(same_bits(w, g), "pieces give the whole's bits");
+        }
+        got
     }
 
     /// The processor this runs on picks the widest kernels it has, so that the tests above
