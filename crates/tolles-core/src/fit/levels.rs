@@ -330,16 +330,38 @@ impl LevelRows {
     }
 
     /// The rows at `at` from the low-passed samples of each column, then of the target.
-    pub(super) fn from_sampled(mut sampled: Vec<Vec<f64>>, at: Vec<usize>) -> Self {
-        let y = sampled.pop().expect("the target is filtered last");
-        // Column after column, copied whole: an iterator over every value took 12 ms of 10⁷
-        // samples' level rows, with the other core idle.
-        let mut values = Vec::with_capacity(at.len() * sampled.len());
-        for column in &sampled {
-            values.extend_from_slice(column);
+    pub(super) fn from_sampled(sampled: Vec<Vec<f64>>, at: Vec<usize>) -> Self {
+        let width = sampled.len().checked_sub(1);
+        Self::from_parts(width.expect("the target is filtered last"), [sampled], at)
+    }
+
+    /// [`LevelRows::from_sampled`] of the kept samples given in parts that follow each other
+    /// in time (a run's windows), each with `width` columns and then the target (or empty).
+    ///
+    /// Each part goes straight to its place in the matrix, column by column, copied whole: an
+    /// iterator over every value took 12 ms of 10⁷ samples' level rows, and columns grown part
+    /// by part and then copied took fresh memory twice, with the other core idle.
+    pub(super) fn from_parts(
+        width: usize,
+        parts: impl IntoIterator<Item = Vec<Vec<f64>>>,
+        at: Vec<usize>,
+    ) -> Self {
+        let count = at.len();
+        let mut a = vec![0.0; count * width];
+        let mut y = Vec::with_capacity(count);
+        for part in parts {
+            if let Some((target, columns)) = part.split_last() {
+                for (c, values) in columns.iter().enumerate() {
+                    a[c * count + y.len()..][..values.len()].copy_from_slice(values);
+                }
+                y.extend_from_slice(target);
+            }
         }
-        let a = DMatrix::from_vec(at.len(), sampled.len(), values);
-        LevelRows { a, y, at }
+        LevelRows {
+            a: DMatrix::from_vec(count, width, a),
+            y,
+            at,
+        }
     }
 }
 

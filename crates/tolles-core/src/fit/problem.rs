@@ -685,32 +685,16 @@ impl Windows {
             pieces: Vec::new(),
             target: super::RunningStd::default(),
         };
-        let count = match &levels {
-            Some(Some(kept)) => kept.len(),
-            _ => 0,
-        };
-        // The level rows go straight to their place in one matrix: columns grown window by
-        // window and then copied into it took fresh memory twice, on one core between passes.
-        let mut a = vec![0.0; count * self.width];
-        let mut y = Vec::with_capacity(count);
+        let mut sampled = Vec::new();
         for part in parts {
             factored.pieces.extend(part.pieces);
             for block in part.target {
                 factored.target.merge(block);
             }
-            if let Some((target, columns)) = part.sampled.split_last() {
-                for (c, values) in columns.iter().enumerate() {
-                    a[c * count + y.len()..][..values.len()].copy_from_slice(values);
-                }
-                y.extend_from_slice(target);
-            }
+            sampled.push(part.sampled);
         }
         let rows = levels.map(|kept| match kept {
-            Some(at) => LevelRows {
-                a: DMatrix::from_vec(count, self.width, a),
-                y,
-                at,
-            },
+            Some(at) => LevelRows::from_parts(self.width, sampled, at),
             None => LevelRows::none(self.width),
         });
         (factored, rows)

@@ -635,8 +635,8 @@ fn pole_radius(a1: f64, a2: f64) -> f64 {
 /// [`filtfilt_many_unless_constant`] of a window of longer signals, written by `fed` as the
 /// forward pass goes (see [`Fed`]), `ends` saying which of its ends are theirs (see [`Ends`]),
 /// every signal filtered (whether one is constant is a question about the whole signals, which
-/// their caller answers), and its output from sample `from` on
-/// handed to `take(start, columns)` stretch by stretch, from the last, instead of written back
+/// their caller answers), and its output from sample `from` on handed to `take(start,
+/// columns)` stretch by stretch, from the last, instead of written back
 /// (one slice per signal of the samples from `start` on; the stretches start where multiples
 /// of 256 samples do, or at `from`): a consumer of whole rows reads them while they are in the
 /// cache. The signals are left holding the forward pass's output. One core does it all.

@@ -135,18 +135,6 @@ impl Jump {
         self.stride
     }
 
-    /// A forward pass from the delays `start` at the first of `kept` kept samples, to be
-    /// taken on by [`Jump::forward_until`].
-    #[inline(always)]
-    pub(super) fn forward_from<const D: usize>(&self, kept: usize, start: [f64; D]) -> Forward<D> {
-        Forward {
-            states: Vec::with_capacity(kept),
-            outputs: Vec::with_capacity(kept),
-            sums: Vec::with_capacity(kept.saturating_sub(1)),
-            current: start,
-        }
-    }
-
     /// `forward` taken on over `x` across every stretch from its current kept sample of `at`
     /// (evenly spaced by the stride) to the next that ends before sample `upto`, as far as
     /// the last kept sample: see [`Forward`]. Reads `x` from the current kept sample on.
@@ -205,6 +193,20 @@ pub(super) struct Forward<const D: usize> {
     outputs: Vec<f64>,
     /// The backward sums `Σ W_l·x(k+l)` of the stretch from each kept sample but the last.
     sums: Vec<[f64; D]>,
+}
+
+impl<const D: usize> Forward<D> {
+    /// A forward pass from the delays `start` at the first of `kept` kept samples, to be
+    /// taken on by [`Jump::forward_until`].
+    #[inline(always)]
+    pub(super) fn new(kept: usize, start: [f64; D]) -> Self {
+        Self {
+            states: Vec::with_capacity(kept),
+            outputs: Vec::with_capacity(kept),
+            sums: Vec::with_capacity(kept.saturating_sub(1)),
+            current: start,
+        }
+    }
 }
 
 /// `Σ_l weights[l]·x[l]` over a stretch, in [`CHAINS`] interleaved partial sums.

@@ -92,7 +92,7 @@ const PORTABLE: Kernels = Kernels {
         filtfilt_all_handed(Plain, filter, signals, ends, from, fed, take)
     },
     jumps_advance: |jumps, signals, upto| jumps.advance_with(Plain, signals, upto),
-    jumps_finish: |jumps, signals| jumps.finish_with(Plain, signals),
+    jumps_finish: |jumps, signals| jumps.finish_inline(signals),
 };
 
 /// Defines `$name() -> Option<Kernels>`: the kernels compiled for `$target` (a
@@ -145,7 +145,7 @@ macro_rules! compiled_for {
                     }
                     #[inherit_target]
                     fn jumps_finish_here(jumps: Jumps, signals: &[&[f64]]) -> Vec<Vec<f64>> {
-                        jumps.finish_with($transpose, signals)
+                        jumps.finish_inline(signals)
                     }
                     Some(Kernels {
                         name: $label,
@@ -234,7 +234,7 @@ pub(super) fn filtfilt_sampled_all(
     let n = signals.first().map_or(0, |s| s.len());
     if let Some(mut jumps) = Jumps::new(filter, at, ends, signals.len(), n) {
         jumps.advance_with(transpose, signals, n);
-        return jumps.finish_with(transpose, signals);
+        return jumps.finish_inline(signals);
     }
     let mut out = Vec::with_capacity(signals.len());
     let mut blocks = signals.chunks_exact(LANES);
@@ -686,10 +686,17 @@ fn forward_fed(
 /// Blocks of [`LANES`] signals of `count`, the last as narrow as it can be.
 #[inline(always)]
 fn blocks_of(filter: &Butterworth, count: usize) -> Vec<Block> {
+    lane_blocks(count)
+        .map(|signals| Block::new(filter, signals))
+        .collect()
+}
+
+/// The signals (indices) of each block of up to [`LANES`] of `count` signals, in order.
+#[inline(always)]
+fn lane_blocks(count: usize) -> impl Iterator<Item = Range<usize>> {
     (0..count)
         .step_by(LANES)
-        .map(|start| Block::new(filter, start..(start + LANES).min(count)))
-        .collect()
+        .map(move |start| start..(start + LANES).min(count))
 }
 
 /// One block of signals (their indices) and its workspace, as wide as it needs.
@@ -952,7 +959,7 @@ fn filtfilt_sampled_block<const L: usize>(
 
 /// [`filtfilt_sampled_all`] at evenly spaced samples, by [`Jump`], taken as the signals come:
 /// [`Jumps::advance_with`] takes each stretch of samples once, from the first, and
-/// [`Jumps::finish_with`] gives the kept samples. The recursion runs only up to the first kept
+/// [`Jumps::finish_inline`] gives the kept samples. The recursion runs only up to the first kept
 /// sample (forward) and from the last one to the end and back, and the delays jump from kept
 /// sample to kept sample in between, signal by signal.
 ///
@@ -1003,10 +1010,9 @@ impl Jumps {
             last < n && n > filter.padlen(),
             "kept samples within longer signals"
         );
-        let blocks = (0..count)
-            .step_by(LANES)
-            .map(|start| JumpBlock {
-                signals: start..(start + LANES).min(count),
+        let blocks = lane_blocks(count)
+            .map(|signals| JumpBlock {
+                signals,
                 ws: Workspace::new(filter),
                 forward: Vec::new(),
                 tail: vec![[0.0; LANES]; n - last],
@@ -1028,7 +1034,7 @@ impl Jumps {
         (best().jumps_advance)(self, signals, upto)
     }
 
-    /// [`Jumps::finish_with`] in the widest kernels the processor has.
+    /// [`Jumps::finish_inline`] in the widest kernels the processor has.
     pub(crate) fn finish(self, signals: &[&[f64]]) -> Vec<Vec<f64>> {
         (best().jumps_finish)(self, signals)
     }
@@ -1071,8 +1077,7 @@ impl Jumps {
             if from <= first && first < upto {
                 for l in 0..x.len() {
                     let delays = delays_of(&b.ws.sections, l);
-                    b.forward
-                        .push(self.jump.forward_from(self.at.len(), delays));
+                    b.forward.push(Forward::new(self.at.len(), delays));
                 }
             }
             if upto > first {
@@ -1094,13 +1099,11 @@ impl Jumps {
     ///
     /// # Panics
     /// If some samples are not taken yet: a programming error of the caller.
+    ///
+    /// It moves no samples between signals and tiles, so unlike [`Jumps::advance_with`] it
+    /// takes no [`Transpose`]; inline, it is compiled into each kernel's instruction set.
     #[inline(always)]
-    pub(super) fn finish_with(
-        mut self,
-        transpose: impl Transpose,
-        signals: &[&[f64]],
-    ) -> Vec<Vec<f64>> {
-        let _ = transpose;
+    pub(super) fn finish_inline(mut self, signals: &[&[f64]]) -> Vec<Vec<f64>> {
         assert_eq!(
             self.taken, self.n,
             "every sample is taken before the jumps finish"
