@@ -193,7 +193,10 @@ pub(super) fn best() -> Kernels {
 /// or two sections; more only add register pressure once the arithmetic units are busy
 /// (measured at 10⁶ samples: 8 lanes about 4× faster than one signal at a time with one
 /// section, 2× with four or eight). The AVX-512 copy too: 16 lanes (two registers) were
-/// about 10 % slower than 8 with MagNav's band-pass.
+/// about 10 % slower than 8 with MagNav's band-pass, and again 3 % slower on an AMD Zen 4
+/// (whose AVX-512 units are 256 bits wide) with the signals in the second-level cache (the
+/// filter bench's `filtfilt_20x4096`), though the recursion alone ran 20 % faster there: the
+/// transposes of two registers' lanes took it back.
 pub(super) const LANES: usize = 8;
 
 /// Samples per tile that the signals are interleaved into and out of. Short tiles
