@@ -220,14 +220,13 @@ impl WithSimd for Absorb<'_> {
     type Output = ();
 
     #[inline(always)]
-    fn with_simd<S: Simd>(self, simd: S) {
-        let Absorb { r, chunk, rows, k } = self;
+    fn with_simd<S: Simd>(mut self, simd: S) {
         let mut first = 0;
-        while first < k {
-            let panel = PANEL.min(k - first);
-            let tau = reflect_panel(simd, r, chunk, rows, k, first..first + panel);
-            if first + panel < k {
-                apply_panel(simd, r, chunk, rows, k, first, tau);
+        while first < self.k {
+            let panel = PANEL.min(self.k - first);
+            let tau = self.reflect_panel(simd, first..first + panel);
+            if first + panel < self.k {
+                self.apply_panel(simd, first, tau);
             }
             first += panel;
         }
@@ -242,81 +241,73 @@ impl WithSimd for Absorb<'_> {
 /// registers).
 const PANEL: usize = 4;
 
-/// Finds the reflections of the columns `panel` (each applied to the panel's later columns
-/// only, one at a time) and returns their `τ`, 0 for the identity. Reflection j leaves its
-/// vector `[x0 − β; x]/(x0 − β)` below the diagonal: `v = [1; x]` on rows j of `r` and the
-/// chunk's.
-#[inline(always)]
-fn reflect_panel<S: Simd>(
-    simd: S,
-    r: &mut [f64],
-    chunk: &mut [f64],
-    rows: usize,
-    k: usize,
-    panel: Range<usize>,
-) -> [f64; PANEL] {
-    let mut tau = [0.0; PANEL];
-    for j in panel.clone() {
-        let (done, rest) = chunk.split_at_mut((j + 1) * rows);
-        let x = &mut done[j * rows..];
-        let sigma = dot(simd, x, x);
-        if sigma == 0.0 {
-            // The chunk has nothing in this column: the reflection is the identity.
-            continue;
+impl Absorb<'_> {
+    /// Finds the reflections of the columns `panel` (each applied to the panel's later columns
+    /// only, one at a time) and returns their `τ`, 0 for the identity. Reflection j leaves its
+    /// vector `[x0 − β; x]/(x0 − β)` below the diagonal: `v = [1; x]` on rows j of `r` and the
+    /// chunk's.
+    #[inline(always)]
+    fn reflect_panel<S: Simd>(&mut self, simd: S, panel: Range<usize>) -> [f64; PANEL] {
+        let Absorb { r, chunk, rows, k } = self;
+        let (rows, k) = (*rows, *k);
+        let mut tau = [0.0; PANEL];
+        for j in panel.clone() {
+            let (done, rest) = chunk.split_at_mut((j + 1) * rows);
+            let x = &mut done[j * rows..];
+            let sigma = dot(simd, x, x);
+            if sigma == 0.0 {
+                // The chunk has nothing in this column: the reflection is the identity.
+                continue;
+            }
+            // LAPACK's reflection: v = [1; x/(x0 − β)], H = I − τ·v·vᵀ maps [x0; x] to [β; 0].
+            let x0 = r[j * k + j];
+            let norm = (x0 * x0 + sigma).sqrt();
+            let beta = if x0 >= 0.0 { -norm } else { norm };
+            let t = (beta - x0) / beta;
+            tau[j - panel.start] = t;
+            scale(simd, x, 1.0 / (x0 - beta));
+            r[j * k + j] = beta;
+            let later = &mut rest[..(panel.end - j - 1) * rows];
+            for (c, column) in (j + 1..).zip(later.chunks_exact_mut(rows)) {
+                let w = r[j * k + c] + dot(simd, x, column);
+                r[j * k + c] -= t * w;
+                axpy(simd, x, -t * w, column);
+            }
         }
-        // LAPACK's reflection: v = [1; x/(x0 − β)], H = I − τ·v·vᵀ maps [x0; x] to [β; 0].
-        let x0 = r[j * k + j];
-        let norm = (x0 * x0 + sigma).sqrt();
-        let beta = if x0 >= 0.0 { -norm } else { norm };
-        let t = (beta - x0) / beta;
-        tau[j - panel.start] = t;
-        scale(simd, x, 1.0 / (x0 - beta));
-        r[j * k + j] = beta;
-        let later = &mut rest[..(panel.end - j - 1) * rows];
-        for (c, column) in (j + 1..).zip(later.chunks_exact_mut(rows)) {
-            let w = r[j * k + c] + dot(simd, x, column);
-            r[j * k + c] -= t * w;
-            axpy(simd, x, -t * w, column);
-        }
+        tau
     }
-    tau
-}
 
-/// Applies the [`PANEL`] reflections of the columns from `first` (found by [`reflect_panel`],
-/// `τ` given) to every later column: `C ← C − V·Tᵀ·(Vᵀ·C)`, with `T` the upper triangular
-/// factor of their product `H₁⋯H_b = I − V·T·Vᵀ` (LAPACK's compact WY form).
-#[inline(always)]
-fn apply_panel<S: Simd>(
-    simd: S,
-    r: &mut [f64],
-    chunk: &mut [f64],
-    rows: usize,
-    k: usize,
-    first: usize,
-    tau: [f64; PANEL],
-) {
-    let (panel, later) = chunk.split_at_mut((first + PANEL) * rows);
-    let x: [&[f64]; PANEL] = std::array::from_fn(|i| &panel[(first + i) * rows..][..rows]);
-    let t = compact_wy(simd, x, tau);
-    let mut c = first + PANEL;
-    let mut groups = later.chunks_exact_mut(TOGETHER * rows);
-    for group in groups.by_ref() {
-        let mut columns = group.chunks_exact_mut(rows);
-        let columns: [&mut [f64]; TOGETHER] =
-            std::array::from_fn(|_| columns.next().expect("TOGETHER columns"));
-        apply_to(simd, r, k, first, &t, x, columns, c);
-        c += TOGETHER;
-    }
-    for column in groups.into_remainder().chunks_exact_mut(rows) {
-        apply_to(simd, r, k, first, &t, x, [column], c);
-        c += 1;
+    /// Applies the [`PANEL`] reflections of the columns from `first` (found by
+    /// [`Absorb::reflect_panel`], `τ` given) to every later column: `C ← C − V·Tᵀ·(Vᵀ·C)`, with
+    /// `T` the upper triangular factor of their product `H₁⋯H_b = I − V·T·Vᵀ` (LAPACK's compact
+    /// WY form).
+    #[inline(always)]
+    fn apply_panel<S: Simd>(&mut self, simd: S, first: usize, tau: [f64; PANEL]) {
+        let Absorb { r, chunk, rows, k } = self;
+        let (rows, k) = (*rows, *k);
+        let (panel, later) = chunk.split_at_mut((first + PANEL) * rows);
+        let x: [&[f64]; PANEL] = std::array::from_fn(|i| &panel[(first + i) * rows..][..rows]);
+        let t = compact_wy(simd, x, tau);
+        let mut c = first + PANEL;
+        let mut groups = later.chunks_exact_mut(TOGETHER * rows);
+        for group in groups.by_ref() {
+            let mut columns = group.chunks_exact_mut(rows);
+            let columns: [&mut [f64]; TOGETHER] =
+                std::array::from_fn(|_| columns.next().expect("TOGETHER columns"));
+            apply_to(simd, r, k, first, &t, x, columns, c);
+            c += TOGETHER;
+        }
+        for column in groups.into_remainder().chunks_exact_mut(rows) {
+            apply_to(simd, r, k, first, &t, x, [column], c);
+            c += 1;
+        }
     }
 }
 
-/// Later columns [`apply_panel`] reads at once: `PANEL × TOGETHER` sums in registers.
+/// Later columns [`Absorb::apply_panel`] reads at once: `PANEL × TOGETHER` sums in registers.
 const TOGETHER: usize = 2;
 
-/// The upper triangular `T` of [`apply_panel`]: `T[i][i] = τᵢ`, and column q above the
+/// The upper triangular `T` of [`Absorb::apply_panel`]: `T[i][i] = τᵢ`, and column q above the
 /// diagonal `−τ_q·T[..q][..q]·(Xᵀ·x_q)`, the rows of `r` adding nothing (each vector has its 1
 /// on its own row).
 #[inline(always)]
@@ -341,7 +332,7 @@ fn compact_wy<S: Simd>(simd: S, x: [&[f64]; PANEL], tau: [f64; PANEL]) -> [[f64;
     t
 }
 
-/// [`apply_panel`] for the columns `columns` of the chunk, the first of them column `c`.
+/// [`Absorb::apply_panel`] for the columns `columns` of the chunk, the first of them column `c`.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn apply_to<S: Simd, const C: usize>(
@@ -382,22 +373,9 @@ fn dots_of<S: Simd, const C: usize>(
     x: [&[f64]; PANEL],
     c: &[&mut [f64]; C],
 ) -> [[f64; C]; PANEL] {
-    let mut xh = [S::as_simd_f64s(x[0]).0; PANEL];
-    for i in 1..PANEL {
-        xh[i] = S::as_simd_f64s(x[i]).0;
-    }
-    let mut ch = [S::as_simd_f64s(&c[0][..]).0; C];
-    for j in 1..C {
-        ch[j] = S::as_simd_f64s(&c[j][..]).0;
-    }
-    // Every slice cut to one length, so the loop indexes them without bounds checks.
-    let n = ch[0].len();
-    for x in xh.iter_mut() {
-        *x = &x[..n];
-    }
-    for c in ch.iter_mut() {
-        *c = &c[..n];
-    }
+    let n = S::as_simd_f64s(c[0]).0.len();
+    let xh = heads::<S, PANEL>(x, n);
+    let ch = heads::<S, C>(c.each_ref().map(|c| &**c), n);
     let zero = simd.splat_f64s(0.0);
     let mut acc = [[zero; C]; PANEL];
     for k in 0..n {
@@ -408,7 +386,7 @@ fn dots_of<S: Simd, const C: usize>(
             }
         }
     }
-    let done = ch[0].len() * S::F64_LANES;
+    let done = n * S::F64_LANES;
     let mut out = [[0.0; C]; PANEL];
     for i in 0..PANEL {
         for j in 0..C {
@@ -422,6 +400,17 @@ fn dots_of<S: Simd, const C: usize>(
     out
 }
 
+/// The first `n` vectors of each of `slices` (each holding at least `n`): one length for all,
+/// so a loop over them indexes without bounds checks.
+#[inline(always)]
+fn heads<S: Simd, const N: usize>(slices: [&[f64]; N], n: usize) -> [&[S::f64s]; N] {
+    let mut out = [&[][..]; N];
+    for (o, s) in out.iter_mut().zip(slices) {
+        *o = &S::as_simd_f64s(s).0[..n];
+    }
+    out
+}
+
 /// `cⱼ ← cⱼ − Σᵢ f[i][j]·xᵢ`, each column read and written once.
 #[inline(always)]
 fn subtract_combinations<S: Simd, const C: usize>(
@@ -430,21 +419,16 @@ fn subtract_combinations<S: Simd, const C: usize>(
     f: [[f64; C]; PANEL],
     c: [&mut [f64]; C],
 ) {
-    let mut xh = [S::as_simd_f64s(x[0]).0; PANEL];
-    for i in 1..PANEL {
-        xh[i] = S::as_simd_f64s(x[i]).0;
-    }
-    let done = xh[0].len() * S::F64_LANES;
+    let n = S::as_simd_f64s(x[0]).0.len();
+    let xh = heads::<S, PANEL>(x, n);
+    let done = n * S::F64_LANES;
     for (j, column) in c.into_iter().enumerate() {
         let mut fv = [simd.splat_f64s(0.0); PANEL];
         for i in 0..PANEL {
             fv[i] = simd.splat_f64s(-f[i][j]);
         }
         let (head, tail) = S::as_mut_simd_f64s(column);
-        let head = &mut head[..xh[0].len()];
-        for x in xh.iter_mut() {
-            *x = &x[..head.len()];
-        }
+        let head = &mut head[..n];
         for (k, v) in head.iter_mut().enumerate() {
             let mut s = *v;
             for i in 0..PANEL {
