@@ -70,9 +70,6 @@ impl Basis {
     /// The folds' factors of the stored columns and the target as factors of every term and
     /// the target.
     pub(super) fn folds(&self, folds: Vec<FoldFactor>) -> Vec<FoldFactor> {
-        if self.terms.is_none() {
-            return folds;
-        }
         folds
             .into_iter()
             .map(|f| FoldFactor {
@@ -94,11 +91,14 @@ impl Basis {
             .collect()
     }
 
-    /// `m`, whose columns are the stored ones (and the target last, `with_target`), with the
-    /// columns of every term: a stored term's column is copied, bit for bit.
+    /// `m`, whose columns are the stored ones, then the target (`with_target`), perhaps others
+    /// after it (the fluxgate's magnitude, for its calibration), with the columns of every term
+    /// and the target: a stored term's column is copied, bit for bit, and the others after the
+    /// target are dropped.
     fn on_terms(&self, m: &DMatrix<f64>, with_target: bool) -> DMatrix<f64> {
+        let stored = self.stored.len();
         let Some(terms) = &self.terms else {
-            return m.clone();
+            return m.columns(0, stored + usize::from(with_target)).into_owned();
         };
         let width = terms.len() + usize::from(with_target);
         let mut out = DMatrix::zeros(m.nrows(), width);
@@ -113,8 +113,7 @@ impl Basis {
             }
         }
         if with_target {
-            out.column_mut(width - 1)
-                .copy_from(&m.column(m.ncols() - 1));
+            out.column_mut(width - 1).copy_from(&m.column(stored));
         }
         out
     }

@@ -17,10 +17,17 @@
 //! `y − R` against the low-passed design, one every `fs/(2·f_low)` samples so they are nearly
 //! independent, centred (the constant between `y` and `R` is unknown) and weighted by the ratio
 //! of the band-passed residual's scatter to theirs.
+//!
+//! The calibration's columns are combinations of the columns a default fit fills anyway, so
+//! such a fit calibrates the fluxgate from its own band-passed rows (`InPass`): the magnitude
+//! is one more signal of the same pass, and the level rows' target is `y − |F|` until the
+//! calibration's correction, low-passed with the columns, joins it. Other fits calibrate in a
+//! pass of their own first ([`reference()`]); both give the same calibration, to rounding.
 
-use crate::fit::problem::Spare;
+use crate::fit::choice::choose_design;
+use crate::fit::problem::{FoldFactor, Spare};
 use crate::fit::{Band, FitSettings, Lambda, Samples};
-use crate::model::design::Design;
+use crate::model::design::{Design, Term};
 use crate::model::terms::TermSet;
 use crate::model::vector::{norms3_into, Fluxgates, VectorSeries};
 use crate::parallel::split_rows;
@@ -107,25 +114,8 @@ pub(super) fn reference_reusing(
     settings: &FitSettings,
     spare: &Spare,
 ) -> Option<Reference> {
-    let usable = &samples.usable;
-    let n = flux.len();
-    let mut magnitude = vec![0.0; n];
-    split_rows(n, &mut [&mut magnitude], |rows, out| {
-        let components = [&flux.x, &flux.y, &flux.z].map(|c| &c[rows.clone()]);
-        norms3_into(components, out[0]);
-        for (m, u) in out[0].iter_mut().zip(&usable[rows]) {
-            if !u {
-                *m = f64::NAN;
-            }
-        }
-    });
-    let design = Design::new(TermSet {
-        permanent: true,
-        induced: Some(crate::model::terms::InducedTerms::Traceless),
-        trace: false,
-        eddy: None,
-        bias: false,
-    });
+    let magnitude = magnitude_of(flux, &samples.usable);
+    let design = calibration_design();
     let calibration_settings = FitSettings {
         design: design.clone(),
         lambda: Lambda::auto(),
@@ -138,7 +128,7 @@ pub(super) fn reference_reusing(
     // below the scalar's limit) and NaN elsewhere, so the fit's samples are the magnitude's.
     debug_assert!(magnitude
         .iter()
-        .zip(usable)
+        .zip(&samples.usable)
         .all(|(m, u)| crate::fit::scalar_usable(*m) == *u));
     let cal = crate::fit::fit_reusing(
         &magnitude,
@@ -150,23 +140,58 @@ pub(super) fn reference_reusing(
         crate::fit::Wanted::Coefficients,
     )
     .ok()?;
-    // The calibrated magnitude's correction is written in place and subtracted there; the
-    // samples outside the runs (the unusable ones) are NaN.
-    let mut values = vec![0.0; n];
-    for run in &samples.runs {
-        let part = &mut values[run.clone()];
-        design.apply_over_into(flux, run.clone(), &cal.coefficients, part);
-    }
-    split_rows(n, &mut [&mut values], |rows, out| {
-        for ((v, m), u) in out[0]
-            .iter_mut()
-            .zip(&magnitude[rows.clone()])
-            .zip(&usable[rows])
-        {
-            *v = if *u { m - *v } else { f64::NAN };
+    let fitted = Calibrated {
+        coefficients: cal.coefficients,
+        residual_std_nt: cal.diagnostics.residual_std_nt,
+    };
+    reference_of(flux, samples, magnitude, &design, &fitted, spare)
+}
+
+/// The design of the fluxgate's calibration: a permanent and a traceless induced field.
+fn calibration_design() -> Design {
+    Design::new(TermSet {
+        permanent: true,
+        induced: Some(crate::model::terms::InducedTerms::Traceless),
+        trace: false,
+        eddy: None,
+        bias: false,
+    })
+}
+
+/// `|F|` of every sample of `flux` (nT), NaN where not `usable`.
+fn magnitude_of(flux: &VectorSeries, usable: &[bool]) -> Vec<f64> {
+    let mut magnitude = vec![0.0; flux.len()];
+    split_rows(flux.len(), &mut [&mut magnitude], |rows, out| {
+        let components = [&flux.x, &flux.y, &flux.z].map(|c| &c[rows.clone()]);
+        norms3_into(components, out[0]);
+        for (m, u) in out[0].iter_mut().zip(&usable[rows]) {
+            if !u {
+                *m = f64::NAN;
+            }
         }
     });
-    let c = &cal.coefficients;
+    magnitude
+}
+
+/// What a calibration fit found: its coefficients (the calibration design's) and the scatter
+/// of its band-passed residual (nT).
+struct Calibrated {
+    coefficients: Vec<f64>,
+    residual_std_nt: f64,
+}
+
+/// The reference of the calibration `fitted`: `magnitude` (of every sample, NaN where not
+/// usable, taken over) less its calibrated correction; `None` if the calibration is not
+/// believable.
+fn reference_of(
+    flux: &VectorSeries,
+    samples: &Samples,
+    mut magnitude: Vec<f64>,
+    design: &Design,
+    fitted: &Calibrated,
+    spare: &Spare,
+) -> Option<Reference> {
+    let c = &fitted.coefficients;
     let believable = c[..3].iter().all(|o| o.abs() <= MAX_OFFSET_NT)
         && c[3..]
             .iter()
@@ -174,14 +199,152 @@ pub(super) fn reference_reusing(
     if !believable {
         return None;
     }
+    // The correction goes into a spare buffer, and the calibrated magnitude in place of the
+    // magnitude: no fresh vector of the flight's length. Outside the runs (the unusable
+    // samples) the magnitude is NaN already.
+    let n = flux.len();
+    let mut correction = spare.take(n);
+    for run in &samples.runs {
+        design.apply_over_into(flux, run.clone(), c, &mut correction[run.clone()]);
+    }
+    split_rows(n, &mut [&mut magnitude], |rows, out| {
+        for ((m, v), u) in out[0]
+            .iter_mut()
+            .zip(&correction[rows.clone()])
+            .zip(&samples.usable[rows])
+        {
+            if *u {
+                *m -= v;
+            }
+        }
+    });
+    spare.give([correction]);
     Some(Reference {
-        values,
+        values: magnitude,
         calibration: FluxgateCalibration {
             offset_nt: [c[0], c[1], c[2]],
             distortion: std::array::from_fn(|k| c[3 + k] / design.bt_scale),
-            residual_std_nt: cal.diagnostics.residual_std_nt,
+            residual_std_nt: fitted.residual_std_nt,
         },
     })
+}
+
+/// The fluxgate's calibration fitted from the linear fit's own band rows rather than in a pass
+/// of its own: its columns (permanent and traceless induced) are combinations of the linear
+/// fit's stored columns, and the magnitude rides along as one more column after them, so the
+/// band-passed rows of both fits come from one fill, one band-pass and one factorisation (a
+/// filter is linear, and `R·T` is a factor of the columns `A·T`).
+pub(super) struct InPass {
+    design: Design,
+    terms: Vec<Term>,
+    /// Rows: the stored columns, the target, the magnitude; columns: the calibration's terms,
+    /// then the magnitude as their target.
+    map: DMatrix<f64>,
+}
+
+impl InPass {
+    /// The calibration in the pass of the linear fit whose stored columns are `stored`, when
+    /// its columns are among their combinations (the same `Bt_scale`, one fluxgate, no rows
+    /// above the band, which the calibration would not have).
+    pub(super) fn of(settings: &FitSettings, stored: &[Term], above_band: bool) -> Option<Self> {
+        let design = calibration_design();
+        if above_band
+            || settings.design.fluxgates != 1
+            || settings.design.bt_scale != design.bt_scale
+        {
+            return None;
+        }
+        let terms = design.design_terms();
+        let width = stored.len();
+        let mut map = DMatrix::zeros(width + 2, terms.len() + 1);
+        for (j, term) in terms.iter().enumerate() {
+            for (i, w) in parts_among(term, stored)? {
+                map[(i, j)] = w;
+            }
+        }
+        map[(width + 1, terms.len())] = 1.0;
+        Some(Self { design, terms, map })
+    }
+
+    /// The reference from the fold factors `folds` of the linear fit's band rows (of its stored
+    /// columns, its target and the magnitude, folded as the calibration fit folds them), and
+    /// the calibration's coefficients; `None` as [`reference()`] gives it.
+    pub(super) fn reference(
+        &self,
+        flux: &VectorSeries,
+        samples: &Samples,
+        folds: &[FoldFactor],
+        spare: &Spare,
+    ) -> Option<(Reference, Vec<f64>)> {
+        let magnitude = magnitude_of(flux, &samples.usable);
+        crate::fit::check_not_constant(&magnitude, flux, &samples.usable).ok()?;
+        let fitted = self.fit(folds)?;
+        let reference = reference_of(flux, samples, magnitude, &self.design, &fitted, spare)?;
+        Some((reference, fitted.coefficients))
+    }
+
+    /// The calibration fit on the calibration's columns of `folds`, as
+    /// [`crate::fit::fit_reusing`] makes it: λ cross-validated, no level rows.
+    fn fit(&self, folds: &[FoldFactor]) -> Option<Calibrated> {
+        let folds: Vec<FoldFactor> = folds
+            .iter()
+            .map(|f| FoldFactor {
+                r: &f.r * &self.map,
+                rows: f.rows,
+                level_r: DMatrix::zeros(0, self.map.ncols()),
+                level_rows: 0,
+            })
+            .collect();
+        let designs = [self.design.clone()];
+        let chosen = choose_design(&folds, &designs, &self.terms, Lambda::auto(), 0.0).ok()?;
+        let solution = &chosen.solution;
+        let residual_std_nt = crate::fit::band_residual_std(solution, 0, 0.0);
+        let finite = solution.coefficients.iter().all(|c| c.is_finite());
+        (finite && residual_std_nt.is_finite()).then(|| Calibrated {
+            coefficients: solution.coefficients.clone(),
+            residual_std_nt,
+        })
+    }
+
+    /// Level rows of the stored columns (`A`) whose target is the scalar less the fluxgate's
+    /// magnitude, `y − m`: their target becomes `y − R` for the reference
+    /// `R = m − A·c`, all low-passed alike, `c` the calibration's `coefficients`.
+    pub(super) fn subtract_reference(&self, rows: &mut [LevelRows], coefficients: &[f64]) {
+        let width = self.map.nrows() - 2;
+        // The calibration's correction as a combination of the stored columns.
+        let on_stored: Vec<f64> = (0..width)
+            .map(|i| {
+                (0..self.terms.len())
+                    .map(|j| self.map[(i, j)] * coefficients[j])
+                    .sum()
+            })
+            .collect();
+        for r in rows {
+            for (k, y) in r.y.iter_mut().enumerate() {
+                let correction: f64 = (0..width).map(|i| on_stored[i] * r.a[(k, i)]).sum();
+                *y += correction;
+            }
+        }
+    }
+}
+
+/// The stored columns (their positions among `stored`) and weights that make `term`'s column.
+fn parts_among(term: &Term, stored: &[Term]) -> Option<Vec<(usize, f64)>> {
+    let position = |t: &Term| stored.iter().position(|s| s == t);
+    if let Some(i) = position(term) {
+        return Some(vec![(i, 1.0)]);
+    }
+    let parts = term.column.of_diagonals()?;
+    parts
+        .into_iter()
+        .map(|(column, w)| {
+            let part = Term {
+                fluxgate: term.fluxgate,
+                column,
+            };
+            position(&part).map(|i| (i, w))
+        })
+        .collect()
 }
 
 /// The low-pass filter and decimation of the level rows.

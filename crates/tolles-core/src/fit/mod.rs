@@ -565,13 +565,25 @@ fn fit_reusing(
         spare,
     };
     let above = problem.above.as_ref();
-    // The linear rows are the largest buffer; the reference's calibration uses its first part.
+    // The linear rows are the largest buffer; a calibration of the fluxgate in a pass of its own
+    // uses its first part.
     let longest = samples.runs.iter().map(|r| r.len()).max().unwrap_or(0);
     let low = problem.level_low_pass(fs_hz)?;
-    spare.reserve(problem.buffer_len(longest, stored.len(), low.as_ref(), above));
-    let mut levels = problem.level_setup(fs_hz)?;
+    // With levels, the fluxgate is calibrated in this pass when it can be: its magnitude is
+    // one more signal, after the target.
+    let in_pass = low
+        .as_ref()
+        .and_then(|_| levels::InPass::of(settings, stored, above.is_some()));
+    let extra = usize::from(in_pass.is_some());
+    spare.reserve(problem.buffer_len(longest, stored.len() + extra, low.as_ref(), above));
+    let mut levels = match in_pass {
+        Some(_) => problem.level_setup_pending(fs_hz)?,
+        None => problem.level_setup(fs_hz)?,
+    };
+    let series = flux.series()[0];
     let linear = |run: Range<usize>, rows: Range<usize>, out: &mut [&mut [f64]]| {
-        let (a, y) = out.split_at_mut(stored.len());
+        let (a, after) = out.split_at_mut(stored.len());
+        let (y, magnitude) = after.split_at_mut(1);
         settings.design.matrix_rows_into_columns(
             flux.clone(),
             run.clone(),
@@ -579,19 +591,41 @@ fn fit_reusing(
             stored,
             a,
         );
-        y[0].copy_from_slice(&scalar[run.start + rows.start..run.start + rows.end]);
+        let samples = run.start + rows.start..run.start + rows.end;
+        if let Some(m) = magnitude.first_mut() {
+            let components = [&series.x, &series.y, &series.z].map(|c| &c[samples.clone()]);
+            crate::model::vector::norms3_into(components, m);
+        }
+        y[0].copy_from_slice(&scalar[samples]);
     };
     let count = fold_count(settings.lambda);
-    // The band rows are factored once, cut where the folds of either plan start: the folds
-    // move when the level rows join.
+    // The band rows are factored once, cut where the folds of any plan start: the folds
+    // move when the level rows join, and the calibration's may be more or fewer.
     let mut plans = problem.plans_ahead(levels.as_ref(), above, &[false, true], count);
     let level_plan = plans.pop().filter(|_| levels.is_some());
     let band_plan = plans.pop().expect("the band rows' plan");
-    let plans: Vec<&problem::Plan> = std::iter::once(&band_plan).chain(&level_plan).collect();
-    let prepared = problem.prepare(stored.len(), &linear, levels.as_ref(), above, &plans)?;
+    let calibration_plan = in_pass
+        .as_ref()
+        .and_then(|_| problem.calibration_plan(levels.as_ref(), above, &band_plan));
+    let plans: Vec<&problem::Plan> = std::iter::once(&band_plan)
+        .chain(&level_plan)
+        .chain(&calibration_plan)
+        .collect();
+    let mut prepared =
+        problem.prepare(stored.len(), extra, &linear, levels.as_ref(), above, &plans)?;
     debug_assert!(prepared.plan(false, count) == band_plan);
     let band = prepared.band_factors(&plans);
-    let band_folds = basis.folds(prepared.fold_factors(&band_plan, 0.0, &band));
+    let band_folds = prepared.fold_factors(&band_plan, 0.0, &band);
+    if let Some(in_pass) = &in_pass {
+        let folds = match &calibration_plan {
+            Some(plan) => prepared.fold_factors(plan, 0.0, &band),
+            None => band_folds.clone(),
+        };
+        levels = levels.and_then(|setup| {
+            problem.calibrated_in_pass(setup, in_pass, &folds, &mut prepared.levels, fs_hz)
+        });
+    }
+    let band_folds = basis.folds(band_folds);
     let mut chosen = choose_design(&band_folds, &designs, &union, settings.lambda, 0.0)?;
     if let (Some(setup), Some(plan)) = (levels.as_mut(), &level_plan) {
         let rows = basis.level_rows(&prepared.levels);
@@ -780,7 +814,7 @@ pub fn check_flux_magnitude<'a>(flux: impl Into<Fluxgates<'a>>) -> Result<(), Fi
 /// Samples [`check_flux_magnitude`] checks at once.
 const MAGNITUDE_BLOCK: usize = 1024;
 
-fn check_not_constant(
+pub(super) fn check_not_constant(
     scalar: &[f64],
     flux: &VectorSeries,
     usable: &[bool],
@@ -934,6 +968,13 @@ struct DiagnosticCounts {
     fraction: f64,
 }
 
+/// The residual's standard deviation over the band-passed rows of `solution` (nT): without its
+/// `level_rows` level rows, whose weighted residual sum of squares is `level_rss` (nT²).
+fn band_residual_std(solution: &RidgeSolution, level_rows: usize, level_rss: f64) -> f64 {
+    let band_rows = solution.rows - level_rows;
+    ((solution.rss - level_rss).max(0.0) / band_rows.max(1) as f64).sqrt()
+}
+
 fn diagnostics(
     solution: &RidgeSolution,
     c: DiagnosticCounts,
@@ -944,7 +985,7 @@ fn diagnostics(
     let dof = solution.rows.saturating_sub(p).max(1) as f64;
     // The samples and residual of the band-passed rows alone, without the level rows.
     let band_rows = solution.rows - c.level_rows;
-    let residual_std = ((solution.rss - c.level_rss).max(0.0) / band_rows.max(1) as f64).sqrt();
+    let residual_std = band_residual_std(solution, c.level_rows, c.level_rss);
     let sigma2 = solution.rss / dof / c.fraction;
     Diagnostics {
         samples_total: c.total,
@@ -1177,6 +1218,66 @@ mod tests {
             auto.diagnostics.residual_std_nt,
             linear.diagnostics.residual_std_nt
         );
+    }
+
+    /// The fluxgate calibrated from the linear fit's own rows (the defaults) is the one its own
+    /// fit finds ([`levels::reference`]), in runs done whole and in windows; and so is the one
+    /// calibrated in a pass of its own, for a `Bt_scale` unlike the calibration's.
+    #[test]
+    fn the_fluxgate_calibrated_in_the_fit_pass_is_the_one_its_own_fit_finds() {
+        use crate::flight::plan::BoxPlan;
+        use crate::flight::sim::{simulate, Installation};
+        let recommended = FitSettings::recommended();
+        let union = union_of_terms(&recommended.candidate_designs());
+        let stored = Basis::of(&union).stored;
+        assert!(levels::InPass::of(&recommended, &stored, false).is_some());
+        let mut other_scale = recommended.clone();
+        other_scale.design.bt_scale = 20_000.0;
+        assert!(levels::InPass::of(&other_scale, &stored, false).is_none());
+        let scenario = Installation::TailStinger.scenario(3);
+        let short = simulate(&BoxPlan::default().build(), &scenario).unwrap();
+        // Three boxes of long manoeuvres: one run of about 80 000 samples, done in windows.
+        let long_plan = BoxPlan {
+            headings_deg: [0.0, 90.0, 180.0, 270.0].repeat(3),
+            cycles: 30,
+            ..BoxPlan::default()
+        };
+        let long = simulate(&long_plan.build(), &scenario).unwrap();
+        for (flight, windowed) in [(&short, false), (&long, true)] {
+            let (scalar, flux, tt) = (&flight.scalar, &flight.flux, Some(&flight.tt[..]));
+            let usable = vec![true; scalar.len()];
+            let own = levels::reference(flux, &usable, 10.0, tt, &recommended).unwrap();
+            let own = own.calibration;
+            let mut seen = Vec::new();
+            for settings in [&recommended, &other_scale] {
+                problem::windows_in_tests::DONE.set(0);
+                let fitted = fit(scalar, flux, 10.0, tt, settings).unwrap();
+                assert_eq!(problem::windows_in_tests::DONE.get() > 0, windowed);
+                let levels = fitted.diagnostics.levels.unwrap();
+                // Another Bt_scale only rescales columns: the same fit, whose level rows'
+                // target was made from the reference in the pass or before it.
+                seen.push([
+                    levels.residual_rms_nt,
+                    levels.weight,
+                    fitted.diagnostics.residual_std_nt,
+                ]);
+                let got = levels.fluxgate;
+                let values = |c: &levels::FluxgateCalibration| {
+                    let mut v = c.offset_nt.to_vec();
+                    v.extend(c.distortion.map(|d| d * 50_000.0));
+                    v.push(c.residual_std_nt);
+                    v
+                };
+                for (a, b) in values(&got).iter().zip(values(&own)) {
+                    // Offsets and distortions near 0 move by the rounding of the others.
+                    let close = (a - b).abs() <= 1e-9 * a.abs().max(b.abs()).max(1e-3);
+                    assert!(close, "{a} vs {b}: {got:?} vs {own:?}");
+                }
+            }
+            for (a, b) in seen[0].iter().zip(seen[1]) {
+                assert!((a - b).abs() <= 1e-9 * a.abs().max(b.abs()), "{seen:?}");
+            }
+        }
     }
 
     /// A run of 100 000 samples at 10 Hz, done in windows in tests: its scalar and fluxgate.

@@ -217,8 +217,10 @@ struct RowCounts<'l> {
 /// Rows of every run ready for the folds: band rows (the filtered runs, read from `trim` on),
 /// level rows and rows above the band.
 pub(super) struct Prepared {
-    /// Columns, the target included.
+    /// Columns, the target and the signals after it included.
     width: usize,
+    /// Signals after the target (see [`Problem::prepare`]).
+    extra: usize,
     trim: usize,
     runs: Vec<RunRows>,
     /// Per run, the centred, unweighted level rows; empty without levels.
@@ -245,6 +247,7 @@ pub(super) struct BandFactors {
 }
 
 /// One fold's rows reduced to triangular factors of all the columns and the target.
+#[derive(Clone)]
 pub(super) struct FoldFactor {
     /// Factor of every row of the fold.
     pub(super) r: DMatrix<f64>,
@@ -429,7 +432,7 @@ impl Prepared {
     /// Standard deviation of the filtered targets of the band rows and the rows above it (nT).
     pub(super) fn band_std(&self) -> f64 {
         let mut before = super::RunningStd::default();
-        let target = self.width - 1;
+        let target = self.width - 1 - self.extra;
         for run in 0..self.runs.len() {
             if let Some(factored) = &self.runs[run].factored {
                 before.merge(factored.target);
@@ -510,16 +513,19 @@ impl Prepared {
                     rows += piece.band.len() + piece.level.len() + piece.above.len();
                     if !piece.level.is_empty() {
                         let level = &self.levels[piece.run];
+                        // Level rows have the columns and the target; the signals after it
+                        // have none (0).
+                        let target = self.width - 1 - self.extra;
                         let weighted: Vec<Vec<f64>> = (0..self.width)
                             .map(|c| {
                                 piece
                                     .level
                                     .clone()
                                     .map(|k| {
-                                        let v = if c + 1 == self.width {
-                                            level.y[k]
-                                        } else {
-                                            level.a[(k, c)]
+                                        let v = match c.cmp(&target) {
+                                            std::cmp::Ordering::Less => level.a[(k, c)],
+                                            std::cmp::Ordering::Equal => level.y[k],
+                                            std::cmp::Ordering::Greater => 0.0,
                                         };
                                         weight * v
                                     })
@@ -569,6 +575,8 @@ struct Windows {
     margin: usize,
     /// Columns, the target not included.
     width: usize,
+    /// Signals after the target.
+    extra: usize,
     trim: usize,
 }
 
@@ -589,8 +597,40 @@ struct WindowInputs<'w, 'p, 'a> {
     cuts: &'w [usize],
     /// The samples of the run its level rows are taken at.
     kept: Option<Vec<usize>>,
-    /// The heading levels' reference over the run.
-    reference: Option<&'w [f64]>,
+    /// What the level rows' target is the scalar less, with levels.
+    reference: Option<LevelReference<'w>>,
+}
+
+/// What the level rows' target is the scalar less, over a run.
+#[derive(Clone, Copy)]
+enum LevelReference<'w> {
+    /// The calibrated reference's values (nT).
+    Values(&'w [f64]),
+    /// The fluxgate's magnitude, the signal after the target, while the fluxgate is calibrated
+    /// from the same rows ([`levels::InPass`]): the calibration's correction joins the level
+    /// rows' target afterwards. The magnitude rather than nothing, so that the low-pass sees
+    /// the small difference of two fields of 50 000 nT rather than each (its rounding is
+    /// relative to what it filters).
+    Magnitude,
+}
+
+impl<'w> LevelReference<'w> {
+    /// The reference of `setup` over `run`.
+    fn of(setup: &'w LevelSetup, run: Range<usize>) -> Self {
+        match &setup.reference {
+            Some(r) => LevelReference::Values(levels::reference_over(r, run)),
+            None => LevelReference::Magnitude,
+        }
+    }
+
+    /// The reference over `rows` (of the run), its `signals` over them at hand: the columns,
+    /// the target, the magnitude.
+    fn over<'s>(&'s self, rows: Range<usize>, signals: &'s [&'s [f64]]) -> &'s [f64] {
+        match self {
+            LevelReference::Values(values) => &values[rows],
+            LevelReference::Magnitude => signals[signals.len() - 1],
+        }
+    }
 }
 
 impl Windows {
@@ -620,14 +660,14 @@ impl Windows {
             levels,
             cuts,
             kept: levels.and_then(|l| l.low.kept(n)),
-            reference: levels.map(|l| levels::reference_over(&l.reference, self.run.clone())),
+            reference: levels.map(|l| LevelReference::of(l, self.run.clone())),
         };
         let starts: Vec<usize> = (0..n).step_by(core).collect();
         let longest = window_len(n, self.margin);
         // The buffer may be longer than this run asked for (a spare one of a wider fit's), so
         // its shares are counted as they were sized, not by how many it holds.
         let shares: Vec<&mut [f64]> = buffer
-            .chunks_exact_mut(longest * (self.width + 1))
+            .chunks_exact_mut(longest * (self.width + 1 + self.extra))
             .take(windows_dealt(n))
             .collect();
         let dealt = shares.len();
@@ -722,12 +762,13 @@ impl Windows {
             .filter
             .as_ref()
             .expect("windows are band-passed");
-        let signals = self.width + 1;
+        let signals = self.width + 1 + self.extra;
         let window = core.start.saturating_sub(self.margin)..(core.end + self.margin).min(n);
         let m = window.len();
         let mut columns: Vec<&mut [f64]> = buffer[..m * signals].chunks_mut(m).collect();
         let mut source = Source {
             inputs,
+            width: self.width,
             run: self.run.clone(),
             window: window.clone(),
             filled: 0,
@@ -748,7 +789,8 @@ impl Windows {
                 .map(|k| k - window.start)
                 .collect();
             let low = setup.low.filter();
-            jumps = Jumps::new(low, &at, ends, signals, m);
+            // The low-pass reads the columns and the target, not the signals after it.
+            jumps = Jumps::new(low, &at, ends, self.width + 1, m);
             if jumps.is_none() {
                 source.fill(&mut columns, m);
                 sampled = filtfilt_window_sampled(low, &source.low_signals(&columns), &at, ends);
@@ -853,12 +895,15 @@ struct Source<'s, 'w, 'p, 'a> {
     window: Range<usize>,
     /// Rows of the window filled so far.
     filled: usize,
+    /// Columns before the target.
+    width: usize,
     /// The target less the heading levels' reference (nT), as far as filled, with levels.
     low_target: &'s mut [f64],
 }
 
 impl Source<'_, '_, '_, '_> {
-    /// Fills the window's `columns` (its columns, then its target) up to row `upto`.
+    /// Fills the window's `columns` (its columns, its target, the signals after it) up to row
+    /// `upto`.
     fn fill(&mut self, columns: &mut [&mut [f64]], upto: usize) {
         let rows = self.filled..upto.max(self.filled);
         if rows.is_empty() {
@@ -871,9 +916,10 @@ impl Source<'_, '_, '_, '_> {
             start + rows.start..start + rows.end,
             &mut part,
         );
-        if let Some(reference) = self.inputs.reference {
-            let y = &part[part.len() - 1];
-            let r = &reference[start + rows.start..start + rows.end];
+        if let Some(reference) = &self.inputs.reference {
+            let part: Vec<&[f64]> = part.iter().map(|p| &**p).collect();
+            let y = part[self.width];
+            let r = reference.over(start + rows.start..start + rows.end, &part);
             for ((t, y), r) in self.low_target[rows.clone()]
                 .iter_mut()
                 .zip(y.iter())
@@ -895,8 +941,7 @@ impl Source<'_, '_, '_, '_> {
     /// What the level rows' low-pass reads: the unfiltered columns, and the target less the
     /// reference in the target's place.
     fn low_signals<'c>(&'c self, columns: &'c [&mut [f64]]) -> Vec<&'c [f64]> {
-        let width = columns.len() - 1;
-        columns[..width]
+        columns[..self.width]
             .iter()
             .map(|c| &**c)
             .chain([&*self.low_target])
@@ -943,7 +988,9 @@ pub(super) fn fold_count(lambda: Lambda) -> usize {
 
 /// What the heading levels need: the reference, the low-pass, and the weight of their rows.
 pub(super) struct LevelSetup {
-    pub(super) reference: Reference,
+    /// The reference; `None` while the linear rows are made, when the fluxgate is calibrated
+    /// from them ([`levels::InPass`]): their level rows' target is then the scalar alone.
+    pub(super) reference: Option<Reference>,
     pub(super) low: LowFrequency,
     /// Expected scatter of a level row (nT).
     pub(super) sigma_nt: f64,
@@ -957,6 +1004,21 @@ pub(super) struct LevelSetup {
 }
 
 impl LevelSetup {
+    /// The setup with its `reference`, and the level rows' expected scatter from the
+    /// calibration's.
+    fn with_reference(self, reference: Reference, s: &FitSettings, fs_hz: f64) -> Self {
+        // White noise of the reference, seen through the low-pass instead of the band.
+        let low = &self.low;
+        let width = (s.band.pass2_hz.min(fs_hz / 2.0) - s.band.pass1_hz).max(low.cutoff_hz);
+        let sigma_nt =
+            (reference.calibration.residual_std_nt * (low.cutoff_hz / width).sqrt()).max(1e-3);
+        Self {
+            reference: Some(reference),
+            sigma_nt,
+            ..self
+        }
+    }
+
     pub(super) fn weight(&self) -> f64 {
         self.band_sigma_nt / self.sigma_nt
     }
@@ -985,7 +1047,12 @@ impl LevelSetup {
         let count = self.row_count();
         let misfit = self.misfit(terms, beta);
         LevelDiagnostics {
-            fluxgate: self.reference.calibration.clone(),
+            fluxgate: self
+                .reference
+                .as_ref()
+                .expect("the levels' diagnostics come after the calibration")
+                .calibration
+                .clone(),
             rows: count,
             cutoff_hz: self.low.cutoff_hz,
             residual_rms_nt: misfit,
@@ -996,23 +1063,31 @@ impl LevelSetup {
 }
 
 impl Problem<'_, '_> {
-    /// Filters a run's `signals` (its columns, then its target) in place and, with `levels`,
-    /// gives its level rows, low-passed from the unfiltered signals: with a band-pass, the two
-    /// filters share the cores as one job.
+    /// Filters a run's `signals` (its columns, then its target, then `extra` signals after it)
+    /// in place and, with `levels`, gives its level rows of the columns and the target,
+    /// low-passed from the unfiltered signals: with a band-pass, the two filters share the
+    /// cores as one job.
     fn filter_run(
         &self,
         run: Range<usize>,
         signals: &mut [&mut [f64]],
+        extra: usize,
         levels: Option<&LevelSetup>,
     ) -> Result<Option<LevelRows>, FitError> {
         let Some(setup) = levels else {
-            match &self.filter {
-                Some(band) => filtfilt_many_unless_constant(band, signals)?,
-                None => self.unfiltered(signals),
-            }
+            self.filter_alone(signals)?;
             return Ok(None);
         };
-        let reference = levels::reference_over(&setup.reference, run.clone());
+        // The magnitude is filtered in place below: its values are copied first.
+        let magnitude;
+        let reference = match LevelReference::of(setup, run.clone()) {
+            LevelReference::Values(values) => values,
+            LevelReference::Magnitude => {
+                magnitude = signals[signals.len() - 1].to_vec();
+                &magnitude
+            }
+        };
+        let (signals, after) = signals.split_at_mut(signals.len() - extra);
         let mut target = self.spare.take(run.len());
         let target_part = &mut target[..run.len()];
         let rows = match &self.filter {
@@ -1030,7 +1105,20 @@ impl Problem<'_, '_> {
             }
         };
         self.spare.give([target]);
+        self.filter_alone(after)?;
         Ok(Some(rows?))
+    }
+
+    /// The band-pass of `signals` in place, or without one what [`Problem::unfiltered`] does.
+    fn filter_alone(&self, signals: &mut [&mut [f64]]) -> Result<(), FitError> {
+        if signals.is_empty() {
+            return Ok(());
+        }
+        match &self.filter {
+            Some(band) => filtfilt_many_unless_constant(band, signals)?,
+            None => self.unfiltered(signals),
+        }
+        Ok(())
     }
 
     /// Without a filter, a reference target's run loses its mean (its intercept).
@@ -1101,6 +1189,19 @@ impl Problem<'_, '_> {
             .collect()
     }
 
+    /// The folds of the fluxgate's calibration from the linear rows ([`levels::InPass`]),
+    /// cross-validated as its own fit would be, when they are not those of `band_plan`.
+    pub(super) fn calibration_plan(
+        &self,
+        levels: Option<&LevelSetup>,
+        above_band: Option<&AboveBand>,
+        band_plan: &Plan,
+    ) -> Option<Plan> {
+        let count = fold_count(Lambda::auto());
+        let plan = self.plans_ahead(levels, above_band, &[false], count);
+        plan.into_iter().next().filter(|p| p != band_plan)
+    }
+
     /// Overlap (samples) of the windows of a run of `n` samples done in windows: the longer
     /// settling length of the band-pass and the level rows' low-pass `low`. `None` when the run
     /// is done whole: shorter than two windows, without a band-pass, with rows above the band,
@@ -1142,19 +1243,25 @@ impl Problem<'_, '_> {
     }
 
     /// Band rows (and, with `levels`, level rows; with `above_band`, rows above the band) of
-    /// every run long enough, from the `width` columns and the target that `fill` writes.
+    /// every run long enough, from the `width` columns, the target and the `extra` signals after
+    /// it that `fill` writes. The signals after the target are filtered and factored with the
+    /// others (after the target: the leading columns of a factor are those of the columns
+    /// before, whatever follows) and have no level rows: the fluxgate's magnitude, whose
+    /// calibration [`levels::InPass`] takes from these rows.
     ///
     /// Runs of two windows or more are filtered and factored window by window, their band
     /// rows cut where the folds of `plans` start (see [`Problem::plans_ahead`]).
     pub(super) fn prepare(
         &self,
         width: usize,
+        extra: usize,
         fill: &FillRun<'_>,
         levels: Option<&LevelSetup>,
         above_band: Option<&AboveBand>,
         plans: &[&Plan],
     ) -> Result<Prepared, FitError> {
         let (trim, needed) = self.trim_and_needed(above_band);
+        let signals = width + 1 + extra;
         let low = levels.map(|l| &l.low);
         let sizes: Vec<usize> = self
             .samples
@@ -1162,7 +1269,7 @@ impl Problem<'_, '_> {
             .iter()
             .map(|r| match r.len() < needed {
                 true => 0,
-                false => self.buffer_len(r.len(), width, low, above_band),
+                false => self.buffer_len(r.len(), width + extra, low, above_band),
             })
             .collect();
         let mut buffers = self.spare.take_each(&sizes).into_iter();
@@ -1181,6 +1288,7 @@ impl Problem<'_, '_> {
                     run: run.clone(),
                     margin,
                     width,
+                    extra,
                     trim,
                 };
                 let cuts = cuts_of(plans, runs.len(), n - 2 * trim);
@@ -1200,9 +1308,9 @@ impl Problem<'_, '_> {
                     continue;
                 }
                 // A constant column: the whole run decides what its filters do.
-                buffer.resize(n * (width + 1), 0.0);
+                buffer.resize(n * signals, 0.0);
             }
-            let data = &mut buffer[..n * (width + 1)];
+            let data = &mut buffer[..n * signals];
             fill(
                 run.clone(),
                 0..n,
@@ -1213,7 +1321,7 @@ impl Problem<'_, '_> {
                 None => None,
             };
             let mut signals: Vec<&mut [f64]> = data.chunks_mut(n).collect();
-            if let Some(rows) = self.filter_run(run.clone(), &mut signals, levels)? {
+            if let Some(rows) = self.filter_run(run.clone(), &mut signals, extra, levels)? {
                 level_rows.push(rows);
             }
             runs.push(RunRows {
@@ -1225,7 +1333,8 @@ impl Problem<'_, '_> {
         }
         levels::centre(&mut level_rows);
         Ok(Prepared {
-            width: width + 1,
+            width: signals,
+            extra,
             trim,
             runs,
             levels: level_rows,
@@ -1248,26 +1357,42 @@ impl Problem<'_, '_> {
     /// fluxgate can be calibrated.
     pub(super) fn level_setup(&self, fs_hz: f64) -> Result<Option<LevelSetup>, FitError> {
         let s = self.settings;
-        let Some(low) = self.level_low_pass(fs_hz)? else {
+        let Some(setup) = self.level_setup_pending(fs_hz)? else {
             return Ok(None);
         };
         let flux = self.flux.series()[0];
-        let Some(reference) = levels::reference_reusing(flux, self.samples, fs_hz, s, self.spare)
-        else {
-            return Ok(None);
-        };
-        // White noise of the reference, seen through the low-pass instead of the band.
-        let width = (s.band.pass2_hz.min(fs_hz / 2.0) - s.band.pass1_hz).max(low.cutoff_hz);
-        let sigma_nt =
-            (reference.calibration.residual_std_nt * (low.cutoff_hz / width).sqrt()).max(1e-3);
-        Ok(Some(LevelSetup {
-            reference,
+        let reference = levels::reference_reusing(flux, self.samples, fs_hz, s, self.spare);
+        Ok(reference.map(|r| setup.with_reference(r, s, fs_hz)))
+    }
+
+    /// The low-pass for heading levels, when the settings ask for them, without a reference
+    /// yet: for a fit that calibrates the fluxgate from its own rows ([`levels::InPass`]).
+    pub(super) fn level_setup_pending(&self, fs_hz: f64) -> Result<Option<LevelSetup>, FitError> {
+        Ok(self.level_low_pass(fs_hz)?.map(|low| LevelSetup {
+            reference: None,
             low,
-            sigma_nt,
+            sigma_nt: f64::NAN,
             band_sigma_nt: f64::NAN,
             rows: Vec::new(),
             row_terms: Vec::new(),
         }))
+    }
+
+    /// `setup` with the reference calibrated from the fold factors `folds` of the linear rows
+    /// ([`levels::InPass`]), and the target of their level rows `rows` made `y − R`; `None`
+    /// if the fluxgate cannot be calibrated (the fit then has no levels).
+    pub(super) fn calibrated_in_pass(
+        &self,
+        setup: LevelSetup,
+        in_pass: &levels::InPass,
+        folds: &[FoldFactor],
+        rows: &mut [LevelRows],
+        fs_hz: f64,
+    ) -> Option<LevelSetup> {
+        let flux = self.flux.series()[0];
+        let (reference, coefficients) = in_pass.reference(flux, self.samples, folds, self.spare)?;
+        in_pass.subtract_reference(rows, &coefficients);
+        Some(setup.with_reference(reference, self.settings, fs_hz))
     }
 
     /// Refits with the level rows: first weighted by the reference's expected noise, then, if
@@ -1347,7 +1472,7 @@ impl Problem<'_, '_> {
                 });
             };
             let mut prepared =
-                self.prepare(terms.len(), &fill, levels, above.as_ref(), &[&plan])?;
+                self.prepare(terms.len(), 0, &fill, levels, above.as_ref(), &[&plan])?;
             let weight = levels.map_or(0.0, LevelSetup::weight);
             debug_assert!(prepared.plan(levels.is_some(), count) == plan);
             let band = prepared.band_factors(&[&plan]);
@@ -1579,6 +1704,7 @@ mod tests {
             .collect();
         Prepared {
             width,
+            extra: 0,
             trim,
             runs,
             levels,
