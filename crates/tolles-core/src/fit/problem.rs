@@ -989,7 +989,8 @@ pub(super) fn fold_count(lambda: Lambda) -> usize {
 /// What the heading levels need: the reference, the low-pass, and the weight of their rows.
 pub(super) struct LevelSetup {
     /// The reference; `None` while the linear rows are made, when the fluxgate is calibrated
-    /// from them ([`levels::InPass`]): their level rows' target is then the scalar alone.
+    /// from them ([`levels::InPass`]): their level rows' target is then the scalar less the
+    /// fluxgate's magnitude.
     pub(super) reference: Option<Reference>,
     pub(super) low: LowFrequency,
     /// Expected scatter of a level row (nT).
