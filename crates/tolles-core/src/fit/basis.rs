@@ -28,18 +28,8 @@ impl Basis {
     ///
     /// [`Column::of_diagonals`]: crate::model::terms::Column::of_diagonals
     pub(super) fn of(terms: &[Term]) -> Basis {
-        let parts = |t: &Term| {
-            let parts = t.column.of_diagonals()?;
-            let found = parts.map(|(column, w)| {
-                let part = Term {
-                    fluxgate: t.fluxgate,
-                    column,
-                };
-                terms.contains(&part).then_some((part, w))
-            });
-            found.into_iter().collect::<Option<Vec<_>>>()
-        };
-        let formed: Vec<Option<Vec<(Term, f64)>>> = terms.iter().map(parts).collect();
+        let formed: Vec<Option<Vec<(Term, f64)>>> =
+            terms.iter().map(|t| diagonal_parts(t, terms)).collect();
         if formed.iter().all(Option::is_none) {
             return Basis {
                 stored: terms.to_vec(),
@@ -117,6 +107,22 @@ impl Basis {
         }
         out
     }
+}
+
+/// The parts `term`'s column is made of ([`Column::of_diagonals`]), each a term of its own
+/// fluxgate with its weight, when every one of them is among `among`.
+///
+/// [`Column::of_diagonals`]: crate::model::terms::Column::of_diagonals
+pub(super) fn diagonal_parts(term: &Term, among: &[Term]) -> Option<Vec<(Term, f64)>> {
+    let parts = term.column.of_diagonals()?;
+    let found = parts.map(|(column, w)| {
+        let part = Term {
+            fluxgate: term.fluxgate,
+            column,
+        };
+        among.contains(&part).then_some((part, w))
+    });
+    found.into_iter().collect()
 }
 
 #[cfg(test)]

@@ -24,6 +24,7 @@
 //! calibration's correction, low-passed with the columns, joins it. Other fits calibrate in a
 //! pass of their own first ([`reference()`]); both give the same calibration, to rounding.
 
+use crate::fit::basis::diagonal_parts;
 use crate::fit::choice::choose_design;
 use crate::fit::problem::{FoldFactor, Spare};
 use crate::fit::{Band, FitSettings, Lambda, Samples};
@@ -328,22 +329,16 @@ impl InPass {
     }
 }
 
-/// The stored columns (their positions among `stored`) and weights that make `term`'s column.
+/// The stored columns (their positions among `stored`) and weights that make `term`'s column:
+/// its own, or the parts it is formed of as [`Basis`](crate::fit::basis::Basis) forms it.
 fn parts_among(term: &Term, stored: &[Term]) -> Option<Vec<(usize, f64)>> {
     let position = |t: &Term| stored.iter().position(|s| s == t);
     if let Some(i) = position(term) {
         return Some(vec![(i, 1.0)]);
     }
-    let parts = term.column.of_diagonals()?;
-    parts
+    diagonal_parts(term, stored)?
         .into_iter()
-        .map(|(column, w)| {
-            let part = Term {
-                fluxgate: term.fluxgate,
-                column,
-            };
-            position(&part).map(|i| (i, w))
-        })
+        .map(|(part, w)| position(&part).map(|i| (i, w)))
         .collect()
 }
 

@@ -625,10 +625,10 @@ impl<'w> LevelReference<'w> {
 
     /// The reference over `rows` (of the run), its `signals` over them at hand: the columns,
     /// the target, the magnitude.
-    fn over<'s>(&'s self, rows: Range<usize>, signals: &'s [&'s [f64]]) -> &'s [f64] {
+    fn over<'s, S: AsRef<[f64]>>(&'s self, rows: Range<usize>, signals: &'s [S]) -> &'s [f64] {
         match self {
             LevelReference::Values(values) => &values[rows],
-            LevelReference::Magnitude => signals[signals.len() - 1],
+            LevelReference::Magnitude => signals[signals.len() - 1].as_ref(),
         }
     }
 }
@@ -917,8 +917,7 @@ impl Source<'_, '_, '_, '_> {
             &mut part,
         );
         if let Some(reference) = &self.inputs.reference {
-            let part: Vec<&[f64]> = part.iter().map(|p| &**p).collect();
-            let y = part[self.width];
+            let y = &part[self.width];
             let r = reference.over(start + rows.start..start + rows.end, &part);
             for ((t, y), r) in self.low_target[rows.clone()]
                 .iter_mut()
