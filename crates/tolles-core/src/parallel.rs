@@ -30,7 +30,7 @@ pub(crate) fn on_cores<R>(cores: usize, f: impl FnOnce() -> R) -> R {
 }
 
 /// Rows below which a thread costs more than it saves.
-const PARALLEL_ROWS: usize = 100_000;
+pub(crate) const PARALLEL_ROWS: usize = 100_000;
 
 /// Calls `f` on parts of the rows `0..n` of `columns` (each `n` long) from as many threads as
 /// there are cores, each with its rows of every column.
@@ -73,6 +73,61 @@ pub(crate) fn split_items<T: Send>(items: &mut [T], f: impl Fn(Range<usize>, &mu
         for (t, part) in items.chunks_mut(share).enumerate() {
             let f = &f;
             scope.spawn(move || f(t * share..t * share + part.len(), part));
+        }
+    });
+}
+
+/// `f` of each of `items`, in order, computed on as many threads as there are cores, each
+/// taking the next item not yet taken: for a few items of much work each (`rows`, the rows
+/// they cover together, decides as in [`split_rows`] whether threads are worth starting).
+pub(crate) fn map_items<T: Sync, R: Send>(
+    items: &[T],
+    rows: usize,
+    f: impl Fn(&T) -> R + Sync,
+) -> Vec<R> {
+    let threads = threads_for_rows(rows).min(items.len());
+    if threads <= 1 {
+        return items.iter().map(f).collect();
+    }
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let take = || {
+        let mut done = Vec::new();
+        loop {
+            let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            let Some(item) = items.get(k) else { break done };
+            done.push((k, f(item)));
+        }
+    };
+    let mut done: Vec<(usize, R)> = std::thread::scope(|scope| {
+        let others: Vec<_> = (1..threads).map(|_| scope.spawn(take)).collect();
+        let mut all = take();
+        for other in others {
+            all.extend(
+                other
+                    .join()
+                    .unwrap_or_else(|e| std::panic::resume_unwind(e)),
+            );
+        }
+        all
+    });
+    done.sort_unstable_by_key(|(k, _)| *k);
+    done.into_iter().map(|(_, r)| r).collect()
+}
+
+/// `f` of each of `items`, the items cut into one consecutive part per core (for items of
+/// about equal work; `rows`, the rows they cover together, decides as in [`split_rows`]
+/// whether threads are worth starting).
+pub(crate) fn for_each_item<T: Send>(items: &mut [T], rows: usize, f: impl Fn(&mut T) + Sync) {
+    let threads = threads_for_rows(rows).min(items.len());
+    if threads <= 1 {
+        items.iter_mut().for_each(f);
+        return;
+    }
+    let share = items.len().div_ceil(threads);
+    std::thread::scope(|scope| {
+        for part in items.chunks_mut(share) {
+            let f = &f;
+            scope.spawn(move || part.iter_mut().for_each(f));
         }
     });
 }
@@ -128,6 +183,20 @@ mod tests {
                     .enumerate()
                     .all(|(k, v)| *v == (k * 3 + c) as f64));
             }
+        }
+    }
+
+    #[test]
+    fn mapped_items_come_back_in_order_each_once() {
+        for (n, rows) in [(0, 0), (5, 10), (5, 1_000_000), (37, 1_000_000)] {
+            let items: Vec<usize> = (0..n).collect();
+            let calls = std::sync::atomic::AtomicUsize::new(0);
+            let out = map_items(&items, rows, |k| {
+                calls.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                k * k
+            });
+            assert_eq!(out, items.iter().map(|k| k * k).collect::<Vec<_>>());
+            assert_eq!(calls.into_inner(), n);
         }
     }
 

@@ -530,33 +530,50 @@ pub fn centre(rows: &mut [LevelRows]) {
     if count == 0 {
         return;
     }
+    // Column by column, the columns dealt to the cores (200 k rows of 18 columns at 10⁷
+    // samples, fresh from the filters: memory-bound).
     let p = rows[0].a.ncols();
-    let mut means = vec![0.0; p + 1];
-    for r in rows.iter() {
-        for (c, mean) in means[..p].iter_mut().enumerate() {
-            *mean += r.a.column(c).sum();
-        }
-        means[p] += r.y.iter().sum::<f64>();
-    }
-    means.iter_mut().for_each(|m| *m /= count as f64);
+    let columns: Vec<usize> = (0..=p).collect();
+    let sum_of = |c: usize| {
+        rows.iter().fold(0.0, |sum, r| match c < p {
+            true => sum + r.a.column(c).sum(),
+            false => sum + r.y.iter().sum::<f64>(),
+        })
+    };
+    let means =
+        crate::parallel::map_items(&columns, count * (p + 1), |&c| sum_of(c) / count as f64);
+    let mut parts: Vec<(&mut [f64], f64)> = Vec::with_capacity(rows.len() * (p + 1));
     for r in rows.iter_mut() {
-        for (c, mean) in means[..p].iter().enumerate() {
-            r.a.column_mut(c).add_scalar_mut(-mean);
-        }
-        r.y.iter_mut().for_each(|v| *v -= means[p]);
+        let n = r.y.len();
+        let a = r.a.as_mut_slice().chunks_exact_mut(n.max(1));
+        parts.extend(a.zip(means.iter().copied()));
+        parts.push((r.y.as_mut_slice(), means[p]));
     }
+    crate::parallel::for_each_item(&mut parts, count * (p + 1), |(values, mean)| {
+        values.iter_mut().for_each(|v| *v -= *mean);
+    });
 }
 
 /// RMS of `y − A·β` over all level rows (nT), NaN without rows.
+///
+/// Each row's fit is summed column after column from the empty sum, as a sum across the row
+/// would be, but a column at a time (contiguous, so it vectorises): the same values.
 pub fn rms_misfit(rows: &[LevelRows], beta: &[f64]) -> f64 {
+    let empty: f64 = std::iter::empty::<f64>().sum();
     let mut sum = 0.0;
     let mut count = 0usize;
     for r in rows {
-        for (k, y) in r.y.iter().enumerate() {
-            let fitted: f64 = (0..beta.len()).map(|c| r.a[(k, c)] * beta[c]).sum();
-            sum += (y - fitted).powi(2);
-            count += 1;
+        let mut fitted = vec![empty; r.y.len()];
+        for (column, b) in r.a.column_iter().zip(beta) {
+            fitted
+                .iter_mut()
+                .zip(column.iter())
+                .for_each(|(f, a)| *f += a * b);
         }
+        for (y, f) in r.y.iter().zip(&fitted) {
+            sum += (y - f).powi(2);
+        }
+        count += r.y.len();
     }
     (sum / count as f64).sqrt()
 }

@@ -792,20 +792,23 @@ pub fn check_flux_magnitude<'a>(flux: impl Into<Fluxgates<'a>>) -> Result<(), Fi
                 series.x[k] * series.x[k] + series.y[k] * series.y[k] + series.z[k] * series.z[k];
             squares > lo * lo && squares < hi * hi
         };
-        for block in crate::parallel::blocks(0..series.len(), MAGNITUDE_BLOCK) {
-            if block.clone().fold(true, |all, k| all & inside(k)) {
-                continue;
-            }
-            for k in block {
-                let magnitude = series.magnitude(k);
-                if !magnitude.is_nan() && !(lo..=hi).contains(&magnitude) {
-                    return Err(FitError::FluxMagnitude {
-                        fluxgate,
-                        index: k,
-                        magnitude,
-                    });
-                }
-            }
+        let first_outside = |part: &Range<usize>| {
+            crate::parallel::blocks(part.clone(), MAGNITUDE_BLOCK)
+                .filter(|block| !block.clone().fold(true, |all, k| all & inside(k)))
+                .flat_map(|block| block.map(|k| (k, series.magnitude(k))))
+                .find(|(_, m)| !m.is_nan() && !(lo..=hi).contains(m))
+        };
+        // A part per core; the first sample outside is the first part's that has one.
+        let n = series.len();
+        let share = n.div_ceil(crate::parallel::cores()).max(MAGNITUDE_BLOCK);
+        let parts: Vec<Range<usize>> = crate::parallel::blocks(0..n, share).collect();
+        let found = crate::parallel::map_items(&parts, n, first_outside);
+        if let Some((index, magnitude)) = found.into_iter().flatten().next() {
+            return Err(FitError::FluxMagnitude {
+                fluxgate,
+                index,
+                magnitude,
+            });
         }
     }
     Ok(())
@@ -1036,6 +1039,30 @@ mod tests {
                 Err(e) => prop_assert!(false, "{e}"),
             }
         }
+    }
+
+    /// A long flight is checked in a part per core: the sample reported is the first out of
+    /// range, whichever part holds it.
+    #[test]
+    fn flux_magnitude_check_of_a_long_flight_finds_the_first_sample_out_of_range() {
+        let n = 3 * crate::parallel::PARALLEL_ROWS;
+        let series = |bad: &[usize]| {
+            let mut x = vec![50_000.0; n];
+            bad.iter().for_each(|&k| x[k] = 1e7);
+            VectorSeries::new(x, vec![0.0; n], vec![0.0; n])
+        };
+        let late = 2 * n / 3 + 5;
+        for (bad, first) in [
+            (vec![late], late),
+            (vec![late, 7], 7),
+            (vec![n / 2, n - 1], n / 2),
+        ] {
+            match check_flux_magnitude(&series(&bad)) {
+                Err(FitError::FluxMagnitude { index, .. }) => assert_eq!(index, first, "{bad:?}"),
+                other => panic!("{other:?}"),
+            }
+        }
+        assert!(check_flux_magnitude(&series(&[])).is_ok());
     }
 
     proptest! {

@@ -49,15 +49,20 @@ fn gaps(tt: Option<&[f64]>, n: usize) -> Vec<usize> {
         return Vec::new();
     };
     let limit = GAP_FACTOR * step;
-    tt[..n.min(tt.len())]
-        .windows(2)
-        .enumerate()
-        .filter(|(_, w)| {
-            let dt = w[1] - w[0];
-            dt.is_finite() && dt > limit
-        })
-        .map(|(k, _)| k)
-        .collect()
+    let tt = &tt[..n.min(tt.len())];
+    // Steps k → k + 1 for k in a part per core, in order.
+    let steps = tt.len().saturating_sub(1);
+    let share = steps.div_ceil(crate::parallel::cores()).max(1);
+    let parts: Vec<Range<usize>> = crate::parallel::blocks(0..steps, share).collect();
+    let found = crate::parallel::map_items(&parts, steps, |part| {
+        part.clone()
+            .filter(|&k| {
+                let dt = tt[k + 1] - tt[k];
+                dt.is_finite() && dt > limit
+            })
+            .collect::<Vec<usize>>()
+    });
+    found.concat()
 }
 
 /// Median of the finite positive time steps (seconds), if any.
@@ -175,17 +180,62 @@ fn median_by_selection(tt: &[f64]) -> Option<f64> {
 
 /// Index of the first sample whose time (seconds) is not after the previous finite one.
 pub fn first_non_increasing(tt: &[f64]) -> Option<usize> {
+    // A part per core, each scanned on its own: within a part, the running last time is the
+    // true one from the part's first finite time on, which only the last finite time of the
+    // parts before decides.
+    let share = tt.len().div_ceil(crate::parallel::cores()).max(1);
+    let parts: Vec<Range<usize>> = crate::parallel::blocks(0..tt.len(), share).collect();
+    let scans = crate::parallel::map_items(&parts, tt.len(), |part| scan_times(tt, part.clone()));
     let mut last = f64::NEG_INFINITY;
-    for (k, &t) in tt.iter().enumerate() {
+    for scan in scans {
+        if let Some((k, first)) = scan.first {
+            if first <= last {
+                return Some(k);
+            }
+        }
+        if scan.non_increasing.is_some() {
+            return scan.non_increasing;
+        }
+        last = scan.last.unwrap_or(last);
+    }
+    None
+}
+
+/// What [`first_non_increasing`] needs of a part of the times.
+struct TimesScan {
+    /// The first finite time and its sample.
+    first: Option<(usize, f64)>,
+    /// The last finite time.
+    last: Option<f64>,
+    /// The first sample whose time is not after the part's previous finite one.
+    non_increasing: Option<usize>,
+}
+
+fn scan_times(tt: &[f64], part: Range<usize>) -> TimesScan {
+    let first = part
+        .clone()
+        .find(|&k| tt[k].is_finite())
+        .map(|k| (k, tt[k]));
+    let mut last = f64::NEG_INFINITY;
+    for k in part {
+        let t = tt[k];
         if !t.is_finite() {
             continue;
         }
         if t <= last {
-            return Some(k);
+            return TimesScan {
+                first,
+                last: None,
+                non_increasing: Some(k),
+            };
         }
         last = t;
     }
-    None
+    TimesScan {
+        first,
+        last: first.map(|_| last),
+        non_increasing: None,
+    }
 }
 
 /// Median steps (see [`median_step`]) between two stretches that [`run_on`] joins: far more than
@@ -327,6 +377,64 @@ mod tests {
         assert_eq!(first_non_increasing(&[0.0, 1.0, 1.0]), Some(2));
         assert_eq!(first_non_increasing(&[0.0, f64::NAN, 2.0, 1.5]), Some(3));
         assert_eq!(first_non_increasing(&[0.0, 1.0, 2.0]), None);
+    }
+
+    /// The reference: one pass over every sample.
+    fn first_non_increasing_one_by_one(tt: &[f64]) -> Option<usize> {
+        let mut last = f64::NEG_INFINITY;
+        for (k, &t) in tt.iter().enumerate() {
+            if t.is_finite() {
+                if t <= last {
+                    return Some(k);
+                }
+                last = t;
+            }
+        }
+        None
+    }
+
+    /// Long clocks, scanned in a part per core: a step back inside either part, one right after
+    /// the parts meet, one whose earlier time lies in the other part across missing times, and
+    /// parts with no finite time at all.
+    #[test]
+    fn long_clocks_are_checked_in_parts_as_one() {
+        let n: usize = 300_001;
+        let clock: Vec<f64> = (0..n).map(|k| k as f64 * 0.1).collect();
+        let half = n.div_ceil(2);
+        let mut cases = vec![clock.clone()];
+        for at in [17, half - 1, half, half + 1, n - 1] {
+            let mut tt = clock.clone();
+            tt[at] = tt[at - 1];
+            cases.push(tt);
+        }
+        let mut across = clock.clone();
+        across[half - 3..half + 2].fill(f64::NAN);
+        across[half + 2] = across[half - 4] - 1.0;
+        cases.push(across);
+        let mut unknown = vec![f64::NAN; n];
+        cases.push(unknown.clone());
+        unknown[3] = 1.0;
+        unknown[n - 2] = 0.5;
+        cases.push(unknown);
+        for tt in &cases {
+            assert!(tt.len() > 2 * crate::parallel::PARALLEL_ROWS);
+            assert_eq!(
+                first_non_increasing(tt),
+                first_non_increasing_one_by_one(tt)
+            );
+        }
+        assert_eq!(first_non_increasing(&cases[6]), Some(half + 2));
+        assert_eq!(first_non_increasing(&cases[8]), Some(n - 2));
+        // The gaps of a long clock, found in parts, are those of one pass.
+        let mut tt = clock;
+        for at in [5, half - 1, half, n - 2] {
+            tt[at + 1..].iter_mut().for_each(|t| *t += 7.0);
+        }
+        let usable = vec![true; n];
+        assert_eq!(
+            contiguous_runs(&usable, Some(&tt)),
+            [0..6, 6..half, half..half + 1, half + 1..n - 1, n - 1..n]
+        );
     }
 
     #[test]
