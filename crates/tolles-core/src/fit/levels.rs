@@ -557,23 +557,29 @@ pub fn centre(rows: &mut [LevelRows]) {
 /// RMS of `y − A·β` over all level rows (nT), NaN without rows.
 ///
 /// Each row's fit is summed column after column from the empty sum, as a sum across the row
-/// would be, but a column at a time (contiguous, so it vectorises): the same values.
+/// would be, but a column at a time (contiguous, so it vectorises) and by parts of the rows on
+/// all cores; the squares are then added in row order: the same values.
 pub fn rms_misfit(rows: &[LevelRows], beta: &[f64]) -> f64 {
     let empty: f64 = std::iter::empty::<f64>().sum();
     let mut sum = 0.0;
     let mut count = 0usize;
     for r in rows {
-        let mut fitted = vec![empty; r.y.len()];
-        for (column, b) in r.a.column_iter().zip(beta) {
-            fitted
-                .iter_mut()
-                .zip(column.iter())
-                .for_each(|(f, a)| *f += a * b);
-        }
-        for (y, f) in r.y.iter().zip(&fitted) {
-            sum += (y - f).powi(2);
-        }
-        count += r.y.len();
+        let n = r.y.len();
+        let mut squares = vec![0.0; n];
+        crate::parallel::split_items(&mut squares, |part, squares| {
+            let mut fitted = vec![empty; part.len()];
+            for (column, b) in r.a.as_slice().chunks_exact(n.max(1)).zip(beta) {
+                fitted
+                    .iter_mut()
+                    .zip(&column[part.clone()])
+                    .for_each(|(f, a)| *f += a * b);
+            }
+            for ((q, y), f) in squares.iter_mut().zip(&r.y[part]).zip(&fitted) {
+                *q = (y - f).powi(2);
+            }
+        });
+        squares.iter().for_each(|q| sum += q);
+        count += n;
     }
     (sum / count as f64).sqrt()
 }

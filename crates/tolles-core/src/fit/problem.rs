@@ -1460,6 +1460,7 @@ impl Problem<'_, '_> {
                     // Block by block, so the target is formed while the block's Jacobian is
                     // still in the cache.
                     let start = rows.start + part.start;
+                    let mut sum = vec![0.0; TARGET_BLOCK_ROWS];
                     for block in blocks(0..part.len(), TARGET_BLOCK_ROWS) {
                         let mut j: Vec<&mut [f64]> =
                             parts.iter_mut().map(|c| &mut c[block.clone()]).collect();
@@ -1467,7 +1468,8 @@ impl Problem<'_, '_> {
                         let y = &mut *y[0];
                         let block = start + block.start..start + block.end;
                         exact_jacobian_into(design, series, &current, &terms, block.clone(), j, y);
-                        linearised_target(j, &current, &scalar[block], y);
+                        let sum = &mut sum[..block.len()];
+                        linearised_target(j, &current, &scalar[block], y, sum);
                     }
                 });
             };
@@ -1502,21 +1504,36 @@ impl Problem<'_, '_> {
 const TARGET_BLOCK_ROWS: usize = 1024;
 
 /// The Gauss-Newton target `scalar − Δ + J·β` over a block, into `y`, which holds the exact
-/// correction Δ (nT); `jacobian` has one slice per coefficient of `beta`.
+/// correction Δ (nT); `jacobian` has one slice per coefficient of `beta`; `sum` (as long as
+/// `y`) is room for `J·β`.
 ///
 /// `J·β` is summed column after column, from the empty sum, as an iterator's `sum` over a
 /// row would: the same values, from loops over the block rather than across the columns of
 /// each row. Compiled also for AVX2 and AVX-512, as the Jacobian is.
 #[multiversion(targets("x86_64+avx512f", "x86_64+avx2"))]
-fn linearised_target(jacobian: &[&mut [f64]], beta: &[f64], scalar: &[f64], y: &mut [f64]) {
+fn linearised_target(
+    jacobian: &[&mut [f64]],
+    beta: &[f64],
+    scalar: &[f64],
+    y: &mut [f64],
+    sum: &mut [f64],
+) {
     let empty: f64 = std::iter::empty::<f64>().sum();
-    let mut sum = vec![empty; y.len()];
-    for (column, b) in jacobian.iter().zip(beta) {
+    let mut columns = jacobian.iter().zip(beta);
+    match columns.next() {
+        // The first column's terms added to the empty sum as they are written.
+        Some((column, b)) => sum
+            .iter_mut()
+            .zip(column.iter())
+            .for_each(|(s, v)| *s = empty + v * b),
+        None => sum.fill(empty),
+    }
+    for (column, b) in columns {
         sum.iter_mut()
             .zip(column.iter())
             .for_each(|(s, v)| *s += v * b);
     }
-    for ((v, s), x) in y.iter_mut().zip(&sum).zip(scalar) {
+    for ((v, s), x) in y.iter_mut().zip(&*sum).zip(scalar) {
         *v = x - *v + s;
     }
 }
