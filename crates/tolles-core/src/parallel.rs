@@ -114,6 +114,17 @@ pub(crate) fn map_items<T: Sync, R: Send>(
     done.into_iter().map(|(_, r)| r).collect()
 }
 
+/// `f` of each of consecutive parts of the rows `0..n`, one part per core (each at least
+/// `least` rows), in order: [`map_items`] of the parts.
+pub(crate) fn map_parts<R: Send>(
+    n: usize,
+    least: usize,
+    f: impl Fn(Range<usize>) -> R + Sync,
+) -> Vec<R> {
+    let parts: Vec<Range<usize>> = blocks(0..n, n.div_ceil(cores()).max(least)).collect();
+    map_items(&parts, n, |part| f(part.clone()))
+}
+
 /// `f` of each of `items`, the items cut into one consecutive part per core (for items of
 /// about equal work; `rows`, the rows they cover together, decides as in [`split_rows`]
 /// whether threads are worth starting).

@@ -792,17 +792,14 @@ pub fn check_flux_magnitude<'a>(flux: impl Into<Fluxgates<'a>>) -> Result<(), Fi
                 series.x[k] * series.x[k] + series.y[k] * series.y[k] + series.z[k] * series.z[k];
             squares > lo * lo && squares < hi * hi
         };
-        let first_outside = |part: &Range<usize>| {
-            crate::parallel::blocks(part.clone(), MAGNITUDE_BLOCK)
+        let first_outside = |part: Range<usize>| {
+            crate::parallel::blocks(part, MAGNITUDE_BLOCK)
                 .filter(|block| !block.clone().fold(true, |all, k| all & inside(k)))
                 .flat_map(|block| block.map(|k| (k, series.magnitude(k))))
                 .find(|(_, m)| !m.is_nan() && !(lo..=hi).contains(m))
         };
         // A part per core; the first sample outside is the first part's that has one.
-        let n = series.len();
-        let share = n.div_ceil(crate::parallel::cores()).max(MAGNITUDE_BLOCK);
-        let parts: Vec<Range<usize>> = crate::parallel::blocks(0..n, share).collect();
-        let found = crate::parallel::map_items(&parts, n, first_outside);
+        let found = crate::parallel::map_parts(series.len(), MAGNITUDE_BLOCK, first_outside);
         if let Some((index, magnitude)) = found.into_iter().flatten().next() {
             return Err(FitError::FluxMagnitude {
                 fluxgate,

@@ -52,15 +52,12 @@ fn gaps(tt: Option<&[f64]>, n: usize) -> Vec<usize> {
     let tt = &tt[..n.min(tt.len())];
     // Steps k → k + 1 for k in a part per core, in order.
     let steps = tt.len().saturating_sub(1);
-    let share = steps.div_ceil(crate::parallel::cores()).max(1);
-    let parts: Vec<Range<usize>> = crate::parallel::blocks(0..steps, share).collect();
-    let found = crate::parallel::map_items(&parts, steps, |part| {
-        part.clone()
-            .filter(|&k| {
-                let dt = tt[k + 1] - tt[k];
-                dt.is_finite() && dt > limit
-            })
-            .collect::<Vec<usize>>()
+    let found = crate::parallel::map_parts(steps, 1, |part| {
+        part.filter(|&k| {
+            let dt = tt[k + 1] - tt[k];
+            dt.is_finite() && dt > limit
+        })
+        .collect::<Vec<usize>>()
     });
     found.concat()
 }
@@ -183,9 +180,7 @@ pub fn first_non_increasing(tt: &[f64]) -> Option<usize> {
     // A part per core, each scanned on its own: within a part, the running last time is the
     // true one from the part's first finite time on, which only the last finite time of the
     // parts before decides.
-    let share = tt.len().div_ceil(crate::parallel::cores()).max(1);
-    let parts: Vec<Range<usize>> = crate::parallel::blocks(0..tt.len(), share).collect();
-    let scans = crate::parallel::map_items(&parts, tt.len(), |part| scan_times(tt, part.clone()));
+    let scans = crate::parallel::map_parts(tt.len(), 1, |part| scan_times(tt, part));
     let mut last = f64::NEG_INFINITY;
     for scan in scans {
         if let Some((k, first)) = scan.first {
