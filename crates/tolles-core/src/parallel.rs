@@ -62,8 +62,17 @@ pub(crate) fn split_rows(
 /// Calls `f` on consecutive parts of `items` from as many threads as there are cores, each
 /// with the range of indices its part covers: [`split_rows`] for one column of any type.
 pub(crate) fn split_items<T: Send>(items: &mut [T], f: impl Fn(Range<usize>, &mut [T]) + Sync) {
+    split_among(items, threads_for_rows(items.len()), f);
+}
+
+/// [`split_items`] with `threads` threads (at most one per item).
+fn split_among<T: Send>(
+    items: &mut [T],
+    threads: usize,
+    f: impl Fn(Range<usize>, &mut [T]) + Sync,
+) {
     let n = items.len();
-    let threads = threads_for_rows(n);
+    let threads = threads.min(n).max(1);
     let share = n.div_ceil(threads).max(1);
     if threads == 1 {
         f(0..n, items);
@@ -129,17 +138,8 @@ pub(crate) fn map_parts<R: Send>(
 /// about equal work; `rows`, the rows they cover together, decides as in [`split_rows`]
 /// whether threads are worth starting).
 pub(crate) fn for_each_item<T: Send>(items: &mut [T], rows: usize, f: impl Fn(&mut T) + Sync) {
-    let threads = threads_for_rows(rows).min(items.len());
-    if threads <= 1 {
-        items.iter_mut().for_each(f);
-        return;
-    }
-    let share = items.len().div_ceil(threads);
-    std::thread::scope(|scope| {
-        for part in items.chunks_mut(share) {
-            let f = &f;
-            scope.spawn(move || part.iter_mut().for_each(f));
-        }
+    split_among(items, threads_for_rows(rows), |_, part| {
+        part.iter_mut().for_each(&f)
     });
 }
 

@@ -321,10 +321,11 @@ impl InPass {
             })
             .collect();
         for r in rows {
-            for (k, y) in r.y.iter_mut().enumerate() {
-                let correction: f64 = (0..width).map(|i| on_stored[i] * r.a[(k, i)]).sum();
-                *y += correction;
-            }
+            let LevelRows { a, y, .. } = r;
+            crate::parallel::split_items(y, |part, y| {
+                let correction = combination(a, &on_stored, part);
+                y.iter_mut().zip(&correction).for_each(|(y, c)| *y += c);
+            });
         }
     }
 }
@@ -554,26 +555,32 @@ pub fn centre(rows: &mut [LevelRows]) {
     });
 }
 
+/// `A·w` over the rows `rows` of the level rows' columns `a` (as many columns as `w` has):
+/// each row's sum taken column after column from the empty sum, as a sum across the row would
+/// be, but a column at a time (contiguous, so it vectorises): the same values.
+fn combination(a: &DMatrix<f64>, w: &[f64], rows: Range<usize>) -> Vec<f64> {
+    let empty: f64 = std::iter::empty::<f64>().sum();
+    let mut out = vec![empty; rows.len()];
+    for (column, w) in a.as_slice().chunks_exact(a.nrows().max(1)).zip(w) {
+        out.iter_mut()
+            .zip(&column[rows.clone()])
+            .for_each(|(o, a)| *o += a * w);
+    }
+    out
+}
+
 /// RMS of `y − A·β` over all level rows (nT), NaN without rows.
 ///
-/// Each row's fit is summed column after column from the empty sum, as a sum across the row
-/// would be, but a column at a time (contiguous, so it vectorises) and by parts of the rows on
-/// all cores; the squares are then added in row order: the same values.
+/// The fit is formed by parts of the rows on all cores ([`combination`]); the squares are then
+/// added in row order: the same values as row after row.
 pub fn rms_misfit(rows: &[LevelRows], beta: &[f64]) -> f64 {
-    let empty: f64 = std::iter::empty::<f64>().sum();
     let mut sum = 0.0;
     let mut count = 0usize;
     for r in rows {
         let n = r.y.len();
         let mut squares = vec![0.0; n];
         crate::parallel::split_items(&mut squares, |part, squares| {
-            let mut fitted = vec![empty; part.len()];
-            for (column, b) in r.a.as_slice().chunks_exact(n.max(1)).zip(beta) {
-                fitted
-                    .iter_mut()
-                    .zip(&column[part.clone()])
-                    .for_each(|(f, a)| *f += a * b);
-            }
+            let fitted = combination(&r.a, beta, part.clone());
             for ((q, y), f) in squares.iter_mut().zip(&r.y[part]).zip(&fitted) {
                 *q = (y - f).powi(2);
             }
