@@ -10,9 +10,15 @@ thread_local! {
 /// Cores the work of this thread may spread over: the machine's, or one inside
 /// [`on_one_core`].
 pub(crate) fn cores() -> usize {
-    CORES
-        .get()
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |t| t.get()))
+    CORES.get().unwrap_or_else(machine_cores)
+}
+
+/// The cores this process may use, asked once: the standard library reads the control
+/// group's files at every call (six system calls), which a survey compensated in small
+/// chunks paid thousands of times.
+pub(crate) fn machine_cores() -> usize {
+    static MACHINE: std::sync::OnceLock<usize> = std::sync::OnceLock::new();
+    *MACHINE.get_or_init(|| std::thread::available_parallelism().map_or(1, |t| t.get()))
 }
 
 /// Runs `f` with every step inside it on this thread alone: for work dealt to the cores in

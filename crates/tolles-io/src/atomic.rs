@@ -64,6 +64,15 @@ impl AtomicFile {
         self.temp.as_file()
     }
 
+    /// A writer to the temporary file that sends large writes past the page cache (see
+    /// [`DirectWriter`]); flush it before [`AtomicFile::commit`].
+    pub fn direct_writer(&self) -> Result<DirectWriter, IoError> {
+        let file = self.file().try_clone();
+        Ok(DirectWriter::new(
+            file.map_err(|e| write_error(&self.target, e))?,
+        ))
+    }
+
     /// The file the bytes are meant for.
     pub fn target(&self) -> &Path {
         &self.target
@@ -89,9 +98,9 @@ pub fn write_with(
     write: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
 ) -> Result<(), IoError> {
     let file = AtomicFile::create(path)?;
-    let mut out = Unbuffered::new(file.file());
+    let mut out = file.direct_writer()?;
     write(&mut out)
-        .and_then(|_| out.finish())
+        .and_then(|_| out.flush())
         .map_err(|e| write_error(path, e))?;
     file.commit()
 }
@@ -108,8 +117,11 @@ const ALIGN: usize = 4096;
 /// then costs no copy into the cache, no dirty pages for the kernel to write back later (which
 /// a rename over an existing file on ext4 does at once), and little flush before the rename.
 /// A file system that refuses direct writes gets ordinary ones, from where it refused.
-struct Unbuffered<'f> {
-    file: &'f File,
+///
+/// [`Write::flush`] writes what is held through the page cache; writes after it go through the
+/// page cache too (the file's end is then no longer aligned).
+pub struct DirectWriter {
+    file: File,
     /// Room for a chunk at an aligned offset.
     buffer: Vec<u8>,
     start: usize,
@@ -124,8 +136,8 @@ enum Direct {
     Refused,
 }
 
-impl<'f> Unbuffered<'f> {
-    fn new(file: &'f File) -> Self {
+impl DirectWriter {
+    fn new(file: File) -> Self {
         Self {
             file,
             buffer: Vec::new(),
@@ -146,7 +158,7 @@ impl<'f> Unbuffered<'f> {
     /// Writes the full chunk held, directly when the file system allows.
     fn write_chunk(&mut self) -> std::io::Result<()> {
         if self.direct == Direct::NotTried {
-            self.direct = match set_direct(self.file, true) {
+            self.direct = match set_direct(&self.file, true) {
                 Ok(()) => Direct::On,
                 Err(_) => Direct::Refused,
             };
@@ -154,41 +166,29 @@ impl<'f> Unbuffered<'f> {
         let mut done = 0;
         while done < self.held {
             let chunk = &self.buffer[self.start + done..self.start + self.held];
-            match (&*self.file).write(chunk) {
+            match (&self.file).write(chunk) {
                 Ok(0) => return Err(std::io::ErrorKind::WriteZero.into()),
                 Ok(n) => done += n,
                 Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
                 // A direct write refused writes nothing: go on through the page cache.
                 Err(e) if self.direct == Direct::On && e.raw_os_error() == Some(EINVAL) => {
-                    set_direct(self.file, false)?;
+                    set_direct(&self.file, false)?;
                     self.direct = Direct::Refused;
                 }
                 Err(e) => return Err(e),
             }
             // After a short direct write the offset is no longer aligned.
             if self.direct == Direct::On && done % ALIGN != 0 {
-                set_direct(self.file, false)?;
+                set_direct(&self.file, false)?;
                 self.direct = Direct::Refused;
             }
         }
         self.held = 0;
         Ok(())
     }
-
-    /// Writes what is held through the page cache.
-    fn finish(&mut self) -> std::io::Result<()> {
-        if self.direct == Direct::On {
-            set_direct(self.file, false)?;
-            self.direct = Direct::Refused;
-        }
-        let held = &self.buffer[self.start..self.start + self.held];
-        (&*self.file).write_all(held)?;
-        self.held = 0;
-        Ok(())
-    }
 }
 
-impl Write for Unbuffered<'_> {
+impl Write for DirectWriter {
     fn write(&mut self, data: &[u8]) -> std::io::Result<usize> {
         let room = self.room();
         let n = room.len().min(data.len());
@@ -200,7 +200,15 @@ impl Write for Unbuffered<'_> {
         Ok(n)
     }
 
+    /// Writes what is held through the page cache.
     fn flush(&mut self) -> std::io::Result<()> {
+        if self.direct == Direct::On {
+            set_direct(&self.file, false)?;
+            self.direct = Direct::Refused;
+        }
+        let held = &self.buffer[self.start..self.start + self.held];
+        (&self.file).write_all(held)?;
+        self.held = 0;
         Ok(())
     }
 }

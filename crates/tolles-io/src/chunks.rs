@@ -27,6 +27,15 @@
 //! [`crate::table::write_with_column`]. CSV, Geosoft XYZ and Parquet are read in chunks (a
 //! Parquet row group is read a chunk at a time too); a reader can be told to keep only some
 //! columns ([`ChunkReader::only`]), which for Parquet means the others are never decoded.
+//!
+//! A CSV file is read a block of whole lines at a time ([`blocks`]) and taken as the whole-file
+//! reader takes a file ([`crate::rawcsv`]): the cells a pass needs are parsed on all cores
+//! straight from the block, and [`CsvChunkWriter`] writes its rows by copying their bytes. From
+//! the first block that reader hands back to the general one (a quote, a ragged line, text that
+//! is not UTF-8), the rest of the file is read cell by cell, so what is read, written and
+//! reported is the same either way.
+
+mod blocks;
 
 use crate::atomic::AtomicFile;
 use crate::error::IoError;
@@ -40,9 +49,11 @@ use ::parquet::column::reader::ColumnReader;
 use ::parquet::errors::ParquetError;
 use ::parquet::file::reader::{FileReader, SerializedFileReader};
 use ::parquet::file::writer::SerializedFileWriter;
+use blocks::Blocks;
 use std::fs::File;
 use std::io::{BufReader, Write};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// Rows per chunk when the caller has no reason to choose: a few megabytes of text.
 pub const DEFAULT_CHUNK_ROWS: usize = 1 << 16;
@@ -54,6 +65,8 @@ pub struct ChunkReader {
     headers: Vec<String>,
     notes: Vec<String>,
     keep: Option<Vec<usize>>,
+    /// Columns to parse while reading when all are kept ([`ChunkReader::parsing`]).
+    parse: Vec<usize>,
     rows: usize,
     /// Rows returned so far; the first row of the next chunk.
     rows_read: usize,
@@ -65,6 +78,9 @@ pub struct ChunkReader {
 }
 
 enum Source {
+    /// A CSV file read a block of lines at a time for [`crate::rawcsv`].
+    Raw(Box<Blocks>),
+    /// A CSV file read cell by cell.
     Csv {
         reader: Box<csv::Reader<Bounded<File>>>,
         record: csv::StringRecord,
@@ -91,26 +107,11 @@ impl ChunkReader {
         let mut notes = Vec::new();
         let (headers, source) = match format {
             Format::Csv => {
-                let mut reader = csv::ReaderBuilder::new()
-                    .has_headers(true)
-                    .trim(csv::Trim::All)
-                    .from_reader(bounded_header(file, path)?);
-                let headers: Vec<String> = reader
-                    .headers()
-                    .map_err(|e| csv_error(path, e))?
-                    .iter()
-                    .map(str::to_string)
-                    .collect();
-                if let Err(e) = check_header(path, &headers) {
-                    // Reading the file whole reports a ragged line before a bad header.
-                    for record in reader.records() {
-                        record.map_err(|e| csv_error(path, e))?;
-                    }
-                    return Err(e);
+                let (headers, general) = open_csv(file, path)?;
+                match Blocks::open(path, &headers)? {
+                    Some(blocks) => (headers, Source::Raw(Box::new(blocks))),
+                    None => (headers, general),
                 }
-                let record = csv::StringRecord::new();
-                let reader = Box::new(reader);
-                (headers, Source::Csv { reader, record })
             }
             Format::Xyz => {
                 let mut chunks = Box::new(XyzChunks::new(file, path));
@@ -138,6 +139,7 @@ impl ChunkReader {
             headers,
             notes,
             keep: None,
+            parse: Vec::new(),
             rows,
             rows_read: 0,
             first_row: 0,
@@ -158,6 +160,14 @@ impl ChunkReader {
         if let Source::Parquet(p) = &mut self.source {
             p.keep(self.keep.as_deref());
         }
+        self
+    }
+
+    /// Parses the columns at `indices` (into [`ChunkReader::headers`]) while reading chunks of
+    /// every column, where the reader can (a CSV file's blocks): asked for as numbers, they are
+    /// there. The chunks are the same.
+    pub fn parsing(mut self, indices: Vec<usize>) -> Self {
+        self.parse = indices;
         self
     }
 
@@ -202,15 +212,8 @@ impl ChunkReader {
     /// The next chunk of at most the chosen number of rows, or `None` after the last row.
     pub fn next_chunk(&mut self) -> Result<Option<Table>, IoError> {
         let table = match &mut self.source {
-            Source::Csv { reader, record } => read_csv_rows(
-                reader,
-                record,
-                &self.path,
-                &self.headers,
-                self.keep.as_deref(),
-                self.rows,
-                self.rows_read,
-            )?,
+            Source::Raw(_) => self.next_raw()?,
+            Source::Csv { .. } => self.next_chunk_cell_by_cell()?,
             Source::Xyz { chunks, pending } => match pending.take() {
                 Some(t) => Some(*t),
                 None => chunks.next_rows(self.rows)?,
@@ -233,12 +236,115 @@ impl ChunkReader {
         Ok(table)
     }
 
+    /// The next chunk of a CSV file read in blocks: a block's rows as [`crate::rawcsv`] takes
+    /// them, or, from the first block it hands back, the rest of the file read cell by cell.
+    fn next_raw(&mut self) -> Result<Option<Table>, IoError> {
+        let fields = self.keep.clone().unwrap_or_else(|| self.parse.clone());
+        let width = self.headers.len();
+        while let Source::Raw(blocks) = &mut self.source {
+            let block = blocks
+                .next(self.rows)
+                .map_err(|e| open_error(&self.path, e))?;
+            let read = block.is_some();
+            match (read, block.and_then(|b| b.rows(width, &fields))) {
+                (false, _) if self.rows_read > 0 => return Ok(None),
+                (true, Some((rows, _))) if rows.is_empty() => {}
+                (true, Some((rows, lines))) => {
+                    let keep = self.keep.as_deref();
+                    return raw_table(&self.path, &self.headers, keep, rows, lines).map(Some);
+                }
+                // Lines the general reader must take, or a file without rows, whose error it gives.
+                _ => self.source = general_after(&self.path, self.rows_read)?,
+            }
+        }
+        self.next_chunk_cell_by_cell()
+    }
+
+    /// The next chunk read by the general reader.
+    fn next_chunk_cell_by_cell(&mut self) -> Result<Option<Table>, IoError> {
+        let Source::Csv { reader, record } = &mut self.source else {
+            return Ok(None);
+        };
+        read_csv_rows(
+            reader,
+            record,
+            &self.path,
+            &self.headers,
+            self.keep.as_deref(),
+            self.rows,
+            self.rows_read,
+        )
+    }
+
     /// The (renamed) names of the columns a chunk holds.
     fn kept_headers(&self) -> Vec<String> {
         match &self.keep {
             Some(keep) => keep.iter().map(|&j| self.headers[j].clone()).collect(),
             None => self.headers.clone(),
         }
+    }
+}
+
+/// The general reader of the CSV file at `path` (`file`), past its header, and the header's
+/// names; a bad header is an error after any ragged line of the file, as reading it whole
+/// reports.
+fn open_csv(file: File, path: &Path) -> Result<(Vec<String>, Source), IoError> {
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(true)
+        .trim(csv::Trim::All)
+        .from_reader(bounded_header(file, path)?);
+    let headers: Vec<String> = reader
+        .headers()
+        .map_err(|e| csv_error(path, e))?
+        .iter()
+        .map(str::to_string)
+        .collect();
+    if let Err(e) = check_header(path, &headers) {
+        for record in reader.records() {
+            record.map_err(|e| csv_error(path, e))?;
+        }
+        return Err(e);
+    }
+    let record = csv::StringRecord::new();
+    let reader = Box::new(reader);
+    Ok((headers, Source::Csv { reader, record }))
+}
+
+/// The general reader of the CSV file at `path` past its first `rows` data rows.
+fn general_after(path: &Path, rows: usize) -> Result<Source, IoError> {
+    let file = File::open(path).map_err(|e| open_error(path, e))?;
+    let (_, mut source) = open_csv(file, path)?;
+    if let Source::Csv { reader, record } = &mut source {
+        for _ in 0..rows {
+            read_located(reader, record, path)?;
+        }
+    }
+    Ok(source)
+}
+
+/// The table of the `keep` columns (all when `None`) of `rows` of a CSV file whose columns are
+/// `headers`, row `k` being file line `lines[k]`.
+fn raw_table(
+    path: &Path,
+    headers: &[String],
+    keep: Option<&[usize]>,
+    rows: crate::rawcsv::RawRows,
+    lines: Vec<u64>,
+) -> Result<Table, IoError> {
+    let rows = Arc::new(rows);
+    let fields: Vec<usize> = keep.map_or_else(|| (0..rows.fields()).collect(), <[usize]>::to_vec);
+    let names = fields.iter().map(|&f| headers[f].clone()).collect();
+    let columns = fields
+        .iter()
+        .map(|&f| Column::Text(TextColumn::raw(Arc::clone(&rows), f)))
+        .collect();
+    Table::from_columns(path, names, columns, Some(lines))
+}
+
+fn open_error(path: &Path, source: std::io::Error) -> IoError {
+    IoError::Open {
+        path: path.to_path_buf(),
+        source,
     }
 }
 
@@ -375,31 +481,33 @@ fn invalid(path: &Path, e: ParquetError) -> IoError {
 }
 
 /// Writes CSV a chunk at a time: the header first, then each chunk's rows plus extra columns,
-/// as [`crate::table::write_with_column`] writes a whole table.
+/// as [`crate::table::write_with_column`] writes a whole table (rows left in a CSV file's bytes
+/// copied).
 pub struct CsvChunkWriter<W: Write> {
-    writer: csv::Writer<W>,
+    out: W,
 }
 
 impl<W: Write> CsvChunkWriter<W> {
     /// Writes the header: `headers` then `extra`.
-    pub fn new(out: W, headers: &[String], extra: &[String]) -> std::io::Result<Self> {
-        let mut writer = csv::WriterBuilder::new().from_writer(out);
+    pub fn new(mut out: W, headers: &[String], extra: &[String]) -> std::io::Result<Self> {
+        // Through a buffer: the csv crate's flush would flush `out` too.
+        let mut writer = csv::WriterBuilder::new().from_writer(Vec::new());
         writer
             .write_record(headers.iter().chain(extra))
             .map_err(into_io)?;
-        Ok(Self { writer })
+        out.write_all(&writer.into_inner().map_err(|e| e.into_error())?)?;
+        Ok(Self { out })
     }
 
     /// Writes the rows of `chunk` plus one value per row of each `extra` column (empty for NaN).
     pub fn write(&mut self, chunk: &Table, extra: &[&[f64]]) -> std::io::Result<()> {
-        write_rows(chunk, extra, &mut self.writer)
+        write_rows(chunk, extra, &mut self.out)
     }
 
     /// Flushes, and gives back the output.
-    pub fn finish(self) -> std::io::Result<W> {
-        self.writer
-            .into_inner()
-            .map_err(|e| std::io::Error::other(e.to_string()))
+    pub fn finish(mut self) -> std::io::Result<W> {
+        self.out.flush()?;
+        Ok(self.out)
     }
 }
 
@@ -489,11 +597,14 @@ impl NumberSpill {
     /// Appends the rows of `columns` (`width` columns of equal length).
     pub fn push(&mut self, columns: &[&[f64]]) -> std::io::Result<()> {
         let rows = columns.first().map_or(0, |c| c.len());
+        let columns = &columns[..self.width.min(columns.len())];
+        let mut bytes = Vec::with_capacity(rows * columns.len() * 8);
         for k in 0..rows {
-            for column in columns.iter().take(self.width) {
-                self.out.write_all(&column[k].to_le_bytes())?;
+            for column in columns {
+                bytes.extend_from_slice(&column[k].to_le_bytes());
             }
         }
+        self.out.write_all(&bytes)?;
         self.rows += rows;
         Ok(())
     }
@@ -688,5 +799,113 @@ mod tests {
         assert!(got[3].is_nan() && seen[3].is_nan());
         assert_eq!(got[5], -5.0);
         assert_eq!(back.numeric("c").unwrap(), [1.0; 10]);
+    }
+
+    /// What a reader gives for a CSV file: the text written with one more column (`0.5 k` in
+    /// row k), and each column's numbers (as bits) or its first error; or the error reading it.
+    type Read = Result<(String, Vec<Result<Vec<u64>, String>>), String>;
+
+    fn read_whole(path: &Path) -> Read {
+        let table = Table::read(path, Some(Format::Csv)).map_err(|e| e.to_string())?;
+        let extra: Vec<f64> = (1..=table.len()).map(|k| 0.5 * k as f64).collect();
+        let mut out = Vec::new();
+        write_with_column(&table, &[("e".into(), extra)], &mut out).unwrap();
+        let numbers = (0..table.headers().len())
+            .map(|j| {
+                table
+                    .numeric_at(j)
+                    .map(|v| bits(&v))
+                    .map_err(|e| e.to_string())
+            })
+            .collect();
+        Ok((String::from_utf8(out).unwrap(), numbers))
+    }
+
+    fn read_in_chunks(path: &Path, rows: usize) -> Read {
+        let fail = |e: IoError| e.to_string();
+        let mut reader = ChunkReader::open(path, Format::Csv, rows).map_err(fail)?;
+        let width = reader.headers().len();
+        let mut writer = CsvChunkWriter::new(Vec::new(), reader.headers(), &["e".into()]).unwrap();
+        let mut numbers: Vec<Result<Vec<u64>, String>> = vec![Ok(Vec::new()); width];
+        let mut k = 0.0;
+        while let Some(chunk) = reader.next_chunk().map_err(fail)? {
+            assert!(chunk.len() <= rows);
+            let extra: Vec<f64> = (0..chunk.len())
+                .map(|_| {
+                    k += 0.5;
+                    k
+                })
+                .collect();
+            writer.write(&chunk, &[&extra]).unwrap();
+            for (j, column) in numbers.iter_mut().enumerate() {
+                if let Ok(so_far) = column {
+                    match chunk.numeric_at(j) {
+                        Ok(v) => so_far.extend(bits(&v)),
+                        Err(e) => *column = Err(e.to_string()),
+                    }
+                }
+            }
+        }
+        Ok((
+            String::from_utf8(writer.finish().unwrap()).unwrap(),
+            numbers,
+        ))
+    }
+
+    fn bits(v: &[f64]) -> Vec<u64> {
+        v.iter().map(|v| v.to_bits()).collect()
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(1500))]
+        #[test]
+        fn csv_in_chunks_of_any_size_reads_and_writes_what_reading_whole_does(
+            text in crate::rawcsv::tests::csv_text(),
+            rows in 1usize..6,
+        ) {
+            let dir = tempfile::tempdir().unwrap();
+            let path = dir.path().join("t.csv");
+            std::fs::write(&path, &text).unwrap();
+            let (whole, chunked) = (read_whole(&path), read_in_chunks(&path, rows));
+            // Where a file read whole goes to the general reader but its first blocks do not,
+            // their rows' lines are counted apart: the general reader's count differs after a
+            // carriage return (see `rawcsv`'s tests).
+            let (whole, chunked) = match !text.contains('\r') {
+                true => (whole, chunked),
+                false => {
+                    let hide = |r: Read| {
+                        let hide = |e: String| crate::rawcsv::tests::without_line_numbers(&e);
+                        r.map(|(t, n)| (t, n.into_iter().map(|c| c.map_err(hide)).collect()))
+                            .map_err(hide)
+                    };
+                    (hide(whole), hide(chunked))
+                }
+            };
+            proptest::prop_assert_eq!(chunked, whole);
+        }
+    }
+
+    #[test]
+    fn most_generated_files_are_read_in_blocks() {
+        // The property above means little if every file went the general way.
+        use proptest::strategy::{Strategy, ValueTree};
+        let mut runner = proptest::test_runner::TestRunner::deterministic();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.csv");
+        let (mut in_blocks, mut total) = (0, 0);
+        for _ in 0..500 {
+            let text = crate::rawcsv::tests::csv_text()
+                .new_tree(&mut runner)
+                .unwrap()
+                .current();
+            std::fs::write(&path, &text).unwrap();
+            let Ok(mut reader) = ChunkReader::open(&path, Format::Csv, 3) else {
+                continue;
+            };
+            let raw = matches!(reader.next_chunk(), Ok(Some(c)) if c.raw_rows().is_some());
+            in_blocks += usize::from(raw);
+            total += 1;
+        }
+        assert!(in_blocks * 5 > total, "{in_blocks} of {total}");
     }
 }

@@ -158,33 +158,60 @@ fn from_bytes_in_pieces(
     piece_bytes: usize,
 ) -> Option<RawCsv> {
     let header_end = memchr::memchr(b'\n', &bytes)?;
-    let header_line = &bytes[..=header_end];
-    // A quote may hide a line break in a name, a carriage return inside the line ends the header
-    // early for the general reader, and an overlong header is the general reader's error.
-    let inside = header_line
-        .strip_suffix(b"\r\n")
-        .unwrap_or(&header_line[..header_end]);
-    if header_line.contains(&b'"')
-        || inside.contains(&b'\r')
-        || header_end > crate::table::MAX_HEADER_BYTES
-    {
-        return None;
-    }
-    let headers = header_names(header_line)?;
+    let headers = header_line_names(&bytes[..=header_end])?;
     crate::table::check_header(path, &headers).ok()?;
-    let mut fields = wanted(&headers);
-    fields.retain(|&f| f < headers.len());
-    fields.sort_unstable();
-    fields.dedup();
-    let layout = Layout::new(headers.len(), &fields);
-    let pieces = pieces(&bytes, header_end + 1..bytes.len(), piece_bytes);
-    let (rows, blank) = scan_all(Arc::clone(&bytes), &pieces, &layout)?;
-    let lines = blank.then(|| line_numbers(&bytes, &rows.starts));
+    let fields = wanted(&headers);
+    let body = header_end + 1..bytes.len();
+    let (rows, lines) = rows_in(
+        bytes,
+        body,
+        2,
+        &Layout::new(headers.len(), &fields),
+        piece_bytes,
+    )?;
     Some(RawCsv {
         headers,
         rows,
         lines,
     })
+}
+
+/// The data lines of a CSV file whose header has `width` cells, held in `bytes` from the start
+/// of a line (a part of the file read on its own, without the header), the cells `fields`
+/// parsed on the way; with the file line of each row when blank lines are among them, the
+/// first line of `bytes` being line `first_line`. `None` when the general reader must take
+/// them (see the module documentation).
+pub(crate) fn body_rows(
+    bytes: Arc<Bytes>,
+    width: usize,
+    fields: &[usize],
+    first_line: u64,
+) -> Option<(RawRows, Option<Vec<u64>>)> {
+    let all = 0..bytes.len();
+    // A part of a file is small: cut it for every core, a few pieces each.
+    let cores = rayon::current_num_threads().max(1);
+    let piece_bytes = (all.len() / (4 * cores)).max(MIN_PIECE_BYTES);
+    let layout = Layout::new(width, fields);
+    rows_in(bytes, all, first_line, &layout, piece_bytes)
+}
+
+/// Smallest piece of a part of a file ([`body_rows`]) one core scans on its own (bytes).
+const MIN_PIECE_BYTES: usize = 1 << 16;
+
+/// The rows of the lines `range` of `bytes` (the first being file line `first_line`), in
+/// pieces of about `piece_bytes` for the cores, and their file lines if any line is blank.
+fn rows_in(
+    bytes: Arc<Bytes>,
+    range: Range<usize>,
+    first_line: u64,
+    layout: &Layout,
+    piece_bytes: usize,
+) -> Option<(RawRows, Option<Vec<u64>>)> {
+    let start = range.start;
+    let pieces = pieces(&bytes, range, piece_bytes);
+    let (rows, blank) = scan_all(Arc::clone(&bytes), &pieces, layout)?;
+    let lines = blank.then(|| line_numbers(&bytes[start..], start, first_line, &rows.starts));
+    Some((rows, lines))
 }
 
 /// The rows of all `pieces` (in order) and whether any line was blank: every piece scanned on
@@ -294,6 +321,19 @@ fn close_gaps<T: Copy>(v: &mut Vec<T>, room: &[usize], found: &[usize]) {
     v.truncate(to);
 }
 
+/// The names of the header `line` (its bytes to its line feed, included) when this reader
+/// takes the header: `None` when the general reader must.
+pub(crate) fn header_line_names(line: &[u8]) -> Option<Vec<String>> {
+    let end = line.len().checked_sub(1)?;
+    // A quote may hide a line break in a name, a carriage return inside the line ends the header
+    // early for the general reader, and an overlong header is the general reader's error.
+    let inside = line.strip_suffix(b"\r\n").unwrap_or(&line[..end]);
+    if line.contains(&b'"') || inside.contains(&b'\r') || end > crate::table::MAX_HEADER_BYTES {
+        return None;
+    }
+    header_names(line)
+}
+
 /// The header's names as the general reader takes them (trimmed; a UTF-8 byte-order mark
 /// dropped).
 fn header_names(line: &[u8]) -> Option<Vec<String>> {
@@ -335,7 +375,13 @@ struct Layout {
 }
 
 impl Layout {
+    /// Rows of `width` cells, of which `fields` (any order, repeats and cells beyond the row
+    /// ignored) are parsed.
     fn new(width: usize, fields: &[usize]) -> Self {
+        let mut fields = fields.to_vec();
+        fields.retain(|&f| f < width);
+        fields.sort_unstable();
+        fields.dedup();
         let mut slot = vec![None; width];
         for (k, &f) in fields.iter().enumerate() {
             slot[f] = Some(k);
@@ -343,7 +389,7 @@ impl Layout {
         Self {
             width,
             slot,
-            fields: fields.to_vec(),
+            fields,
         }
     }
 }
@@ -653,14 +699,15 @@ fn maybe_space(b: u8) -> bool {
     matches!(b, b' ' | b'\t' | 0x0b | 0x0c) || b >= 0x80
 }
 
-/// The file line (1-based) of each row starting at `starts`, counting every line break before
-/// it; only needed when blank lines make rows and lines differ.
-fn line_numbers(bytes: &[u8], starts: &[u64]) -> Vec<u64> {
+/// The file line (1-based) of each row starting at `starts` (offsets into the bytes of which
+/// `text` starts `offset` bytes in, at line `first_line`), counting every line break before it;
+/// only needed when blank lines make rows and lines differ.
+fn line_numbers(text: &[u8], offset: usize, first_line: u64, starts: &[u64]) -> Vec<u64> {
     let mut lines = Vec::with_capacity(starts.len());
-    let (mut line, mut from) = (1u64, 0usize);
+    let (mut line, mut from) = (first_line, 0usize);
     for &start in starts {
-        let start = start as usize;
-        line += memchr::memchr_iter(b'\n', &bytes[from..start]).count() as u64;
+        let start = start as usize - offset;
+        line += memchr::memchr_iter(b'\n', &text[from..start]).count() as u64;
         from = start;
         lines.push(line);
     }
@@ -864,7 +911,10 @@ fn general(cell: &[u8]) -> Option<f64> {
 pub fn write_rows(rows: &RawRows, extra: &[&[f64]], out: &mut dyn Write) -> std::io::Result<()> {
     let n = rows.len();
     let blocks = n.div_ceil(BLOCK_ROWS);
-    let threads = std::thread::available_parallelism().map_or(1, |t| t.get());
+    // Asked once: the standard library reads the control group's files at every call.
+    static THREADS: std::sync::OnceLock<usize> = std::sync::OnceLock::new();
+    let threads =
+        *THREADS.get_or_init(|| std::thread::available_parallelism().map_or(1, |t| t.get()));
     if blocks <= 1 || threads <= 1 {
         let mut text = Vec::new();
         return (0..blocks).try_for_each(|b| {
@@ -1121,7 +1171,7 @@ mod smallvec_digits {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::error::IoError;
     use crate::table::{format_value, write_with_column, Column, Table};
@@ -1267,7 +1317,7 @@ mod tests {
 
     /// A CSV text of a few columns whose cells, line ends and blank lines are drawn from what
     /// real files hold and what the general reader must handle itself.
-    fn csv_text() -> impl Strategy<Value = String> {
+    pub(crate) fn csv_text() -> impl Strategy<Value = String> {
         let cell = prop::sample::select(vec![
             "123",
             "-4.5",
@@ -1317,7 +1367,7 @@ mod tests {
     }
 
     /// `text` with the digits of every `line N` hidden.
-    fn without_line_numbers(text: &str) -> String {
+    pub(crate) fn without_line_numbers(text: &str) -> String {
         let mut out = String::new();
         let mut rest = text;
         while let Some(at) = rest.find("line ") {

@@ -728,7 +728,7 @@ impl Table {
 
     /// The file rows behind this table when every column is, in order, the cells of a CSV file
     /// left in its bytes ([`crate::rawcsv`]): a row can then be written by copying it.
-    fn raw_rows(&self) -> Option<&RawRows> {
+    pub(crate) fn raw_rows(&self) -> Option<&RawRows> {
         let (rows, _) = self.columns.first()?.raw_source()?;
         let same = self.columns.iter().enumerate().all(|(j, c)| {
             c.raw_source()
@@ -1115,12 +1115,22 @@ pub fn write_with_column(
 
 /// Writes the rows of `table` plus the `extra` columns (no header), as [`write_with_column`]
 /// does; a file written in chunks is the same text as one written whole.
-pub(crate) fn write_rows<W: std::io::Write>(
+pub(crate) fn write_rows(
     table: &Table,
     extra: &[&[f64]],
-    writer: &mut csv::Writer<W>,
+    out: &mut dyn std::io::Write,
 ) -> std::io::Result<()> {
-    write_padded_rows(table, extra, table.len(), writer)
+    match table.raw_rows() {
+        Some(raw) if extra.iter().all(|v| v.len() == table.len()) => {
+            crate::rawcsv::write_rows(raw, extra, out)
+        }
+        _ => {
+            // Through a buffer: the csv crate's flush would flush `out` too.
+            let mut writer = csv::WriterBuilder::new().from_writer(Vec::new());
+            write_padded_rows(table, extra, table.len(), &mut writer)?;
+            out.write_all(&writer.into_inner().map_err(|e| e.into_error())?)
+        }
+    }
 }
 
 /// Writes `table` plus the `extra` columns, of any lengths, as CSV of `rows` rows with a header

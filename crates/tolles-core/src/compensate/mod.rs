@@ -167,8 +167,20 @@ pub fn model_field<'a>(
     fs_ratio: f64,
 ) -> Vec<f64> {
     let flux = flux.into();
-    let beta = rescale_eddy(model.design, model.coefficients, fs_ratio);
     let runs = contiguous_runs(&flux.finite_mask(), tt);
+    model_field_over_runs(flux, &runs, model, fs_ratio)
+}
+
+/// [`model_field`] with its `runs` given (ascending, apart): rows outside them are NaN. A
+/// part of a flight cut with one more row on each side where its runs go on gets the values of
+/// its rows in the whole flight.
+pub fn model_field_over_runs(
+    flux: Fluxgates<'_>,
+    runs: &[Range<usize>],
+    model: Model<'_>,
+    fs_ratio: f64,
+) -> Vec<f64> {
+    let beta = rescale_eddy(model.design, model.coefficients, fs_ratio);
     // Written run by run below, on all cores; only the rows between runs are set here.
     let mut field = vec![0.0; flux.len()];
     let mut after_run = 0;
@@ -180,7 +192,7 @@ pub fn model_field<'a>(
         coefficients: &beta,
         ..model
     };
-    write_runs(flux, &runs, model, &mut field);
+    write_runs(flux, runs, model, &mut field);
     field
 }
 

@@ -17,7 +17,21 @@ pub const GAP_FACTOR: f64 = 1.5;
 /// Maximal runs of `usable` samples, also split where the time step (`tt`, seconds) exceeds
 /// [`GAP_FACTOR`] times the median step.
 pub fn contiguous_runs(usable: &[bool], tt: Option<&[f64]>) -> Vec<Range<usize>> {
-    let gaps = gaps(tt, usable.len());
+    let step = tt.and_then(median_step);
+    contiguous_runs_with_step(usable, tt, step)
+}
+
+/// [`contiguous_runs`] with the median time step (s) given: a part of a longer flight is split
+/// where the whole flight is, not by its own median.
+pub fn contiguous_runs_with_step(
+    usable: &[bool],
+    tt: Option<&[f64]>,
+    median_step_s: Option<f64>,
+) -> Vec<Range<usize>> {
+    let gaps = match (tt, median_step_s) {
+        (Some(tt), Some(step)) => gaps(tt, usable.len(), step),
+        _ => Vec::new(),
+    };
     let mut gaps = gaps.iter().copied().peekable();
     let mut runs = Vec::new();
     let mut k = 0;
@@ -42,12 +56,9 @@ pub fn contiguous_runs(usable: &[bool], tt: Option<&[f64]>) -> Vec<Range<usize>>
     runs
 }
 
-/// The samples k whose step to sample k + 1 is a gap, ascending.
-fn gaps(tt: Option<&[f64]>, n: usize) -> Vec<usize> {
-    let Some(tt) = tt else { return Vec::new() };
-    let Some(step) = median_step(tt) else {
-        return Vec::new();
-    };
+/// The samples k whose step to sample k + 1 is a gap ([`GAP_FACTOR`] median `step`s, s),
+/// ascending.
+fn gaps(tt: &[f64], n: usize, step: f64) -> Vec<usize> {
     let limit = GAP_FACTOR * step;
     let tt = &tt[..n.min(tt.len())];
     // Steps k → k + 1 for k in a part per core, in order.

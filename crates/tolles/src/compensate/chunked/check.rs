@@ -6,7 +6,7 @@ use crate::error::{Error, Result};
 use crate::read::sample_rate_from;
 use crate::warning::Warning;
 use std::path::Path;
-use tolles_core::compensate::stream::ScalarSpec;
+use tolles_core::compensate::Model;
 use tolles_core::model::design::Design;
 use tolles_core::model::magnitude::Magnitude;
 use tolles_io::model::{ModelFile, ScalarModel};
@@ -14,8 +14,6 @@ use tolles_io::IoError;
 
 /// One fit, checked and ready to compute.
 pub(super) struct ReadyFit {
-    /// The uncompensated scalar.
-    pub scalar: String,
     /// The compensated column the model names (before any renaming).
     pub output: String,
     /// Index into [`Plan::fluxgates`].
@@ -25,7 +23,7 @@ pub(super) struct ReadyFit {
     /// Linear or exact (see `tolles_core::model::magnitude`).
     model_magnitude: Magnitude,
     /// The survey's sample rate / the calibration flight's.
-    fs_ratio: f64,
+    pub fs_ratio: f64,
     /// The calibration flight's mean `A·β` stored in the model (nT).
     pub model_level_nt: f64,
     /// A given sample rate far from the time column's.
@@ -33,17 +31,13 @@ pub(super) struct ReadyFit {
 }
 
 impl ReadyFit {
-    /// The streaming compensator's description of this fit, subtracting `level_nt` (nT).
-    pub fn spec(&self, level_nt: f64) -> ScalarSpec {
-        ScalarSpec::new(
-            &self.scalar,
-            self.fluxgate,
-            self.design.clone(),
-            &self.coefficients,
-            level_nt,
-            self.fs_ratio,
-        )
-        .with_magnitude(self.model_magnitude)
+    /// The fitted model, its coefficients for the calibration flight's sample rate.
+    pub fn model(&self) -> Model<'_> {
+        Model {
+            design: &self.design,
+            coefficients: &self.coefficients,
+            magnitude: self.model_magnitude,
+        }
     }
 }
 
@@ -110,7 +104,6 @@ fn check_fit(
         (fs, _) => sample_rate_from(survey, None, scan.median_step, fs)?,
     };
     Ok(ReadyFit {
-        scalar: fit.scalar.clone(),
         output: fit.output_column.clone(),
         fluxgate: columns.fluxgate,
         design: fit.fit.settings.design.clone(),

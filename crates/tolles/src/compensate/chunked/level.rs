@@ -1,80 +1,15 @@
 //! Pass 2: each fit's level, the mean of its correction `A·β` over the file, which the
-//! whole-file path keeps in the data; and what passes 2 and 3 share, feeding the streaming
-//! compensator with runs split where the batch computation splits them.
+//! whole-file path keeps in the data.
 
 use super::check::ReadyFit;
+use super::field::Fields;
 use super::scan::{numbers, temporary, Plan, Scan};
 use crate::error::{Error, Result};
 use crate::progress::Progress;
 use std::path::{Path, PathBuf};
-use tolles_core::compensate::stream::{Derivative, Output, Sample, ScalarSpec, StreamCompensator};
 use tolles_core::fit::scalar_usable;
-use tolles_core::signal::segment::GAP_FACTOR;
 use tolles_io::chunks::{ChunkReader, SpillReader};
 use tolles_io::IoError;
-
-/// The numbers one pass feeds the compensator, a row at a time, and whether a time gap comes
-/// before the row.
-pub(super) struct Feed<'a> {
-    plan: &'a Plan,
-    /// Gap threshold (s): [`GAP_FACTOR`] median steps, as the batch runs use.
-    gap_s: Option<f64>,
-    /// The time of the row before (s).
-    previous_t: f64,
-    /// The row's scalars (nT), one per fit.
-    pub scalars: Vec<f64>,
-    /// The row's fluxgates (nT), one per distinct fluxgate.
-    flux: Vec<[f64; 3]>,
-}
-
-impl<'a> Feed<'a> {
-    pub fn new(plan: &'a Plan, scan: &Scan) -> Self {
-        Self {
-            plan,
-            gap_s: scan.median_step.map(|step| GAP_FACTOR * step),
-            previous_t: f64::NAN,
-            scalars: vec![0.0; plan.fits.len()],
-            flux: vec![[f64::NAN; 3]; plan.fluxgates.len()],
-        }
-    }
-
-    /// Loads row `k` of `values` (the columns of [`Plan::read`]); true when a time gap comes
-    /// before it.
-    pub fn load(&mut self, values: &[Vec<f64>], k: usize) -> bool {
-        let at = |position: &Result<usize, IoError>| match position {
-            Ok(p) => values[*p][k],
-            Err(_) => f64::NAN,
-        };
-        for (flux, (_, axes)) in self.flux.iter_mut().zip(&self.plan.fluxgates) {
-            *flux = [0, 1, 2].map(|a| at(&axes[a]));
-        }
-        for (scalar, fit) in self.scalars.iter_mut().zip(&self.plan.fits) {
-            *scalar = at(&fit.scalar);
-        }
-        let Some(p) = self.plan.tt else { return false };
-        let t = values[p][k];
-        let dt = t - self.previous_t;
-        self.previous_t = t;
-        self.gap_s.is_some_and(|gap| dt.is_finite() && dt > gap)
-    }
-
-    pub fn sample(&self) -> Sample<'_> {
-        Sample {
-            time_s: None,
-            scalars: &self.scalars,
-            fluxgates: &self.flux,
-            extras: &[],
-        }
-    }
-}
-
-/// A streaming compensator of `specs` over the fluxgates of `plan`, which the caller splits
-/// into runs.
-pub(super) fn compensator<T>(specs: Vec<ScalarSpec>, plan: &Plan) -> StreamCompensator<T> {
-    let names = plan.fluxgates.iter().map(|(v, _)| v.clone()).collect();
-    // No times are fed (runs are split by the caller), so the rate here sets nothing.
-    StreamCompensator::new(specs, names, 1.0, Derivative::Central)
-}
 
 /// An error unless a later pass over `path` met as many `rows` as pass 1 (`expected`).
 pub(super) fn same_rows(path: &Path, rows: usize, expected: usize) -> Result<()> {
@@ -135,8 +70,7 @@ impl Numbers {
 }
 
 /// Pass 2: the mean of each fit's correction over the file, summed in file order as the batch
-/// mean is. The compensator is fed a scalar of 0, which makes its output exactly −A·β; each
-/// row carries whether its scalars are finite, for the count of rows without a result.
+/// mean is, and the count of rows without a result (no correction, or a scalar not usable).
 pub(super) fn level(
     mut numbers: Numbers,
     plan: &Plan,
@@ -144,30 +78,25 @@ pub(super) fn level(
     fits: &[ReadyFit],
     progress: &dyn Progress,
 ) -> Result<Vec<Level>> {
-    let specs = fits.iter().map(|f| f.spec(0.0)).collect();
-    let mut stream = compensator::<Vec<bool>>(specs, plan);
+    let mut fields = Fields::new(plan, scan, fits);
     let mut sums = vec![Mean::default(); fits.len()];
-    let mut emit = |o: Output<'_, Vec<bool>>| {
-        for ((mean, v), scalar_finite) in sums.iter_mut().zip(o.compensated).zip(&o.payload) {
-            mean.add(-v, *scalar_finite);
+    let mut add = |computed: super::field::Computed| {
+        for ((mean, field), columns) in sums.iter_mut().zip(&computed.fields).zip(&plan.fits) {
+            let scalar = columns.scalar.as_ref().ok().map(|&p| &computed.values[p]);
+            for (k, &f) in field.iter().enumerate() {
+                let s = scalar.map_or(f64::NAN, |s| s[k]);
+                mean.add(f, scalar_usable(s));
+            }
         }
     };
-    let mut feed = Feed::new(plan, scan);
     let mut rows = 0;
     while let Some(values) = numbers.next_chunk(plan)? {
-        let len = values.first().map_or(0, Vec::len);
+        let len = values.iter().map(Vec::len).max().unwrap_or(0);
         progress.advance(len as u64);
-        for k in 0..len {
-            if feed.load(&values, k) {
-                stream.split(&mut emit);
-            }
-            let scalar_finite = feed.scalars.iter().map(|s| scalar_usable(*s)).collect();
-            feed.scalars.iter_mut().for_each(|s| *s = 0.0);
-            stream.push(scalar_finite, Some(feed.sample()), Vec::new(), &mut emit);
-        }
+        fields.push(values).map(&mut add);
         rows += len;
     }
-    stream.finish(&mut emit);
+    fields.finish().map(&mut add);
     same_rows(&numbers.path(), rows, scan.rows)?;
     Ok(sums.into_iter().map(Mean::level).collect())
 }

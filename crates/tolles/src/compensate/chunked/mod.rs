@@ -20,6 +20,7 @@
 //! [`tolles_io::chunks::DEFAULT_CHUNK_ROWS`]) whatever the length of the file.
 
 mod check;
+mod field;
 mod level;
 mod scan;
 mod write;
@@ -187,18 +188,16 @@ fn run(
     if let Some(e) = failure {
         return Err(e);
     }
-    let specs = fits
-        .iter()
-        .zip(levels_nt(&fits, levels.as_deref(), fixed))
-        .map(|(f, level_nt)| f.spec(level_nt))
-        .collect();
+    let levels_nt = levels_nt(&fits, levels.as_deref(), fixed);
     let names: Vec<String> = report.names(&fits).into_iter().map(|n| n.0).collect();
     let target = write::Target {
         out: request.out.as_deref(),
         writer,
     };
     let (plan, scan) = (&file.plan, &file.scan);
-    let empty = write::write(file.open()?, target, (plan, scan), specs, &names, progress)?;
+    let reader = file.open()?.parsing(plan.read.clone());
+    let computing = (fits.as_slice(), levels_nt.as_slice());
+    let empty = write::write(reader, target, (plan, scan), computing, &names, progress)?;
     match &levels {
         // Only a value beyond f64's range makes these differ from pass 2's counts.
         Some(levels) => report.changed_counts(&fits, levels, &empty, warnings),

@@ -214,3 +214,50 @@ fn only_files_too_large_for_memory_need_chunks() {
         assert!(!needs_bounded_memory(1 << 20, Format::Csv));
     }
 }
+
+#[test]
+fn runs_end_where_reading_whole_ends_them_at_every_chunk_edge() {
+    let dir = TempDir::new().unwrap();
+    let (survey, model) = survey_and_model(dir.path());
+    let text = std::fs::read_to_string(&survey).unwrap();
+    let mut lines: Vec<String> = text.lines().take(1 + 120).map(str::to_string).collect();
+    let headers: Vec<&str> = lines[0].split(',').collect();
+    let (tt, flux_x) = (headers.iter().position(|h| *h == "tt"), "flux_a_x");
+    let (tt, flux_x) = (
+        tt.unwrap(),
+        headers.iter().position(|h| *h == flux_x).unwrap(),
+    );
+    // Steps of 0.16 s (a gap: over 1.5 median steps of 0.1 s) and 0.14 s (none), one after
+    // another and apart, and fluxgate holes of one and two rows next to them.
+    let mut shift = 0.0;
+    for (k, line) in lines.iter_mut().enumerate().skip(1) {
+        shift += match k {
+            20 | 21 | 40 | 61 => 0.06,
+            30 | 31 | 50 | 62 => 0.04,
+            _ => 0.0,
+        };
+        let mut cells: Vec<String> = line.split(',').map(str::to_string).collect();
+        let t: f64 = cells[tt].parse().unwrap();
+        cells[tt] = format!("{}", t + shift);
+        if [44, 70, 71, 90].contains(&k) {
+            cells[flux_x] = String::new();
+        }
+        *line = cells.join(",");
+    }
+    std::fs::write(&survey, lines.join("\n") + "\n").unwrap();
+    let request = CompensateRequest {
+        fs_hz: None,
+        level: LevelChoice::FileMean,
+    };
+    let whole = run(&survey, &model, request, None);
+    let empty = |csv: &[u8]| String::from_utf8_lossy(csv).matches(",\n").count();
+    assert!(
+        empty(&whole.0) >= 4,
+        "the holes leave rows without a result"
+    );
+    for rows in 1..=9 {
+        let chunked = run(&survey, &model, request, Some(rows));
+        assert!(chunked.0 == whole.0, "{rows} rows");
+        assert_eq!(chunked.1, whole.1, "{rows} rows");
+    }
+}

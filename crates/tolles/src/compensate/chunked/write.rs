@@ -1,12 +1,14 @@
 //! Pass 3: every row written with the compensated columns, `scalar − (A·β − level)`.
 
-use super::level::{compensator, same_rows, Feed};
+use super::check::ReadyFit;
+use super::field::{Computed, Fields};
+use super::level::same_rows;
 use super::scan::{Plan, Scan};
 use crate::error::{Error, Result};
 use crate::progress::Progress;
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use tolles_core::compensate::stream::{Output, ScalarSpec};
+use tolles_core::fit::scalar_usable;
 use tolles_io::atomic::AtomicFile;
 use tolles_io::chunks::{ChunkReader, CsvChunkWriter, ParquetChunkWriter};
 use tolles_io::format::Format;
@@ -19,49 +21,87 @@ pub(super) struct Target<'a, 'w> {
     pub writer: &'w mut dyn Write,
 }
 
-/// Pass 3: every row of `reader` with the compensated columns `names` computed by `specs`.
-/// Returns per fit the number of empty compensated cells written.
+/// Pass 3: every row of `reader` with the compensated columns `names` of `fits`, each less its
+/// level (nT). Returns per fit the number of empty compensated cells written.
 pub(super) fn write(
     mut reader: ChunkReader,
     target: Target<'_, '_>,
     (plan, scan): (&Plan, &Scan),
-    specs: Vec<ScalarSpec>,
+    (fits, levels_nt): (&[ReadyFit], &[f64]),
     names: &[String],
     progress: &dyn Progress,
 ) -> Result<Vec<usize>> {
     let mut sink = sink(target, reader.headers(), names)?;
-    let mut stream = compensator::<usize>(specs, plan);
-    let mut feed = Feed::new(plan, scan);
+    let mut fields = Fields::new(plan, scan, fits);
     let mut empty = vec![0usize; names.len()];
-    // The chunk before the current one waits for its last row, which the compensator holds
-    // back until it sees the next row.
-    let mut previous: Option<Pending> = None;
+    let mut out = Out {
+        plan,
+        levels_nt,
+        sink: sink.as_mut(),
+        empty: &mut empty,
+    };
+    // A chunk waits for the first row of the next one (see `field`).
+    let mut waiting: Option<Table> = None;
     let mut rows = 0;
     while let Some(chunk) = reader.next_chunk()? {
+        if chunk.is_empty() {
+            continue;
+        }
         progress.advance(chunk.len() as u64);
-        let all = numbers_of(&chunk, &plan.read)?;
-        let mut current = Pending::new(chunk, rows, names.len());
-        for k in 0..current.chunk.len() {
-            let gap = feed.load(&all, k);
-            let mut emit = |o: Output<'_, usize>| place(o, previous.as_mut(), &mut current);
-            if gap {
-                stream.split(&mut emit);
-            }
-            stream.push(rows + k, Some(feed.sample()), Vec::new(), &mut emit);
+        rows += chunk.len();
+        let computed = fields.push(numbers_of(&chunk, &plan.read)?);
+        if let (Some(computed), Some(before)) = (computed, waiting.take()) {
+            out.write(&before, computed)?;
         }
-        rows += current.chunk.len();
-        if let Some(done) = previous.take() {
-            done.write(sink.as_mut(), &mut empty)?;
-        }
-        previous = Some(current);
+        waiting = Some(chunk);
     }
-    if let Some(mut last) = previous.take() {
-        stream.finish(|o| place(o, None, &mut last));
-        last.write(sink.as_mut(), &mut empty)?;
+    if let (Some(computed), Some(last)) = (fields.finish(), waiting.take()) {
+        out.write(&last, computed)?;
     }
     same_rows(reader.path(), rows, scan.rows)?;
     sink.finish()?;
     Ok(empty)
+}
+
+/// Chunks computed, written with their compensated columns.
+struct Out<'p, 's> {
+    plan: &'p Plan,
+    levels_nt: &'p [f64],
+    sink: &'s mut dyn ChunkSink,
+    /// Per fit, the empty compensated cells written so far.
+    empty: &'s mut [usize],
+}
+
+impl Out<'_, '_> {
+    /// Writes `chunk` with each fit's `scalar − (A·β − level)` (nT), empty where it cannot be
+    /// computed, as the whole-file path computes it.
+    fn write(&mut self, chunk: &Table, computed: Computed) -> Result<()> {
+        let columns = computed
+            .fields
+            .iter()
+            .zip(&self.plan.fits)
+            .zip(self.levels_nt);
+        let extra: Vec<Vec<f64>> = columns
+            .map(|((field, fit), &level)| {
+                let scalar = fit.scalar.as_ref().ok().map(|&p| &computed.values[p]);
+                let compensated = field.iter().enumerate().map(|(k, &f)| {
+                    let s = scalar.map_or(f64::NAN, |s| s[k]);
+                    let correction = f - level;
+                    if scalar_usable(s) {
+                        s - correction
+                    } else {
+                        f64::NAN
+                    }
+                });
+                compensated.collect()
+            })
+            .collect();
+        for (n, column) in self.empty.iter_mut().zip(&extra) {
+            *n += column.iter().filter(|v| !v.is_finite()).count();
+        }
+        let extra: Vec<&[f64]> = extra.iter().map(Vec::as_slice).collect();
+        self.sink.write(chunk, &extra)
+    }
 }
 
 /// The sink for `target`, its header written: the file's `headers`, then `names`.
@@ -78,11 +118,7 @@ fn sink<'w>(
         }
         Some(path) => {
             let file = AtomicFile::create(path)?;
-            let handle = file.file().try_clone().map_err(|source| IoError::Write {
-                path: path.to_path_buf(),
-                source,
-            })?;
-            let out = Box::new(std::io::BufWriter::new(handle));
+            let out = Box::new(file.direct_writer()?);
             let mut sink = CsvSink::new(out, Some(path), headers, names)?;
             sink.file = Some(file);
             Box::new(sink)
@@ -93,51 +129,8 @@ fn sink<'w>(
 /// The numbers of the columns at `positions` of `chunk`. Pass 1 found every bad cell, so an
 /// error here means the file changed since.
 fn numbers_of(chunk: &Table, positions: &[usize]) -> Result<Vec<Vec<f64>>> {
-    positions
-        .iter()
-        .map(|&j| Ok(chunk.numeric_at(j)?))
-        .collect()
-}
-
-/// A chunk whose compensated values are being filled in.
-struct Pending {
-    chunk: Table,
-    /// Index in the file of the chunk's first row.
-    first: usize,
-    /// Per fit, the compensated values (nT); NaN until computed, or where they cannot be.
-    extra: Vec<Vec<f64>>,
-}
-
-impl Pending {
-    fn new(chunk: Table, first: usize, fits: usize) -> Self {
-        let extra = vec![vec![f64::NAN; chunk.len()]; fits];
-        Self {
-            chunk,
-            first,
-            extra,
-        }
-    }
-
-    /// Writes the chunk, adding its empty cells per fit to `empty`.
-    fn write(self, sink: &mut dyn ChunkSink, empty: &mut [usize]) -> Result<()> {
-        for (n, column) in empty.iter_mut().zip(&self.extra) {
-            *n += column.iter().filter(|v| !v.is_finite()).count();
-        }
-        let extra: Vec<&[f64]> = self.extra.iter().map(Vec::as_slice).collect();
-        sink.write(&self.chunk, &extra)
-    }
-}
-
-/// Puts an emitted result into the chunk its row belongs to: `current`, or the one before.
-fn place(o: Output<'_, usize>, previous: Option<&mut Pending>, current: &mut Pending) {
-    let target = match previous {
-        Some(p) if o.payload < current.first => p,
-        _ => current,
-    };
-    let row = o.payload - target.first;
-    for (column, v) in target.extra.iter_mut().zip(o.compensated) {
-        column[row] = *v;
-    }
+    let columns = chunk.numeric_many(positions).into_iter();
+    columns.map(|c| Ok(c?)).collect()
 }
 
 /// Where pass 3 writes.
