@@ -1125,11 +1125,25 @@ pub(crate) fn write_rows(
             crate::rawcsv::write_rows(raw, extra, out)
         }
         _ => {
-            // Through a buffer: the csv crate's flush would flush `out` too.
-            let mut writer = csv::WriterBuilder::new().from_writer(Vec::new());
+            let mut writer = csv::WriterBuilder::new().from_writer(WithoutFlush(out));
             write_padded_rows(table, extra, table.len(), &mut writer)?;
-            out.write_all(&writer.into_inner().map_err(|e| e.into_error())?)
+            writer.flush()
         }
+    }
+}
+
+/// A writer whose [`Write::flush`] does nothing: the csv crate's flush of its own buffer
+/// would otherwise flush the output under it too, which for [`crate::atomic::DirectWriter`]
+/// ends its direct writes.
+struct WithoutFlush<'w>(&'w mut dyn std::io::Write);
+
+impl std::io::Write for WithoutFlush<'_> {
+    fn write(&mut self, bytes: &[u8]) -> std::io::Result<usize> {
+        self.0.write(bytes)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
     }
 }
 

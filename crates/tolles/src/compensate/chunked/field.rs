@@ -26,8 +26,8 @@ pub(super) struct Fields<'a> {
     before: Option<Vec<f64>>,
 }
 
-/// A chunk's columns (of [`Plan::read`]) and each fit's correction of its rows (nT; NaN where
-/// it cannot be computed).
+/// A chunk's columns (of [`Plan::read`], those no fit uses empty) and each fit's correction
+/// of its rows (nT; NaN where it cannot be computed).
 pub(super) struct Computed {
     pub values: Vec<Vec<f64>>,
     pub fields: Vec<Vec<f64>>,
@@ -44,11 +44,17 @@ impl<'a> Fields<'a> {
         }
     }
 
-    /// Takes the next chunk's columns (of [`Plan::read`]; a column no fit uses may be empty);
-    /// gives back the chunk before it, computed.
-    pub fn push(&mut self, values: Vec<Vec<f64>>) -> Option<Computed> {
+    /// Takes the next chunk's columns (of [`Plan::read`]; a column no fit uses may be empty,
+    /// and is dropped); gives back the chunk before it, computed.
+    pub fn push(&mut self, mut values: Vec<Vec<f64>>) -> Option<Computed> {
         if rows_of(&values) == 0 {
             return None;
+        }
+        let used = self.plan.used();
+        for (p, column) in values.iter_mut().enumerate() {
+            if used.binary_search(&p).is_err() {
+                *column = Vec::new();
+            }
         }
         let after = row(&values, 0);
         let held = self.held.replace(values)?;
