@@ -666,28 +666,11 @@ mod tests {
     }
 
     fn chunked_csv(path: &Path, format: Format, rows: usize) -> String {
-        let mut reader = ChunkReader::open(path, format, rows).unwrap();
-        let mut writer = CsvChunkWriter::new(Vec::new(), reader.headers(), &["e".into()]).unwrap();
-        let mut k = 0.0;
-        while let Some(chunk) = reader.next_chunk().unwrap() {
-            assert!(chunk.len() <= rows);
-            let extra: Vec<f64> = (0..chunk.len())
-                .map(|_| {
-                    k += 0.5;
-                    k
-                })
-                .collect();
-            writer.write(&chunk, &[&extra]).unwrap();
-        }
-        String::from_utf8(writer.finish().unwrap()).unwrap()
+        read_in_chunks(path, format, rows).unwrap().0
     }
 
     fn whole_csv(path: &Path, format: Format) -> String {
-        let table = Table::read(path, Some(format)).unwrap();
-        let extra: Vec<f64> = (1..=table.len()).map(|k| 0.5 * k as f64).collect();
-        let mut out = Vec::new();
-        write_with_column(&table, &[("e".into(), extra)], &mut out).unwrap();
-        String::from_utf8(out).unwrap()
+        read_whole(path, format).unwrap().0
     }
 
     #[test]
@@ -805,8 +788,8 @@ mod tests {
     /// row k), and each column's numbers (as bits) or its first error; or the error reading it.
     type Read = Result<(String, Vec<Result<Vec<u64>, String>>), String>;
 
-    fn read_whole(path: &Path) -> Read {
-        let table = Table::read(path, Some(Format::Csv)).map_err(|e| e.to_string())?;
+    fn read_whole(path: &Path, format: Format) -> Read {
+        let table = Table::read(path, Some(format)).map_err(|e| e.to_string())?;
         let extra: Vec<f64> = (1..=table.len()).map(|k| 0.5 * k as f64).collect();
         let mut out = Vec::new();
         write_with_column(&table, &[("e".into(), extra)], &mut out).unwrap();
@@ -821,9 +804,9 @@ mod tests {
         Ok((String::from_utf8(out).unwrap(), numbers))
     }
 
-    fn read_in_chunks(path: &Path, rows: usize) -> Read {
+    fn read_in_chunks(path: &Path, format: Format, rows: usize) -> Read {
         let fail = |e: IoError| e.to_string();
-        let mut reader = ChunkReader::open(path, Format::Csv, rows).map_err(fail)?;
+        let mut reader = ChunkReader::open(path, format, rows).map_err(fail)?;
         let width = reader.headers().len();
         let mut writer = CsvChunkWriter::new(Vec::new(), reader.headers(), &["e".into()]).unwrap();
         let mut numbers: Vec<Result<Vec<u64>, String>> = vec![Ok(Vec::new()); width];
@@ -866,7 +849,8 @@ mod tests {
             let dir = tempfile::tempdir().unwrap();
             let path = dir.path().join("t.csv");
             std::fs::write(&path, &text).unwrap();
-            let (whole, chunked) = (read_whole(&path), read_in_chunks(&path, rows));
+            let whole = read_whole(&path, Format::Csv);
+            let chunked = read_in_chunks(&path, Format::Csv, rows);
             // Where a file read whole goes to the general reader but its first blocks do not,
             // their rows' lines are counted apart: the general reader's count differs after a
             // carriage return (see `rawcsv`'s tests).

@@ -7,9 +7,9 @@
 //!    column, time that does not increase, an implausible fluxgate magnitude, and the exact
 //!    median time step (sample rate and gap threshold). [`check`] reports them in the order the
 //!    whole-file path meets them.
-//! 2. **Level** ([`level`]): each fit's correction `A·β` from the streaming compensator with
-//!    central differences, its runs split where the batch computation splits them (unusable
-//!    fluxgate, time gaps), and its mean over the file: the level the batch computation keeps.
+//! 2. **Level** ([`level`]): each fit's correction `A·β`, computed a chunk at a time by the
+//!    whole-file path's own code with one row of each neighbouring chunk and the whole file's
+//!    runs ([`field`]), and its mean over the file: the level the batch computation keeps.
 //!    For text files pass 1 keeps the numbers it read in an anonymous temporary file (8 bytes a
 //!    value), so the text is parsed twice, not three times. With the model's level
 //!    ([`LevelChoice::Model`]) this pass is skipped, unless an error is coming: the whole-file
@@ -17,7 +17,8 @@
 //! 3. **Write** ([`write`](mod@write)) every row with the compensated columns, `scalar − (A·β − level)`.
 //!
 //! Memory holds two chunks (rows per chunk as requested, default
-//! [`tolles_io::chunks::DEFAULT_CHUNK_ROWS`]) whatever the length of the file.
+//! [`tolles_io::chunks::DEFAULT_CHUNK_ROWS`]; a CSV chunk at most 1 MiB of lines) whatever the
+//! length of the file.
 
 mod check;
 mod field;
