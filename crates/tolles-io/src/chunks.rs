@@ -41,8 +41,8 @@ use crate::atomic::AtomicFile;
 use crate::error::IoError;
 use crate::format::Format;
 use crate::table::{
-    bounded_header, check_header, csv_error, into_io, read_located, write_rows, Bounded, Column,
-    Table, TextColumn,
+    bounded_header, check_header, csv_error, read_located, write_header, write_rows, Bounded,
+    Column, Table, TextColumn,
 };
 use crate::xyz::XyzChunks;
 use ::parquet::column::reader::ColumnReader;
@@ -490,12 +490,7 @@ pub struct CsvChunkWriter<W: Write> {
 impl<W: Write> CsvChunkWriter<W> {
     /// Writes the header: `headers` then `extra`.
     pub fn new(mut out: W, headers: &[String], extra: &[String]) -> std::io::Result<Self> {
-        // Through a buffer: the csv crate's flush would flush `out` too.
-        let mut writer = csv::WriterBuilder::new().from_writer(Vec::new());
-        writer
-            .write_record(headers.iter().chain(extra))
-            .map_err(into_io)?;
-        out.write_all(&writer.into_inner().map_err(|e| e.into_error())?)?;
+        write_header(headers.iter().chain(extra).map(String::as_str), &mut out)?;
         Ok(Self { out })
     }
 

@@ -911,10 +911,9 @@ fn general(cell: &[u8]) -> Option<f64> {
 pub fn write_rows(rows: &RawRows, extra: &[&[f64]], out: &mut dyn Write) -> std::io::Result<()> {
     let n = rows.len();
     let blocks = n.div_ceil(BLOCK_ROWS);
-    // Asked once: the standard library reads the control group's files at every call.
-    static THREADS: std::sync::OnceLock<usize> = std::sync::OnceLock::new();
-    let threads =
-        *THREADS.get_or_init(|| std::thread::available_parallelism().map_or(1, |t| t.get()));
+    // Rayon's count, as for the pieces read: asked once, where the standard library reads the
+    // control group's files at every call.
+    let threads = rayon::current_num_threads();
     if blocks <= 1 || threads <= 1 {
         let mut text = Vec::new();
         return (0..blocks).try_for_each(|b| {

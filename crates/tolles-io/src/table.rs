@@ -1120,13 +1120,34 @@ pub(crate) fn write_rows(
     extra: &[&[f64]],
     out: &mut dyn std::io::Write,
 ) -> std::io::Result<()> {
+    write_body(table, extra, table.len(), out)
+}
+
+/// Writes `names` as a CSV header row.
+pub(crate) fn write_header<'n>(
+    names: impl IntoIterator<Item = &'n str>,
+    out: &mut dyn std::io::Write,
+) -> std::io::Result<()> {
+    let mut writer = csv::WriterBuilder::new().from_writer(WithoutFlush(out));
+    writer.write_record(names).map_err(into_io)?;
+    writer.flush()
+}
+
+/// Writes [`write_padded`]'s `rows` rows, without the header: rows of a CSV file left in its
+/// bytes are copied ([`crate::rawcsv::write_rows`]) when nothing is padded.
+fn write_body(
+    table: &Table,
+    extra: &[&[f64]],
+    rows: usize,
+    out: &mut dyn std::io::Write,
+) -> std::io::Result<()> {
     match table.raw_rows() {
-        Some(raw) if extra.iter().all(|v| v.len() == table.len()) => {
+        Some(raw) if rows == table.len() && extra.iter().all(|v| v.len() == rows) => {
             crate::rawcsv::write_rows(raw, extra, out)
         }
         _ => {
             let mut writer = csv::WriterBuilder::new().from_writer(WithoutFlush(out));
-            write_padded_rows(table, extra, table.len(), &mut writer)?;
+            write_padded_rows(table, extra, rows, &mut writer)?;
             writer.flush()
         }
     }
@@ -1161,22 +1182,9 @@ pub fn write_padded(
     let values: Vec<&[f64]> = extra.iter().map(|(_, v)| *v).collect();
     let longest = values.iter().map(|v| v.len()).max().unwrap_or(0);
     let rows = rows.max(table.len()).max(longest);
-    match table.raw_rows() {
-        // Rows of a CSV file left in its bytes are copied ([`crate::rawcsv::write_rows`]).
-        Some(raw) if rows == table.len() && values.iter().all(|v| v.len() == rows) => {
-            let mut writer = csv::WriterBuilder::new().from_writer(Vec::new());
-            writer.write_record(&header).map_err(into_io)?;
-            out.write_all(&writer.into_inner().map_err(|e| e.into_error())?)?;
-            crate::rawcsv::write_rows(raw, &values, &mut out)?;
-            out.flush()
-        }
-        _ => {
-            let mut writer = csv::WriterBuilder::new().from_writer(out);
-            writer.write_record(&header).map_err(into_io)?;
-            write_padded_rows(table, &values, rows, &mut writer)?;
-            writer.flush()
-        }
-    }
+    write_header(header, &mut out)?;
+    write_body(table, &values, rows, &mut out)?;
+    out.flush()
 }
 
 fn write_padded_rows<W: std::io::Write>(

@@ -128,8 +128,7 @@ pub fn compensate_model<'a>(
                 let pairs = correction.iter_mut().zip(compensated.iter_mut());
                 for ((c, out), s) in pairs.zip(&scalar[rows]) {
                     *c -= subtract;
-                    // A corrupt scalar cell is uncomputable, not a huge number passed through.
-                    *out = if scalar_usable(*s) { s - *c } else { f64::NAN };
+                    *out = compensated_value(*s, *c);
                 }
             }
         },
@@ -140,6 +139,18 @@ pub fn compensate_model<'a>(
         correction,
         level_nt,
         uncomputable,
+    }
+}
+
+/// `scalar` less its `correction` `A·β − level` (nT); NaN where the correction is missing, or
+/// the scalar is not usable: a corrupt scalar cell is uncomputable, not a huge number passed
+/// through.
+#[inline]
+pub fn compensated_value(scalar: f64, correction: f64) -> f64 {
+    if scalar_usable(scalar) {
+        scalar - correction
+    } else {
+        f64::NAN
     }
 }
 

@@ -3,6 +3,7 @@
 //! back by copying them, as when the file is read whole. A block holds at most the rows of a
 //! chunk and at most [`MAX_BLOCK_BYTES`] (unless one line is longer), so memory stays bounded.
 
+use super::open_error;
 use crate::error::IoError;
 use crate::rawcsv::{body_rows, header_line_names, Bytes, RawRows};
 use crate::table::MAX_HEADER_BYTES;
@@ -107,7 +108,8 @@ impl Blocks {
         let rest = self.pending.split_off(end);
         let bytes = std::mem::replace(&mut self.pending, rest);
         let first_line = self.line;
-        self.line += memchr::memchr_iter(b'\n', &bytes).count() as u64;
+        // Every line feed up to the block's end was counted, and none after it.
+        self.line += self.feeds as u64;
         (self.counted, self.feeds, self.whole) = (0, 0, 0);
         Ok(Some(Block { bytes, first_line }))
     }
@@ -153,13 +155,6 @@ fn fill(file: &mut File, buffer: &mut Vec<u8>) -> std::io::Result<usize> {
     };
     buffer.truncate(old + n.as_ref().copied().unwrap_or(0));
     n
-}
-
-fn open_error(path: &Path, source: std::io::Error) -> IoError {
-    IoError::Open {
-        path: path.to_path_buf(),
-        source,
-    }
 }
 
 #[cfg(test)]

@@ -8,7 +8,7 @@
 //! same sum as in the whole flight.
 
 use super::check::ReadyFit;
-use super::scan::{Plan, Scan};
+use super::scan::{FitColumns, Plan, Scan};
 use std::ops::Range;
 use tolles_core::compensate::model_field_over_runs;
 use tolles_core::model::vector::{Fluxgates, VectorSeries};
@@ -31,6 +31,15 @@ pub(super) struct Fields<'a> {
 pub(super) struct Computed {
     pub values: Vec<Vec<f64>>,
     pub fields: Vec<Vec<f64>>,
+}
+
+impl Computed {
+    /// The scalar (nT) of the fit whose columns are `fit` at each row; NaN where the survey
+    /// has no such column.
+    pub fn scalar<'c>(&'c self, fit: &FitColumns) -> impl Fn(usize) -> f64 + 'c {
+        let column = fit.scalar.as_ref().ok().map(|&p| &self.values[p]);
+        move |k| column.map_or(f64::NAN, |s| s[k])
+    }
 }
 
 impl<'a> Fields<'a> {

@@ -82,10 +82,9 @@ pub(super) fn level(
     let mut sums = vec![Mean::default(); fits.len()];
     let mut add = |computed: super::field::Computed| {
         for ((mean, field), columns) in sums.iter_mut().zip(&computed.fields).zip(&plan.fits) {
-            let scalar = columns.scalar.as_ref().ok().map(|&p| &computed.values[p]);
+            let scalar = computed.scalar(columns);
             for (k, &f) in field.iter().enumerate() {
-                let s = scalar.map_or(f64::NAN, |s| s[k]);
-                mean.add(f, scalar_usable(s));
+                mean.add(f, scalar_usable(scalar(k)));
             }
         }
     };

@@ -8,7 +8,7 @@ use crate::error::{Error, Result};
 use crate::progress::Progress;
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use tolles_core::fit::scalar_usable;
+use tolles_core::compensate::compensated_value;
 use tolles_io::atomic::AtomicFile;
 use tolles_io::chunks::{ChunkReader, CsvChunkWriter, ParquetChunkWriter};
 use tolles_io::format::Format;
@@ -83,17 +83,11 @@ impl Out<'_, '_> {
             .zip(self.levels_nt);
         let extra: Vec<Vec<f64>> = columns
             .map(|((field, fit), &level)| {
-                let scalar = fit.scalar.as_ref().ok().map(|&p| &computed.values[p]);
-                let compensated = field.iter().enumerate().map(|(k, &f)| {
-                    let s = scalar.map_or(f64::NAN, |s| s[k]);
-                    let correction = f - level;
-                    if scalar_usable(s) {
-                        s - correction
-                    } else {
-                        f64::NAN
-                    }
-                });
-                compensated.collect()
+                let scalar = computed.scalar(fit);
+                let compensated = field.iter().enumerate();
+                compensated
+                    .map(|(k, &f)| compensated_value(scalar(k), f - level))
+                    .collect()
             })
             .collect();
         for (n, column) in self.empty.iter_mut().zip(&extra) {
