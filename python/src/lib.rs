@@ -251,7 +251,7 @@ fn fit(
 
 /// Compensates; returns ([(column name, values)], warnings).
 #[pyfunction]
-#[pyo3(signature = (source, names, get, dt, model, level, fs))]
+#[pyo3(signature = (source, names, get, dt, model, level, fs, uncertainty=false))]
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
 fn compensate<'py>(
     py: Python<'py>,
@@ -262,11 +262,13 @@ fn compensate<'py>(
     model: &str,
     level: &str,
     fs: Option<f64>,
+    uncertainty: bool,
 ) -> PyResult<(Vec<(String, Bound<'py, numpy::PyArray1<f64>>)>, Vec<String>)> {
     let model = parse_model(model)?;
     let request = CompensateRequest {
         fs_hz: fs,
         level: level.parse::<LevelChoice>().map_err(failed)?,
+        uncertainty,
     };
     let frame = Frame::new(source, names, get, dt);
     let table = frame.table(&model_columns(&model))?;
@@ -278,7 +280,8 @@ fn compensate<'py>(
     // Renamed against every column of the frame, not only those read.
     let wanted: Vec<&str> = columns.iter().map(|c| c.name.as_str()).collect();
     let names = tolles_io::schema::output_names(&frame.names, &wanted);
-    for (column, (name, renamed)) in columns.into_iter().zip(names) {
+    let trust = tolles::compensate::trust_columns(&frame.names, &columns);
+    for ((column, (name, renamed)), trust) in columns.into_iter().zip(names).zip(trust) {
         if renamed {
             warnings.push(Warning::OutputRenamed {
                 path: frame.source.clone(),
@@ -287,6 +290,9 @@ fn compensate<'py>(
             });
         }
         out.push((name, column.values.into_pyarray(py)));
+        for (name, values) in trust {
+            out.push((name, values.into_pyarray(py)));
+        }
     }
     Ok((out, texts(&warnings)))
 }
@@ -446,17 +452,27 @@ fn plan(
 
 /// The columns `compensate` adds to a frame with columns `names`, in the model's order.
 #[pyfunction]
-fn output_names(model: &str, names: Vec<String>) -> PyResult<Vec<String>> {
+#[pyo3(signature = (model, names, uncertainty=false))]
+fn output_names(model: &str, names: Vec<String>, uncertainty: bool) -> PyResult<Vec<String>> {
     let model = parse_model(model)?;
     let wanted: Vec<&str> = model
         .fits
         .iter()
         .map(|f| f.output_column.as_str())
         .collect();
-    Ok(tolles_io::schema::output_names(&names, &wanted)
-        .into_iter()
-        .map(|(name, _)| name)
-        .collect())
+    let mut out = Vec::new();
+    for (name, _) in tolles_io::schema::output_names(&names, &wanted) {
+        if uncertainty {
+            let added = [format!("{name}_sigma"), format!("{name}_extrapolated")];
+            let added: Vec<&str> = added.iter().map(String::as_str).collect();
+            let unique = tolles_io::schema::output_names(&names, &added);
+            out.push(name);
+            out.extend(unique.into_iter().map(|(n, _)| n));
+        } else {
+            out.push(name);
+        }
+    }
+    Ok(out)
 }
 
 /// Converts the flight file `input` to `output` (CSV, HDF5 or Parquet by extension), as

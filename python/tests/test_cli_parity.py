@@ -243,3 +243,21 @@ def test_an_extra_channel_with_options_fits_and_compensates_as_the_cli_does(cli,
     assert max_diff(ours, theirs) <= TOL
     with pytest.raises(tolles.TollesError, match="lowpass"):
         tolles.fit(box, extra="cur_1:lowpass=0")
+
+
+def test_uncertainty_columns_and_the_verdict_match_the_cli(flights, cli, tmp_path):
+    model = tolles.load_model(flights / "model.json")
+    stored = json.loads((flights / "model.json").read_text())["fits"][0]["verdict"]
+    assert model.verdict["grade"] == stored["grade"] in ("good", "doubtful")
+    survey = tolles.read(flights / "survey.csv")
+    ours = tolles.compensate(survey, model, uncertainty=True)
+    cli("compensate", flights / "survey.csv", "--model", flights / "model.json", "--uncertainty", "--out", tmp_path / "c.csv")
+    theirs = read_csv_columns(tmp_path / "c.csv")
+    assert list(ours.columns) == list(theirs.columns)
+    for c in ("mag_1_c", "mag_1_c_sigma", "mag_1_c_extrapolated"):
+        assert max_diff(ours[c], theirs[c]) <= TOL, c
+    sigma = ours["mag_1_c_sigma"].to_numpy()
+    assert np.all(sigma[np.isfinite(sigma)] >= 0.0) and np.nanmax(sigma) > 0.0
+    assert set(np.unique(ours["mag_1_c_extrapolated"].dropna())) <= {0.0, 1.0}
+    fom = tolles.fom(tolles.read(flights / "cal.csv"), scalar="mag_1_uc", model=model)
+    assert fom["verdict"]["grade"] == stored["grade"]

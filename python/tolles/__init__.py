@@ -291,6 +291,16 @@ class Model:
     def fs_hz(self) -> float:
         return float(self._only()["fs_hz"])
 
+    @property
+    def verdict(self) -> Optional[dict]:
+        """Whether to trust the model: ``{"grade": "good" | "doubtful", "reasons": [...]}``,
+        each reason a dict with its ``reason`` and numbers; ``None`` for a model file written
+        before verdicts (version 3)."""
+        verdict = self._only().get("verdict")
+        if verdict is not None:
+            verdict = {"grade": verdict["grade"], "reasons": verdict.get("reasons", [])}
+        return verdict
+
     def to_json(self) -> str:
         """The model file's text."""
         return self._json
@@ -412,6 +422,7 @@ def compensate(
     model: Union[Model, PathLike],
     level: str = "mean",
     fs: Optional[float] = None,
+    uncertainty: bool = False,
 ) -> pd.DataFrame:
     """Remove the aircraft's field from survey data, as ``tolles compensate`` does.
 
@@ -428,16 +439,27 @@ def compensate(
         so a row's result does not depend on how the data was split (use it on partitions).
     fs : float, optional
         The survey's sample rate (Hz); default from ``tt``, else the model's.
+    uncertainty : bool
+        Also add, after each compensated column ``NAME``, ``NAME_sigma``: the correction's
+        standard error (nT) from the coefficients' covariance, relative to the calibration's
+        mean level; and ``NAME_extrapolated``: 1.0 where the row's field direction in the
+        aircraft, its rate of change or an extra channel lies outside what the calibration flew,
+        else 0.0 (NaN where the row is not compensated). Rows outside are counted in a warning
+        whether asked for or not.
     """
     columns = _Columns(df)
     model = _model(model)
     if len(df) == 0 or _is_placeholder(df):
         # Nothing to compute; the result names its columns, which is all Dask asks of it.
-        names = _tolles.output_names(model.to_json(), columns.names)
+        names = _tolles.output_names(model.to_json(), columns.names, bool(uncertainty))
         added, notes = [(n, np.full(len(df), np.nan)) for n in names], []
     else:
         added, notes = _tolles.compensate(
-            *columns.args(), model.to_json(), str(level), None if fs is None else float(fs)
+            *columns.args(),
+            model.to_json(),
+            str(level),
+            None if fs is None else float(fs),
+            bool(uncertainty),
         )
     _warn(notes)
     out = df.copy(deep=False)

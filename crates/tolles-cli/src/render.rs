@@ -218,12 +218,21 @@ pub fn fit_summary(model: &ScalarModel, cal: &Path) -> std::io::Result<()> {
         )?;
     }
     if let Some(cv) = &d.cross_validation {
+        let ridge = match cv.chosen_prior_multiplier {
+            Some(_) => format!("the physical prior ×{}", prior_multipliers(model)),
+            None => format!("λ = {}·diag(AᵀA)", short_number(cv.chosen_lambda_rel)),
+        };
         writeln!(
             err,
-            "  ridge: λ = {}·diag(AᵀA) chosen by {}-fold blocked cross-validation; expected residual on new data {:.4} nT",
-            short_number(cv.chosen_lambda_rel),
+            "  ridge: {ridge} chosen by {}-fold blocked cross-validation; expected residual on new data {:.4} nT",
             cv.folds,
             cv.expected_heldout_rms_nt
+        )?;
+    }
+    if let Some(e) = d.excitation_deg {
+        writeln!(
+            err,
+            "  maneuvers: the fluxgate's direction moved {e:.2}° RMS inside the band"
         )?;
     }
     writeln!(
@@ -246,7 +255,56 @@ pub fn fit_summary(model: &ScalarModel, cal: &Path) -> std::io::Result<()> {
         "  patent terms: perm T {:.3} L {:.3} V {:.3} nT; induced VV-TT {:.5} VV-LL {:.5} TL+LT {:.5} TV+VT {:.5} LV+VL {:.5}",
         p.perm_nt.t, p.perm_nt.l, p.perm_nt.v, p.induced.vv_tt, p.induced.vv_ll, p.induced.tl_lt, p.induced.tv_vt, p.induced.lv_vl
     )?;
+    if let Some(v) = &model.fit.verdict {
+        verdict(&mut err, &model.scalar, v)?;
+    }
     Ok(())
+}
+
+/// `verdict: good`, or the grade and one reason per line.
+pub fn verdict(
+    out: &mut dyn Write,
+    scalar: &str,
+    v: &tolles_core::fit::verdict::Verdict,
+) -> std::io::Result<()> {
+    writeln!(out, "verdict for {scalar}: {}", v.grade)?;
+    for reason in &v.reasons {
+        writeln!(out, "  - {reason}")?;
+    }
+    Ok(())
+}
+
+/// The prior's multiples chosen: one, or per kind of term when they differ.
+fn prior_multipliers(model: &ScalarModel) -> String {
+    let d = &model.fit.diagnostics;
+    let Some(cv) = &d.cross_validation else {
+        return String::new();
+    };
+    let common = cv.chosen_prior_multiplier.unwrap_or(1.0);
+    if cv.prior_multipliers.iter().all(|m| *m == common) {
+        return short_number(common);
+    }
+    let mut kinds: Vec<(&str, f64)> = Vec::new();
+    let columns = model.fit.settings.design.columns();
+    for (column, m) in columns.iter().zip(&cv.prior_multipliers) {
+        let Some(group) = tolles_core::fit::prior::Group::of(*column) else {
+            continue;
+        };
+        let name = match group {
+            tolles_core::fit::prior::Group::Permanent => "permanent",
+            tolles_core::fit::prior::Group::Induced => "induced",
+            tolles_core::fit::prior::Group::Eddy => "eddy",
+            tolles_core::fit::prior::Group::Extra => "extra",
+        };
+        if !kinds.iter().any(|(n, _)| *n == name) {
+            kinds.push((name, *m));
+        }
+    }
+    let list: Vec<String> = kinds
+        .iter()
+        .map(|(n, m)| format!("{} {n}", short_number(*m)))
+        .collect();
+    list.join(", ")
 }
 
 /// `0`, `1e-8`, `0.001`: the shortest honest text for a ridge strength.

@@ -81,7 +81,7 @@ fn fit_and_compensate_reproduce_magnav() {
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&model).unwrap()).unwrap();
     assert_eq!(json["format"], "tolles-model");
-    assert_eq!(json["version"], 2);
+    assert_eq!(json["version"], 3);
     let fit = &json["fits"][0];
     assert_eq!(fit["settings"]["design"]["terms"], "permanent,induced,eddy");
     // A fixed λ keeps MagNav's linear procedure, with no heading-level rows.
@@ -115,22 +115,25 @@ fn default_fit_cross_validates_and_records_it() {
     );
     let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let fit = &json["fits"][0];
-    // The patent's traceless 16, the same 16 as i5,e8 and MagNav's 18 competed; on MagNav's
-    // real segment i5,e8 predicts held-out data best.
+    // The patent's traceless 16 and the same 16 as i5,e8 competed. MagNav's 18, whose induced and eddy traces are the
+    // fluxgate's magnitude and its rate (the earth's own anomalies), compete only over several
+    // fluxgates.
     let terms: Vec<&str> = fit["diagnostics"]["term_choice"]
         .as_array()
         .unwrap()
         .iter()
         .map(|s| s["terms"].as_str().unwrap())
         .collect();
-    for set in [
-        "permanent,it,et",
-        "permanent,i5,e8",
-        "permanent,induced,eddy",
-    ] {
+    for set in ["permanent,it,et", "permanent,i5,e8"] {
         assert!(terms.contains(&set), "{terms:?}");
     }
-    assert_eq!(fit["settings"]["design"]["terms"], "permanent,i5,e8");
+    assert!(!terms.contains(&"permanent,induced,eddy"), "{terms:?}");
+    // The two are one span under two priors; which wins depends on the prior's shape.
+    let chosen = fit["settings"]["design"]["terms"].as_str().unwrap();
+    assert!(
+        ["permanent,it,et", "permanent,i5,e8"].contains(&chosen),
+        "{chosen}"
+    );
     assert_eq!(fit["diagnostics"]["cross_validation"]["folds"], 5);
     // The magnitude model was chosen between the two, and both were scored.
     let scored: Vec<&str> = fit["diagnostics"]["term_choice"]

@@ -158,7 +158,7 @@ fn stages(c: &mut Criterion) {
     let folds = fold_factors();
     let names = s.design.column_names(&[]);
     group.bench_function("cross_validation_9_lambdas", |b| {
-        b.iter(|| black_box(cross_validate(&folds, &LAMBDA_GRID, &names)))
+        b.iter(|| black_box(cross_validate(&folds, &LAMBDA_GRID, &names, &[])))
     });
     let beta = vec![0.5; a.ncols()];
     group.bench_function("apply_model", |b| {

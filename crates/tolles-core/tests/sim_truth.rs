@@ -27,6 +27,7 @@ fn settings(terms: &str, lambda: Lambda) -> FitSettings {
         magnitude: tolles_core::fit::MagnitudeChoice::Linear,
         levels: false,
         target: tolles_core::fit::Target::Band,
+        prior: None,
     }
 }
 

@@ -8,18 +8,25 @@
 //! assert_eq!(ModelFile::from_json(&text, "m.json").unwrap().version, VERSION);
 //! ```
 //!
-//! Layout (version 2):
+//! Layout (version 3):
 //! ```json
-//! { "format": "tolles-model", "version": 2, "created_by": "tolles 0.1.0",
+//! { "format": "tolles-model", "version": 3, "created_by": "tolles 0.1.0",
 //!   "fits": [ { "scalar": "mag_1_uc", "vectors": ["flux_a"], "output_column": "mag_1_c",
 //!               "settings": {...}, "fs_hz": 10.0, "magnitude": "exact",
 //!               "columns": [...], "coefficients": [...],
 //!               "level_nt": ..., "diagnostics": {...},
+//!               "verdict": {"grade": "good" | "doubtful", "reasons": [...]},
+//!               "uncertainty": {"covariance": [...], "mean_row": [...]},
+//!               "coverage": {"cells": [...], "rate_nt_per_s": ..., "extras": [...]},
 //!               "physical": {...}, "patent": {"perm_nT": {...}, "induced": {...}, "eddy_s": {...}} } ] }
 //! ```
 //! Version 2 adds `"magnitude": "linear" | "exact"` to each fit (how its field enters the scalar,
 //! see `tolles_core::model::magnitude`), the patent's traceless term sets (`it`, `et`) and the
-//! heading-level diagnostics; a version 1 file is read as linear.
+//! heading-level diagnostics; a version 1 file is read as linear. Version 3 adds the settings'
+//! physical `prior`, the `verdict` (see `tolles_core::fit::verdict`), the coefficients'
+//! `uncertainty` and the calibration's `coverage` (see `tolles_core::model::coverage`); a file
+//! of an earlier version has none of them: its verdict is unknown, and compensation can give
+//! it neither uncertainties nor extrapolation flags.
 //!
 //! A later release reads every earlier version; a file from a newer release is refused with a
 //! message saying so.
@@ -33,7 +40,7 @@ use tolles_core::model::interpret::{AircraftField, PatentTerms};
 /// The `format` tag of a model file.
 pub const FORMAT: &str = "tolles-model";
 /// The newest model file version this release writes and reads.
-pub const VERSION: u32 = 2;
+pub const VERSION: u32 = 3;
 
 /// A model file: one fit per scalar magnetometer.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -63,6 +70,9 @@ pub struct ScalarModel {
     /// itself. Compensation does not read it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reference: Option<String>,
+    /// The calibration flight's file as `fit` was given it (absent before version 3).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub calibration_flight: Option<String>,
     /// Coefficients, settings and diagnostics.
     #[serde(flatten)]
     pub fit: Fit,
@@ -85,6 +95,7 @@ impl ScalarModel {
             vectors: vectors.to_vec(),
             output_column: compensated_name(scalar),
             reference: None,
+            calibration_flight: None,
             patent: physical.patent_terms(),
             physical,
             fit,
@@ -96,6 +107,12 @@ impl ScalarModel {
     /// Records that the fit was made against the reference magnetometer `column`.
     pub fn with_reference(mut self, column: Option<&str>) -> Self {
         self.reference = column.map(str::to_string);
+        self
+    }
+
+    /// Records the calibration flight's file.
+    pub fn with_calibration_flight(mut self, path: &Path) -> Self {
+        self.calibration_flight = Some(path.display().to_string());
         self
     }
 }
@@ -229,6 +246,43 @@ fn check_numbers(fit: &ScalarModel) -> Result<(), String> {
             ));
         }
     }
+    check_trust(fit)
+}
+
+/// The uncertainty and coverage a compensation reads: as long as the design needs and finite.
+fn check_trust(fit: &ScalarModel) -> Result<(), String> {
+    let scalar = &fit.scalar;
+    let width = fit.fit.coefficients.len();
+    if let Some(u) = &fit.fit.uncertainty {
+        if u.mean_row.len() != width || u.covariance.len() != width * width {
+            return Err(format!(
+                "fit of {scalar}: uncertainty has {} mean values and {} covariances for {width} terms",
+                u.mean_row.len(),
+                u.covariance.len()
+            ));
+        }
+        let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+        if !(finite(&u.mean_row) && finite(&u.covariance)) {
+            return Err(format!(
+                "fit of {scalar}: uncertainty holds a value that is not finite"
+            ));
+        }
+    }
+    if let Some(c) = &fit.fit.coverage {
+        let extras = fit.fit.settings.design.extras.len();
+        if !(c.rate_nt_per_s.is_finite() && c.rate_nt_per_s >= 0.0) {
+            return Err(format!(
+                "fit of {scalar}: coverage.rate_nt_per_s {} must be a rate ≥ 0",
+                show(c.rate_nt_per_s)
+            ));
+        }
+        if !c.extras.is_empty() && c.extras.len() != extras {
+            return Err(format!(
+                "fit of {scalar}: coverage has {} channel ranges for {extras} extra channels",
+                c.extras.len()
+            ));
+        }
+    }
     Ok(())
 }
 
@@ -303,6 +357,9 @@ mod tests {
                 "std_errors": []
             }))
             .unwrap(),
+            verdict: None,
+            uncertainty: None,
+            coverage: None,
         };
         let file = ModelFile::new(vec![ScalarModel::new("mag_1_uc", &["flux_a".into()], fit)]);
         let mut value_json: serde_json::Value = serde_json::from_str(&file.to_json()).unwrap();

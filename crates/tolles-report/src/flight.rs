@@ -215,6 +215,9 @@ fn page_with(data: &ReportData, maps: &[Map]) -> Report {
             request.band.pass2_hz
         ));
     report = summary(report, data);
+    if let Some(fit) = &data.fit {
+        report = model_banner(report, fit, request.model.as_deref());
+    }
     if !has_box(data) {
         report = report.paragraph(NO_BOX);
     }
@@ -237,9 +240,57 @@ fn page_with(data: &ReportData, maps: &[Map]) -> Report {
     report
 }
 
+/// What the page's model is and whether to trust it, under the summary: the model file, its
+/// calibration flight, fluxgates and terms, and its verdict with every reason.
+fn model_banner(report: Report, fit: &ScalarModel, path: Option<&std::path::Path>) -> Report {
+    let file = path.map_or("the model".to_string(), |p| p.display().to_string());
+    let calibration = fit
+        .calibration_flight
+        .as_deref()
+        .map_or(String::new(), |c| format!(", fitted on {c}"));
+    let magnitude = match fit.fit.magnitude {
+        tolles::tolles_core::model::magnitude::Magnitude::Linear => "linear",
+        tolles::tolles_core::model::magnitude::Magnitude::Exact => "exact",
+    };
+    let mut text = format!(
+        "Model {file}{calibration}: {} against fluxgate {}, terms {} ({magnitude} magnitude).",
+        fit.scalar,
+        fit.vectors.join(", "),
+        fit.fit.settings.design.terms
+    );
+    text += &match &fit.fit.verdict {
+        None => " Verdict: unknown (a model file written before verdicts).".to_string(),
+        Some(v) if v.reasons.is_empty() => format!(" Verdict: {}.", v.grade),
+        Some(v) => {
+            let reasons: Vec<String> = v.reasons.iter().map(ToString::to_string).collect();
+            format!(" Verdict: {}: {}.", v.grade, reasons.join("; "))
+        }
+    };
+    report.paragraph(text)
+}
+
 fn summary(report: Report, data: &ReportData) -> Report {
     let before = &data.fom.before;
     let mut items = Vec::new();
+    if let Some(v) = data.fit.as_ref().and_then(|f| f.fit.verdict.as_ref()) {
+        items.push(("model verdict", v.grade.to_string()));
+    }
+    let scatter = |t: &tolles::report::Trace| {
+        let finite: Vec<f64> = t
+            .bandpassed
+            .iter()
+            .copied()
+            .filter(|v| v.is_finite())
+            .collect();
+        std_dev(&finite)
+    };
+    items.push((
+        "band-passed scatter before",
+        nt(scatter(&data.uncompensated), 3),
+    ));
+    if let Some(after) = &data.compensated {
+        items.push(("band-passed scatter after", nt(scatter(after), 3)));
+    }
     if has_box(data) {
         items.push(("FOM before", nt(before.fom_nt, 3)));
     }
@@ -260,7 +311,7 @@ fn summary(report: Report, data: &ReportData) -> Report {
         }
     }
     if let Some(error) = data.fom.heading_before.heading_error_nt {
-        items.push(("heading error before", nt(error, 2)));
+        items.push(("heading error before, geology included", nt(error, 2)));
     }
     if let Some(error) = data
         .fom
@@ -268,7 +319,14 @@ fn summary(report: Report, data: &ReportData) -> Report {
         .as_ref()
         .and_then(|h| h.heading_error_nt)
     {
-        items.push(("heading error after", nt(error, 3)));
+        items.push(("heading error after, geology included", nt(error, 3)));
+    }
+    if let Some(error) = data
+        .heading_vs_truth
+        .as_ref()
+        .and_then(|h| h.heading_error_nt)
+    {
+        items.push(("heading error after, vs truth", nt(error, 3)));
     }
     if let Some((before, after)) = truth_errors(data) {
         items.push(("error vs truth before", nt(before, 3)));
@@ -296,13 +354,24 @@ fn summary_definitions(data: &ReportData) -> String {
             band.pass1_hz, band.pass2_hz
         );
     }
+    text += &format!(
+        "Band-passed scatter: the standard deviation of the scalar band-passed {}–{} Hz over \
+         the whole flight, which needs no maneuvers. ",
+        band.pass1_hz, band.pass2_hz
+    );
     text += "4th-difference noise: the standard deviation of the fourth difference of the \
              unfiltered scalar over the whole flight, as tolles fom prints it.";
     if has_box(data) && data.fom.after.is_some() {
         text += " Improvement: the uncompensated FOM divided by the compensated one.";
     }
     if data.fom.heading_before.heading_error_nt.is_some() {
-        text += " Heading error: the largest minus the smallest heading level (see Heading error).";
+        text += " Heading error: the largest minus the smallest heading level (see Heading \
+                 error); the legs lie over different ground at different times, so geology and \
+                 diurnal variation between them stay in it, however good the compensation.";
+    }
+    if data.heading_vs_truth.is_some() {
+        text += " Heading error vs truth: the same of the compensated scalar minus the \
+                 simulator's true earth field: what the compensation itself leaves.";
     }
     if truth_errors(data).is_some() {
         text += &format!(

@@ -156,6 +156,7 @@ mod tests {
     use crate::compensate::{compensate_file, FileRequest};
     use crate::fit::{fit, FitRequest};
     use crate::progress::Silent;
+    use crate::warning::Warning;
 
     #[test]
     fn the_demo_recovers_the_truth() {
@@ -189,7 +190,11 @@ mod tests {
         )
         .unwrap();
         let outcome = compare(&flights.survey, &out, &model.fits[0]).unwrap();
-        assert!(warnings.is_empty(), "{warnings:?}");
+        // The survey's last turn banks through headings the box never turned through: those
+        // rows are extrapolated, and said to be; nothing else is worth a warning.
+        let extrapolated =
+            |w: &Warning| matches!(w, Warning::Extrapolated { rows, of, .. } if rows * 50 < *of);
+        assert!(warnings.iter().all(extrapolated), "{warnings:?}");
         assert!(
             outcome.error_before_nt > 10.0 && outcome.error_after_nt < 0.1,
             "{outcome:?}"

@@ -171,6 +171,7 @@ impl FitRequest {
                 Some(_) => Target::Interference,
                 None => Target::Band,
             },
+            prior: recommended.prior,
         }
     }
 
@@ -225,6 +226,15 @@ fn poor_fit(scalar: &str, fit: &tolles_core::fit::Fit) -> Option<Warning> {
         scalar: scalar.to_string(),
         improvement: d.improvement_ratio,
         top_lambda,
+    })
+}
+
+/// A warning when `fit`'s verdict is not `good`.
+pub fn verdict_warning(scalar: &str, fit: &tolles_core::fit::Fit) -> Option<Warning> {
+    let verdict = fit.verdict.as_ref()?;
+    (!verdict.is_good()).then(|| Warning::Verdict {
+        scalar: scalar.to_string(),
+        verdict: verdict.clone(),
     })
 }
 
@@ -303,8 +313,10 @@ pub fn fit(
         .map(|(name, fitted)| {
             let fitted = fitted.map_err(|e| flight.explain(e, name))?;
             warnings.extend(poor_fit(name, &fitted));
+            warnings.extend(verdict_warning(name, &fitted));
             Ok(ScalarModel::new(name, &request.vectors, fitted)
-                .with_reference(request.reference.as_deref()))
+                .with_reference(request.reference.as_deref())
+                .with_calibration_flight(table.path()))
         })
         .collect::<Result<Vec<_>>>()?;
     Ok(ModelFile::new(models))

@@ -69,6 +69,8 @@ pub struct FomOutcome {
     pub heading_before: HeadingLevels,
     /// The same of the compensated scalar, on the same samples, with a model.
     pub heading_after: Option<HeadingLevels>,
+    /// The model's verdict, with a model whose file has one.
+    pub verdict: Option<tolles_core::fit::verdict::Verdict>,
 }
 
 /// Finds the box maneuvers of the flight `table` in its attitude columns and the FOM of the
@@ -172,8 +174,12 @@ fn measure_flight(
         after,
         heading_before,
         heading_after,
+        verdict: fit.and_then(|f| f.fit.verdict.clone()),
     };
     warnings.extend(gaps(path, &outcome));
+    if let Some(f) = fit {
+        warnings.extend(crate::fit::verdict_warning(&f.scalar, &f.fit));
+    }
     Ok(outcome)
 }
 
@@ -192,11 +198,27 @@ fn no_levels() -> HeadingLevels {
 fn headings(
     path: &Path,
     tt: &[f64],
-    [roll, pitch, yaw]: [&[f64]; 3],
+    attitude: [&[f64]; 3],
     maneuvers: &[Maneuver],
     scalar: &[f64],
     compensated: Option<&[f64]>,
 ) -> Result<(HeadingLevels, Option<HeadingLevels>)> {
+    let mut signals = vec![scalar];
+    signals.extend(compensated);
+    let mut levels = straight_levels(path, tt, attitude, maneuvers, &signals)?.into_iter();
+    let before = levels.next().expect("the scalar's levels");
+    Ok((before, levels.next()))
+}
+
+/// Heading levels of each of `signals` (nT) over the same straight-and-level samples of the
+/// flight `path`: those where every one of them is finite.
+pub(crate) fn straight_levels(
+    path: &Path,
+    tt: &[f64],
+    [roll, pitch, yaw]: [&[f64]; 3],
+    maneuvers: &[Maneuver],
+    signals: &[&[f64]],
+) -> Result<Vec<HeadingLevels>> {
     let error = |cause| Error::Heading {
         path: path.to_path_buf(),
         cause,
@@ -204,16 +226,13 @@ fn headings(
     let settings = HeadingSettings::default();
     let mut selection =
         select_straight(tt, roll, pitch, yaw, maneuvers, &settings).map_err(error)?;
-    selection.require_finite(scalar).map_err(error)?;
-    if let Some(c) = compensated {
-        selection.require_finite(c).map_err(error)?;
+    for s in signals {
+        selection.require_finite(s).map_err(error)?;
     }
-    let before = selection.levels(scalar).map_err(error)?;
-    let after = compensated
-        .map(|c| selection.levels(c))
-        .transpose()
-        .map_err(error)?;
-    Ok((before, after))
+    signals
+        .iter()
+        .map(|s| selection.levels(s).map_err(error))
+        .collect()
 }
 
 fn compensated(
@@ -313,6 +332,9 @@ impl FomOutcome {
         }
         if let Some(after) = &self.heading_after {
             value["compensated"]["heading_error"] = heading_json(after);
+        }
+        if let Some(verdict) = &self.verdict {
+            value["verdict"] = json!(verdict);
         }
         value
     }

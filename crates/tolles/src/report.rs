@@ -4,7 +4,7 @@
 //! `tolles-report` crate lays it out as HTML.
 
 use crate::error::{Error, Result};
-use crate::fom::{fit_for, fom_or_survey, scalar_to_use, FomOutcome, FomRequest};
+use crate::fom::{fit_for, fom_or_survey, scalar_to_use, straight_levels, FomOutcome, FomRequest};
 use crate::lines::{line_table, track, LineInputs, LineTable, Track};
 use crate::progress::Progress;
 use crate::warning::Warning;
@@ -12,6 +12,7 @@ use std::path::PathBuf;
 use tolles_core::fit::Band;
 use tolles_core::maneuvers::detect::Maneuver;
 use tolles_core::maneuvers::fom::{bandpassed, FomSettings};
+use tolles_core::maneuvers::heading::HeadingLevels;
 use tolles_core::maneuvers::ManeuverKind;
 use tolles_core::signal::metrics::std_dev;
 use tolles_core::signal::spectrum::{welch, Spectrum};
@@ -93,6 +94,11 @@ pub struct ReportData {
     pub lines: Option<LineTable>,
     /// Where the aircraft was, when the flight has positions.
     pub track: Option<Track>,
+    /// Heading levels of the compensated scalar minus the truth, over the straight legs the
+    /// heading error uses, when the flight has a truth column, attitude and a model: the
+    /// compensation's own heading error, without the geology and diurnal variation between
+    /// the legs.
+    pub heading_vs_truth: Option<HeadingLevels>,
     /// The aircraft's attitude row by row, as far as the flight records it.
     pub attitude: Attitude,
 }
@@ -118,6 +124,15 @@ impl Attitude {
             pitch_deg: angle(PITCH),
             yaw_deg: angle(YAW),
         }
+    }
+
+    /// Roll, pitch and yaw, when the flight has all three.
+    pub fn all(&self) -> Option<[&[f64]; 3]> {
+        Some([
+            self.roll_deg.as_deref()?,
+            self.pitch_deg.as_deref()?,
+            self.yaw_deg.as_deref()?,
+        ])
     }
 
     /// The angle a maneuver of `kind` swings (deg), if the flight has it.
@@ -307,8 +322,20 @@ fn build_scalar(
         // A survey has no box by design; its page says so where a FOM would be.
         warnings.retain(|w| !matches!(w, Warning::NoManeuvers { .. }));
     }
+    let heading_vs_truth = match (&outcome.compensated, &truth, Attitude::of(table).all()) {
+        (Some(c), Some(t), Some(attitude)) => {
+            let error: Vec<f64> = c.iter().zip(t).map(|(c, t)| c - t).collect();
+            let signals = [outcome.scalar.as_slice(), c.as_slice(), error.as_slice()];
+            let path = table.path();
+            let levels = straight_levels(path, &outcome.tt, attitude, &outcome.maneuvers, &signals);
+            // Without straight legs there is nothing to level; the FOM says why.
+            levels.ok().and_then(|mut l| l.pop())
+        }
+        _ => None,
+    };
     Ok(ReportData {
         lines,
+        heading_vs_truth,
         track: track(table),
         attitude: Attitude::of(table),
         uncompensated: trace_of(&outcome.scalar)?,

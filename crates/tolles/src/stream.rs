@@ -46,7 +46,7 @@ use std::time::{Duration, Instant};
 use tolles_core::compensate::adapt::AdaptSettings;
 use tolles_core::compensate::align::{Aligner, Channel};
 pub use tolles_core::compensate::stream::Derivative;
-use tolles_core::compensate::stream::{Flag, Output, Sample, ScalarSpec, StreamCompensator};
+use tolles_core::compensate::stream::{Flag, Output, Sample, ScalarSpec, StreamCompensator, Trust};
 use tolles_core::model::extra::{ExtraChannel, LowPass};
 use tolles_core::signal::shift::Shift;
 use tolles_io::model::ModelFile;
@@ -71,6 +71,10 @@ pub struct StreamRequest {
     /// How long a TCP client may send nothing before its connection is closed (its thread
     /// freed); `None` waits for ever. Default [`DEFAULT_IDLE_TIMEOUT`].
     pub idle_timeout: Option<Duration>,
+    /// After each compensated column NAME, also NAME_sigma (the correction's standard error,
+    /// nT) and NAME_extrapolated (1 outside what the calibration flew, else 0), as
+    /// `compensate --uncertainty` writes them.
+    pub uncertainty: bool,
 }
 
 /// The default longest line: 1 MiB, far beyond any flight record.
@@ -86,6 +90,7 @@ impl Default for StreamRequest {
             adapt: false,
             max_line_bytes: DEFAULT_MAX_LINE_BYTES,
             idle_timeout: Some(DEFAULT_IDLE_TIMEOUT),
+            uncertainty: false,
         }
     }
 }
@@ -103,6 +108,8 @@ pub struct Setup {
     /// The extra channels as the models condition them, each once.
     extras: Vec<ExtraChannel>,
     outputs: Vec<String>,
+    /// Whether each compensated column is followed by its standard error and flag.
+    uncertainty: bool,
     fs_hz: f64,
     derivative: Derivative,
     adapt: bool,
@@ -154,17 +161,31 @@ impl Setup {
             let fit = &m.fit;
             let design = fit.settings.design.clone();
             let ratio = fs_hz / fit.fs_hz;
-            specs.push(
+            let spec =
                 ScalarSpec::new(&m.scalar, j, design, &fit.coefficients, fit.level_nt, ratio)
-                    .with_magnitude(fit.magnitude),
-            );
+                    .with_magnitude(fit.magnitude);
+            specs.push(match request.uncertainty {
+                true => spec.with_trust(Trust {
+                    uncertainty: fit.uncertainty.clone(),
+                    coverage: fit.coverage.clone(),
+                    fs_ratio: ratio,
+                    fs_hz,
+                }),
+                false => spec,
+            });
         }
         let mut extra_columns = Vec::new();
         for e in &extras {
             index_of(&mut extra_columns, e.name.clone());
         }
+        let outputs = model.fits.iter().flat_map(|m| {
+            let name = &m.output_column;
+            let trust = [format!("{name}_sigma"), format!("{name}_extrapolated")];
+            std::iter::once(name.clone()).chain(trust.into_iter().filter(|_| request.uncertainty))
+        });
         Ok(Setup {
-            outputs: model.fits.iter().map(|m| m.output_column.clone()).collect(),
+            outputs: outputs.collect(),
+            uncertainty: request.uncertainty,
             specs,
             fluxgates,
             extra_columns,
@@ -315,7 +336,8 @@ fn serve_lines(
         stats.samples_in.fetch_add(1, Ordering::Relaxed);
         let values = sources(&line);
         aligner.push((line, arrived), &values, |payload, aligned| {
-            compensate_line(&mut stream, &layout, stats, payload, aligned, &mut text)
+            let layout = (&layout, setup.uncertainty);
+            compensate_line(&mut stream, layout, stats, payload, aligned, &mut text)
         });
         out.write_all(text.as_bytes()).map_err(Error::StreamIo)?;
         text.clear();
@@ -325,9 +347,10 @@ fn serve_lines(
         }
     }
     aligner.finish(|payload, aligned| {
-        compensate_line(&mut stream, &layout, stats, payload, aligned, &mut text)
+        let layout = (&layout, setup.uncertainty);
+        compensate_line(&mut stream, layout, stats, payload, aligned, &mut text)
     });
-    stream.finish(|o| format_output(&layout, stats, o, &mut text));
+    stream.finish(|o| format_output((&layout, setup.uncertainty), stats, o, &mut text));
     out.write_all(text.as_bytes()).map_err(Error::StreamIo)?;
     out.flush().map_err(Error::StreamIo)
 }
@@ -336,7 +359,7 @@ fn serve_lines(
 /// them), into the compensator; appends the output lines that are ready to `text`.
 fn compensate_line(
     stream: &mut StreamCompensator<(Line, Instant)>,
-    layout: &Layout,
+    layout: (&Layout, bool),
     stats: &Stats,
     (line, arrived): (Line, Instant),
     aligned: &[f64],
@@ -375,14 +398,29 @@ fn layout(setup: &Setup, raw: &[u8]) -> Result<Layout> {
     .map_err(Error::StreamHeader)
 }
 
+/// Appends the output line of `o` to `text`: with `uncertainty`, each compensated value
+/// followed by its standard error and extrapolation flag (see [`StreamRequest::uncertainty`]).
 fn format_output(
-    layout: &Layout,
+    (layout, uncertainty): (&Layout, bool),
     stats: &Stats,
     o: Output<'_, (Line, Instant)>,
     text: &mut String,
 ) {
     let (line, arrived) = &o.payload;
-    layout.write_output(line, o.compensated, &o.status(), text);
+    match !uncertainty {
+        true => layout.write_output(line, o.compensated, &o.status(), text),
+        false => {
+            let mut values = Vec::with_capacity(3 * o.compensated.len());
+            for ((v, s), e) in o.compensated.iter().zip(o.sigma).zip(o.extrapolated) {
+                let flag = match v.is_finite() {
+                    true => f64::from(u8::from(*e)),
+                    false => f64::NAN,
+                };
+                values.extend([*v, *s, flag]);
+            }
+            layout.write_output(line, &values, &o.status(), text);
+        }
+    }
     stats.record_out(arrived.elapsed(), o.is_ok());
 }
 
@@ -679,6 +717,7 @@ mod tests {
             }],
             extras: Vec::new(),
             outputs: vec!["mag_1_c".to_string()],
+            uncertainty: false,
             fs_hz: 10.0,
             derivative: Derivative::Central,
             adapt: true,

@@ -95,6 +95,19 @@ pub enum Warning {
         rows: usize,
         columns: Vec<(String, usize)>,
     },
+    /// A model whose verdict is not `good` (see `tolles_core::fit::verdict`).
+    Verdict {
+        scalar: String,
+        verdict: tolles_core::fit::verdict::Verdict,
+    },
+    /// Rows whose fluxgate direction, its rate of change or an extra channel's value lies
+    /// outside what the calibration flew: the model extrapolates there.
+    Extrapolated {
+        path: PathBuf,
+        rows: usize,
+        of: usize,
+        column: String,
+    },
     /// A warning about one scalar of a report of several.
     ForScalar {
         scalar: String,
@@ -190,6 +203,14 @@ impl fmt::Display for Warning {
                     name_lengths(columns)
                 )
             }
+            Warning::Verdict { scalar, verdict } => {
+                write!(f, "the model of {scalar} is {verdict}")
+            }
+            Warning::Extrapolated { path, rows, of, column } => write!(
+                f,
+                "{}: {rows} of {of} rows of {column} lie outside what the calibration flew (the field's direction in the aircraft, its rate of change, or an extra channel's value): the model extrapolates there",
+                path.display()
+            ),
             Warning::ForScalar { scalar, warning } => write!(f, "scalar {scalar}: {warning}"),
             Warning::Other(text) => f.write_str(text),
         }

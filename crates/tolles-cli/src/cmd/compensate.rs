@@ -18,7 +18,8 @@ Examples:
 /// the compensated scalar, named after the scalar with `_uc` replaced by `_c`
 /// (mag_1_uc → mag_1_c). The correction's mean over the rows written is kept in the data, as
 /// MagNav.jl does. Rows that cannot be compensated (missing values) get an
-/// empty cell and are counted on stderr.
+/// empty cell and are counted on stderr; so are rows outside what the calibration flew, and a
+/// model whose verdict is not good says so.
 #[derive(clap::Args)]
 #[command(after_help = EXAMPLES)]
 pub struct Args {
@@ -39,6 +40,12 @@ pub struct Args {
     /// in the model, so a row's result does not depend on how the data was split
     #[arg(long, default_value = "mean", value_parser = parse_level)]
     pub level: tolles::compensate::LevelChoice,
+    /// Also write, per compensated column NAME, NAME_sigma: the correction's standard error
+    /// from the coefficients' covariance (nT, relative to the calibration's mean level), and
+    /// NAME_extrapolated: 1 where the row's field direction, its rate of change or an extra
+    /// channel lies outside what the calibration flew, else 0. The survey is then read whole
+    #[arg(long)]
+    pub uncertainty: bool,
     #[command(flatten)]
     pub select: crate::select::Selection,
 }
@@ -60,6 +67,7 @@ pub fn run(args: Args) -> Result<()> {
         compensate: CompensateRequest {
             fs_hz: args.fs,
             level: args.level,
+            uncertainty: args.uncertainty,
         },
         selection: args.select.rows(),
         renames: args.select.renames.clone(),

@@ -7,7 +7,7 @@ use anyhow::{Context, Result};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use tolles::fit::{FitRequest, Terms};
-use tolles_core::fit::{Band, Lambda, MagnitudeChoice};
+use tolles_core::fit::{Band, FitError, Lambda, MagnitudeChoice};
 use tolles_io::table::Table;
 
 /// Default terms: the 16 a scalar magnetometer can identify, or MagNav's 18 when
@@ -140,7 +140,16 @@ pub fn run(args: Args) -> Result<()> {
 fn fit_and_save(table: &Table, request: &FitRequest, out: Option<&Path>) -> Result<()> {
     let mut warnings = Vec::new();
     let fitted = tolles::fit::fit(table, request, &Terminal::default(), &mut warnings);
+    // The summary ends with each verdict.
+    warnings.retain(|w| !matches!(w, tolles::Warning::Verdict { .. }));
     render::warnings(&mut warnings, Use::Fit);
+    if let Err(tolles::Error::Fit {
+        cause: FitError::Implausible(fault),
+        ..
+    }) = &fitted
+    {
+        eprintln!("verdict: refused: the fit found {fault}, even with its terms restrained");
+    }
     let model = fitted.or_render()?;
     for fit in &model.fits {
         render::fit_summary(fit, table.path())?;

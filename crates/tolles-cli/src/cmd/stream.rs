@@ -60,6 +60,11 @@ pub struct Args {
     /// maneuvers); each stream starts from the model's coefficients
     #[arg(long)]
     pub adapt: bool,
+    /// After each compensated column NAME, also NAME_sigma (the correction's standard error,
+    /// nT) and NAME_extrapolated (1 where the sample lies outside what the calibration flew),
+    /// as `compensate --uncertainty` writes them
+    #[arg(long)]
+    pub uncertainty: bool,
     /// No health lines on stderr
     #[arg(long)]
     pub quiet: bool,
@@ -94,6 +99,7 @@ pub fn run(args: Args) -> Result<()> {
         },
         fs_hz: args.fs,
         adapt: args.adapt,
+        uncertainty: args.uncertainty,
         idle_timeout: idle_timeout(args.idle_timeout)?,
         ..StreamRequest::default()
     };

@@ -19,12 +19,13 @@
 pub mod adapt;
 pub mod align;
 pub mod stream;
+pub mod trust;
 
 use crate::fit::scalar_usable;
 use crate::model::design::Design;
 use crate::model::magnitude::{correction, Magnitude};
 use crate::model::terms::Column;
-use crate::model::vector::{Fluxgates, VectorSeries};
+use crate::model::vector::Fluxgates;
 use crate::parallel::split_rows;
 use crate::signal::segment::contiguous_runs;
 use serde::{Deserialize, Serialize};
@@ -211,16 +212,8 @@ pub fn model_field_over_runs(
 /// written into its rows of `field` by blocks on all cores (rows between runs are left as
 /// they are). The coefficients are used as given, for the sample rate they were fitted at.
 pub(crate) fn write_runs(flux: Fluxgates, runs: &[Range<usize>], model: Model, field: &mut [f64]) {
-    let exact =
-        model.magnitude == Magnitude::Exact && flux.count() == 1 && model.design.extras.is_empty();
-    if exact {
-        exact_field(
-            flux.series()[0],
-            runs,
-            model.design,
-            model.coefficients,
-            field,
-        );
+    if model.magnitude == Magnitude::Exact && flux.count() == 1 {
+        exact_field(flux, runs, model.design, model.coefficients, field);
         return;
     }
     for run in runs {
@@ -234,7 +227,7 @@ pub(crate) fn write_runs(flux: Fluxgates, runs: &[Range<usize>], model: Model, f
 /// The exact-magnitude correction (nT) of each of the `runs` of `flux`, written into their
 /// rows of `field`, by blocks on all cores.
 fn exact_field(
-    flux: &VectorSeries,
+    flux: Fluxgates,
     runs: &[Range<usize>],
     design: &Design,
     beta: &[f64],
@@ -242,12 +235,8 @@ fn exact_field(
 ) {
     let blocks = blocks(runs, FIELD_BLOCK_ROWS);
     let block_field = |block: &Block, out: &mut [f64]| {
-        let part = correction(
-            Magnitude::Exact,
-            design,
-            &flux.slice(block.with_halo.clone()),
-            beta,
-        );
+        let sliced = flux.slice(block.with_halo.clone());
+        let part = correction(Magnitude::Exact, design, &sliced, beta);
         let skip = block.rows.start - block.with_halo.start;
         out.copy_from_slice(&part[skip..skip + block.rows.len()]);
     };

@@ -45,7 +45,9 @@
 
 use crate::compensate::adapt::{AdaptSettings, Adapter};
 use crate::compensate::rescale_eddy;
+use crate::fit::trust::Uncertainty;
 use crate::fit::{scalar_usable, show_nt, FLUX_MAGNITUDE_RANGE_NT};
+use crate::model::coverage::Coverage;
 use crate::model::design::Design;
 use crate::model::magnitude::{exact_at, field_per_unit, Magnitude};
 use crate::model::terms::Column;
@@ -150,6 +152,22 @@ pub struct ScalarSpec {
     coefficients: Vec<f64>,
     level_nt: f64,
     magnitude: Magnitude,
+    /// What each sample's standard error and extrapolation flag come from, when asked for.
+    trust: Option<Trust>,
+}
+
+/// A scalar's uncertainty and the span its calibration flew, for each sample's standard error
+/// and extrapolation flag (see [`crate::compensate::trust`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Trust {
+    /// `None` for a model file without one: the standard error is then NaN.
+    pub uncertainty: Option<Uncertainty>,
+    /// `None` for a model file without one: no sample is flagged.
+    pub coverage: Option<Coverage>,
+    /// The stream's sample rate over the calibration's.
+    pub fs_ratio: f64,
+    /// The stream's sample rate (Hz).
+    pub fs_hz: f64,
 }
 
 impl ScalarSpec {
@@ -176,16 +194,49 @@ impl ScalarSpec {
             design,
             level_nt,
             magnitude: Magnitude::Linear,
+            trust: None,
         }
     }
 
-    /// The same model applied with `magnitude` (linear unless set; a design with extra
-    /// channels is applied linearly, as batch compensation does).
+    /// The same model giving each sample's standard error and extrapolation flag.
+    pub fn with_trust(self, trust: Trust) -> Self {
+        Self {
+            trust: Some(trust),
+            ..self
+        }
+    }
+
+    /// A sample's standard error (nT; NaN without an uncertainty) and whether it lies outside
+    /// the calibration's span, for field `b` (nT) changing by `db` (nT/sample) with the extra
+    /// channels `extras`; `row` is room for a design row. `None` when not asked for.
+    fn trust_at(
+        &self,
+        b: [f64; 3],
+        db: [f64; 3],
+        extras: &[f64],
+        row: &mut [f64],
+    ) -> Option<(f64, bool)> {
+        let trust = self.trust.as_ref()?;
+        let sigma = trust.uncertainty.as_ref().map_or(f64::NAN, |u| {
+            self.design
+                .row_with_extras(&self.columns, b, db, extras, row);
+            for (a, c) in row.iter_mut().zip(&self.columns) {
+                if matches!(c, Column::Eddy(..) | Column::EddyTraceless(_)) {
+                    *a *= trust.fs_ratio;
+                }
+            }
+            u.sigma(row)
+        });
+        let rate = (db[0] * db[0] + db[1] * db[1] + db[2] * db[2]).sqrt() * trust.fs_hz;
+        let outside = trust
+            .coverage
+            .as_ref()
+            .is_some_and(|c| c.outside(b, rate, extras));
+        Some((sigma, outside))
+    }
+
+    /// The same model applied with `magnitude` (linear unless set).
     pub fn with_magnitude(self, magnitude: Magnitude) -> Self {
-        let magnitude = match self.design.extras.is_empty() {
-            true => magnitude,
-            false => Magnitude::Linear,
-        };
         Self { magnitude, ..self }
     }
 
@@ -206,10 +257,17 @@ impl ScalarSpec {
                 row.iter().zip(&self.coefficients).map(|(a, c)| a * c).sum()
             }
             Magnitude::Exact => {
-                let (value, direction) =
-                    exact_at(&self.design, &self.columns, &self.coefficients, b, db);
+                let (value, direction) = exact_at(
+                    &self.design,
+                    &self.columns,
+                    &self.coefficients,
+                    b,
+                    db,
+                    extras,
+                );
                 for (r, column) in row.iter_mut().zip(&self.columns) {
-                    *r = field_per_unit(*column, b, db, self.design.bt_scale).map_or(1.0, |v| {
+                    let s = self.design.bt_scale;
+                    *r = field_per_unit(*column, b, db, extras, s).map_or(1.0, |v| {
                         direction[0] * v[0] + direction[1] * v[1] + direction[2] * v[2]
                     });
                 }
@@ -255,6 +313,11 @@ pub struct Output<'a, T> {
     pub compensated: &'a [f64],
     /// Why the sample is not fully usable; empty when it is.
     pub flags: &'a [Flag],
+    /// Per scalar whose spec gives it ([`ScalarSpec::with_trust`]): the correction's standard
+    /// error (nT, NaN where not computable) and whether the sample lies outside the span its
+    /// calibration flew; NaN and `false` for the others.
+    pub sigma: &'a [f64],
+    pub extrapolated: &'a [bool],
 }
 
 impl<T> Output<'_, T> {
@@ -298,7 +361,10 @@ pub struct StreamCompensator<T> {
     held: Option<Held<T>>,
     adapters: Vec<Adapter>,
     values: Vec<f64>,
+    sigma: Vec<f64>,
+    extrapolated: Vec<bool>,
     row: Vec<f64>,
+    trust_row: Vec<f64>,
     /// Names of the extra channels.
     extras: Vec<String>,
     /// Per fluxgate, the extra channels (indices into `extras`) its scalars' designs use, in
@@ -321,7 +387,10 @@ impl<T> StreamCompensator<T> {
         let fluxgates_len = fluxgates.len();
         Self {
             values: vec![f64::NAN; scalars.len()],
+            sigma: vec![f64::NAN; scalars.len()],
+            extrapolated: vec![false; scalars.len()],
             row: vec![0.0; width],
+            trust_row: vec![0.0; width],
             before: vec![None; fluxgates.len()],
             scalars,
             fluxgates,
@@ -565,6 +634,8 @@ impl<T> StreamCompensator<T> {
             let j = spec.fluxgate;
             let (Some(b), Some(d)) = (held.flux[j], db[j]) else {
                 self.values[i] = f64::NAN;
+                self.sigma[i] = f64::NAN;
+                self.extrapolated[i] = false;
                 if let Some(adapter) = self.adapters.get_mut(i) {
                     adapter.restart();
                 }
@@ -577,6 +648,16 @@ impl<T> StreamCompensator<T> {
             self.extra_values.extend(used);
             let field = spec.field(b, d, &self.extra_values, row);
             self.values[i] = scalar - (field - spec.level_nt);
+            let trust_row = &mut self.trust_row[..spec.columns.len()];
+            let (sigma, outside) = spec
+                .trust_at(b, d, &self.extra_values, trust_row)
+                .unwrap_or((f64::NAN, false));
+            self.sigma[i] = if self.values[i].is_finite() {
+                sigma
+            } else {
+                f64::NAN
+            };
+            self.extrapolated[i] = outside;
             if let Some(adapter) = self.adapters.get_mut(i) {
                 let target = spec.adaptation_target(scalar, field, row);
                 // Adapt after use, so a sample's output never depends on itself.
@@ -589,6 +670,8 @@ impl<T> StreamCompensator<T> {
             payload: held.payload,
             compensated: &self.values,
             flags: &held.flags,
+            sigma: &self.sigma,
+            extrapolated: &self.extrapolated,
         });
     }
 }

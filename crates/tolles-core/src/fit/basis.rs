@@ -85,6 +85,28 @@ impl Basis {
     /// after it (the fluxgate's magnitude, for its calibration), with the columns of every term
     /// and the target: a stored term's column is copied, bit for bit, and the others after the
     /// target are dropped.
+    /// Coefficients of every term (`beta`, one per term of the basis) as coefficients of the
+    /// stored columns: the same fit of the stored columns' rows.
+    pub(super) fn on_stored(&self, beta: &[f64]) -> Vec<f64> {
+        let Some(terms) = &self.terms else {
+            return beta.to_vec();
+        };
+        let mut out = vec![0.0; self.stored.len()];
+        for (parts, b) in terms.iter().zip(beta) {
+            for &(stored, w) in parts {
+                out[stored] += w * b;
+            }
+        }
+        out
+    }
+
+    /// A square matrix of the stored columns (a score covariance, `S`) as one of every term:
+    /// `TᵀST` with `T` the terms' weights.
+    pub(super) fn square_on_terms(&self, s: &DMatrix<f64>) -> DMatrix<f64> {
+        let right = self.on_terms(s, false).transpose();
+        self.on_terms(&right, false)
+    }
+
     fn on_terms(&self, m: &DMatrix<f64>, with_target: bool) -> DMatrix<f64> {
         let stored = self.stored.len();
         let Some(terms) = &self.terms else {

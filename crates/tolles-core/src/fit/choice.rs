@@ -2,8 +2,11 @@
 //! magnitude model, and the ridge strength.
 
 use super::crossval::{
-    cross_validate, heldout_sum_of_squares_on, penalty, CrossValidation, LAMBDA_GRID,
+    cross_validate, cross_validate_prior_groups, heldout_sum_of_squares_on, penalty,
+    CrossValidation, LAMBDA_GRID, PRIOR_GRID,
 };
+use super::plausible::{self, Fault};
+use super::prior::PriorWeights;
 use super::problem::FoldFactor;
 use super::qr::upper_factor;
 use super::ridge::{Ridge, RidgeSolution};
@@ -62,7 +65,11 @@ pub(super) fn term_score(chosen: &Chosen, is_chosen: bool) -> TermScore {
     }
 }
 
-/// Every term of `designs`, each once, in order of first appearance.
+/// Every term of `designs`, each once, in order of first appearance; then the plain diagonal
+/// that completes the parts of a traceless term when the union holds all of them but that one
+/// (see [`Column::of_diagonals`](crate::model::terms::Column::of_diagonals)): stored, it lets
+/// the fit form the kind's two traceless columns from three stored diagonals instead of storing
+/// them (the patent's terms beside `i5,e8` lack only `zz`).
 pub(super) fn union_of_terms(designs: &[Design]) -> Vec<Term> {
     let mut union: Vec<Term> = Vec::new();
     for term in designs.iter().flat_map(Design::design_terms) {
@@ -70,6 +77,27 @@ pub(super) fn union_of_terms(designs: &[Design]) -> Vec<Term> {
             union.push(term);
         }
     }
+    let mut completing: Vec<Term> = Vec::new();
+    for term in &union {
+        let Some(parts) = term.column.of_diagonals() else {
+            continue;
+        };
+        let part = |column| Term {
+            fluxgate: term.fluxgate,
+            column,
+        };
+        let missing: Vec<Term> = parts
+            .iter()
+            .map(|(column, _)| part(*column))
+            .filter(|p| !union.contains(p))
+            .collect();
+        if let [one] = missing[..] {
+            if !completing.contains(&one) {
+                completing.push(one);
+            }
+        }
+    }
+    union.extend(completing);
     union
 }
 
@@ -84,6 +112,8 @@ pub(super) struct Chosen {
     /// Held-out RMS of the low-frequency rows alone, unweighted (nT), with levels.
     pub(super) heldout_low_nt: Option<f64>,
     pub(super) scores: Vec<TermScore>,
+    /// What the fit found before its prior was strengthened to make it believable, if it was.
+    pub(super) restrained: Option<Fault>,
 }
 
 impl Chosen {
@@ -101,15 +131,19 @@ impl Chosen {
 
 /// Solves every candidate design on the same folds and keeps the first one unless another
 /// predicts held-out data [`TERM_CHOICE_MARGIN`] better. The first design's failure is the
-/// fit's failure; an alternative that fails is only scored as such.
+/// fit's failure; an alternative that fails is only scored as such. `prior` holds the union's
+/// precisions, when the fit has a prior.
 pub(super) fn choose_design(
     folds: &[FoldFactor],
     designs: &[Design],
     union: &[Term],
     lambda: Lambda,
     weight: f64,
+    prior: Option<&PriorWeights>,
+    fs_hz: f64,
 ) -> Result<Chosen, FitError> {
     let mut solved: Vec<Chosen> = Vec::new();
+    let mut implausible: Option<FitError> = None;
     for (index, design) in designs.iter().enumerate() {
         let picks: Vec<usize> = design
             .design_terms()
@@ -130,12 +164,21 @@ pub(super) fn choose_design(
                 terms: picks.len(),
             })
         } else {
-            solve(&folds, lambda, &columns)
+            let prior = prior.map(|p| p.picked(&picks));
+            let fault = |beta: &[f64]| plausible::fault(design, beta, fs_hz);
+            solve(&folds, lambda, &columns, prior.as_ref(), &fault)
         };
         match outcome {
-            Ok((solution, cross_validation)) => {
+            Ok(Solved {
+                solution,
+                cross_validation,
+                prior_penalty,
+                restrained,
+            }) => {
                 let heldout_low_nt = cross_validation.as_ref().and_then(|cv| {
-                    heldout_low(&folds, &level_folds, cv.chosen_lambda_rel, &columns, weight)
+                    let lambda_rel = cv.chosen_lambda_rel;
+                    let penalty = &prior_penalty;
+                    heldout_low(&folds, &level_folds, lambda_rel, &columns, weight, penalty)
                 });
                 solved.push(Chosen {
                     index,
@@ -145,11 +188,19 @@ pub(super) fn choose_design(
                     cross_validation,
                     heldout_low_nt,
                     scores: Vec::new(),
+                    restrained,
                 });
+            }
+            // An implausible candidate is left out; the fit fails only if every one is.
+            Err(e @ FitError::Implausible(_)) => {
+                implausible.get_or_insert(e);
             }
             Err(e) if index == 0 => return Err(e),
             Err(_) => {}
         }
+    }
+    if solved.is_empty() {
+        return Err(implausible.expect("a candidate failed"));
     }
     let scored: Vec<Option<f64>> = solved
         .iter()
@@ -201,19 +252,20 @@ pub(super) fn choose_design(
 }
 
 /// Held-out RMS (nT) of the level rows: each fold's level rows predicted by a fit on the other
-/// folds, unweighted; `None` without level rows.
+/// folds (with the prior's `prior_penalty`), unweighted; `None` without level rows.
 pub(super) fn heldout_low(
     folds: &[Ridge],
     level_folds: &[Ridge],
     lambda_rel: f64,
     columns: &[String],
     weight: f64,
+    prior_penalty: &[f64],
 ) -> Option<f64> {
     let rows: usize = level_folds.iter().map(Ridge::rows).sum();
     if rows == 0 || weight <= 0.0 {
         return None;
     }
-    let rss = heldout_sum_of_squares_on(folds, level_folds, lambda_rel, columns)?;
+    let rss = heldout_sum_of_squares_on(folds, level_folds, lambda_rel, columns, prior_penalty)?;
     Some((rss / rows as f64).sqrt() / weight)
 }
 
@@ -238,12 +290,28 @@ pub(super) fn fold_problems(folds: &[FoldFactor], picks: &[usize]) -> (Vec<Ridge
         .unzip()
 }
 
-/// The final solve on all rows, with λ fixed or cross-validated.
+/// A final solve: the solution, how λ was chosen, the prior's part of its penalty, and the
+/// fault that made the prior stronger, if one did.
+pub(super) struct Solved {
+    pub(super) solution: RidgeSolution,
+    pub(super) cross_validation: Option<CrossValidation>,
+    pub(super) prior_penalty: Vec<f64>,
+    pub(super) restrained: Option<Fault>,
+}
+
+/// The final solve on all rows, with λ fixed or cross-validated. With a cross-validated λ and
+/// a `prior`, the prior's penalty is scaled by the residual variance of the fit without it
+/// (see [`crate::fit::prior`]) and every candidate λ is validated with it; a solution that
+/// `fault` finds unbelievable is restrained by ever stronger multiples of the prior, or refused
+/// ([`FitError::Implausible`]) when even the strongest leaves it so. A fixed λ is MagNav's
+/// procedure and is solved as it is.
 pub(super) fn solve(
     folds: &[Ridge],
     lambda: Lambda,
     columns: &[String],
-) -> Result<(RidgeSolution, Option<CrossValidation>), FitError> {
+    prior: Option<&PriorWeights>,
+    fault: &dyn Fn(&[f64]) -> Option<Fault>,
+) -> Result<Solved, FitError> {
     let mut all = folds[0].clone();
     folds[1..].iter().for_each(|f| all.merge(f));
     match lambda {
@@ -252,18 +320,73 @@ pub(super) fn solve(
             if lambda > LAMBDA_MAX_RATIO * largest {
                 return Err(FitError::LambdaTooLarge { lambda, largest });
             }
-            Ok((all.solve(lambda, columns)?, None))
+            Ok(Solved {
+                solution: all.solve(lambda, columns)?,
+                cross_validation: None,
+                prior_penalty: Vec::new(),
+                restrained: None,
+            })
         }
         Lambda::CrossValidated { .. } => {
-            let cv =
-                cross_validate(folds, &LAMBDA_GRID, columns).ok_or(FitError::CrossValidation {
-                    terms: columns.len(),
-                })?;
-            let weights = penalty(cv.chosen_lambda_rel, &all.column_sums_of_squares());
-            Ok((all.solve_penalised(&weights, columns)?, Some(cv)))
+            let failed = || FitError::CrossValidation {
+                terms: columns.len(),
+            };
+            let sums = all.column_sums_of_squares();
+            let mut cv = cross_validate(folds, &LAMBDA_GRID, columns, &[]).ok_or_else(failed)?;
+            let Some(prior) = prior else {
+                let solution = all.solve_penalised(&cv.chosen_penalty(&sums, &[]), columns)?;
+                return Ok(Solved {
+                    solution,
+                    cross_validation: Some(cv),
+                    prior_penalty: Vec::new(),
+                    restrained: None,
+                });
+            };
+            // The prior's strength per unit of residual variance, from the fit without it;
+            // then the multiple of it that predicts held-out rows best.
+            let first = all.solve_penalised(&cv.chosen_penalty(&sums, &[]), columns)?;
+            let prior_unit = prior.penalty(first.rss / first.rows.max(1) as f64);
+            cv = cross_validate_prior_groups(
+                folds,
+                &PRIOR_GRID,
+                columns,
+                &prior_unit,
+                &prior.groups,
+            )
+            .ok_or_else(failed)?;
+            let mut solution =
+                all.solve_penalised(&cv.chosen_penalty(&sums, &prior_unit), columns)?;
+            let restrained = fault(&solution.coefficients);
+            if let Some(found) = &restrained {
+                let chosen = cv.chosen_prior(&prior_unit);
+                let believable = RESTRAINTS.iter().find_map(|r| {
+                    let prior: Vec<f64> = chosen.iter().map(|p| p * r).collect();
+                    let penalty = penalty(cv.chosen_lambda_rel, &sums, &prior);
+                    let s = all.solve_penalised(&penalty, columns).ok()?;
+                    fault(&s.coefficients).is_none().then_some((r, s))
+                });
+                let (restraint, believed) =
+                    believable.ok_or_else(|| FitError::Implausible(found.clone()))?;
+                let common = cv.chosen_prior_multiplier.unwrap_or(1.0);
+                cv.prior_multipliers = match cv.prior_multipliers.len() {
+                    0 => vec![common * restraint; prior_unit.len()],
+                    _ => cv.prior_multipliers.iter().map(|m| m * restraint).collect(),
+                };
+                solution = believed;
+            }
+            let prior_penalty = cv.chosen_prior(&prior_unit);
+            Ok(Solved {
+                solution,
+                cross_validation: Some(cv),
+                prior_penalty,
+                restrained,
+            })
         }
     }
 }
+
+/// Factors by which a fit's prior is strengthened, in turn, until its model is believable.
+const RESTRAINTS: [f64; 6] = [10.0, 1e2, 1e3, 1e4, 1e5, 1e6];
 
 #[cfg(test)]
 mod tests {

@@ -16,7 +16,7 @@
 //!         r
 //!     })
 //!     .collect();
-//! let cv = cross_validate(&folds, &LAMBDA_GRID, &[]).unwrap();
+//! let cv = cross_validate(&folds, &LAMBDA_GRID, &[], &[]).unwrap();
 //! assert_eq!(cv.chosen_lambda_rel, 0.0);
 //! ```
 //!
@@ -37,11 +37,19 @@ pub const LAMBDA_GRID: [f64; 9] = [0.0, 1e-8, 1e-7, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2
 /// Default number of contiguous folds.
 pub const DEFAULT_FOLDS: usize = 5;
 
+/// Multiples of a prior's penalty (see [`crate::fit::prior`]) that cross-validation chooses
+/// between when a fit has a prior: from a tenth of the prior's own strength, for flights that
+/// determine every term, to a millionfold, for flights whose residual is mostly not noise.
+pub const PRIOR_GRID: [f64; 8] = [1.0, 10.0, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7];
+
 /// The held-out error of one candidate.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct CvPoint {
     /// Relative ridge strength (dimensionless; penalty `λ_rel·diag(AᵀA)`).
     pub lambda_rel: f64,
+    /// With a prior: the multiple of the prior's penalty (dimensionless).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prior_multiplier: Option<f64>,
     /// RMS of the held-out filtered residuals (nT); `None` when a fold could not be solved.
     pub heldout_rms_nt: Option<f64>,
 }
@@ -55,64 +63,189 @@ pub struct CrossValidation {
     pub grid: Vec<CvPoint>,
     /// The chosen relative strength.
     pub chosen_lambda_rel: f64,
+    /// With a prior: the chosen multiple of its penalty common to every term.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub chosen_prior_multiplier: Option<f64>,
+    /// With a prior: the multiple of its penalty each column ended with, its group's (see
+    /// [`crate::fit::prior::Group`]); empty when every column has the common one.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub prior_multipliers: Vec<f64>,
     /// Held-out RMS of the chosen strength (nT): the filtered residual to expect on new data.
     pub expected_heldout_rms_nt: f64,
 }
+
+impl CrossValidation {
+    /// The chosen candidate's penalty, given the columns' sums of squares and the prior's
+    /// penalty at a multiple of one (empty without a prior).
+    pub fn chosen_penalty(&self, sums_of_squares: &[f64], prior: &[f64]) -> Vec<f64> {
+        penalty(
+            self.chosen_lambda_rel,
+            sums_of_squares,
+            &self.chosen_prior(prior),
+        )
+    }
+
+    /// The prior's part of the chosen penalty.
+    pub fn chosen_prior(&self, prior: &[f64]) -> Vec<f64> {
+        if self.prior_multipliers.len() == prior.len() {
+            return prior
+                .iter()
+                .zip(&self.prior_multipliers)
+                .map(|(p, m)| p * m)
+                .collect();
+        }
+        scaled(prior, self.chosen_prior_multiplier)
+    }
+}
+
+fn scaled(prior: &[f64], multiplier: Option<f64>) -> Vec<f64> {
+    let m = multiplier.unwrap_or(1.0);
+    prior.iter().map(|p| p * m).collect()
+}
+
+/// The ridge on standardised columns kept under a prior: far too weak to shrink anything the
+/// data determine, it bounds the condition number where neither the data nor the prior hold a
+/// direction, so that rounding does not decide it.
+pub const CONDITIONING_LAMBDA_REL: f64 = 1e-9;
 
 /// Smallest column scale, relative to the largest, used in the penalty: a column with no signal
 /// at all on a flight (say, a fluxgate axis that never changes) then gets a coefficient of zero
 /// instead of making the problem singular.
 const SCALE_FLOOR: f64 = 1e-12;
 
-/// The diagonal penalty for relative strength `lambda_rel` given the columns' sums of squares.
-pub fn penalty(lambda_rel: f64, sums_of_squares: &[f64]) -> Vec<f64> {
+/// The diagonal penalty for relative strength `lambda_rel` given the columns' sums of squares,
+/// plus `prior` (one value per column, or empty for none; see [`crate::fit::prior`]).
+pub fn penalty(lambda_rel: f64, sums_of_squares: &[f64], prior: &[f64]) -> Vec<f64> {
     let largest = sums_of_squares.iter().fold(0.0f64, |m, s| m.max(*s));
     sums_of_squares
         .iter()
-        .map(|s| lambda_rel * s.max(SCALE_FLOOR * largest))
+        .enumerate()
+        .map(|(j, s)| lambda_rel * s.max(SCALE_FLOOR * largest) + prior.get(j).unwrap_or(&0.0))
         .collect()
 }
 
-/// Cross-validates `grid` over `folds` (each a problem holding one block of rows).
-/// `None` when no candidate could be solved on every fold.
+/// Cross-validates `grid` over `folds` (each a problem holding one block of rows), every
+/// penalty with `prior` added (see [`penalty`]). `None` when no candidate could be solved on
+/// every fold.
 pub fn cross_validate(
     folds: &[Ridge],
     grid: &[f64],
     columns: &[String],
+    prior: &[f64],
+) -> Option<CrossValidation> {
+    let points = grid.iter().map(|&lambda_rel| CvPoint {
+        lambda_rel,
+        prior_multiplier: None,
+        heldout_rms_nt: None,
+    });
+    validate(folds, points.collect(), columns, prior)
+}
+
+/// Cross-validates multiples `grid` of the prior's penalty `prior`, over `folds`, with only
+/// [`CONDITIONING_LAMBDA_REL`] of a ridge on standardised columns. `None` when no candidate
+/// could be solved on every fold.
+pub fn cross_validate_prior(
+    folds: &[Ridge],
+    grid: &[f64],
+    columns: &[String],
+    prior: &[f64],
+) -> Option<CrossValidation> {
+    let points = grid.iter().map(|&m| CvPoint {
+        lambda_rel: CONDITIONING_LAMBDA_REL,
+        prior_multiplier: Some(m),
+        heldout_rms_nt: None,
+    });
+    validate(folds, points.collect(), columns, prior)
+}
+
+/// Scores every point and keeps the best.
+fn validate(
+    folds: &[Ridge],
+    mut points: Vec<CvPoint>,
+    columns: &[String],
+    prior: &[f64],
 ) -> Option<CrossValidation> {
     let rows: usize = folds.iter().map(Ridge::rows).sum();
-    let points: Vec<CvPoint> = grid
-        .iter()
-        .map(|&lambda_rel| CvPoint {
-            lambda_rel,
-            heldout_rms_nt: heldout_sum_of_squares(folds, lambda_rel, columns)
-                .map(|ss| (ss / rows as f64).sqrt()),
-        })
-        .collect();
+    for p in points.iter_mut() {
+        let prior = scaled(prior, p.prior_multiplier);
+        p.heldout_rms_nt = heldout_sum_of_squares_on(folds, folds, p.lambda_rel, columns, &prior)
+            .map(|ss| (ss / rows as f64).sqrt());
+    }
     let best = points
         .iter()
-        .filter_map(|p| p.heldout_rms_nt.map(|rms| (p.lambda_rel, rms)))
+        .filter_map(|p| p.heldout_rms_nt.map(|rms| (p, rms)))
         .min_by(|a, b| a.1.total_cmp(&b.1))?;
     Some(CrossValidation {
         folds: folds.len(),
-        grid: points,
-        chosen_lambda_rel: best.0,
+        chosen_lambda_rel: best.0.lambda_rel,
+        chosen_prior_multiplier: best.0.prior_multiplier,
+        prior_multipliers: Vec::new(),
         expected_heldout_rms_nt: best.1,
+        grid: points.clone(),
     })
 }
 
-fn heldout_sum_of_squares(folds: &[Ridge], lambda_rel: f64, columns: &[String]) -> Option<f64> {
-    heldout_sum_of_squares_on(folds, folds, lambda_rel, columns)
+/// Factors by which one group's multiple of the prior is moved from the common one, in turn.
+const GROUP_FACTORS: [f64; 6] = [1e-3, 1e-2, 0.1, 10.0, 1e2, 1e3];
+
+/// [`cross_validate_prior`], then each group's multiple moved on its own (`groups` gives each
+/// column's group, `None` for a column without a prior): a move is kept when it predicts the
+/// held-out rows better, one group after another.
+pub fn cross_validate_prior_groups<G: PartialEq + Copy>(
+    folds: &[Ridge],
+    grid: &[f64],
+    columns: &[String],
+    prior: &[f64],
+    groups: &[Option<G>],
+) -> Option<CrossValidation> {
+    let mut cv = cross_validate_prior(folds, grid, columns, prior)?;
+    let common = cv.chosen_prior_multiplier.unwrap_or(1.0);
+    let mut distinct: Vec<G> = Vec::new();
+    groups.iter().flatten().for_each(|g| {
+        if !distinct.contains(g) {
+            distinct.push(*g);
+        }
+    });
+    if distinct.len() < 2 {
+        return Some(cv);
+    }
+    let rows: usize = folds.iter().map(Ridge::rows).sum();
+    let lambda_rel = cv.chosen_lambda_rel;
+    let score = |multipliers: &[f64]| {
+        let penalty: Vec<f64> = prior.iter().zip(multipliers).map(|(p, m)| p * m).collect();
+        heldout_sum_of_squares_on(folds, folds, lambda_rel, columns, &penalty)
+    };
+    let mut multipliers = vec![common; prior.len()];
+    let mut best = score(&multipliers)?;
+    for group in distinct {
+        let start = multipliers.clone();
+        for factor in GROUP_FACTORS {
+            let mut trial = start.clone();
+            groups
+                .iter()
+                .zip(trial.iter_mut())
+                .filter(|(g, _)| **g == Some(group))
+                .for_each(|(_, m)| *m = (common * factor).max(1.0));
+            if let Some(ss) = score(&trial).filter(|ss| *ss < best) {
+                best = ss;
+                multipliers = trial;
+            }
+        }
+    }
+    cv.expected_heldout_rms_nt = (best / rows as f64).sqrt();
+    cv.prior_multipliers = multipliers;
+    Some(cv)
 }
 
 /// Sum over k of the squared residuals on `tests[k]` of a fit on every fold but `folds[k]`
-/// with the relative penalty `lambda_rel`; `tests` holds one problem per fold (for example a
-/// subset of each fold's rows). `None` when a training set cannot be solved.
+/// with the relative penalty `lambda_rel` and `prior`; `tests` holds one problem per fold (for
+/// example a subset of each fold's rows). `None` when a training set cannot be solved.
 pub fn heldout_sum_of_squares_on(
     folds: &[Ridge],
     tests: &[Ridge],
     lambda_rel: f64,
     columns: &[String],
+    prior: &[f64],
 ) -> Option<f64> {
     let mut total = 0.0;
     for (k, test) in tests.iter().enumerate() {
@@ -124,7 +257,7 @@ pub fn heldout_sum_of_squares_on(
             }
         }
         let train = train?;
-        let weights = penalty(lambda_rel, &train.column_sums_of_squares());
+        let weights = penalty(lambda_rel, &train.column_sums_of_squares(), prior);
         let beta = train.solve_penalised(&weights, columns).ok()?.coefficients;
         total += test.residual_sum_of_squares(&beta);
     }

@@ -26,6 +26,7 @@
 
 use crate::fit::basis::diagonal_parts;
 use crate::fit::choice::choose_design;
+use crate::fit::prior::{Prior, PriorWeights};
 use crate::fit::problem::{FoldFactor, Spare};
 use crate::fit::{Band, FitSettings, Lambda, Samples};
 use crate::model::design::{Design, Term};
@@ -123,6 +124,7 @@ pub(super) fn reference_reusing(
         alternative_terms: Vec::new(),
         levels: false,
         magnitude: Default::default(),
+        prior: calibration_prior(settings),
         ..settings.clone()
     };
     // The magnitude is believable wherever the fluxgate is usable (its check bounds it far
@@ -146,6 +148,12 @@ pub(super) fn reference_reusing(
         residual_std_nt: cal.diagnostics.residual_std_nt,
     };
     reference_of(flux, samples, magnitude, &design, &fitted, spare)
+}
+
+/// The prior of a fluxgate calibration within a fit of `settings`: the fluxgate's own, when the
+/// fit has one.
+fn calibration_prior(settings: &FitSettings) -> Option<Prior> {
+    settings.prior.map(|_| Prior::FLUXGATE)
 }
 
 /// The design of the fluxgate's calibration: a permanent and a traceless induced field.
@@ -238,6 +246,10 @@ fn reference_of(
 pub(super) struct InPass {
     design: Design,
     terms: Vec<Term>,
+    /// The calibration's prior on its terms, as a calibration in a pass of its own has it.
+    prior: Option<PriorWeights>,
+    /// Sample rate (Hz).
+    fs_hz: f64,
     /// Rows: the stored columns, the target, the magnitude; columns: the calibration's terms,
     /// then the magnitude as their target.
     map: DMatrix<f64>,
@@ -247,7 +259,12 @@ impl InPass {
     /// The calibration in the pass of the linear fit whose stored columns are `stored`, when
     /// its columns are among their combinations (the same `Bt_scale`, one fluxgate, no rows
     /// above the band, which the calibration would not have).
-    pub(super) fn of(settings: &FitSettings, stored: &[Term], above_band: bool) -> Option<Self> {
+    pub(super) fn of(
+        settings: &FitSettings,
+        stored: &[Term],
+        above_band: bool,
+        fs_hz: f64,
+    ) -> Option<Self> {
         let design = calibration_design();
         if above_band
             || settings.design.fluxgates != 1
@@ -264,7 +281,20 @@ impl InPass {
             }
         }
         map[(width + 1, terms.len())] = 1.0;
-        Some(Self { design, terms, map })
+        let prior = FitSettings {
+            design: design.clone(),
+            lambda: Lambda::auto(),
+            prior: calibration_prior(settings),
+            ..settings.clone()
+        }
+        .prior_weights(&terms, fs_hz);
+        Some(Self {
+            design,
+            terms,
+            prior,
+            fs_hz,
+            map,
+        })
     }
 
     /// The reference from the fold factors `folds` of the linear fit's band rows (of its stored
@@ -297,7 +327,17 @@ impl InPass {
             })
             .collect();
         let designs = [self.design.clone()];
-        let chosen = choose_design(&folds, &designs, &self.terms, Lambda::auto(), 0.0).ok()?;
+        let prior = self.prior.as_ref();
+        let chosen = choose_design(
+            &folds,
+            &designs,
+            &self.terms,
+            Lambda::auto(),
+            0.0,
+            prior,
+            self.fs_hz,
+        )
+        .ok()?;
         let solution = &chosen.solution;
         let residual_std_nt = crate::fit::band_residual_std(solution, 0, 0.0);
         let finite = solution.coefficients.iter().all(|c| c.is_finite());

@@ -140,6 +140,8 @@ pub(super) struct Problem<'p, 'a> {
     pub(super) settings: &'p FitSettings,
     /// Where the fit's large buffers come from and go back to.
     pub(super) spare: &'p Spare,
+    /// Sample rate (Hz).
+    pub(super) fs_hz: f64,
 }
 
 /// Rows above the fitting band for extra channels. A current may switch or flash faster than
@@ -157,13 +159,16 @@ pub(crate) struct AboveBand {
 }
 
 impl AboveBand {
-    /// The same rows for a design of `width` columns without extra channels: every column
-    /// zeroed, so the rows stay part of the score (as they were for the linear fit it is
-    /// compared with) but explain nothing.
-    fn without_extras(&self, width: usize) -> AboveBand {
+    /// The same rows for a design of the columns `terms`: only its extra channels' columns
+    /// kept (a design without them has its rows zeroed, so they stay part of the score, as they
+    /// were for the linear fit it is compared with, but explain nothing).
+    fn for_terms(&self, terms: &[Term]) -> AboveBand {
         AboveBand {
             filter: self.filter.clone(),
-            extra: vec![false; width],
+            extra: terms
+                .iter()
+                .map(|t| matches!(t.column, crate::model::terms::Column::Extra { .. }))
+                .collect(),
         }
     }
 
@@ -422,6 +427,57 @@ impl Prepared {
         let r = &self.runs[run];
         let start = c * r.len + self.trim;
         &r.data[start + rows.start..start + rows.end]
+    }
+
+    /// The residual sum of squares (nT²) and count of the rows above the band, for the
+    /// coefficients `beta` of the stored columns.
+    pub(super) fn above_residual(&self, beta: &[f64]) -> (f64, usize) {
+        let target = self.width - 1 - self.extra;
+        let mut sum = 0.0;
+        let mut count = 0;
+        for above in self.runs.iter().filter_map(|r| r.above.as_ref()) {
+            let fitted = above.columns(0, target) * nalgebra::DVector::from_column_slice(beta);
+            sum += (above.column(target) - fitted).norm_squared();
+            count += above.nrows();
+        }
+        (sum, count)
+    }
+
+    /// The long-run covariance of the band rows' scores `xₜ·rₜ` (stored columns; `rₜ` the
+    /// residual of `beta`, nT), summed over the rows: the middle of the sandwich
+    /// `G⁻¹·S·G⁻¹` that gives the coefficients' covariance when the residual is not white.
+    ///
+    /// A band-passed residual is correlated over about a period of the band's low edge and
+    /// its spectrum is rarely flat (the fluxgate's noise rises with frequency through the eddy
+    /// columns, geology falls), so `σ²·(AᵀA)⁻¹` misjudges it by the overlap of the residual's
+    /// and the columns' spectra. Overlapping batch means of `block` rows measure that overlap.
+    /// `None` when a run was done in windows (its rows are no longer held).
+    pub(super) fn score_covariance(&self, beta: &[f64], block: usize) -> Option<DMatrix<f64>> {
+        let p = self.width - 1 - self.extra;
+        let mut total = DMatrix::zeros(p, p);
+        for run in 0..self.runs.len() {
+            if self.runs[run].factored.is_some() {
+                return None;
+            }
+            let n = self.band_rows(run);
+            if n == 0 {
+                continue;
+            }
+            let all = 0..n;
+            let mut residual = self.band_column(run, p, &all).to_vec();
+            for (c, b) in beta.iter().enumerate() {
+                let x = self.band_column(run, c, &all);
+                residual.iter_mut().zip(x).for_each(|(r, x)| *r -= b * x);
+            }
+            let scores: Vec<&[f64]> = (0..p).map(|c| self.band_column(run, c, &all)).collect();
+            total += run_score_covariance(&scores, &residual, block.clamp(1, n));
+        }
+        Some(total)
+    }
+
+    /// Band rows of every run.
+    pub(super) fn band_row_count(&self) -> usize {
+        (0..self.runs.len()).map(|run| self.band_rows(run)).sum()
     }
 
     /// Runs that gave rows.
@@ -1043,6 +1099,35 @@ impl LevelSetup {
         (self.weight() * misfit).powi(2) * count as f64
     }
 
+    /// The level rows' long-run score covariance as the solve weighted them (columns of
+    /// `row_terms`), for the coefficients `beta` of `terms`: see
+    /// [`Prepared::score_covariance`]. A level row is a low-passed sample, correlated with its
+    /// neighbours over about two periods of the cutoff, `fs_hz` samples a second.
+    pub(super) fn score_covariance(
+        &self,
+        terms: &[Term],
+        beta: &[f64],
+        fs_hz: f64,
+    ) -> DMatrix<f64> {
+        let b = on_columns(&self.row_terms, terms, beta);
+        let p = self.row_terms.len();
+        let w2 = self.weight().powi(2);
+        let mut total = DMatrix::zeros(p, p);
+        for rows in self.rows.iter().filter(|r| !r.y.is_empty()) {
+            let n = rows.y.len();
+            let fitted = &rows.a * nalgebra::DVector::from_column_slice(&b);
+            let residual: Vec<f64> = (0..n).map(|i| w2 * (rows.y[i] - fitted[i])).collect();
+            let span = (rows.at[n - 1] - rows.at[0] + 1) as f64;
+            let per_second = n as f64 / span * fs_hz;
+            let block = (per_second * 2.0 / self.low.cutoff_hz).ceil();
+            let block = if block.is_finite() { block as usize } else { n };
+            let data = rows.a.as_slice();
+            let columns: Vec<&[f64]> = data.chunks_exact(n).take(p).collect();
+            total += run_score_covariance(&columns, &residual, block.clamp(1, n));
+        }
+        total
+    }
+
     pub(super) fn diagnostics(&self, terms: &[Term], beta: &[f64]) -> LevelDiagnostics {
         let count = self.row_count();
         let misfit = self.misfit(terms, beta);
@@ -1399,24 +1484,31 @@ impl Problem<'_, '_> {
     /// the rows scatter more than that about the fit, once more with their measured scatter.
     ///
     /// `rows` are the level rows on the columns of `union`, the same for every weight (formed
-    /// once: at 10⁷ samples they are 35 MB of fresh memory, 0.1–0.2 s here). Known and kept (it
-    /// decides default fits, see the README): the misfit that decides the second weighting
-    /// takes the chosen candidate's coefficients as those of the first columns, the first
-    /// candidate's.
+    /// once: at 10⁷ samples they are 35 MB of fresh memory, 0.1–0.2 s here); `designs` are the
+    /// candidates, whose chosen one's coefficients are placed on the union's columns to measure
+    /// the misfit.
+    ///
+    /// The band rows' scatter, which sets the level rows' weight, leaves out the rows above the
+    /// band (`above`: their residual sum of squares for `band_only` and their count): with
+    /// extra channels, what the aircraft's field does above the band is left to them, and
+    /// would pass for scatter of the band rows.
     pub(super) fn choose_with_levels(
         &self,
         setup: &mut LevelSetup,
-        band_only: &Chosen,
-        union: &[Term],
+        (band_only, above): (&Chosen, (f64, usize)),
+        (union, designs): (&[Term], &[Design]),
         rows: Vec<LevelRows>,
         solve: impl Fn(&LevelSetup) -> Result<Chosen, FitError>,
     ) -> Result<Chosen, FitError> {
         let s = &band_only.solution;
-        setup.band_sigma_nt = (s.rss / s.rows.max(1) as f64).sqrt().max(1e-6);
+        let band_rows = s.rows.saturating_sub(above.1).max(1);
+        let band_rss = (s.rss - above.0).max(0.0);
+        setup.band_sigma_nt = (band_rss / band_rows as f64).sqrt().max(1e-6);
         let mut chosen = solve(setup)?;
         setup.rows = rows;
         setup.row_terms = union.to_vec();
-        let misfit = levels::rms_misfit(&setup.rows, &chosen.solution.coefficients);
+        let terms = designs[chosen.index].design_terms();
+        let misfit = setup.misfit(&terms, &chosen.solution.coefficients);
         if misfit > 1.5 * setup.sigma_nt {
             setup.sigma_nt = misfit;
             chosen = solve(setup)?;
@@ -1432,7 +1524,11 @@ impl Problem<'_, '_> {
         linear: &Chosen,
         levels: Option<&LevelSetup>,
     ) -> Result<Option<Exact>, FitError> {
-        // Extra channels and several fluxgates stay linear.
+        // Several fluxgates stay linear, and so do extra channels: on simulated strobe currents
+        // an exact fit predicted the box's held-out rows better, yet its survey error above the
+        // band was 3–10 times the linear fit's (the second-order coupling of the current's
+        // field with the aircraft's, through a field the 16 terms describe only in projection,
+        // does not carry over to other headings).
         if self.settings.magnitude == MagnitudeChoice::Linear
             || design.fluxgates != 1
             || !design.extras.is_empty()
@@ -1440,7 +1536,7 @@ impl Problem<'_, '_> {
             return Ok(None);
         }
         let terms = design.design_terms();
-        let above = self.above.as_ref().map(|a| a.without_extras(terms.len()));
+        let above = self.above.as_ref().map(|a| a.for_terms(&terms));
         let designs = [design.clone()];
         let series = self.flux.series()[0];
         let count = fold_count(self.settings.lambda);
@@ -1455,6 +1551,8 @@ impl Problem<'_, '_> {
             let current = beta.clone();
             let fill = |run: Range<usize>, rows: Range<usize>, columns: &mut [&mut [f64]]| {
                 let series = [&series.x, &series.y, &series.z].map(|c| &c[run.clone()]);
+                let extras: Vec<&[f64]> =
+                    self.flux.extras().iter().map(|e| &e[run.clone()]).collect();
                 let scalar = &self.scalar[run];
                 split_rows(rows.len(), columns, |part, parts| {
                     // Block by block, so the target is formed while the block's Jacobian is
@@ -1467,7 +1565,8 @@ impl Problem<'_, '_> {
                         let (j, y) = j.split_at_mut(terms.len());
                         let y = &mut *y[0];
                         let block = start + block.start..start + block.end;
-                        exact_jacobian_into(design, series, &current, &terms, block.clone(), j, y);
+                        let rows = block.clone();
+                        exact_jacobian_into(design, series, &extras, &current, &terms, rows, j, y);
                         let sum = &mut sum[..block.len()];
                         linearised_target(j, &current, &scalar[block], y, sum);
                     }
@@ -1479,11 +1578,22 @@ impl Problem<'_, '_> {
             debug_assert!(prepared.plan(levels.is_some(), count) == plan);
             let band = prepared.band_factors(&[&plan]);
             let folds = prepared.fold_factors(&plan, weight, &band);
-            let chosen = choose_design(&folds, &designs, &terms, self.settings.lambda, weight)?;
+            let prior = self.settings.prior_weights(&terms, self.fs_hz);
+            let lambda = self.settings.lambda;
+            let prior = prior.as_ref();
+            let chosen =
+                match choose_design(&folds, &designs, &terms, lambda, weight, prior, self.fs_hz) {
+                    // An exact fit that wanders off to an implausible field is not kept.
+                    Err(FitError::Implausible(_)) => return Ok(None),
+                    other => other?,
+                };
             let level_rows = std::mem::take(&mut prepared.levels);
             self.spare.give(prepared.into_buffers());
             let step = relative_change(&beta, &chosen.solution.coefficients);
-            beta = chosen.solution.coefficients.clone();
+            if diverges(iteration, step, last_step) {
+                return Ok(None);
+            }
+            beta = damped(&beta, &chosen.solution.coefficients, step);
             let settled_loser = self.settles_losing(&chosen, linear, step, last_step);
             best = Some(Exact {
                 chosen,
@@ -1549,11 +1659,24 @@ pub(super) struct Exact {
 
 /// `beta`, the coefficients of `terms`, as coefficients of `columns`: 0 for a column that is
 /// none of `terms`.
-fn on_columns(columns: &[Term], terms: &[Term], beta: &[f64]) -> Vec<f64> {
+pub(super) fn on_columns(columns: &[Term], terms: &[Term], beta: &[f64]) -> Vec<f64> {
     columns
         .iter()
         .map(|c| terms.iter().position(|t| t == c).map_or(0.0, |k| beta[k]))
         .collect()
+}
+
+/// The entries of `s`, whose rows and columns are `columns`, for the rows and columns
+/// `terms` (zero for a term not among `columns`).
+pub(super) fn on_column_pairs(columns: &[Term], terms: &[Term], s: &DMatrix<f64>) -> DMatrix<f64> {
+    let at: Vec<Option<usize>> = terms
+        .iter()
+        .map(|t| columns.iter().position(|c| c == t))
+        .collect();
+    DMatrix::from_fn(terms.len(), terms.len(), |i, j| match (at[i], at[j]) {
+        (Some(a), Some(b)) => s[(a, b)],
+        _ => 0.0,
+    })
 }
 
 impl Problem<'_, '_> {
@@ -1572,6 +1695,33 @@ impl Problem<'_, '_> {
     }
 }
 
+/// One run's long-run score covariance (see [`Prepared::score_covariance`]): with `Bₖ` the
+/// centred scores summed over rows `k..k+block`, `n/(block·positions)·Σₖ BₖBₖᵀ`. Block starts
+/// step by an eighth of a block, which costs nothing in accuracy next to the block's own.
+fn run_score_covariance(columns: &[&[f64]], residual: &[f64], block: usize) -> DMatrix<f64> {
+    let (p, n) = (columns.len(), residual.len());
+    let score = |c: usize, t: usize| columns[c][t] * residual[t];
+    let mean: Vec<f64> = (0..p)
+        .map(|c| (0..n).map(|t| score(c, t)).sum::<f64>() / n as f64)
+        .collect();
+    // Prefix sums of the centred scores, one row per sample.
+    let mut prefix = DMatrix::zeros(n + 1, p);
+    for t in 0..n {
+        for c in 0..p {
+            prefix[(t + 1, c)] = prefix[(t, c)] + score(c, t) - mean[c];
+        }
+    }
+    let step = (block / 8).max(1);
+    let mut sum = DMatrix::zeros(p, p);
+    let mut positions = 0usize;
+    for k in (0..=n - block).step_by(step) {
+        let b = (prefix.row(k + block) - prefix.row(k)).transpose();
+        sum.ger(1.0, &b, &b, 1.0);
+        positions += 1;
+    }
+    sum * (n as f64 / (block as f64 * positions as f64))
+}
+
 /// Subtracts the mean: a run's intercept, for a target that has no filter to remove it.
 fn remove_mean(x: &mut [f64]) {
     let mean = x.iter().sum::<f64>() / x.len().max(1) as f64;
@@ -1579,6 +1729,36 @@ fn remove_mean(x: &mut [f64]) {
 }
 
 /// `‖a − b‖ / ‖b‖`.
+/// Largest relative change of the coefficients one Gauss-Newton step may make: the magnitude
+/// is nearly linear in them, so a good step moves them by about |H|/|B|, a percent or less; a
+/// larger one is a linearisation that does not hold, and is taken only this far (a trust
+/// region).
+const EXACT_MAX_STEP: f64 = 0.5;
+
+/// Step size above which a step that fails to shrink is divergence rather than rounding.
+const EXACT_DIVERGING_STEP: f64 = 1e-6;
+
+/// Whether Gauss-Newton diverges: from its second step on, each step must shrink (the
+/// iterations converge linearly), and none may be infinite or NaN. A diverging exact fit falls
+/// back to the linear one.
+fn diverges(iteration: usize, step: f64, last_step: f64) -> bool {
+    !step.is_finite() || (iteration > 1 && step > last_step && step > EXACT_DIVERGING_STEP)
+}
+
+/// The next linearisation point: `proposed`, or the way towards it from `current` cut to
+/// [`EXACT_MAX_STEP`] when the step (`step`, relative) is longer.
+fn damped(current: &[f64], proposed: &[f64], step: f64) -> Vec<f64> {
+    if step <= EXACT_MAX_STEP {
+        return proposed.to_vec();
+    }
+    let t = EXACT_MAX_STEP / step;
+    current
+        .iter()
+        .zip(proposed)
+        .map(|(c, p)| c + t * (p - c))
+        .collect()
+}
+
 fn relative_change(a: &[f64], b: &[f64]) -> f64 {
     let diff: f64 = a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum();
     let size: f64 = b.iter().map(|y| y * y).sum();
@@ -1588,6 +1768,19 @@ fn relative_change(a: &[f64], b: &[f64]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn gauss_newton_steps_are_cut_to_the_trust_region_and_divergence_is_caught() {
+        let current = [1.0, 0.0];
+        assert_eq!(damped(&current, &[1.01, 0.0], 0.01), vec![1.01, 0.0]);
+        let far = damped(&current, &[3.0, 0.0], 2.0);
+        assert!((far[0] - 1.5).abs() < 1e-12, "{far:?}");
+        assert!(!diverges(1, 0.3, f64::INFINITY));
+        assert!(!diverges(3, 1e-3, 1e-2));
+        assert!(diverges(3, 1e-2, 1e-3));
+        assert!(!diverges(3, 2e-9, 1e-9), "rounding is not divergence");
+        assert!(diverges(1, f64::NAN, f64::INFINITY));
+    }
     use crate::fit::ridge::Ridge;
 
     #[test]

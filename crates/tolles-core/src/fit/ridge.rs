@@ -245,6 +245,33 @@ impl RidgeSolution {
         (max / min).powi(2)
     }
 
+    /// The posterior covariance of β, `nu·(AᵀA + Λ)⁻¹` (coefficient units squared), for the
+    /// variance `nu` of one independent residual: the penalty read as a Gaussian prior of
+    /// precision `Λ/nu` (see [`crate::fit::prior`]), so coefficients the rows hardly determine
+    /// keep the prior's uncertainty. NaN where the factor cannot be inverted.
+    pub fn covariance(&self, nu: f64) -> DMatrix<f64> {
+        let p = self.r_a.nrows();
+        let r_inv = self
+            .r_a
+            .clone()
+            .try_inverse()
+            .unwrap_or_else(|| DMatrix::from_element(p, p, f64::NAN));
+        (&r_inv * r_inv.transpose()) * nu
+    }
+
+    /// The sandwich covariance `G⁻¹·S·G⁻¹` of β, `G = AᵀA + Λ`, for the scores' covariance
+    /// `middle` (`S`; `ν·AᵀA` for white residuals of variance ν).
+    pub fn sandwich(&self, middle: &DMatrix<f64>) -> DMatrix<f64> {
+        let p = self.r_a.nrows();
+        let r_inv = self
+            .r_a
+            .clone()
+            .try_inverse()
+            .unwrap_or_else(|| DMatrix::from_element(p, p, f64::NAN));
+        let g_inv = &r_inv * r_inv.transpose();
+        &g_inv * middle * &g_inv
+    }
+
     /// Standard errors of β for residual variance `sigma2`, from the ridge sandwich covariance
     /// `σ²·G⁻¹·AᵀA·G⁻¹ = σ²·(G⁻¹ − G⁻¹ΛG⁻¹)`, `G = AᵀA + Λ`.
     pub fn std_errors(&self, sigma2: f64) -> Vec<f64> {

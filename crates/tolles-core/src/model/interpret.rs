@@ -51,13 +51,19 @@ impl AircraftField {
     /// With several fluxgates only the first fluxgate's block is read: the other blocks describe
     /// sources near the other fluxgates, not the aircraft's response to the earth field.
     pub fn from_coefficients(design: &Design, coefficients: &[f64], fs_hz: f64) -> Self {
+        Self::from_block(design, coefficients, fs_hz, 0)
+    }
+
+    /// [`AircraftField::from_coefficients`] of the block of fluxgate `fluxgate` (0-based); the
+    /// extra channels' and bias columns are read with the first block only.
+    pub fn from_block(design: &Design, coefficients: &[f64], fs_hz: f64, fluxgate: usize) -> Self {
         let s = design.bt_scale;
         let mut field = Self::default();
         // `zz − xx` and `zz − yy` of the induced and eddy matrices, when the design has them.
         let mut traceless = [[f64::NAN; 2]; 2];
         let mut trace = 0.0;
         for (term, beta) in design.design_terms().iter().zip(coefficients) {
-            if term.fluxgate != 0 {
+            if term.fluxgate != fluxgate {
                 continue;
             }
             match term.column {

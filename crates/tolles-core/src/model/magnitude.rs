@@ -31,7 +31,7 @@
 
 use crate::model::design::{central_difference, central_difference_over, Design, Term};
 use crate::model::terms::Column;
-use crate::model::vector::{norms3_into, VectorSeries};
+use crate::model::vector::{norms3_into, Fluxgates, VectorSeries};
 use multiversion::multiversion;
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
@@ -57,12 +57,15 @@ impl std::fmt::Display for Magnitude {
 }
 
 /// The field vector (nT) that one unit of `column`'s coefficient adds, for the fluxgate reading
-/// `b` (nT) and its change per sample `db` (nT/sample); `None` for the bias, which is no field.
+/// `b` (nT), its change per sample `db` (nT/sample) and the extra channels' values `extras`
+/// (design order): an extra channel's column is a field of fixed direction in the body frame,
+/// its axis, times the channel. `None` for the bias, which is no field.
 #[inline]
 pub fn field_per_unit(
     column: Column,
     b: [f64; 3],
     db: [f64; 3],
+    extras: &[f64],
     bt_scale: f64,
 ) -> Option<[f64; 3]> {
     let axis = |i: usize, value: f64| {
@@ -89,12 +92,15 @@ pub fn field_per_unit(
         Column::InducedTraceless(a) => traceless(b, a.index()),
         Column::EddyTraceless(a) => traceless(db, a.index()),
         Column::InducedTrace => b.map(|c| c / 3.0 / bt_scale),
-        // Designs with extra channels are applied linearly (see `Design::extras`).
-        Column::Extra { .. } | Column::Bias => return None,
+        Column::Extra { channel, axis: a } => {
+            axis(a.index(), extras.get(channel).copied().unwrap_or(f64::NAN))
+        }
+        Column::Bias => return None,
     })
 }
 
-/// One sample's exact correction `|B + H| − |B| + bias` (nT), and the direction of `B + H`.
+/// One sample's exact correction `|B + H| − |B| + bias` (nT), and the direction of `B + H`,
+/// with the extra channels' values `extras` (design order).
 ///
 /// The difference is computed as `(2B·H + H·H)/(|B + H| + |B|)`, which keeps its digits when
 /// `H ≪ B`.
@@ -104,11 +110,12 @@ pub fn exact_at(
     coefficients: &[f64],
     b: [f64; 3],
     db: [f64; 3],
+    extras: &[f64],
 ) -> (f64, [f64; 3]) {
     let mut h = [0.0; 3];
     let mut bias = 0.0;
     for (column, beta) in columns.iter().zip(coefficients) {
-        match field_per_unit(*column, b, db, design.bt_scale) {
+        match field_per_unit(*column, b, db, extras, design.bt_scale) {
             Some(v) => (0..3).for_each(|i| h[i] += beta * v[i]),
             None => bias += beta,
         }
@@ -132,42 +139,58 @@ fn change_from_norms(b: [f64; 3], h: [f64; 3], nb: f64, nt: f64, bias: f64) -> f
     dot / (nt + nb) + bias
 }
 
-/// The correction (nT) of a model for every sample of one contiguous series from one fluxgate:
-/// `A·β` for [`Magnitude::Linear`], `|B + H| − |B|` (plus any bias) for [`Magnitude::Exact`].
-pub fn correction(
+/// The correction (nT) of a model for every sample of one contiguous series from one fluxgate
+/// (and the extra channels its design names): `A·β` for [`Magnitude::Linear`],
+/// `|B + H| − |B|` (plus any bias) for [`Magnitude::Exact`].
+pub fn correction<'a>(
     magnitude: Magnitude,
     design: &Design,
-    flux: &VectorSeries,
+    flux: impl Into<Fluxgates<'a>>,
     coefficients: &[f64],
 ) -> Vec<f64> {
+    let flux = flux.into();
     match magnitude {
         Magnitude::Linear => design.apply(flux, coefficients),
         Magnitude::Exact => {
             let columns = design.columns();
-            let db = derivatives(flux);
-            (0..flux.len())
-                .map(|k| exact_at(design, &columns, coefficients, sample(flux, k), at(&db, k)).0)
+            let series = flux.series()[0];
+            let db = derivatives(series);
+            let mut extras = vec![0.0; flux.extras().len()];
+            (0..series.len())
+                .map(|k| {
+                    extras_at(flux.extras(), k, &mut extras);
+                    let (b, d) = (sample(series, k), at(&db, k));
+                    exact_at(design, &columns, coefficients, b, d, &extras).0
+                })
                 .collect()
         }
     }
 }
 
+/// The extra channels' values at sample `k`, into `out`.
+fn extras_at(extras: &[&[f64]], k: usize, out: &mut [f64]) {
+    out.iter_mut().zip(extras).for_each(|(o, e)| *o = e[k]);
+}
+
 /// The exact correction of one contiguous series (nT) and its Jacobian with respect to the
 /// coefficients of `terms` (one row per sample): the design matrix with B̂ replaced by the
 /// direction of `B + H`.
-pub fn exact_jacobian(
+pub fn exact_jacobian<'a>(
     design: &Design,
-    flux: &VectorSeries,
+    flux: impl Into<Fluxgates<'a>>,
     coefficients: &[f64],
     terms: &[Term],
 ) -> (Vec<f64>, DMatrix<f64>) {
-    let n = flux.len();
+    let flux = flux.into();
+    let series = flux.series()[0];
+    let n = series.len();
     let mut jacobian = DMatrix::zeros(n, terms.len());
     let mut delta = vec![0.0; n];
     let mut columns: Vec<&mut [f64]> = jacobian.as_mut_slice().chunks_mut(n.max(1)).collect();
     exact_jacobian_into(
         design,
-        [&flux.x, &flux.y, &flux.z],
+        [&series.x, &series.y, &series.z],
+        flux.extras(),
         coefficients,
         terms,
         0..n,
@@ -178,7 +201,8 @@ pub fn exact_jacobian(
 }
 
 /// [`exact_jacobian`] for the samples `rows` of the series whose x, y, z components (nT) are
-/// `flux`, written into `jacobian` (one slice per term, `rows.len()` long) and `delta`, so
+/// `flux` and whose extra channels are `extras` (as long, design order), written into
+/// `jacobian` (one slice per term, `rows.len()` long) and `delta`, so
 /// callers can share a series' samples between threads and decide where the rows live,
 /// without copying the series. The changes per sample are those of the whole series.
 ///
@@ -188,9 +212,11 @@ pub fn exact_jacobian(
 /// # Panics
 /// If `rows` is not within the series or a slice is shorter than `rows`: programming errors.
 #[multiversion(targets("x86_64+avx512f", "x86_64+avx2"))]
+#[allow(clippy::too_many_arguments)]
 pub fn exact_jacobian_into(
     design: &Design,
     flux: [&[f64]; 3],
+    extras: &[&[f64]],
     coefficients: &[f64],
     terms: &[Term],
     rows: std::ops::Range<usize>,
@@ -212,9 +238,10 @@ pub fn exact_jacobian_into(
         let b = flux.map(|c| &c[block.clone()]);
         let db = flux.map(|c| central_difference_over(c, block.clone()));
         let db = [&db[0][..], &db[1][..], &db[2][..]];
+        let e: Vec<&[f64]> = extras.iter().map(|e| &e[block.clone()]).collect();
         ws.start(m);
         for (c, (column, beta)) in columns.iter().zip(coefficients).enumerate() {
-            ws.parts[c] = fields_of(*column, b, db, s, &mut ws.fields[c]);
+            ws.parts[c] = fields_of(*column, b, db, &e, s, &mut ws.fields[c]);
             ws.add_to_h(c, *beta);
         }
         let at = block.start - rows.start..block.end - rows.start;
@@ -225,7 +252,7 @@ pub fn exact_jacobian_into(
                 ws.derivatives(c, out);
             } else {
                 let mut field = std::mem::take(&mut ws.spare);
-                let parts = fields_of(term.column, b, db, s, &mut field);
+                let parts = fields_of(term.column, b, db, &e, s, &mut field);
                 ws.derivatives_of(parts, &field, out);
                 ws.spare = field;
             }
@@ -367,8 +394,9 @@ impl JacobianBlock {
 /// column that is no field (the bias).
 type Parts = Option<[bool; 3]>;
 
-/// The field of `column` (see [`field_per_unit`]) at every sample of a block with readings `b`
-/// and changes `db` (one slice per component), into the components of `out` it has, which it
+/// The field of `column` (see [`field_per_unit`]) at every sample of a block with readings `b`,
+/// changes `db` (one slice per component) and extra channels `extras`, into the components of
+/// `out` it has, which it
 /// returns; `None`, leaving `out` alone, for a column that is no field. The other components
 /// are 0 and left as they were.
 ///
@@ -381,13 +409,19 @@ fn fields_of(
     column: Column,
     b: [&[f64]; 3],
     db: [&[f64]; 3],
+    extras: &[&[f64]],
     s: f64,
     out: &mut [Vec<f64>; 3],
 ) -> Parts {
-    field_per_unit(column, [0.0; 3], [0.0; 3], s)?;
+    if column == Column::Bias {
+        return None;
+    }
     let m = b[0].len();
     let parts = match column {
-        Column::Permanent(i) | Column::Induced(i, _) | Column::Eddy(i, _) => {
+        Column::Permanent(i)
+        | Column::Induced(i, _)
+        | Column::Eddy(i, _)
+        | Column::Extra { axis: i, .. } => {
             let mut parts = [false; 3];
             parts[i.index()] = true;
             if let Column::Induced(_, j) = column {
@@ -417,7 +451,8 @@ fn fields_of(
                 o.iter_mut().zip(v).for_each(|(o, v)| *o = v / 3.0 / s);
             }
         }
-        Column::Extra { .. } | Column::Bias => unreachable!("no field, returned above"),
+        Column::Extra { channel, axis } => out[axis.index()].copy_from_slice(extras[channel]),
+        Column::Bias => unreachable!("no field, returned above"),
     }
     Some(parts)
 }
@@ -485,7 +520,7 @@ mod tests {
                 let (b, d) = (sample(&flux, k), at(&db, k));
                 let unit = b.map(|c| c / norm(b));
                 for (c, column) in design.columns().iter().enumerate() {
-                    let value = field_per_unit(*column, b, d, design.bt_scale)
+                    let value = field_per_unit(*column, b, d, &[], design.bt_scale)
                         .map_or(1.0, |v| unit[0] * v[0] + unit[1] * v[1] + unit[2] * v[2]);
                     assert!((value - a[(k, c)]).abs() < 1e-12, "{terms} {column}");
                 }
@@ -503,9 +538,9 @@ mod tests {
         for terms in ["p,i,e,b", "p,it,trace,et"] {
             for column in Design::new(terms.parse().unwrap()).columns() {
                 let mut out: [Vec<f64>; 3] = Default::default();
-                let parts = fields_of(column, b, d, s, &mut out);
+                let parts = fields_of(column, b, d, &[], s, &mut out);
                 for k in 0..flux.len() {
-                    let one = field_per_unit(column, sample(&flux, k), at(&db, k), s);
+                    let one = field_per_unit(column, sample(&flux, k), at(&db, k), &[], s);
                     assert_eq!(parts.is_some(), one.is_some(), "{column}");
                     if let (Some(v), Some(parts)) = (one, parts) {
                         // A component left out is 0 in the field, and one kept is its value.
@@ -568,6 +603,48 @@ mod tests {
     }
 
     #[test]
+    fn an_extra_channel_is_a_field_of_fixed_direction_times_the_channel() {
+        let flux = swinging_flux(40);
+        let current: Vec<f64> = (0..40).map(|k| ((k / 3) % 2) as f64 + 0.2).collect();
+        let design = Design::new("patent".parse().unwrap())
+            .with_extras(vec![crate::model::extra::ExtraChannel::plain("cur_1")]);
+        let mut beta: Vec<f64> = (0..16).map(|k| (k as f64 - 7.0) * 30.0).collect();
+        beta.extend([40.0, -35.0, 50.0]);
+        let inputs = Fluxgates::from(&flux).with_extras(vec![&current]);
+        let exact = correction(Magnitude::Exact, &design, inputs.clone(), &beta);
+        let without: Vec<f64> = beta[..16].to_vec();
+        let tl = Design::new("patent".parse().unwrap());
+        let db = derivatives(&flux);
+        for k in [0, 13, 39] {
+            let (b, d) = (sample(&flux, k), at(&db, k));
+            let mut h = [0.0; 3];
+            for (column, w) in tl.columns().iter().zip(&without) {
+                let v = field_per_unit(*column, b, d, &[], tl.bt_scale).unwrap();
+                (0..3).for_each(|i| h[i] += w * v[i]);
+            }
+            (0..3).for_each(|i| h[i] += beta[16 + i] * current[k]);
+            let total = [b[0] + h[0], b[1] + h[1], b[2] + h[2]];
+            let want = norm(total) - norm(b);
+            assert!(
+                (exact[k] - want).abs() < 1e-9,
+                "{k}: {} vs {want}",
+                exact[k]
+            );
+        }
+        let (delta, j) = exact_jacobian(&design, inputs.clone(), &beta, &design.design_terms());
+        assert_eq!(delta, exact);
+        for c in 16..19 {
+            let mut up = beta.clone();
+            up[c] += 1e-3;
+            let moved = correction(Magnitude::Exact, &design, inputs.clone(), &up);
+            for k in [0, 11, 29] {
+                let numeric = (moved[k] - delta[k]) / 1e-3;
+                assert!((numeric - j[(k, c)]).abs() < 1e-6, "column {c} sample {k}");
+            }
+        }
+    }
+
+    #[test]
     fn a_part_of_a_long_series_gives_the_whole_series_correction() {
         // Rows across several blocks of changes, starting and ending inside the series.
         let flux = swinging_flux(6_000);
@@ -582,6 +659,7 @@ mod tests {
         exact_jacobian_into(
             &design,
             series,
+            &[],
             &beta,
             &terms,
             rows.clone(),

@@ -2,6 +2,7 @@
 //! physical reading of fitted coefficients.
 
 pub mod conventions;
+pub mod coverage;
 pub mod design;
 pub mod extra;
 pub mod interpret;

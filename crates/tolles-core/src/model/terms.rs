@@ -194,6 +194,15 @@ impl TermSet {
         }
     }
 
+    /// Whether the columns span an isotropic term, the induced trace `|B|/s` or the eddy trace
+    /// `B̂·Ḃ/s`: the fluxgate's own magnitude and its rate, which carry the earth's anomalies
+    /// as much as any aircraft field.
+    pub fn spans_isotropic(&self) -> bool {
+        self.trace
+            || matches!(self.induced, Some(InducedTerms::Six | InducedTerms::Three))
+            || matches!(self.eddy, Some(EddyTerms::Nine | EddyTerms::Three))
+    }
+
     /// The design-matrix columns in order.
     pub fn columns(&self) -> Vec<Column> {
         use Axis::{X, Y, Z};

@@ -52,6 +52,21 @@ pub struct CompensateRequest {
     pub fs_hz: Option<f64>,
     /// Which level is subtracted.
     pub level: LevelChoice,
+    /// Also give each row's standard error and extrapolation flag (see [`RowTrust`]).
+    pub uncertainty: bool,
+}
+
+/// How far to trust each compensated row.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct RowTrust {
+    /// The correction's standard error (nT), relative to the calibration's mean level; NaN
+    /// where nothing is compensated or the model has no uncertainty (a file before version 3).
+    /// Only when asked for.
+    pub sigma: Option<Vec<f64>>,
+    /// Per row, whether it lies outside what the calibration flew. Only when asked for.
+    pub extrapolated: Option<Vec<bool>>,
+    /// Rows outside what the calibration flew (counted whether asked for or not).
+    pub outside: usize,
 }
 
 /// One compensated scalar.
@@ -66,6 +81,8 @@ pub struct CompensatedColumn {
     pub values: Vec<f64>,
     /// Rows that could not be compensated.
     pub uncomputable: usize,
+    /// How far to trust each row.
+    pub trust: RowTrust,
 }
 
 /// Compensates every fit of `model` on `table`, on all cores, in the model's order. Rows that
@@ -76,7 +93,7 @@ pub fn compensate(
     request: &CompensateRequest,
     warnings: &mut Vec<Warning>,
 ) -> Result<Vec<CompensatedColumn>> {
-    let results: Vec<Result<(Compensation, Vec<Warning>)>> = model
+    let results: Vec<Result<(Compensation, RowTrust, Vec<Warning>)>> = model
         .fits
         .par_iter()
         .map(|fit| {
@@ -84,7 +101,8 @@ pub fn compensate(
                 .with_extras(&fit.fit.settings.design.extras)?;
             let mut noticed = Vec::new();
             let result = compensate_flight(&flight, fit, request, &mut noticed)?;
-            Ok((result, noticed))
+            let trust = row_trust(&flight, fit, request, &mut Vec::new())?;
+            Ok((result, trust, noticed))
         })
         .collect();
     let mut columns = Vec::new();
@@ -95,8 +113,17 @@ pub fn compensate(
         .collect();
     let names = output_names(table.headers(), &wanted);
     for ((fit, result), (name, renamed)) in model.fits.iter().zip(results).zip(names) {
-        let (result, noticed) = result?;
+        let (result, trust, noticed) = result?;
         warnings.extend(noticed);
+        warnings.extend(crate::fit::verdict_warning(&fit.scalar, &fit.fit));
+        if trust.outside > 0 {
+            warnings.push(Warning::Extrapolated {
+                path: table.path().to_path_buf(),
+                rows: trust.outside,
+                of: table.len(),
+                column: fit.output_column.clone(),
+            });
+        }
         if result.uncomputable > 0 {
             warnings.push(Warning::Uncomputable {
                 path: table.path().to_path_buf(),
@@ -117,6 +144,7 @@ pub fn compensate(
             scalar: fit.scalar.clone(),
             values: result.compensated,
             uncomputable: result.uncomputable,
+            trust,
         });
     }
     Ok(columns)
@@ -131,14 +159,7 @@ pub fn compensate_flight(
     warnings: &mut Vec<Warning>,
 ) -> Result<Compensation> {
     check_flux_magnitude(&flight.flux).map_err(|e| flight.explain(e, &fit.scalar))?;
-    let fs_hz = match (request.fs_hz, &flight.tt) {
-        (None, None) => fit.fit.fs_hz,
-        (fs, _) => {
-            let (fs_hz, warning) = flight.sample_rate(fs)?;
-            warnings.extend(warning);
-            fs_hz
-        }
-    };
+    let fs_hz = survey_rate(flight, fit, request, warnings)?;
     let model = Model {
         design: &fit.fit.settings.design,
         coefficients: &fit.fit.coefficients,
@@ -154,6 +175,61 @@ pub fn compensate_flight(
             fs_hz / fit.fit.fs_hz,
             level(fit, request.level),
         )
+    }))
+}
+
+/// The survey's sample rate (Hz): the request's if given, else from its time column, else the
+/// model's.
+fn survey_rate(
+    flight: &Flight,
+    fit: &ScalarModel,
+    request: &CompensateRequest,
+    warnings: &mut Vec<Warning>,
+) -> Result<f64> {
+    Ok(match (request.fs_hz, &flight.tt) {
+        (None, None) => fit.fit.fs_hz,
+        (fs, _) => {
+            let (fs_hz, warning) = flight.sample_rate(fs)?;
+            warnings.extend(warning);
+            fs_hz
+        }
+    })
+}
+
+/// How far to trust each row of `fit` applied to `flight`: the count of rows outside what the
+/// calibration flew, and with `request.uncertainty` each row's standard error and flag (see
+/// `tolles_core::compensate::trust`). A model file before version 3 has neither coverage nor
+/// uncertainty: nothing is counted and the standard errors are NaN.
+pub fn row_trust(
+    flight: &Flight,
+    fit: &ScalarModel,
+    request: &CompensateRequest,
+    warnings: &mut Vec<Warning>,
+) -> Result<RowTrust> {
+    use tolles_core::compensate::trust::{outside_over_runs, sigma_over_runs};
+    let fs_hz = survey_rate(flight, fit, request, warnings)?;
+    let n = flight.scalar.len();
+    Ok(flight.with_inputs(fit.fit.lag_s, fs_hz, |inputs| {
+        let runs = tolles_core::signal::segment::contiguous_runs(
+            &inputs.finite_mask(),
+            flight.tt.as_deref(),
+        );
+        let flags = match &fit.fit.coverage {
+            Some(coverage) => outside_over_runs(inputs.clone(), &runs, coverage, fs_hz),
+            None => vec![false; n],
+        };
+        let sigma = request.uncertainty.then(|| match &fit.fit.uncertainty {
+            Some(u) => {
+                let design = &fit.fit.settings.design;
+                sigma_over_runs(inputs.clone(), &runs, design, u, fs_hz / fit.fit.fs_hz)
+            }
+            None => vec![f64::NAN; n],
+        });
+        RowTrust {
+            sigma,
+            outside: flags.iter().filter(|f| **f).count(),
+            extrapolated: request.uncertainty.then_some(flags),
+        }
     }))
 }
 
@@ -179,10 +255,15 @@ pub fn write_compensated(
     columns: &[CompensatedColumn],
     destination: Destination<'_>,
 ) -> Result<()> {
-    let extra: Vec<(&str, &[f64])> = columns
-        .iter()
-        .map(|c| (c.name.as_str(), c.values.as_slice()))
-        .collect();
+    let trust = trust_columns(table.headers(), columns);
+    let mut extra: Vec<(&str, &[f64])> = Vec::new();
+    for (c, t) in columns.iter().zip(&trust) {
+        extra.push((c.name.as_str(), c.values.as_slice()));
+        extra.extend(
+            t.iter()
+                .map(|(name, values)| (name.as_str(), values.as_slice())),
+        );
+    }
     match destination {
         Destination::File(path) => {
             write_table(table, &extra, &path, Format::for_output(&path)?)?;
@@ -195,6 +276,43 @@ pub fn write_compensated(
                 source,
             }),
     }
+}
+
+/// Per compensated column, the columns of its [`RowTrust`] when it has them:
+/// `NAME_sigma` (nT) and `NAME_extrapolated` (1 outside what the calibration flew, 0 inside,
+/// empty where nothing is compensated), each renamed like the compensated column if the input
+/// already has one by that name.
+pub fn trust_columns(
+    headers: &[String],
+    columns: &[CompensatedColumn],
+) -> Vec<Vec<(String, Vec<f64>)>> {
+    columns
+        .iter()
+        .map(|c| {
+            let (Some(sigma), Some(flags)) = (&c.trust.sigma, &c.trust.extrapolated) else {
+                return Vec::new();
+            };
+            let flag_values = c
+                .values
+                .iter()
+                .zip(flags)
+                .map(|(v, f)| match v.is_finite() {
+                    true => f64::from(u8::from(*f)),
+                    false => f64::NAN,
+                })
+                .collect();
+            let names = [
+                format!("{}_sigma", c.name),
+                format!("{}_extrapolated", c.name),
+            ];
+            let wanted: Vec<&str> = names.iter().map(String::as_str).collect();
+            let unique = output_names(headers, &wanted);
+            vec![
+                (unique[0].0.clone(), sigma.clone()),
+                (unique[1].0.clone(), flag_values),
+            ]
+        })
+        .collect()
 }
 
 /// Whether a survey file may be read a chunk of rows at a time.
@@ -339,7 +457,11 @@ mod whole_tests {
     }
 
     fn compensated(table: &Table, model: &ModelFile, level: LevelChoice) -> Vec<f64> {
-        let request = CompensateRequest { fs_hz: None, level };
+        let request = CompensateRequest {
+            fs_hz: None,
+            level,
+            uncertainty: false,
+        };
         let columns = compensate(table, model, &request, &mut Vec::new()).unwrap();
         columns.into_iter().next().unwrap().values
     }

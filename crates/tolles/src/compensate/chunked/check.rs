@@ -7,6 +7,7 @@ use crate::read::sample_rate_from;
 use crate::warning::Warning;
 use std::path::Path;
 use tolles_core::compensate::Model;
+use tolles_core::model::coverage::Coverage;
 use tolles_core::model::design::Design;
 use tolles_core::model::magnitude::Magnitude;
 use tolles_io::model::{ModelFile, ScalarModel};
@@ -28,6 +29,12 @@ pub(super) struct ReadyFit {
     pub model_level_nt: f64,
     /// A given sample rate far from the time column's.
     pub rate_warning: Option<Warning>,
+    /// The model's verdict when it is not good.
+    pub verdict: Option<Warning>,
+    /// What the calibration flew, to count the rows outside it.
+    pub coverage: Option<Coverage>,
+    /// The survey's sample rate (Hz).
+    pub fs_hz: f64,
 }
 
 impl ReadyFit {
@@ -112,5 +119,8 @@ fn check_fit(
         fs_ratio: fs_hz / fit.fit.fs_hz,
         model_level_nt: fit.fit.level_nt,
         rate_warning,
+        verdict: crate::fit::verdict_warning(&fit.scalar, &fit.fit),
+        coverage: fit.fit.coverage.clone(),
+        fs_hz,
     })
 }

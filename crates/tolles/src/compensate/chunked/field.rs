@@ -11,6 +11,7 @@ use super::check::ReadyFit;
 use super::scan::{FitColumns, Plan, Scan};
 use std::ops::Range;
 use tolles_core::compensate::model_field_over_runs;
+use tolles_core::compensate::trust::outside_over_runs;
 use tolles_core::model::vector::{Fluxgates, VectorSeries};
 use tolles_core::signal::segment::contiguous_runs_with_step;
 use tolles_io::IoError;
@@ -24,6 +25,8 @@ pub(super) struct Fields<'a> {
     held: Option<Vec<Vec<f64>>>,
     /// The last row of the chunk before the held one, per column of [`Plan::read`].
     before: Option<Vec<f64>>,
+    /// Per fit, the rows computed so far that lie outside what its calibration flew.
+    outside: Vec<usize>,
 }
 
 /// A chunk's columns (of [`Plan::read`], those no fit uses empty) and each fit's correction
@@ -50,7 +53,14 @@ impl<'a> Fields<'a> {
             median_step_s: scan.median_step,
             held: None,
             before: None,
+            outside: vec![0; fits.len()],
         }
+    }
+
+    /// Per fit, the rows computed so far that lie outside what its calibration flew, counted
+    /// as the whole-file path counts them.
+    pub fn outside(&self) -> &[usize] {
+        &self.outside
     }
 
     /// Takes the next chunk's columns (of [`Plan::read`]; a column no fit uses may be empty,
@@ -106,6 +116,13 @@ impl<'a> Fields<'a> {
                 field[rows.clone()].to_vec()
             })
             .collect();
+        for (count, fit) in self.outside.iter_mut().zip(self.fits) {
+            let (flux, runs) = &fluxgates[fit.fluxgate];
+            if let Some(coverage) = &fit.coverage {
+                let flags = outside_over_runs(flux.into(), runs, coverage, fit.fs_hz);
+                *count += flags[rows.clone()].iter().filter(|f| **f).count();
+            }
+        }
         self.before = Some(row(&values, window.n - 1));
         Computed { values, fields }
     }

@@ -23,11 +23,13 @@ pub(super) fn same_rows(path: &Path, rows: usize, expected: usize) -> Result<()>
     Ok(())
 }
 
-/// A fit's level and how many rows it cannot compensate.
+/// A fit's level, how many rows it cannot compensate and how many lie outside what its
+/// calibration flew.
 pub(super) struct Level {
     /// The mean of `A·β` over the rows where it is computed (nT); NaN where there are none.
     pub level_nt: f64,
     pub uncomputable: usize,
+    pub outside: usize,
 }
 
 /// Where pass 2 takes its numbers: what pass 1 kept (text files, so the text is parsed twice,
@@ -97,7 +99,14 @@ pub(super) fn level(
     }
     fields.finish().map(&mut add);
     same_rows(&numbers.path(), rows, scan.rows)?;
-    Ok(sums.into_iter().map(Mean::level).collect())
+    let levels = sums
+        .into_iter()
+        .zip(fields.outside())
+        .map(|(mean, &outside)| Level {
+            outside,
+            ..mean.level()
+        });
+    Ok(levels.collect())
 }
 
 /// The running mean of one fit's `A·β` (nT) and its count of rows without a result.
@@ -128,6 +137,7 @@ impl Mean {
                 self.sum / self.n as f64
             },
             uncomputable: self.empty,
+            outside: 0,
         }
     }
 }

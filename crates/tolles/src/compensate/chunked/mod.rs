@@ -72,6 +72,8 @@ pub fn reads_in_chunks(model: &ModelFile, request: &FileRequest) -> bool {
                 && f.fit.settings.design.extras.is_empty()
                 && f.fit.lag_s == 0.0)
         && request.selection.is_empty()
+        // Each row's standard error and flag are computed from the whole flight.
+        && !request.compensate.uncertainty
 }
 
 /// Whether reading a survey of `bytes` in `format` whole could take more than half of the
@@ -184,7 +186,8 @@ fn run(
     };
     if let Some(levels) = &levels {
         let counts: Vec<usize> = levels.iter().map(|l| l.uncomputable).collect();
-        report.fits(&fits, &counts, warnings);
+        let outside: Vec<usize> = levels.iter().map(|l| l.outside).collect();
+        report.fits(&fits, (&counts, &outside), warnings);
     }
     if let Some(e) = failure {
         return Err(e);
@@ -198,11 +201,11 @@ fn run(
     let (plan, scan) = (&file.plan, &file.scan);
     let reader = file.open()?.parsing(plan.read.clone());
     let computing = (fits.as_slice(), levels_nt.as_slice());
-    let empty = write::write(reader, target, (plan, scan), computing, &names, progress)?;
+    let (empty, outside) = write::write(reader, target, (plan, scan), computing, &names, progress)?;
     match &levels {
         // Only a value beyond f64's range makes these differ from pass 2's counts.
         Some(levels) => report.changed_counts(&fits, levels, &empty, warnings),
-        None => report.fits(&fits, &empty, warnings),
+        None => report.fits(&fits, (&empty, &outside), warnings),
     }
     Ok(FileOutcome {
         selected: None,
@@ -315,12 +318,28 @@ struct Report<'a> {
 }
 
 impl Report<'_> {
-    /// Per fit: a given sample rate far from the time column's, its `uncomputable` rows, and
-    /// its column renamed.
-    fn fits(&self, fits: &[ReadyFit], uncomputable: &[usize], warnings: &mut Vec<Warning>) {
+    /// Per fit: a given sample rate far from the time column's, its verdict when not good,
+    /// its rows `outside` what its calibration flew, its `uncomputable` rows, and its column
+    /// renamed.
+    fn fits(
+        &self,
+        fits: &[ReadyFit],
+        (uncomputable, outside): (&[usize], &[usize]),
+        warnings: &mut Vec<Warning>,
+    ) {
         let names = self.names(fits);
-        for ((fit, &rows), (name, renamed)) in fits.iter().zip(uncomputable).zip(names) {
+        let counts = uncomputable.iter().zip(outside);
+        for ((fit, (&rows, &out)), (name, renamed)) in fits.iter().zip(counts).zip(names) {
             warnings.extend(fit.rate_warning.clone());
+            warnings.extend(fit.verdict.clone());
+            if out > 0 {
+                warnings.push(Warning::Extrapolated {
+                    path: self.survey.to_path_buf(),
+                    rows: out,
+                    of: self.rows,
+                    column: fit.output.clone(),
+                });
+            }
             self.uncomputable(fit, rows, warnings);
             if renamed {
                 warnings.push(Warning::OutputRenamed {

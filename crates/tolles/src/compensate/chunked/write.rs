@@ -22,7 +22,8 @@ pub(super) struct Target<'a, 'w> {
 }
 
 /// Pass 3: every row of `reader` with the compensated columns `names` of `fits`, each less its
-/// level (nT). Returns per fit the number of empty compensated cells written.
+/// level (nT). Returns per fit the number of empty compensated cells written, and of rows
+/// outside what its calibration flew.
 pub(super) fn write(
     mut reader: ChunkReader,
     target: Target<'_, '_>,
@@ -30,7 +31,7 @@ pub(super) fn write(
     (fits, levels_nt): (&[ReadyFit], &[f64]),
     names: &[String],
     progress: &dyn Progress,
-) -> Result<Vec<usize>> {
+) -> Result<(Vec<usize>, Vec<usize>)> {
     let mut sink = sink(target, reader.headers(), names)?;
     let mut fields = Fields::new(plan, scan, fits);
     let mut empty = vec![0usize; names.len()];
@@ -60,7 +61,7 @@ pub(super) fn write(
     }
     same_rows(reader.path(), rows, scan.rows)?;
     sink.finish()?;
-    Ok(empty)
+    Ok((empty, fields.outside().to_vec()))
 }
 
 /// Chunks computed, written with their compensated columns.

@@ -1,0 +1,189 @@
+//! What a fit knows about how far to trust it: the coefficients' covariance, the correction's
+//! uncertainty over the calibration, the span the calibration covered, and the verdict.
+
+use crate::fit::plausible::{self, Fault};
+use crate::fit::ridge::RidgeSolution;
+use crate::fit::verdict::{judge, Evidence, Verdict, MIN_TERM_EFFECT_NT};
+use crate::fit::{Diagnostics, Lambda};
+use crate::model::coverage::Coverage;
+use crate::model::design::{central_difference, Design};
+use crate::model::terms::Column;
+use crate::model::vector::Fluxgates;
+use nalgebra::{DMatrix, DVector};
+use serde::{Deserialize, Serialize};
+use std::ops::Range;
+
+/// The coefficients' uncertainty, as compensation needs it for the uncertainty of each row.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Uncertainty {
+    /// Covariance of the coefficients, row-major, one row per column (coefficient units
+    /// squared): the sandwich `G⁻¹·S·G⁻¹`, `G = AᵀA + Λ`, with `S` the long-run covariance of
+    /// the rows' scores, which holds when the residual is not white (a band-passed one never
+    /// is); `ν·G⁻¹` when the rows are no longer held (runs fitted in windows).
+    pub covariance: Vec<f64>,
+    /// Mean unfiltered design row over the calibration flight: the correction's uncertainty is
+    /// that of its difference from the calibration's mean level, which a level removes.
+    pub mean_row: Vec<f64>,
+}
+
+impl Uncertainty {
+    /// The covariance as a matrix.
+    pub fn matrix(&self) -> DMatrix<f64> {
+        let p = self.mean_row.len();
+        DMatrix::from_row_slice(p, p, &self.covariance)
+    }
+
+    /// The standard error (nT) of the correction `rowᵀβ` of a design row, less the mean row.
+    pub fn sigma(&self, row: &[f64]) -> f64 {
+        let p = self.mean_row.len();
+        let d: Vec<f64> = row.iter().zip(&self.mean_row).map(|(r, m)| r - m).collect();
+        let total: f64 = self
+            .covariance
+            .chunks_exact(p)
+            .zip(&d)
+            .map(|(c, di)| di * c.iter().zip(&d).map(|(c, dj)| c * dj).sum::<f64>())
+            .sum();
+        total.max(0.0).sqrt()
+    }
+}
+
+/// Samples of the calibration looked at for the uncertainty over it (evenly spread).
+const SAMPLES: usize = 20_000;
+
+/// Unfiltered design rows of about [`SAMPLES`] samples spread over `runs`.
+fn sampled_rows(design: &Design, flux: &Fluxgates, runs: &[Range<usize>]) -> Vec<Vec<f64>> {
+    let series = flux.series()[0];
+    let columns = design.columns();
+    let total: usize = runs.iter().map(|r| r.len()).sum();
+    let step = total.div_ceil(SAMPLES).max(1);
+    let mut rows = Vec::new();
+    let mut extras = vec![0.0; flux.extras().len()];
+    for run in runs {
+        let components = [&series.x, &series.y, &series.z];
+        let rate = components.map(|c| central_difference(&c[run.clone()]));
+        for k in run.clone().step_by(step) {
+            let i = k - run.start;
+            extras
+                .iter_mut()
+                .zip(flux.extras())
+                .for_each(|(e, c)| *e = c[k]);
+            let mut row = vec![0.0; columns.len()];
+            let db = [rate[0][i], rate[1][i], rate[2][i]];
+            design.row_with_extras(&columns, series.at(k), db, &extras, &mut row);
+            rows.push(row);
+        }
+    }
+    rows
+}
+
+/// What the trust in one fit is judged from, besides its diagnostics.
+pub(super) struct Inputs<'a> {
+    pub design: &'a Design,
+    pub coefficients: &'a [f64],
+    pub solution: &'a RidgeSolution,
+    pub lambda: Lambda,
+    pub fs_hz: f64,
+    /// The fault that made the prior stronger, if one did.
+    pub restrained: Option<Fault>,
+    /// RMS change of the fluxgate's direction inside the band (degrees).
+    pub excitation_deg: f64,
+    /// The coefficients' covariance (coefficient units squared).
+    pub covariance: DMatrix<f64>,
+}
+
+/// The fit's uncertainty (`None` if its covariance is not finite), the span it covered and its
+/// verdict.
+pub(super) fn assess(
+    inputs: Inputs,
+    diagnostics: &Diagnostics,
+    flux: &Fluxgates,
+    runs: &[Range<usize>],
+) -> (Option<Uncertainty>, Coverage, Verdict) {
+    let Inputs {
+        design,
+        coefficients,
+        solution,
+        lambda,
+        fs_hz,
+        restrained,
+        excitation_deg,
+        covariance,
+    } = inputs;
+    let p = coefficients.len();
+    let rows = sampled_rows(design, flux, runs);
+    let count = rows.len().max(1) as f64;
+    let mean_row: Vec<f64> = (0..p)
+        .map(|j| rows.iter().map(|r| r[j]).sum::<f64>() / count)
+        .collect();
+    let uncertainty = Uncertainty {
+        covariance: covariance.transpose().as_slice().to_vec(),
+        mean_row,
+    };
+    let beta = DVector::from_column_slice(coefficients);
+    let corrections: Vec<f64> = rows
+        .iter()
+        .map(|r| DVector::from_column_slice(r).dot(&beta))
+        .collect();
+    let sigma_rms = (rows
+        .iter()
+        .map(|r| uncertainty.sigma(r).powi(2))
+        .sum::<f64>()
+        / count)
+        .sqrt();
+    let column_std = |j: usize| {
+        let m = uncertainty.mean_row[j];
+        (rows.iter().map(|r| (r[j] - m).powi(2)).sum::<f64>() / count).sqrt()
+    };
+    let names = design.column_names(&[]);
+    let uncertain_terms = (0..p)
+        .filter(|&j| {
+            let lf = matches!(
+                design.columns()[j],
+                Column::Permanent(_)
+                    | Column::Induced(..)
+                    | Column::InducedTraceless(_)
+                    | Column::InducedTrace
+            );
+            let se = covariance[(j, j)].max(0.0).sqrt();
+            lf && se > coefficients[j].abs() && se * column_std(j) > MIN_TERM_EFFECT_NT
+        })
+        .map(|j| names[j].clone())
+        .collect();
+    let fixed = matches!(lambda, Lambda::Fixed(_));
+    let levels = diagnostics.levels.as_ref();
+    let heldout = diagnostics.cross_validation.as_ref();
+    let evidence = Evidence {
+        excitation_deg,
+        uncertainty_nt: sigma_rms,
+        correction_nt: crate::signal::metrics::std_dev(&corrections),
+        uncertain_terms,
+        restrained,
+        implausible: fixed
+            .then(|| plausible::fault(design, coefficients, fs_hz))
+            .flatten(),
+        heldout_nt: heldout.map_or(f64::NAN, |cv| cv.expected_heldout_rms_nt),
+        insample_nt: (solution.rss / solution.rows.max(1) as f64).sqrt(),
+        improvement: diagnostics.improvement_ratio,
+        level_misfit_nt: levels.map_or(f64::NAN, |l| l.residual_rms_nt),
+        fluxgate_offset_nt: levels.map_or(f64::NAN, |l| {
+            l.fluxgate.offset_nt.iter().fold(0.0, |m, o| m.max(o.abs()))
+        }),
+    };
+    let coverage = Coverage::of(flux.series()[0], runs, fs_hz, flux.extras());
+    // A factor that could not be inverted has no covariance to give: rows get none either.
+    let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+    let usable = finite(&uncertainty.covariance) && finite(&uncertainty.mean_row);
+    (usable.then_some(uncertainty), coverage, judge(&evidence))
+}
+
+/// RMS change of a fluxgate's direction inside the band (degrees), from the sums of squares of
+/// its band-passed permanent columns (the direction cosines) over `rows` band rows; NaN
+/// without them.
+pub(super) fn excitation_deg(sums_of_squares: &[f64], rows: usize) -> f64 {
+    if sums_of_squares.len() != 3 || rows == 0 {
+        return f64::NAN;
+    }
+    (sums_of_squares.iter().sum::<f64>() / rows as f64)
+        .sqrt()
+        .to_degrees()
+}

@@ -1,0 +1,432 @@
+//! Whether to trust a fitted model: `good`, `doubtful` with reasons, or `refused`.
+//!
+//! ```
+//! use tolles_core::fit::verdict::{Grade, Reason, Verdict};
+//!
+//! let verdict = Verdict::of(vec![Reason::FluxgateOffset { offset_nt: 693.0 }]);
+//! assert_eq!(verdict.grade, Grade::Doubtful);
+//! assert_eq!(
+//!     verdict.to_string(),
+//!     "doubtful: the fluxgate's calibration found an offset of 693 nT (a fluxgate's own offset \
+//!      is tens of nT; beyond 300 nT it sees the aircraft, or the calibration fitted something \
+//!      else)"
+//! );
+//! assert_eq!(Verdict::of(vec![]).to_string(), "good");
+//! ```
+//!
+//! A fit always finds coefficients; whether they describe the aircraft is another matter. The
+//! verdict collects what the fit itself can tell, each with a threshold stated here and in the
+//! README's "When not to trust a model":
+//!
+//! | reason | doubtful when |
+//! |---|---|
+//! | no maneuvers | the fluxgate's direction moved less than [`MIN_EXCITATION_DEG`] RMS inside the band |
+//! | uncertain model | the correction's own uncertainty reaches [`MAX_UNCERTAINTY_RATIO`] of the correction |
+//! | coefficients as uncertain as their values | a permanent or induced term's standard error exceeds its value and moves the correction by more than [`MIN_TERM_EFFECT_NT`] |
+//! | implausible, restrained | the fit found a field beyond [`crate::fit::plausible`]'s bounds and its prior was strengthened until it did not |
+//! | held out much worse | held-out RMS more than [`MAX_HELDOUT_RATIO`] × the in-sample residual |
+//! | little explained | the band-passed scalar improved less than [`MIN_IMPROVEMENT`] × |
+//! | heading levels | the low-frequency rows miss the levels by more than [`MAX_LEVEL_MISFIT_NT`] |
+//! | fluxgate offset | the fluxgate's calibrated offset exceeds [`MAX_FLUXGATE_OFFSET_NT`] |
+//!
+//! `refused` is a fit that found an implausible field even with its terms restrained: `tolles
+//! fit` writes no model then.
+
+use crate::fit::plausible::Fault;
+use serde::{Deserialize, Serialize};
+use std::fmt;
+
+/// RMS change of the fluxgate's direction inside the fitting band (degrees) below which the
+/// calibration had no maneuvers: turbulence moves it a few tenths of a degree, a box's rolls
+/// and pitches several degrees.
+pub const MIN_EXCITATION_DEG: f64 = 1.0;
+
+/// Ratio of the correction's RMS uncertainty to its standard deviation over the calibration
+/// flight from which the model is doubtful.
+pub const MAX_UNCERTAINTY_RATIO: f64 = 0.3;
+
+/// Smallest change (nT RMS) a term's standard error must make to the correction to count.
+pub const MIN_TERM_EFFECT_NT: f64 = 1.0;
+
+/// Held-out RMS over in-sample residual from which the fit is doubtful: it fits its own data
+/// much better than data it has not seen. Blocked folds of a box leave out a heading at a
+/// time, and good fits of simulated boxes reach 1.2–1.7.
+pub const MAX_HELDOUT_RATIO: f64 = 3.0;
+
+/// Improvement of the band-passed scalar's scatter below which the model explains little.
+pub const MIN_IMPROVEMENT: f64 = 1.5;
+
+/// RMS misfit of the heading levels (nT) from which the model is doubtful.
+pub const MAX_LEVEL_MISFIT_NT: f64 = 2.0;
+
+/// A fluxgate offset (nT) beyond which its calibration is doubtful.
+pub const MAX_FLUXGATE_OFFSET_NT: f64 = 300.0;
+
+/// How far to trust a model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Grade {
+    /// Nothing the fit can see speaks against it.
+    Good,
+    /// Use with care: the reasons say why.
+    Doubtful,
+    /// Not to be used: no model is written.
+    Refused,
+}
+
+impl fmt::Display for Grade {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Grade::Good => "good",
+            Grade::Doubtful => "doubtful",
+            Grade::Refused => "refused",
+        })
+    }
+}
+
+/// One reason for doubt.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "reason", rename_all = "snake_case")]
+pub enum Reason {
+    /// The fluxgate's direction hardly moved inside the band.
+    NoManeuvers {
+        /// Its RMS change inside the band (degrees).
+        excitation_deg: f64,
+    },
+    /// The correction is about as uncertain as it is large.
+    Uncertain {
+        /// RMS of the correction's standard error over the calibration (nT).
+        uncertainty_nt: f64,
+        /// Standard deviation of the correction over the calibration (nT).
+        correction_nt: f64,
+    },
+    /// Terms whose standard error exceeds their value and matters.
+    UncertainTerms {
+        /// The terms' names.
+        terms: Vec<String>,
+    },
+    /// The fit found an implausible field and its terms were restrained.
+    Restrained { fault: Fault },
+    /// A field beyond the bounds, left as found (a fixed λ: MagNav's procedure exactly).
+    Implausible { fault: Fault },
+    /// Held-out data fits much worse than the data fitted.
+    HeldOutWorse {
+        /// Held-out RMS (nT).
+        heldout_nt: f64,
+        /// In-sample residual (nT).
+        insample_nt: f64,
+    },
+    /// The model explains little of the band-passed scalar.
+    LittleExplained {
+        /// Band-passed std before over after.
+        improvement: f64,
+    },
+    /// The heading levels disagree with the model.
+    LevelMisfit {
+        /// RMS misfit of the level rows (nT).
+        misfit_nt: f64,
+    },
+    /// The fluxgate's calibration found an offset no fluxgate has.
+    FluxgateOffset {
+        /// The largest offset component (nT).
+        offset_nt: f64,
+    },
+}
+
+impl fmt::Display for Reason {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Reason::NoManeuvers { excitation_deg } => write!(
+                f,
+                "no maneuvers: the fluxgate's direction moved {excitation_deg:.2}° RMS inside the band \
+                 (below {MIN_EXCITATION_DEG}°; a box's rolls and pitches move it several degrees)"
+            ),
+            Reason::Uncertain {
+                uncertainty_nt,
+                correction_nt,
+            } => write!(
+                f,
+                "the correction's own uncertainty is {uncertainty_nt:.3} nT RMS against a correction of \
+                 {correction_nt:.3} nT"
+            ),
+            Reason::UncertainTerms { terms } => write!(
+                f,
+                "standard errors as large as the coefficients of {}",
+                terms.join(", ")
+            ),
+            Reason::Restrained { fault } => write!(
+                f,
+                "the fit found {fault}; its terms were held to physical sizes by a stronger prior"
+            ),
+            Reason::Implausible { fault } => write!(
+                f,
+                "the model has {fault}, a field no aircraft has (a fixed λ leaves it as fitted)"
+            ),
+            Reason::HeldOutWorse {
+                heldout_nt,
+                insample_nt,
+            } => write!(
+                f,
+                "held-out data fits to {heldout_nt:.3} nT, against {insample_nt:.3} nT in sample"
+            ),
+            Reason::LittleExplained { improvement } => write!(
+                f,
+                "the band-passed scalar improved only ×{improvement:.2}: an interference source may be \
+                 missing from the regressors"
+            ),
+            Reason::LevelMisfit { misfit_nt } => write!(
+                f,
+                "the heading levels miss the model by {misfit_nt:.2} nT RMS"
+            ),
+            Reason::FluxgateOffset { offset_nt } => write!(
+                f,
+                "the fluxgate's calibration found an offset of {offset_nt:.0} nT (a fluxgate's own offset \
+                 is tens of nT; beyond {MAX_FLUXGATE_OFFSET_NT:.0} nT it sees the aircraft, or the \
+                 calibration fitted something else)"
+            ),
+        }
+    }
+}
+
+/// A grade and its reasons.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Verdict {
+    pub grade: Grade,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub reasons: Vec<Reason>,
+}
+
+impl Verdict {
+    /// `good` without reasons, `doubtful` with.
+    pub fn of(reasons: Vec<Reason>) -> Self {
+        let grade = match reasons.is_empty() {
+            true => Grade::Good,
+            false => Grade::Doubtful,
+        };
+        Self { grade, reasons }
+    }
+
+    /// A refusal for `reasons`.
+    pub fn refused(reasons: Vec<Reason>) -> Self {
+        Self {
+            grade: Grade::Refused,
+            reasons,
+        }
+    }
+
+    /// True for [`Grade::Good`].
+    pub fn is_good(&self) -> bool {
+        self.grade == Grade::Good
+    }
+}
+
+impl fmt::Display for Verdict {
+    /// The grade, then its reasons separated by semicolons.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.grade)?;
+        for (k, reason) in self.reasons.iter().enumerate() {
+            write!(f, "{}{reason}", if k == 0 { ": " } else { "; " })?;
+        }
+        Ok(())
+    }
+}
+
+/// What [`judge`] reads of a fit.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Evidence {
+    /// RMS change of the fluxgate's direction inside the band (degrees); NaN when unknown.
+    pub excitation_deg: f64,
+    /// RMS uncertainty and standard deviation of the correction over the calibration (nT).
+    pub uncertainty_nt: f64,
+    pub correction_nt: f64,
+    /// Terms whose standard error exceeds their value and matters.
+    pub uncertain_terms: Vec<String>,
+    /// The fault restrained, or found and left (fixed λ).
+    pub restrained: Option<Fault>,
+    pub implausible: Option<Fault>,
+    /// Held-out RMS and in-sample residual (nT); NaN without cross-validation.
+    pub heldout_nt: f64,
+    pub insample_nt: f64,
+    /// Band-passed std before over after.
+    pub improvement: f64,
+    /// Level rows' RMS misfit (nT), NaN without levels.
+    pub level_misfit_nt: f64,
+    /// Largest fluxgate offset found (nT), NaN without levels.
+    pub fluxgate_offset_nt: f64,
+}
+
+/// The verdict on the evidence, reasons in the order of the table above.
+pub fn judge(e: &Evidence) -> Verdict {
+    let mut reasons = Vec::new();
+    if e.excitation_deg < MIN_EXCITATION_DEG {
+        reasons.push(Reason::NoManeuvers {
+            excitation_deg: e.excitation_deg,
+        });
+    }
+    if e.uncertainty_nt >= MAX_UNCERTAINTY_RATIO * e.correction_nt && e.uncertainty_nt > 0.0 {
+        reasons.push(Reason::Uncertain {
+            uncertainty_nt: e.uncertainty_nt,
+            correction_nt: e.correction_nt,
+        });
+    }
+    if !e.uncertain_terms.is_empty() {
+        reasons.push(Reason::UncertainTerms {
+            terms: e.uncertain_terms.clone(),
+        });
+    }
+    if let Some(fault) = &e.restrained {
+        reasons.push(Reason::Restrained {
+            fault: fault.clone(),
+        });
+    }
+    if let Some(fault) = &e.implausible {
+        reasons.push(Reason::Implausible {
+            fault: fault.clone(),
+        });
+    }
+    if e.heldout_nt > MAX_HELDOUT_RATIO * e.insample_nt {
+        reasons.push(Reason::HeldOutWorse {
+            heldout_nt: e.heldout_nt,
+            insample_nt: e.insample_nt,
+        });
+    }
+    if e.improvement < MIN_IMPROVEMENT {
+        reasons.push(Reason::LittleExplained {
+            improvement: e.improvement,
+        });
+    }
+    if e.level_misfit_nt > MAX_LEVEL_MISFIT_NT {
+        reasons.push(Reason::LevelMisfit {
+            misfit_nt: e.level_misfit_nt,
+        });
+    }
+    if e.fluxgate_offset_nt > MAX_FLUXGATE_OFFSET_NT {
+        reasons.push(Reason::FluxgateOffset {
+            offset_nt: e.fluxgate_offset_nt,
+        });
+    }
+    Verdict::of(reasons)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn clean() -> Evidence {
+        Evidence {
+            excitation_deg: 5.0,
+            uncertainty_nt: 0.01,
+            correction_nt: 100.0,
+            uncertain_terms: Vec::new(),
+            restrained: None,
+            implausible: None,
+            heldout_nt: 0.011,
+            insample_nt: 0.01,
+            improvement: 50.0,
+            level_misfit_nt: 0.1,
+            fluxgate_offset_nt: 12.0,
+        }
+    }
+
+    #[test]
+    fn each_threshold_gives_its_reason_and_nan_evidence_none() {
+        assert!(judge(&clean()).is_good());
+        let unknown = Evidence {
+            excitation_deg: f64::NAN,
+            heldout_nt: f64::NAN,
+            level_misfit_nt: f64::NAN,
+            fluxgate_offset_nt: f64::NAN,
+            ..clean()
+        };
+        assert!(judge(&unknown).is_good());
+        let fault = Fault::Permanent {
+            fluxgate: 0,
+            axis: "L".into(),
+            value_nt: 1e5,
+        };
+        let cases: Vec<(Evidence, &str)> = vec![
+            (
+                Evidence {
+                    excitation_deg: 0.3,
+                    ..clean()
+                },
+                "no maneuvers",
+            ),
+            (
+                Evidence {
+                    uncertainty_nt: 40.0,
+                    ..clean()
+                },
+                "own uncertainty",
+            ),
+            (
+                Evidence {
+                    uncertain_terms: vec!["perm_x".into()],
+                    ..clean()
+                },
+                "perm_x",
+            ),
+            (
+                Evidence {
+                    restrained: Some(fault.clone()),
+                    ..clean()
+                },
+                "held to physical",
+            ),
+            (
+                Evidence {
+                    implausible: Some(fault),
+                    ..clean()
+                },
+                "no aircraft has",
+            ),
+            (
+                Evidence {
+                    heldout_nt: 0.04,
+                    ..clean()
+                },
+                "held-out",
+            ),
+            (
+                Evidence {
+                    improvement: 1.2,
+                    ..clean()
+                },
+                "improved only",
+            ),
+            (
+                Evidence {
+                    level_misfit_nt: 18.8,
+                    ..clean()
+                },
+                "heading levels",
+            ),
+            (
+                Evidence {
+                    fluxgate_offset_nt: 693.0,
+                    ..clean()
+                },
+                "offset of 693",
+            ),
+        ];
+        for (evidence, words) in cases {
+            let v = judge(&evidence);
+            assert_eq!(v.grade, Grade::Doubtful, "{words}");
+            assert_eq!(v.reasons.len(), 1, "{v}");
+            assert!(v.to_string().contains(words), "{v}");
+        }
+    }
+
+    #[test]
+    fn a_verdict_reads_back_from_json() {
+        let v = judge(&Evidence {
+            excitation_deg: 0.2,
+            fluxgate_offset_nt: 693.0,
+            ..clean()
+        });
+        let text = serde_json::to_string(&v).unwrap();
+        assert!(text.contains("\"grade\":\"doubtful\""), "{text}");
+        let back: Verdict = serde_json::from_str(&text).unwrap();
+        assert_eq!(back, v);
+    }
+}
