@@ -356,8 +356,8 @@ def fit(
         Fluxgate prefix(es): ``"flux_a"`` reads ``flux_a_x/_y/_z`` (nT, body frame FRD);
         several build one design in which each fluxgate adds its own block of terms.
     terms : str or list of str
-        ``"auto"`` (the patent's 16 traceless terms, or MagNav's 18 when cross-validation finds
-        them at least 2 % better), or a list such as ``"permanent,induced,eddy"`` (also
+        ``"auto"`` (the patent's 16 traceless terms, and over several fluxgates MagNav's 18
+        when cross-validation finds them at least 2 % better), or a list such as ``"permanent,induced,eddy"`` (also
         ``patent``, ``p``, ``i``, ``it``, ``i5``, ``i3``, ``e``, ``et``, ``e8``, ``e3``, ``bias``).
     lambda_ : "auto" or float
         Ridge strength: ``"auto"`` chooses λ·diag(AᵀA) by 5-fold blocked cross-validation; a

@@ -10,8 +10,8 @@ use tolles::fit::{FitRequest, Terms};
 use tolles_core::fit::{Band, FitError, Lambda, MagnitudeChoice};
 use tolles_io::table::Table;
 
-/// Default terms: the 16 a scalar magnetometer can identify, or MagNav's 18 when
-/// cross-validation finds them clearly better (see `--terms`).
+/// Default terms: the 16 a scalar magnetometer can identify; over several fluxgates MagNav's 18
+/// when cross-validation finds them clearly better (see `--terms`).
 pub const DEFAULT_TERMS: &str = "auto";
 
 fn parse_terms(text: &str) -> Result<Terms, String> {
@@ -54,8 +54,8 @@ pub struct Args {
     pub out: Option<PathBuf>,
     /// Terms: `auto`, or a list of patent, permanent|p, induced|i, it, i5, i3, eddy|e, et, e8,
     /// e3, bias|b. `auto` fits the patent's 16 traceless terms (`patent` = permanent,it,et) and
-    /// MagNav.jl's 18 (permanent,induced,eddy) and keeps the 18 only if cross-validation finds
-    /// them at least 2 % better on held-out data
+    /// `permanent,i5,e8`, and over several fluxgates MagNav.jl's 18 (permanent,induced,eddy),
+    /// keeping the 18 only if cross-validation finds them at least 2 % better on held-out data
     #[arg(long, default_value = DEFAULT_TERMS, value_parser = parse_terms)]
     pub terms: Terms,
     /// Ridge strength: `auto` chooses λ·diag(AᵀA) by 5-fold blocked cross-validation over time;

@@ -39,15 +39,22 @@
 //! filtered and trimmed on its own, so no derivative or filter reaches across a hole.
 //!
 //! [`FitSettings::recommended`] goes further, in three steps that share the folds:
-//! 1. the candidate term sets (the patent's traceless 16, `i5,e8`, MagNav's 18) are fitted and
-//!    scored on held-out folds;
+//! 1. the candidate term sets (the patent's traceless 16, `i5,e8`, and over several fluxgates
+//!    MagNav's 18) are fitted and scored on held-out folds, each with a physical prior
+//!    ([`prior`]) whose strength the folds choose too, and none beyond the bounds of
+//!    [`plausible`];
 //! 2. with `levels`, low-frequency rows against the calibrated fluxgate's magnitude join the
 //!    band rows, and the score adds their held-out error ([`levels`]);
 //! 3. with `magnitude`, the chosen terms are refitted for the exact magnitude `|B + H| − |B|`
 //!    by Gauss-Newton from the linear solution: each iteration rebuilds the rows from the
 //!    Jacobian (see [`crate::model::magnitude`]) and the target `y − Δ(β) + J·β`, filters them
 //!    like the linear rows and solves the same ridge problem; the exact fit is kept if its score
-//!    is no worse.
+//!    is no worse. Steps are cut to a trust region, and a fit that diverges or leaves the
+//!    plausible bounds falls back to the linear one.
+//!
+//! Every fit then judges itself ([`verdict`]) and keeps its coefficients' covariance and the
+//! span of attitudes it flew ([`trust`]), from which compensation gives each row a standard
+//! error and says whether the model extrapolates there.
 
 mod basis;
 mod choice;
