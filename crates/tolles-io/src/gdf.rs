@@ -424,7 +424,11 @@ fn read_records(text: &str, path: &Path, def: &Definition) -> Result<Table, IoEr
     }
     let headers = fields.iter().map(|f| f.name.clone()).collect();
     let kept = columns.into_iter().map(Column::Text).collect();
-    Table::from_columns(path, headers, kept, Some(lines))
+    let units = fields
+        .iter()
+        .filter_map(|f| Some((f.name.clone(), f.units.clone()?)))
+        .collect();
+    Ok(Table::from_columns(path, headers, kept, Some(lines))?.with_units(units))
 }
 
 /// The cells of one record, and whether they were cut at the fields' widths (else split at

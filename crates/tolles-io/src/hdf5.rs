@@ -100,9 +100,11 @@ fn read_bytes(bytes: Vec<u8>, path: &Path) -> Result<Table, IoError> {
     let mut headers = Vec::new();
     let mut columns = Vec::new();
     let mut side = Vec::new();
+    let mut units = Vec::new();
     for (name, dataset) in vectors {
         let values = read_values(&dataset, &name, path, limit)?;
         if values.len() == rows {
+            units.extend(dataset_unit(&dataset).map(|u| (name.clone(), u)));
             headers.push(name);
             columns.push(Column::Numbers(values));
         } else {
@@ -110,6 +112,7 @@ fn read_bytes(bytes: Vec<u8>, path: &Path) -> Result<Table, IoError> {
         }
     }
     Ok(Table::from_columns(path, headers, columns, None)?
+        .with_units(units)
         .with_metadata(metadata)
         .with_side_columns(side)
         .with_notes(notes)
@@ -151,18 +154,10 @@ pub fn units(path: &Path) -> Vec<(String, String)> {
         let root = file.root();
         let mut out = Vec::new();
         for name in root.datasets().ok()? {
-            let Ok(attrs) = root.dataset(&name).and_then(|d| d.attrs()) else {
+            let Ok(dataset) = root.dataset(&name) else {
                 continue;
             };
-            let unit = attrs.iter().find_map(|(key, value)| match value {
-                AttrValue::String(u) | AttrValue::AsciiString(u)
-                    if key.eq_ignore_ascii_case("units") || key.eq_ignore_ascii_case("unit") =>
-                {
-                    Some(u.trim().to_string())
-                }
-                _ => None,
-            });
-            out.extend(unit.filter(|u| !u.is_empty()).map(|u| (name, u)));
+            out.extend(dataset_unit(&dataset).map(|u| (name, u)));
         }
         Some(out)
     };
@@ -174,6 +169,22 @@ pub fn units(path: &Path) -> Vec<(String, String)> {
         },
     )
     .unwrap_or_default()
+}
+
+/// The unit a dataset states in a `units` (or `unit`, any case) text attribute, if any.
+fn dataset_unit(dataset: &Dataset) -> Option<String> {
+    let attrs = dataset.attrs().ok()?;
+    attrs
+        .iter()
+        .find_map(|(key, value)| match value {
+            AttrValue::String(u) | AttrValue::AsciiString(u)
+                if key.eq_ignore_ascii_case("units") || key.eq_ignore_ascii_case("unit") =>
+            {
+                Some(u.trim().to_string())
+            }
+            _ => None,
+        })
+        .filter(|u| !u.is_empty())
 }
 
 /// Writes `columns` as 1-D float64 datasets at the root of a new HDF5 file.

@@ -150,6 +150,63 @@ pub fn canonical_names(raw: &str) -> Vec<String> {
     Vec::new()
 }
 
+/// Datum and projection tokens survey files add to coordinate names (`GDA94LAT`,
+/// `EAST_MGA`, `EASTMGA56`, `AMG84EAST`, `LAT_GDA94`); a zone number may follow.
+const COORDINATE_TOKENS: [&str; 11] = [
+    "GDA2020", "GDA94", "WGS84", "AGD66", "AGD84", "NAD83", "NAD27", "AMG84", "AMG", "MGA", "UTM",
+];
+
+/// The tolles name a survey file's own spelling of a channel stands for when neither the file
+/// nor [`canonical_names`] gives it: a fiducial as time (s) when the file has no time, and
+/// coordinates under their datum or projection (`GDA94LAT` latitude, `EAST_MGA` or `X`
+/// easting in m, …).
+///
+/// ```
+/// use tolles_io::schema::fallback_name;
+/// assert_eq!(fallback_name("FIDUCIAL"), Some("tt"));
+/// assert_eq!(fallback_name("GDA94LAT"), Some("lat"));
+/// assert_eq!(fallback_name("LONG_GDA94"), Some("lon"));
+/// assert_eq!(fallback_name("EASTMGA56"), Some("east_m"));
+/// assert_eq!(fallback_name("MGA_N"), Some("north_m"));
+/// assert_eq!(fallback_name("Y"), Some("north_m"));
+/// assert_eq!(fallback_name("E"), None); // a bare letter could be anything
+/// ```
+pub fn fallback_name(raw: &str) -> Option<&'static str> {
+    let upper = raw.trim().to_ascii_uppercase();
+    match upper.as_str() {
+        "FIDUCIAL" | "FID" | "FIDU" => return Some(TIME_COLUMN),
+        "X" => return Some(EAST),
+        "Y" => return Some(NORTH),
+        _ => {}
+    }
+    let (core, projected) = without_coordinate_tokens(&upper);
+    match core.as_str() {
+        "LAT" | "LATITUDE" => Some(LATITUDE),
+        "LON" | "LONG" | "LNG" | "LLG" | "LONGITUDE" => Some(LONGITUDE),
+        "EAST" | "EASTING" | "X" => Some(EAST),
+        "NORTH" | "NORTHING" | "Y" => Some(NORTH),
+        "E" if projected => Some(EAST),
+        "N" if projected => Some(NORTH),
+        _ => None,
+    }
+}
+
+/// `name` without its datum and projection tokens (each with the zone number after it) and
+/// underscores, and whether it had any token.
+fn without_coordinate_tokens(name: &str) -> (String, bool) {
+    let mut rest = name.replace('_', "");
+    let mut found = false;
+    for token in COORDINATE_TOKENS {
+        while let Some(at) = rest.find(token) {
+            let end = at + token.len();
+            let digits = rest[end..].bytes().take_while(u8::is_ascii_digit).count();
+            rest.replace_range(at..end + digits, "");
+            found = true;
+        }
+    }
+    (rest, found)
+}
+
 /// The aliases a table with `headers` gets: `(tolles name, column index)` for every raw
 /// channel (see [`canonical_names`]) whose tolles name no column has (as
 /// [`crate::table::find_column`] finds names, also by case); each name once, from the first
@@ -178,7 +235,40 @@ pub fn aliases(headers: &[String]) -> Vec<(String, usize)> {
     if let Some((_, k)) = igrf.filter(|_| !present(IGRF)) {
         out.push((IGRF.to_string(), k));
     }
+    // A survey's own spellings, for what neither the file nor the names above give.
+    for (k, header) in headers.iter().enumerate() {
+        if let Some(name) = fallback_name(header) {
+            if !present(name) && !out.iter().any(|(o, _)| o == name) {
+                out.push((name.to_string(), k));
+            }
+        }
+    }
     out
+}
+
+/// Seconds in one `unit` of a time column, for the units survey files declare (ASEG-GDF2
+/// `UNITS=`, an HDF5 `units` attribute): seconds, milliseconds, microseconds, minutes, hours and
+/// days, in their usual spellings and any case; `None` for any other unit.
+///
+/// ```
+/// use tolles_io::schema::seconds_per;
+/// assert_eq!(seconds_per("hours"), Some(3600.0));
+/// assert_eq!(seconds_per("MSEC"), Some(1e-3));
+/// assert_eq!(seconds_per("s"), Some(1.0));
+/// assert_eq!(seconds_per("furlongs"), None);
+/// ```
+pub fn seconds_per(unit: &str) -> Option<f64> {
+    let unit = unit.trim().trim_end_matches('.').to_ascii_lowercase();
+    let seconds = match unit.as_str() {
+        "s" | "sec" | "secs" | "second" | "seconds" => 1.0,
+        "ms" | "msec" | "msecs" | "millisecond" | "milliseconds" => 1e-3,
+        "us" | "µs" | "usec" | "microsecond" | "microseconds" => 1e-6,
+        "min" | "mins" | "minute" | "minutes" => 60.0,
+        "h" | "hr" | "hrs" | "hour" | "hours" => 3600.0,
+        "d" | "day" | "days" => 86_400.0,
+        _ => return None,
+    };
+    Some(seconds)
 }
 
 /// The compensated column of `scalar`: `mag_1_uc` → `mag_1_c`; a name without `_uc` gets `_c`

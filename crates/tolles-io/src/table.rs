@@ -236,6 +236,8 @@ pub struct Table {
     side: Vec<SideColumn>,
     notes: Vec<String>,
     aliases: Vec<(String, usize)>,
+    /// Units the file declares for its columns: `(column index, unit)`.
+    units: Vec<(usize, String)>,
 }
 
 impl Table {
@@ -276,6 +278,7 @@ impl Table {
             side: Vec::new(),
             notes: Vec::new(),
             aliases: Vec::new(),
+            units: Vec::new(),
         })
     }
 
@@ -351,6 +354,54 @@ impl Table {
         self
     }
 
+    /// Adds the units the file declares for its columns, `(column name, unit)`; names that are
+    /// no column are ignored. A time column in a unit of time other than seconds is read in
+    /// seconds from then on (see [`Table::numeric`]); one in a unit that is not time gets a
+    /// note, and is read as it is.
+    pub fn with_units(mut self, units: Vec<(String, String)>) -> Self {
+        self.units = units
+            .into_iter()
+            .filter(|(_, unit)| !unit.trim().is_empty())
+            .filter_map(|(name, unit)| Some((self.headers.iter().position(|h| *h == name)?, unit)))
+            .collect();
+        self
+    }
+
+    /// The unit the file declares for column `name`, if any.
+    pub fn unit(&self, name: &str) -> Option<&str> {
+        let index = self.index_of(name).ok()?;
+        self.units
+            .iter()
+            .find(|(k, _)| *k == index)
+            .map(|(_, u)| u.as_str())
+    }
+
+    /// The time column's index and the seconds in one of its declared units, when that is not
+    /// one second.
+    fn time_scale(&self) -> Option<(usize, f64)> {
+        if self.units.is_empty() {
+            return None;
+        }
+        let index = self.index_of(crate::schema::TIME_COLUMN).ok()?;
+        let (_, unit) = self.units.iter().find(|(k, _)| *k == index)?;
+        crate::schema::seconds_per(unit)
+            .filter(|s| *s != 1.0)
+            .map(|s| (index, s))
+    }
+
+    /// A note on a time column whose declared unit is not a unit of time, if there is one.
+    pub fn time_unit_note(&self) -> Option<String> {
+        let index = self.index_of(crate::schema::TIME_COLUMN).ok()?;
+        let (_, unit) = self.units.iter().find(|(k, _)| *k == index)?;
+        crate::schema::seconds_per(unit).is_none().then(|| {
+            format!(
+                "time column {:?} is declared in {unit:?}, which is no unit of time tolles knows; \
+                 read as seconds",
+                self.headers[index]
+            )
+        })
+    }
+
     /// The other names columns are also found by: `(name, column index)`.
     pub fn aliases(&self) -> &[(String, usize)] {
         &self.aliases
@@ -378,6 +429,11 @@ impl Table {
                 found: values.len(),
             });
         }
+        // The column keeps its declared unit: values come in seconds, as they went out.
+        let values = match self.time_scale() {
+            Some((time, seconds)) if time == index => values.iter().map(|t| t / seconds).collect(),
+            _ => values,
+        };
         self.columns[index] = Column::Numbers(values);
         Ok(())
     }
@@ -605,6 +661,7 @@ impl Table {
             side: self.side.clone(),
             notes: self.notes.clone(),
             aliases: self.aliases.clone(),
+            units: self.units.clone(),
         }
     }
 
@@ -665,8 +722,18 @@ impl Table {
                 });
             }
         }
+        let scale = self.time_scale();
         out.into_iter()
-            .map(|r| r.expect("every column parsed"))
+            .zip(indices)
+            .map(|(r, &index)| {
+                let values = r.expect("every column parsed");
+                match scale {
+                    Some((time, seconds)) if time == index => {
+                        values.map(|v| v.into_iter().map(|t| t * seconds).collect())
+                    }
+                    _ => values,
+                }
+            })
             .collect()
     }
 

@@ -122,17 +122,38 @@ pub fn rename(table: &mut Table, renames: &[(String, String)]) -> Result<()> {
 /// ([`tolles_io::schema::aliases`]); a warning lists them, when there are any.
 pub fn with_aliases(table: Table, warnings: &mut Vec<Warning>) -> Table {
     let aliases = tolles_io::schema::aliases(table.headers());
-    if aliases.is_empty() {
-        return table;
-    }
-    warnings.push(Warning::ColumnsAliased {
+    let table = match aliases.is_empty() {
+        true => table,
+        false => {
+            warnings.push(Warning::ColumnsAliased {
+                path: table.path().to_path_buf(),
+                aliases: aliases
+                    .iter()
+                    .map(|(name, k)| (table.headers()[*k].clone(), name.clone()))
+                    .collect(),
+            });
+            table.with_aliases(aliases)
+        }
+    };
+    warnings.extend(time_unit_warning(&table));
+    table
+}
+
+/// What the file's declared time unit does to its time column: converted to seconds, or not
+/// understood.
+fn time_unit_warning(table: &Table) -> Option<Warning> {
+    let note = |note: String| Warning::ReaderNote {
         path: table.path().to_path_buf(),
-        aliases: aliases
-            .iter()
-            .map(|(name, k)| (table.headers()[*k].clone(), name.clone()))
-            .collect(),
-    });
-    table.with_aliases(aliases)
+        note,
+    };
+    if let Some(text) = table.time_unit_note() {
+        return Some(note(text));
+    }
+    let unit = table.unit(TIME_COLUMN)?;
+    let seconds = tolles_io::schema::seconds_per(unit).filter(|s| *s != 1.0)?;
+    Some(note(format!(
+        "time is declared in {unit:?}: read as seconds ({seconds} s each)"
+    )))
 }
 
 /// Reads a flight table as the file has it; a CSV file's columns `needed` (see
@@ -478,11 +499,24 @@ pub fn sample_rate_from(
             }),
         )),
         (Some(fs), _) => Ok((fs, None)),
-        (None, Some(t)) => Ok((t, None)),
+        (None, Some(t)) => Ok((t, unlikely_rate(path, t))),
         (None, None) => Err(Error::NoSampleRate {
             path: path.to_path_buf(),
         }),
     }
+}
+
+/// Sample rates (Hz) airborne magnetometers are read at: from a ground station's one sample a
+/// minute to the 2560 Hz of a fast optically pumped counter, with room on either side.
+const LIKELY_RATES_HZ: std::ops::RangeInclusive<f64> = 0.01..=10_000.0;
+
+/// A warning when the rate the file's time gives is none a magnetometer samples at: time in
+/// hours or milliseconds read as seconds, most likely.
+fn unlikely_rate(path: &Path, hz: f64) -> Option<Warning> {
+    (!LIKELY_RATES_HZ.contains(&hz)).then(|| Warning::UnlikelySampleRate {
+        path: path.to_path_buf(),
+        hz,
+    })
 }
 
 /// `names` checked: at least one, none twice; `what` says what they name in errors.

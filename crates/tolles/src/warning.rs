@@ -18,6 +18,12 @@ pub enum Warning {
         /// 1 / the median step of the time column (Hz).
         from_time_hz: f64,
     },
+    /// The time column gives a sample rate no magnetometer samples at.
+    UnlikelySampleRate {
+        path: PathBuf,
+        /// 1 / the median step of the time column (Hz).
+        hz: f64,
+    },
     /// Rows of a compensated column left empty because a value they need is missing.
     Uncomputable {
         path: PathBuf,
@@ -132,6 +138,11 @@ impl fmt::Display for Warning {
                 }
                 write!(f, ": an interference source may be missing from the regressors (a current? try --extra)")
             }
+            Warning::UnlikelySampleRate { path, hz } => write!(
+                f,
+                "{}: column {TIME_COLUMN:?} gives a sample rate of {hz:.6} Hz, which no magnetometer samples at: is time in seconds? Give its unit in the file, or the rate with --fs",
+                path.display()
+            ),
             Warning::SampleRateDiffers {
                 given_hz,
                 from_time_hz,
