@@ -186,11 +186,7 @@ pub fn fit_summary(model: &ScalarModel, cal: &Path) -> std::io::Result<()> {
                     score.magnitude
                 )
             },
-            score
-                .heldout_rms_nt
-                .map_or("(could not be fitted)".to_string(), |r| format!(
-                    "{r:.4} nT"
-                )),
+            held_out_text(score),
             if score.chosen { "  <- chosen" } else { "" }
         )?;
     }
@@ -252,7 +248,8 @@ pub fn fit_summary(model: &ScalarModel, cal: &Path) -> std::io::Result<()> {
     let p = &model.patent;
     writeln!(
         err,
-        "  patent terms: perm T {:.3} L {:.3} V {:.3} nT; induced VV-TT {:.5} VV-LL {:.5} TL+LT {:.5} TV+VT {:.5} LV+VL {:.5}",
+        // Induced terms span 1e-6 to 1e-1: significant digits, never a row of zeros.
+        "  patent terms: perm T {:.3} L {:.3} V {:.3} nT; induced VV-TT {:.4e} VV-LL {:.4e} TL+LT {:.4e} TV+VT {:.4e} LV+VL {:.4e}",
         p.perm_nt.t, p.perm_nt.l, p.perm_nt.v, p.induced.vv_tt, p.induced.vv_ll, p.induced.tl_lt, p.induced.tv_vt, p.induced.lv_vl
     )?;
     if let Some(v) = &model.fit.verdict {
@@ -272,6 +269,19 @@ pub fn verdict(
         writeln!(out, "  - {reason}")?;
     }
     Ok(())
+}
+
+/// A term set's held-out residual, and with heading levels the level rows' and the score the
+/// choice compares (their `hypot`), so the chosen set is seen to have the lowest.
+fn held_out_text(score: &tolles_core::fit::TermScore) -> String {
+    match (score.heldout_rms_nt, score.heldout_low_rms_nt) {
+        (None, _) => "(could not be fitted)".to_string(),
+        (Some(band), None) => format!("{band:.4} nT"),
+        (Some(band), Some(low)) => format!(
+            "{band:.4} nT, levels {low:.4} nT: score {:.4} nT",
+            band.hypot(low)
+        ),
+    }
 }
 
 /// The prior's multiples chosen: one, or per kind of term when they differ.

@@ -4,19 +4,11 @@
 
 mod common;
 
-use common::tolles;
+use common::{run_in as run, tolles};
 
 use serde_json::Value;
 use std::path::Path;
 use tempfile::TempDir;
-
-/// Runs `tolles ARGS` in `dir`, expecting success; returns stdout and stderr.
-fn run(dir: &Path, args: &[&str]) -> (String, String) {
-    let out = tolles().current_dir(dir).args(args).output().unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
-    assert!(out.status.success(), "{args:?}: {stderr}");
-    (String::from_utf8(out.stdout).unwrap(), stderr)
-}
 
 /// A box fitted with the defaults (m.json) where the earth's field dips 70°, and a survey
 /// (survey.csv) flown where it dips 20°: on its lines the field meets the aircraft at angles

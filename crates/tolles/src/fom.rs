@@ -16,7 +16,7 @@ use tolles_core::maneuvers::fom::{
 };
 use tolles_core::maneuvers::heading::{select_straight, HeadingLevels, HeadingSettings};
 use tolles_io::model::{ModelFile, ScalarModel};
-use tolles_io::schema::{PITCH, ROLL, YAW};
+use tolles_io::schema::{PITCH, ROLL, SAMPLE_INTERVAL, YAW};
 use tolles_io::table::Table;
 
 /// What to measure.
@@ -122,7 +122,13 @@ fn measure_flight(
 ) -> Result<FomOutcome> {
     let scalar = table.numeric(&request.scalar)?;
     let tt = time_column(table)?;
-    let (fs_hz, warning) = sample_rate(table, tt.as_deref(), request.fs_hz)?;
+    // A flight that states no rate is taken at its model's, as `compensate` takes it.
+    let states_rate = tt.is_some() || table.metadata(SAMPLE_INTERVAL).is_some();
+    let given = match (request.fs_hz, fit) {
+        (None, Some(fit)) if !states_rate => Some(fit.fit.fs_hz),
+        (given, _) => given,
+    };
+    let (fs_hz, warning) = sample_rate(table, tt.as_deref(), given)?;
     warnings.extend(warning);
     let tt = tt.unwrap_or_else(|| (0..table.len()).map(|k| k as f64 / fs_hz).collect());
     let maneuvers = match &attitude {
@@ -388,7 +394,7 @@ fn block_json(report: &FomReport) -> Value {
         })
     };
     json!({
-        "fom_nT": report.fom_nt,
+        "fom_nT": finite(report.fom_nt),
         "band_hz": [report.band_hz.0, report.band_hz.1],
         "fourth_difference_nT": finite(report.fourth_difference_nt),
         "maneuvers": report.counted().map(maneuver).collect::<Vec<_>>(),

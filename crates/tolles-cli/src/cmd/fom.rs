@@ -155,12 +155,20 @@ fn write_table(out: &mut impl Write, args: &Args, scalar: &str, o: &FomOutcome) 
         }
         writeln!(out)?;
     }
-    write!(out, "{:>8}  {:<44}  {:>13.3}", "FOM", "", o.before.fom_nt)?;
-    if let Some(after) = after {
-        write!(out, "  {:>11.3}", after.fom_nt)?;
+    if o.before.fom_nt.is_nan() {
+        writeln!(
+            out,
+            "{:>8}  none: no compensation-box maneuvers were found in the attitude\n",
+            "FOM"
+        )?;
+    } else {
+        write!(out, "{:>8}  {:<44}  {:>13.3}", "FOM", "", o.before.fom_nt)?;
+        if let Some(after) = after {
+            write!(out, "  {:>11.3}", after.fom_nt)?;
+        }
+        writeln!(out, "\n")?;
     }
-    writeln!(out, "\n")?;
-    match after {
+    match after.filter(|_| o.before.fom_nt.is_finite()) {
         Some(after) => writeln!(
             out,
             "improvement ratio (FOM uncompensated / compensated): {:.1}\nfourth-difference noise: {:.4} nT uncompensated, {:.4} nT compensated",
@@ -168,11 +176,18 @@ fn write_table(out: &mut impl Write, args: &Args, scalar: &str, o: &FomOutcome) 
             o.before.fourth_difference_nt,
             after.fourth_difference_nt
         )?,
-        None => writeln!(
-            out,
-            "improvement ratio: give --model to compare with the compensated data\nfourth-difference noise: {:.4} nT",
-            o.before.fourth_difference_nt
-        )?,
+        None => match after {
+            Some(after) => writeln!(
+                out,
+                "fourth-difference noise: {:.4} nT uncompensated, {:.4} nT compensated",
+                o.before.fourth_difference_nt, after.fourth_difference_nt
+            )?,
+            None => writeln!(
+                out,
+                "improvement ratio: give --model to compare with the compensated data\nfourth-difference noise: {:.4} nT",
+                o.before.fourth_difference_nt
+            )?,
+        },
     }
     write_headings(out, &o.heading_before, o.heading_after.as_ref())?;
     for slot in &o.before.missing {

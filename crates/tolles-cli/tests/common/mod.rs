@@ -9,6 +9,14 @@ pub fn tolles() -> Command {
     Command::cargo_bin("tolles").unwrap()
 }
 
+/// Runs `tolles ARGS` in `dir`, expecting success; returns its stdout and stderr.
+pub fn run_in(dir: &Path, args: &[&str]) -> (String, String) {
+    let out = tolles().current_dir(dir).args(args).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(out.status.success(), "{args:?}: {stderr}");
+    (String::from_utf8(out.stdout).unwrap(), stderr)
+}
+
 /// A column of MagNav's golden Tolles-Lawson test data, one value per line.
 pub fn magnav(name: &str) -> Vec<f64> {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))

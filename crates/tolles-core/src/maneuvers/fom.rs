@@ -39,8 +39,8 @@
 //! - slots with no maneuver are listed in [`FomReport::missing`]; the FOM then sums fewer than 12.
 
 use crate::maneuvers::detect::{Maneuver, ManeuverKind, CARDINAL_HEADINGS_DEG};
-use crate::signal::filter::{Band, Butterworth, FilterError, Response};
-use crate::signal::metrics::{fourth_difference_noise, std_dev};
+use crate::signal::filter::{Band, FilterError};
+use crate::signal::metrics::{fourth_difference_noise_over, std_dev};
 use crate::signal::segment::contiguous_runs;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
@@ -120,7 +120,7 @@ pub struct FomReport {
     /// Pass band used (Hz), `(pass1, pass2)`: a pair rather than a [`Band`] so the JSON stays
     /// `[0.05, 1.0]`.
     pub band_hz: (f64, f64),
-    /// Sum of the counted peak-to-peaks (nT).
+    /// Sum of the counted peak-to-peaks (nT); NaN when no maneuver was counted.
     pub fom_nt: f64,
     /// Every maneuver given, in time order.
     pub maneuvers: Vec<ManeuverFom>,
@@ -196,18 +196,25 @@ pub fn fom(
         .collect();
     Ok(FomReport {
         band_hz: settings.band.edges_hz(),
-        fom_nt: maneuvers
-            .iter()
-            .filter(|m| m.counted && m.peak_to_peak_nt.is_finite())
-            // A fold from +0: an empty f64 sum is −0, which prints as "-0.000".
-            .fold(0.0, |sum, m| sum + m.peak_to_peak_nt),
+        fom_nt: match maneuvers.iter().any(|m| m.counted) {
+            // No maneuver, no figure of merit: NaN, never a sum of nothing that reads as 0.
+            false => f64::NAN,
+            true => maneuvers
+                .iter()
+                .filter(|m| m.counted && m.peak_to_peak_nt.is_finite())
+                // A fold from +0: an empty f64 sum is −0, which prints as "-0.000".
+                .fold(0.0, |sum, m| sum + m.peak_to_peak_nt),
+        },
         missing: Slot::all()
             .into_iter()
             .filter(|s| !found.contains(s))
             .collect(),
         maneuvers,
         noise_level_nt: std_dev(&filtered),
-        fourth_difference_nt: fourth_difference_noise(signal_nt),
+        fourth_difference_nt: fourth_difference_noise_over(
+            signal_nt,
+            &contiguous_runs(&vec![true; signal_nt.len()], tt),
+        ),
     })
 }
 
@@ -226,14 +233,11 @@ pub fn bandpassed(
     fs_hz: f64,
     settings: &FomSettings,
 ) -> Result<Vec<f64>, FomError> {
-    let filter = Butterworth::design(
-        settings.order,
-        Response::BandPass {
-            low_hz: settings.band.pass1_hz,
-            high_hz: settings.band.pass2_hz,
-        },
-        fs_hz,
-    )?;
+    // An edge at or beyond Nyquist is switched off, as for a fit (a 1 Hz survey is high-passed
+    // at the lower edge): see `Band::butterworth`.
+    let Some(filter) = settings.band.butterworth(settings.order, fs_hz)? else {
+        return Ok(signal_nt.to_vec());
+    };
     let usable: Vec<bool> = signal_nt.iter().map(|v| v.is_finite()).collect();
     let mut out = vec![f64::NAN; signal_nt.len()];
     for run in contiguous_runs(&usable, tt) {
@@ -365,6 +369,11 @@ mod tests {
         ));
         let mut s = FomSettings::default();
         s.band.pass2_hz = 6.0;
+        assert!(
+            fom(&x, None, &[], 10.0, &s).is_ok(),
+            "an edge beyond Nyquist is switched off, as in a fit"
+        );
+        s.order = 0;
         assert!(matches!(
             fom(&x, None, &[], 10.0, &s),
             Err(FomError::Filter(_))

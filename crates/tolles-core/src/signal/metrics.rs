@@ -46,6 +46,17 @@ pub fn fourth_difference_noise(x: &[f64]) -> f64 {
     std_dev(&fourth_difference(x))
 }
 
+/// [`fourth_difference_noise`] over the `runs` of `x` (contiguous stretches: lines, or the
+/// parts between time gaps): no difference reaches across two runs, where it would measure the
+/// jump between them, not the noise.
+pub fn fourth_difference_noise_over(x: &[f64], runs: &[std::ops::Range<usize>]) -> f64 {
+    let differences: Vec<f64> = runs
+        .iter()
+        .flat_map(|r| fourth_difference(&x[r.clone()]))
+        .collect();
+    std_dev(&differences)
+}
+
 /// Population standard deviation of the finite values (NaN if there are none).
 pub fn std_dev(x: &[f64]) -> f64 {
     let finite = || x.iter().copied().filter(|v| v.is_finite());
@@ -60,6 +71,22 @@ pub fn std_dev(x: &[f64]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn fourth_difference_noise_does_not_reach_across_runs() {
+        let quiet = |k: usize| 0.01 * ((k * 7919) % 13) as f64;
+        let mut x: Vec<f64> = (0..200).map(quiet).collect();
+        x[100..].iter_mut().for_each(|v| *v += 50.0);
+        let runs = [0..100, 100..200];
+        let (first, second) = (&x[..100], &x[100..]);
+        let over = fourth_difference_noise_over(&x, &runs);
+        let each = fourth_difference_noise(first).max(fourth_difference_noise(second));
+        assert!(over <= each * 1.01, "{over} vs {each}");
+        assert!(
+            fourth_difference_noise(&x) > 10.0 * over,
+            "the jump counts when not split"
+        );
+    }
 
     #[test]
     fn fourth_difference_of_white_noise_has_known_scale() {
