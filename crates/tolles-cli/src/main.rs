@@ -16,6 +16,15 @@ macro_rules! flight_help {
     };
 }
 
+/// `eprintln!` that never panics: with standard error closed or a broken pipe, the message is
+/// dropped and the command's work (a model, an output file) goes on.
+macro_rules! note {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($arg)*);
+    }};
+}
+
 mod cmd;
 mod input;
 mod progress;
@@ -103,7 +112,7 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) if is_broken_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {}", one_line(&e));
+            note!("error: {}", one_line(&e));
             ExitCode::FAILURE
         }
     }

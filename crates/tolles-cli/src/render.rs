@@ -23,7 +23,7 @@ pub enum Use {
 /// Prints `warnings` on standard error, one line each, and empties the vector.
 pub fn warnings(warnings: &mut Vec<Warning>, purpose: Use) {
     for warning in warnings.drain(..) {
-        eprintln!("{}", warning_text(&warning, purpose));
+        note!("{}", warning_text(&warning, purpose));
     }
 }
 

@@ -296,3 +296,17 @@ fn the_fit_summary_prints_the_score_it_chose_by_and_small_terms_in_full() {
         "{patent}"
     );
 }
+
+#[test]
+fn a_file_sorted_by_line_shows_its_time_span_earliest_to_latest() {
+    let dir = TempDir::new().unwrap();
+    let gondwana = example("Example_Mag_Gondwana_200Ma");
+    let (info, _) = run(dir.path(), &["info", gondwana.to_str().unwrap()]);
+    let span = info.lines().find(|l| l.starts_with("time: ")).unwrap();
+    // Earliest to latest (the file starts at 38000.3 s and later steps back to 29932 s).
+    assert!(
+        span.starts_with("time: 29906.9 .. 38000.4 s (8093.5 s"),
+        "{span}"
+    );
+    assert!(span.contains("not in time order"), "{span}");
+}

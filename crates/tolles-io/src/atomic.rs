@@ -27,9 +27,18 @@ use tempfile::NamedTempFile;
 
 /// A file being written in place of `target`; dropped without [`AtomicFile::commit`], it is
 /// removed and `target` is untouched.
+///
+/// A target that exists and is not a regular file (a device such as `/dev/null`, a named pipe,
+/// a socket, `/dev/stdout`) is written straight into instead: a rename would replace it with a
+/// regular file, and such a target is a stream with nothing to keep whole.
 pub struct AtomicFile {
-    temp: NamedTempFile,
+    destination: Destination,
     target: PathBuf,
+}
+
+enum Destination {
+    Temporary(NamedTempFile),
+    Stream(File),
 }
 
 impl AtomicFile {
@@ -37,6 +46,16 @@ impl AtomicFile {
     /// (a rename would otherwise leave the owner-only mode of a temporary file).
     pub fn create(target: &Path) -> Result<Self, IoError> {
         let fail = |source| write_error(target, source);
+        if is_stream(target) {
+            let file = std::fs::OpenOptions::new()
+                .write(true)
+                .open(target)
+                .map_err(fail)?;
+            return Ok(Self {
+                destination: Destination::Stream(file),
+                target: target.to_path_buf(),
+            });
+        }
         let dir = match target.parent() {
             Some(dir) if !dir.as_os_str().is_empty() => dir,
             _ => Path::new("."),
@@ -54,23 +73,30 @@ impl AtomicFile {
             temp.as_file().set_permissions(permissions).map_err(fail)?;
         }
         Ok(Self {
-            temp,
+            destination: Destination::Temporary(temp),
             target: target.to_path_buf(),
         })
     }
 
-    /// The temporary file, to write to.
+    /// The temporary file (or the stream), to write to.
     pub fn file(&self) -> &File {
-        self.temp.as_file()
+        match &self.destination {
+            Destination::Temporary(temp) => temp.as_file(),
+            Destination::Stream(file) => file,
+        }
     }
 
     /// A writer to the temporary file that sends large writes past the page cache (see
     /// [`DirectWriter`]); flush it before [`AtomicFile::commit`].
     pub fn direct_writer(&self) -> Result<DirectWriter, IoError> {
-        let file = self.file().try_clone();
-        Ok(DirectWriter::new(
-            file.map_err(|e| write_error(&self.target, e))?,
-        ))
+        let file = self
+            .file()
+            .try_clone()
+            .map_err(|e| write_error(&self.target, e))?;
+        Ok(match &self.destination {
+            Destination::Temporary(_) => DirectWriter::new(file),
+            Destination::Stream(_) => DirectWriter::buffered(file),
+        })
     }
 
     /// The file the bytes are meant for.
@@ -81,15 +107,23 @@ impl AtomicFile {
     /// Flushes the file to disk and renames it over the target.
     pub fn commit(self) -> Result<(), IoError> {
         let target = self.target;
-        self.temp
-            .as_file()
+        let temp = match self.destination {
+            Destination::Temporary(temp) => temp,
+            Destination::Stream(_) => return Ok(()),
+        };
+        temp.as_file()
             .sync_all()
             .map_err(|e| write_error(&target, e))?;
-        self.temp
-            .persist(&target)
+        temp.persist(&target)
             .map_err(|e| write_error(&target, e.error))?;
         Ok(())
     }
+}
+
+/// Whether `target` exists as something other than a regular file or a directory (through
+/// symbolic links): a device, a named pipe or a socket.
+fn is_stream(target: &Path) -> bool {
+    std::fs::metadata(target).is_ok_and(|m| !m.is_file() && !m.is_dir())
 }
 
 /// Writes `path` through `write`, atomically (see the module documentation).
@@ -144,6 +178,14 @@ impl DirectWriter {
             start: 0,
             held: 0,
             direct: Direct::NotTried,
+        }
+    }
+
+    /// A writer that never tries direct writes (a device or a pipe has no page cache to pass).
+    fn buffered(file: File) -> Self {
+        Self {
+            direct: Direct::Refused,
+            ..Self::new(file)
         }
     }
 
@@ -275,6 +317,25 @@ fn default_permissions() -> Option<std::fs::Permissions> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[cfg(unix)]
+    #[test]
+    fn a_named_pipe_is_written_into_and_stays_a_pipe() {
+        let dir = tempfile::tempdir().unwrap();
+        let fifo = dir.path().join("pipe");
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        if !made.is_ok_and(|s| s.success()) {
+            return; // no mkfifo here: nothing to test with
+        }
+        let reader = {
+            let fifo = fifo.clone();
+            std::thread::spawn(move || std::fs::read_to_string(fifo).unwrap())
+        };
+        write_bytes(&fifo, b"through the pipe\n").unwrap();
+        assert_eq!(reader.join().unwrap(), "through the pipe\n");
+        use std::os::unix::fs::FileTypeExt;
+        assert!(std::fs::metadata(&fifo).unwrap().file_type().is_fifo());
+    }
 
     fn names(dir: &Path) -> Vec<String> {
         let entries = std::fs::read_dir(dir).unwrap();

@@ -61,6 +61,18 @@ pub enum Error {
     /// The scalar does not vary.
     #[error("{}: column {scalar:?} is constant: there is nothing to fit", path.display())]
     ConstantScalar { path: PathBuf, scalar: String },
+    /// An extra channel does not vary: its columns would be the permanent field's again.
+    #[error("{}: extra channel {channel:?} is constant: it carries no current to fit, and would take the permanent field's place; leave it out", path.display())]
+    ConstantExtra { path: PathBuf, channel: String },
+    /// An extra channel is a column the fit already uses, or another channel under a second
+    /// spelling.
+    #[error("{}: extra channel {channel:?} is column {column:?}, which the fit already uses as {role}; an extra channel must be a channel of its own (a current, a voltage)", path.display())]
+    ExtraNotItsOwn {
+        path: PathBuf,
+        channel: String,
+        column: String,
+        role: &'static str,
+    },
     /// The fluxgate does not vary.
     #[error("{}: columns {vector}_x/_y/_z are constant: the aircraft did not maneuver, so no term can be fitted", path.display())]
     ConstantFlux { path: PathBuf, vector: String },
@@ -75,10 +87,10 @@ pub enum Error {
     #[error("{}: {cause}", path.display())]
     Heading { path: PathBuf, cause: HeadingError },
     /// Neither a time column, a `dt` scalar nor a given rate says how fast the data was sampled.
-    #[error("{}: no time column {TIME_COLUMN:?} to take the sample rate from; give the sample rate", path.display())]
+    #[error("{}: no time column {TIME_COLUMN:?} to take the sample rate from; give the sample rate (--fs; fs= in Python)", path.display())]
     NoSampleRate { path: PathBuf },
     /// The time column exists but gives no step: every value missing, or none increasing.
-    #[error("{}: time column {TIME_COLUMN:?} has no two successive usable times (all missing, non-numeric or not increasing), so it gives no sample rate; give the sample rate", path.display())]
+    #[error("{}: time column {TIME_COLUMN:?} has no two successive usable times (all missing, non-numeric or not increasing), so it gives no sample rate; give the sample rate (--fs; fs= in Python)", path.display())]
     TimeUnusable { path: PathBuf },
     /// A given sample rate that is not a positive number of hertz.
     #[error("the sample rate must be a positive number of hertz, got {fs_hz}")]

@@ -295,6 +295,7 @@ pub fn fit(
 ) -> Result<ModelFile> {
     checked_names(&request.scalars, "scalar")?;
     checked_names(&request.vectors, "fluxgate")?;
+    check_extras(table, request)?;
     let mut flight = Flight::from_table(table, &request.scalars[0], &request.vectors)?
         .with_extras(&request.extras)?;
     let (fs_hz, warning) = flight.sample_rate(request.fs_hz)?;
@@ -321,6 +322,57 @@ pub fn fit(
         })
         .collect::<Result<Vec<_>>>()?;
     Ok(ModelFile::new(models))
+}
+
+/// The extra channels of `request` checked: each a column of its own (not a scalar, a
+/// fluxgate component or another channel spelled differently) that varies.
+fn check_extras(table: &Table, request: &FitRequest) -> Result<()> {
+    let path = || table.path().to_path_buf();
+    let mut used: Vec<(usize, &'static str)> = Vec::new();
+    for scalar in &request.scalars {
+        used.extend(table.index_of(scalar).ok().map(|k| (k, "a scalar")));
+    }
+    for vector in &request.vectors {
+        for name in tolles_io::schema::vector_columns(vector) {
+            used.extend(
+                table
+                    .index_of(&name)
+                    .ok()
+                    .map(|k| (k, "a fluxgate component")),
+            );
+        }
+    }
+    for extra in &request.extras {
+        let index = table.index_of(&extra.name)?;
+        if let Some((_, role)) = used.iter().find(|(k, _)| *k == index) {
+            return Err(Error::ExtraNotItsOwn {
+                path: path(),
+                channel: extra.name.clone(),
+                column: table.headers()[index].clone(),
+                role,
+            });
+        }
+        let values = table.numeric_at(index)?;
+        let finite = || values.iter().copied().filter(|v| v.is_finite());
+        let (lo, hi) = finite().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        });
+        if finite().next().is_none() {
+            return Err(Error::NoUsableRow {
+                path: path(),
+                column: extra.name.clone(),
+            });
+        }
+        // Rounding of a constant stored as text: a relative 1e-12 is no current.
+        if hi - lo <= 1e-12 * lo.abs().max(hi.abs()).max(f64::MIN_POSITIVE) {
+            return Err(Error::ConstantExtra {
+                path: path(),
+                channel: extra.name.clone(),
+            });
+        }
+        used.push((index, "another extra channel"));
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -55,8 +55,10 @@ pub struct FlightInfo {
     pub columns: Vec<ColumnInfo>,
     /// 1 / the median step of `tt`, else 1 / the file's `dt`; `None` when neither gives one.
     pub sample_rate_hz: Option<f64>,
-    /// The first and last finite time (s) of `tt`.
+    /// The earliest and latest finite time (s) of `tt`.
     pub time_span_s: Option<(f64, f64)>,
+    /// Whether `tt` increases from row to row (a file sorted by line often steps back).
+    pub time_in_order: bool,
     /// The flight lines in the order they first appear (when there is a `line` column).
     pub lines: Option<Vec<LineInfo>>,
     /// Scalars the file carries besides its columns (HDF5's `dt`, `N`; MATLAB's `fs`), and a
@@ -70,7 +72,8 @@ pub struct FlightInfo {
 }
 
 impl FlightInfo {
-    /// As JSON: `{"path", "format", "rows", "sample_rate_hz", "time_span_s": [start, end],
+    /// As JSON: `{"path", "format", "rows", "sample_rate_hz", "time_span_s": [earliest,
+    /// latest], "time_in_order",
     /// "lines": [{"id", "rows"}], "columns": [{"name", "unit", "aliases", "missing",
     /// "non_numeric"}], "metadata": {name: value}, "side_columns": [{"name", "length"}],
     /// "left_out": [sentence]}`; absent values are `null`.
@@ -100,6 +103,7 @@ impl FlightInfo {
             "rows": self.rows,
             "sample_rate_hz": self.sample_rate_hz,
             "time_span_s": self.time_span_s.map(|(a, b)| [a, b]),
+            "time_in_order": self.time_in_order,
             "lines": lines,
             "columns": columns,
             "metadata": metadata,
@@ -171,10 +175,13 @@ pub fn info(
         })
         .filter(|fs| fs.is_finite() && *fs > 0.0);
     let time_span_s = tt.as_deref().and_then(|tt| {
-        let mut finite = tt.iter().copied().filter(|t| t.is_finite());
-        let first = finite.next()?;
-        Some((first, finite.next_back().unwrap_or(first)))
+        let finite = || tt.iter().copied().filter(|t| t.is_finite());
+        let earliest = finite().reduce(f64::min)?;
+        Some((earliest, finite().fold(earliest, f64::max)))
     });
+    let time_in_order = tt
+        .as_deref()
+        .is_none_or(|tt| tolles_core::signal::segment::first_non_increasing(tt).is_none());
     Ok(FlightInfo {
         path: table.path().to_path_buf(),
         format: format.names()[0].to_string(),
@@ -182,6 +189,7 @@ pub fn info(
         columns,
         sample_rate_hz,
         time_span_s,
+        time_in_order,
         lines: lines(&table),
         metadata: table.all_metadata().to_vec(),
         side_columns: table

@@ -43,7 +43,7 @@ pub fn run(args: Args) -> Result<()> {
     let done = tolles::convert::convert(&request, &Terminal::default(), &mut warnings);
     render::warnings(&mut warnings, Use::Other);
     let done = done.or_render()?;
-    eprintln!("{}", summary(&done));
+    note!("{}", summary(&done));
     Ok(())
 }
 

@@ -148,15 +148,17 @@ fn fit_and_save(table: &Table, request: &FitRequest, out: Option<&Path>) -> Resu
         ..
     }) = &fitted
     {
-        eprintln!("verdict: refused: the fit found {fault}, even with its terms restrained");
+        note!("verdict: refused: the fit found {fault}, even with its terms restrained");
     }
     let model = fitted.or_render()?;
-    for fit in &model.fits {
-        render::fit_summary(fit, table.path())?;
-    }
+    // The model first: a summary that cannot be shown (standard error closed, a broken pipe)
+    // must not cost it.
     match out {
         Some(path) => tolles::model::save_model(&model, path).or_render()?,
         None => writeln!(std::io::stdout(), "{}", model.to_json()).context("writing the model")?,
+    }
+    for fit in &model.fits {
+        let _ = render::fit_summary(fit, table.path());
     }
     Ok(())
 }

@@ -60,7 +60,11 @@ fn text(about: &FlightInfo) -> String {
         None => "sample rate: unknown (no usable tt or dt)\n".to_string(),
     };
     if let Some((a, b)) = about.time_span_s {
-        s += &format!("time: {a} .. {b} s ({:.1} s)\n", b - a);
+        let order = match about.time_in_order {
+            true => "",
+            false => ", not in time order",
+        };
+        s += &format!("time: {a} .. {b} s ({:.1} s{order})\n", b - a);
     }
     match &about.lines {
         Some(lines) => {

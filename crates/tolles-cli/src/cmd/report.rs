@@ -63,10 +63,10 @@ pub fn run(args: Args) -> Result<()> {
         ..ReportRequest::new(args.flight, "")
     };
     let index = render::report(&request, &args.scalar, &args.out)?;
-    eprintln!("report written to {}", index.display());
+    note!("report written to {}", index.display());
     if let Some(pdf) = &args.pdf {
         tolles_report::export::print_pdf(&index, pdf)?;
-        eprintln!("PDF written to {}", pdf.display());
+        note!("PDF written to {}", pdf.display());
     }
     Ok(())
 }

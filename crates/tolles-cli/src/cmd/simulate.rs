@@ -131,7 +131,7 @@ pub fn run(args: Args) -> Result<()> {
     let request = request(&args);
     let simulated = simulate::simulate(&request, &Terminal::default()).map_err(error)?;
     let sidecar = simulate::write(&simulated, &args.out).map_err(error)?;
-    eprintln!(
+    note!(
         "simulated {} plan: {} samples at {} Hz ({:.0} s) -> {} and {}",
         simulated.plan_kind.name(),
         simulated.flight.tt.len(),

@@ -110,7 +110,7 @@ pub fn run(args: Args) -> Result<()> {
         let stats = Arc::clone(&stats);
         std::thread::spawn(move || loop {
             std::thread::sleep(HEALTH_PERIOD);
-            eprintln!("{}", health(&stats));
+            note!("{}", health(&stats));
         });
     }
     match &args.listen {
@@ -122,7 +122,7 @@ pub fn run(args: Args) -> Result<()> {
                 std::io::stdout().lock(),
             );
             if !args.quiet {
-                eprintln!("{}", health(&stats));
+                note!("{}", health(&stats));
             }
             match result {
                 Err(e) if e.is_disconnect() => Ok(()),
@@ -152,21 +152,21 @@ fn setup_error(e: Error) -> anyhow::Error {
 fn listen(address: &str, setup: Arc<Setup>, stats: Arc<Stats>) -> Result<()> {
     let listener =
         TcpListener::bind(address).with_context(|| format!("cannot listen on {address}"))?;
-    eprintln!("listening on {}", listener.local_addr()?);
+    note!("listening on {}", listener.local_addr()?);
     tolles::stream::listen(&listener, setup, stats, |event| match event {
-        Event::AcceptFailed(e) => eprintln!("warning: accepting a connection failed: {e}"),
+        Event::AcceptFailed(e) => note!("warning: accepting a connection failed: {e}"),
         Event::Ended { result: Ok(()), .. } => {}
         Event::Ended {
             peer,
             result: Err(e),
         } if e.is_disconnect() => {
-            eprintln!("client {peer}: disconnected")
+            note!("client {peer}: disconnected")
         }
         Event::Ended {
             peer,
             result: Err(e),
         } => {
-            eprintln!("client {peer}: error: {:#}", render::error(e))
+            note!("client {peer}: error: {:#}", render::error(e))
         }
     });
     Ok(())
