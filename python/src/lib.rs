@@ -139,13 +139,14 @@ fn parse_model(json: &str) -> PyResult<ModelFile> {
 /// Reads a flight in any format tolles reads; returns (names, columns, metadata, warnings),
 /// each column a float64 array, or a list of str when its cells are not numbers.
 #[pyfunction]
-#[pyo3(signature = (path, lines=None, time=None))]
+#[pyo3(signature = (path, lines=None, time=None, renames=None))]
 #[allow(clippy::type_complexity)]
 fn read<'py>(
     py: Python<'py>,
     path: PathBuf,
     lines: Option<Vec<String>>,
     time: Option<String>,
+    renames: Option<Vec<(String, String)>>,
 ) -> PyResult<(
     Vec<String>,
     Bound<'py, PyList>,
@@ -155,7 +156,10 @@ fn read<'py>(
     let selection = selection(lines, time)?;
     let mut warnings = Vec::new();
     let data = py
-        .detach(|| tolles::read::read(&path, &selection, &Silent, &mut warnings))
+        .detach(|| {
+            let renames = renames.unwrap_or_default();
+            tolles::read::read_renamed(&path, &selection, &renames, &Silent, &mut warnings)
+        })
         .map_err(failed)?;
     let table = data.table;
     let columns = PyList::empty(py);

@@ -20,15 +20,15 @@ z down). Column names follow the DAF-MIT/SGL flight files: ``tt`` (s), ``mag_1_u
 
 from __future__ import annotations
 
-import json
-import os
-import pathlib
-import tempfile
+import json as _json
+import os as _os
+import pathlib as _pathlib
+import tempfile as _tempfile
 import warnings as _warnings
 from typing import Any, Iterable, Mapping, Optional, Sequence, Tuple, Union
 
-import numpy as np
-import pandas as pd
+import numpy as _np
+import pandas as _pd
 
 from . import _tolles
 from ._tolles import TollesError, __version__
@@ -52,7 +52,7 @@ __all__ = [
 ]
 
 Names = Union[str, Sequence[str]]
-PathLike = Union[str, "os.PathLike[str]"]
+PathLike = Union[str, "_os.PathLike[str]"]
 
 
 class TollesWarning(UserWarning):
@@ -80,7 +80,7 @@ def _line_ids(line: Any) -> Optional[list]:
         return None
     if isinstance(line, str):
         return [v.strip() for v in line.split(",")]
-    if isinstance(line, (int, float, np.number)):
+    if isinstance(line, (int, float, _np.number)):
         return [repr(float(line)) if isinstance(line, float) else str(line)]
     return [repr(float(v)) if isinstance(v, float) else str(v) for v in line]
 
@@ -109,9 +109,11 @@ def _time_range(time: Any) -> Optional[str]:
 def convert(
     input: PathLike,
     output: PathLike,
-    lines: Any = None,
+    line: Any = None,
     time: Any = None,
     renames: Optional[Mapping[str, str]] = None,
+    *,
+    lines: Any = None,
 ) -> dict:
     """Convert a flight file to CSV, HDF5 or Parquet, exactly as ``tolles convert`` does.
 
@@ -122,8 +124,9 @@ def convert(
     output : str or path
         ``.csv``, ``.h5``/``.hdf5`` or ``.parquet``/``.pq``; any other extension is an error.
         Written whole or not at all.
-    lines, time : optional
-        Keep only these flight lines / this time range (s), as in :func:`read`.
+    line, time : optional
+        Keep only these flight lines / this time range (s), as in :func:`read` (``lines`` is
+        the same as ``line``, the name earlier releases used).
     renames : dict of old name → new name, optional
         Columns renamed right after reading.
 
@@ -134,10 +137,14 @@ def convert(
         shorter than ``rows`` (MATLAB or HDF5 arrays of another length, scalars), padded with
         missing cells in CSV and Parquet. What was left out is warned about.
     """
+    if lines is not None:
+        if line is not None:
+            raise TollesError("give the lines to keep once: line=")
+        line = lines
     rows, columns, padded, notes = _tolles.convert(
-        os.fspath(input),
-        os.fspath(output),
-        _line_ids(lines),
+        _os.fspath(input),
+        _os.fspath(output),
+        _line_ids(line),
         _time_range(time),
         list((renames or {}).items()),
     )
@@ -145,7 +152,12 @@ def convert(
     return {"rows": rows, "columns": columns, "padded": dict(padded)}
 
 
-def read(path: PathLike, line: Any = None, time: Any = None) -> pd.DataFrame:
+def read(
+    path: PathLike,
+    line: Any = None,
+    time: Any = None,
+    renames: Optional[Mapping[str, str]] = None,
+) -> _pd.DataFrame:
     """Read a flight file into a DataFrame, exactly as the ``tolles`` command reads it.
 
     Parameters
@@ -159,6 +171,8 @@ def read(path: PathLike, line: Any = None, time: Any = None) -> pd.DataFrame:
         (1002.02 matches 1002.020) or else as text.
     time : (start, end) in s, or "START..END", optional
         Keep only rows with ``tt`` in the range, both ends included; ``None`` leaves an end open.
+    renames : dict of old name → new name, optional
+        Columns renamed right after reading, before ``line`` and ``time`` select rows.
 
     Returns
     -------
@@ -168,11 +182,11 @@ def read(path: PathLike, line: Any = None, time: Any = None) -> pd.DataFrame:
         besides its columns, such as HDF5's ``dt`` (s), which gives the sample rate.
     """
     names, columns, metadata, notes = _tolles.read(
-        os.fspath(path), _line_ids(line), _time_range(time)
+        _os.fspath(path), _line_ids(line), _time_range(time), list((renames or {}).items())
     )
     _warn(notes)
-    df = pd.DataFrame(dict(zip(names, columns)), columns=names, copy=False)
-    df.attrs["source"] = os.fspath(path)
+    df = _pd.DataFrame(dict(zip(names, columns)), columns=names, copy=False)
+    df.attrs["source"] = _os.fspath(path)
     df.attrs.update(dict(metadata))
     return df
 
@@ -180,8 +194,8 @@ def read(path: PathLike, line: Any = None, time: Any = None) -> pd.DataFrame:
 class _Columns:
     """Hands a DataFrame's columns to the native code as float64 arrays, only when asked."""
 
-    def __init__(self, df: pd.DataFrame):
-        if not isinstance(df, pd.DataFrame):
+    def __init__(self, df: _pd.DataFrame):
+        if not isinstance(df, _pd.DataFrame):
             raise TypeError(f"expected a pandas DataFrame, got {type(df).__name__}")
         self.df = df
         self.names = [str(c) for c in df.columns]
@@ -189,13 +203,13 @@ class _Columns:
         dt = df.attrs.get("dt")
         self.dt = float(dt) if dt is not None else None
 
-    def get(self, i: int) -> np.ndarray:
+    def get(self, i: int) -> _np.ndarray:
         column = self.df.iloc[:, i]
         try:
-            values = column.to_numpy(dtype=np.float64, na_value=np.nan)
+            values = column.to_numpy(dtype=_np.float64, na_value=_np.nan)
         except (TypeError, ValueError):
-            values = pd.to_numeric(column, errors="raise").to_numpy(dtype=np.float64)
-        return np.ascontiguousarray(values)
+            values = _pd.to_numeric(column, errors="raise").to_numpy(dtype=_np.float64)
+        return _np.ascontiguousarray(values)
 
     def args(self) -> tuple:
         return (self.source, self.names, self.get, self.dt)
@@ -235,7 +249,7 @@ class Model:
 
     def __init__(self, json_text: str):
         self._json = _tolles.check_model(json_text)
-        self._data = json.loads(self._json)
+        self._data = _json.loads(self._json)
 
     @property
     def fits(self) -> list:
@@ -264,8 +278,8 @@ class Model:
         return list(self._only()["columns"])
 
     @property
-    def coefficients(self) -> np.ndarray:
-        return np.array(self._only()["coefficients"], dtype=np.float64)
+    def coefficients(self) -> _np.ndarray:
+        return _np.array(self._only()["coefficients"], dtype=_np.float64)
 
     @property
     def patent(self) -> dict:
@@ -307,7 +321,7 @@ class Model:
 
     def save(self, path: PathLike) -> None:
         """Write the model file, byte for byte what ``tolles fit --out`` writes."""
-        _tolles.save_model(self._json, os.fspath(path))
+        _tolles.save_model(self._json, _os.fspath(path))
 
     def __eq__(self, other: object) -> bool:
         return isinstance(other, Model) and other._data == self._data
@@ -319,7 +333,7 @@ class Model:
 
 def load_model(path: PathLike) -> Model:
     """Read a model file written by ``tolles fit`` or ``Model.save``."""
-    return Model(_tolles.load_model(os.fspath(path)))
+    return Model(_tolles.load_model(_os.fspath(path)))
 
 
 def _model(model: Union[Model, PathLike]) -> Model:
@@ -327,7 +341,7 @@ def _model(model: Union[Model, PathLike]) -> Model:
 
 
 def fit(
-    df: pd.DataFrame,
+    df: _pd.DataFrame,
     scalar: Names = "mag_1_uc",
     vector: Names = "flux_a",
     *,
@@ -418,12 +432,12 @@ def fit(
 
 
 def compensate(
-    df: pd.DataFrame,
+    df: _pd.DataFrame,
     model: Union[Model, PathLike],
     level: str = "mean",
     fs: Optional[float] = None,
     uncertainty: bool = False,
-) -> pd.DataFrame:
+) -> _pd.DataFrame:
     """Remove the aircraft's field from survey data, as ``tolles compensate`` does.
 
     Returns a new DataFrame with every column of ``df`` and one compensated column (nT) per
@@ -452,7 +466,7 @@ def compensate(
     if len(df) == 0 or _is_placeholder(df):
         # Nothing to compute; the result names its columns, which is all Dask asks of it.
         names = _tolles.output_names(model.to_json(), columns.names, bool(uncertainty))
-        added, notes = [(n, np.full(len(df), np.nan)) for n in names], []
+        added, notes = [(n, _np.full(len(df), _np.nan)) for n in names], []
     else:
         added, notes = _tolles.compensate(
             *columns.args(),
@@ -464,11 +478,11 @@ def compensate(
     _warn(notes)
     out = df.copy(deep=False)
     for name, values in added:
-        out[name] = pd.Series(values, index=df.index, copy=False)
+        out[name] = _pd.Series(values, index=df.index, copy=False)
     return out
 
 
-def _is_placeholder(df: pd.DataFrame) -> bool:
+def _is_placeholder(df: _pd.DataFrame) -> bool:
     """Dask infers a function's output columns by calling it on two rows of ones; no flight
     looks like that (its fluxgate would read 1.7 nT), so such a frame gets NaN columns instead
     of an error, and ``map_partitions(tolles.compensate, model)`` works without ``meta``."""
@@ -479,8 +493,8 @@ def _is_placeholder(df: pd.DataFrame) -> bool:
 
 
 def fom(
-    df: pd.DataFrame,
-    scalar: str = "mag_1_uc",
+    df: _pd.DataFrame,
+    scalar: Optional[str] = None,
     model: Union[Model, PathLike, None] = None,
     *,
     band: Tuple[float, float] = (0.05, 1.0),
@@ -497,21 +511,36 @@ def fom(
     compensation (under ``"compensated"``, heading error on the same samples) and the
     improvement ratio.
     """
+    model = None if model is None else _model(model)
     columns = _Columns(df)
     text, notes = _tolles.fom(
         *columns.args(),
-        str(scalar),
-        None if model is None else _model(model).to_json(),
+        _fom_scalar(scalar, model),
+        None if model is None else model.to_json(),
         _band(band),
         int(order),
         None if fs is None else float(fs),
     )
     _warn(notes)
-    return json.loads(text)
+    return _json.loads(text)
+
+
+def _fom_scalar(scalar: Optional[str], model: Optional[Model]) -> str:
+    """The scalar a FOM is of: the one given, else a one-fit model's, else ``mag_1_uc``; as
+    ``tolles fom`` chooses it."""
+    if scalar is not None:
+        return str(scalar)
+    if model is None:
+        return "mag_1_uc"
+    if len(model.scalars) == 1:
+        return model.scalars[0]
+    raise TollesError(
+        f"the model has fits for {', '.join(model.scalars)}: give scalar= to say which"
+    )
 
 
 def report(
-    flight: PathLike,
+    flight: Union[PathLike, _pd.DataFrame],
     out: PathLike,
     model: Union[Model, PathLike, None] = None,
     scalar: Optional[Names] = None,
@@ -523,8 +552,11 @@ def report(
     order: int = 4,
     fs: Optional[float] = None,
     pdf: Optional[PathLike] = None,
-) -> pathlib.Path:
-    """Write the HTML report of a flight file into the directory ``out``, as ``tolles report``.
+) -> _pathlib.Path:
+    """Write the HTML report of a flight into the directory ``out``, as ``tolles report``.
+
+    ``flight``: a flight file, or a DataFrame (as :func:`read` gives it; its ``source`` attribute
+    names the report).
 
     ``scalar``: a column (nT) or several (``"a,b"`` or a list), compared on one page; by
     default every fit of ``model``. ``model``: a :class:`Model` or a model file; without one,
@@ -534,15 +566,17 @@ def report(
     Returns the path of ``index.html``; what was noticed is warned about.
     """
     scalars = [] if scalar is None else _names(scalar, "scalar")
-    with tempfile.TemporaryDirectory() as scratch:
+    with _tempfile.TemporaryDirectory() as scratch:
+        if isinstance(flight, _pd.DataFrame):
+            flight = _frame_file(flight, scratch)
         if isinstance(model, Model):
-            path = os.path.join(scratch, "model.json")
+            path = _os.path.join(scratch, "model.json")
             model.save(path)
             model = path
         index, notes = _tolles.report(
-            os.fspath(flight),
-            os.fspath(out),
-            None if model is None else os.fspath(model),
+            _os.fspath(flight),
+            _os.fspath(out),
+            None if model is None else _os.fspath(model),
             scalars,
             _line_ids(line),
             _time_range(time),
@@ -550,13 +584,22 @@ def report(
             _band(band),
             int(order),
             None if fs is None else float(fs),
-            None if pdf is None else os.fspath(pdf),
+            None if pdf is None else _os.fspath(pdf),
         )
     _warn(notes)
-    return pathlib.Path(index)
+    return _pathlib.Path(index)
 
 
-def simulate(plan: str = "box", preset: str = "cabin", seed: int = 1, **options: Any) -> pd.DataFrame:
+def _frame_file(df: _pd.DataFrame, scratch: str) -> str:
+    """``df`` as a CSV file in ``scratch``, named after the file it was read from (the report's
+    title names it); every float written so that it reads back the same."""
+    stem = _pathlib.Path(str(df.attrs.get("source", "flight"))).stem or "flight"
+    path = _os.path.join(scratch, f"{stem}.csv")
+    df.to_csv(path, index=False, float_format="%.17g")
+    return path
+
+
+def simulate(plan: str = "box", preset: str = "cabin", seed: int = 1, **options: Any) -> _pd.DataFrame:
     """A flight whose truth is known, as ``tolles simulate`` writes it.
 
     ``plan``: ``"box"``, ``"patent"`` or ``"survey"``; ``preset``: ``"tail-stinger"``,
@@ -573,15 +616,15 @@ def simulate(plan: str = "box", preset: str = "cabin", seed: int = 1, **options:
     request = dict(options, plan=plan, preset=preset, seed=seed)
     if "uniform" in request and request["uniform"] is not None:
         request["uniform"] = [float(v) for v in request["uniform"]]
-    names, columns, sidecar = _tolles.simulate(json.dumps(request))
-    df = pd.DataFrame(dict(zip(names, columns)), columns=names, copy=False)
+    names, columns, sidecar = _tolles.simulate(_json.dumps(request))
+    df = _pd.DataFrame(dict(zip(names, columns)), columns=names, copy=False)
     df.attrs["source"] = f"<simulated {plan}>"
-    df.attrs["truth"] = json.loads(sidecar)
+    df.attrs["truth"] = _json.loads(sidecar)
     return df
 
 
 def procedure(
-    df: pd.DataFrame,
+    df: _pd.DataFrame,
     scalar: str = "mag_1_uc",
     vector: Optional[str] = "flux_a",
     *,
@@ -612,7 +655,7 @@ def procedure(
         ignored,
     )
     _warn(notes)
-    return json.loads(text)
+    return _json.loads(text)
 
 
 def plan(
@@ -641,7 +684,7 @@ def plan(
     text, notes = _tolles.plan(
         str(maneuvers),
         axes,
-        None if flight is None else os.fspath(flight),
+        None if flight is None else _os.fspath(flight),
         str(vector),
         _terms(terms),
         float(noise),
@@ -650,84 +693,17 @@ def plan(
         float(intensity),
     )
     _warn(notes)
-    return json.loads(text)
+    return _json.loads(text)
 
 
-_Base: tuple
-try:  # scikit-learn is optional: with it, the estimator gets its cloning, tags and HTML repr.
-    from sklearn.base import BaseEstimator as _SkBase, TransformerMixin as _SkMixin
+def __getattr__(name: str) -> Any:
+    # The estimator imports scikit-learn, which takes longer than the rest of the package.
+    if name == "TollesLawson":
+        from ._estimator import TollesLawson
 
-    _Base = (_SkMixin, _SkBase)
-except ImportError:  # pragma: no cover - exercised when scikit-learn is absent
-    _Base = (object,)
+        return TollesLawson
+    raise AttributeError(f"module 'tolles' has no attribute {name!r}")
 
 
-class TollesLawson(*_Base):  # type: ignore[misc]
-    """A scikit-learn style transformer: ``fit`` learns a model from a calibration flight,
-    ``transform`` compensates a DataFrame (adding ``mag_1_c``, …).
-
-    Parameters are those of :func:`fit` plus ``level`` of :func:`compensate`; after ``fit``,
-    ``model_`` holds the :class:`Model`.
-
-    >>> from sklearn.pipeline import make_pipeline            # doctest: +SKIP
-    >>> pipe = make_pipeline(TollesLawson(scalar="mag_1_uc", vector="flux_a"))  # doctest: +SKIP
-    >>> survey_c = pipe.fit(cal).transform(survey)            # doctest: +SKIP
-    """
-
-    def __init__(
-        self,
-        scalar: Names = "mag_1_uc",
-        vector: Names = "flux_a",
-        terms: str = "auto",
-        lambda_: Union[str, float] = "auto",
-        band: Tuple[float, float] = (0.1, 0.9),
-        order: int = 4,
-        trim: int = 20,
-        fs: Optional[float] = None,
-        level: str = "mean",
-    ):
-        self.scalar = scalar
-        self.vector = vector
-        self.terms = terms
-        self.lambda_ = lambda_
-        self.band = band
-        self.order = order
-        self.trim = trim
-        self.fs = fs
-        self.level = level
-
-    _PARAMS = ("scalar", "vector", "terms", "lambda_", "band", "order", "trim", "fs", "level")
-
-    def get_params(self, deep: bool = True) -> dict:
-        return {name: getattr(self, name) for name in self._PARAMS}
-
-    def set_params(self, **params: Any) -> "TollesLawson":
-        for name, value in params.items():
-            if name not in self._PARAMS:
-                raise ValueError(f"TollesLawson has no parameter {name!r}")
-            setattr(self, name, value)
-        return self
-
-    def fit(self, X: pd.DataFrame, y: Any = None) -> "TollesLawson":
-        """Fit on the calibration flight ``X`` (``y`` is ignored: the scalar is a column)."""
-        self.model_ = fit(
-            X,
-            self.scalar,
-            self.vector,
-            terms=self.terms,
-            lambda_=self.lambda_,
-            band=self.band,
-            order=self.order,
-            trim=self.trim,
-            fs=self.fs,
-        )
-        return self
-
-    def transform(self, X: pd.DataFrame) -> pd.DataFrame:
-        """``X`` with the compensated columns added (nT)."""
-        if not hasattr(self, "model_"):
-            raise AttributeError("TollesLawson is not fitted yet; call fit first")
-        return compensate(X, self.model_, level=self.level, fs=self.fs)
-
-    def fit_transform(self, X: pd.DataFrame, y: Any = None, **fit_params: Any) -> pd.DataFrame:
-        return self.fit(X, y).transform(X)
+def __dir__() -> list:
+    return sorted(__all__)

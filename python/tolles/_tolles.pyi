@@ -13,7 +13,10 @@ class TollesError(ValueError):
 Getter = Callable[[int], npt.NDArray[np.float64]]
 
 def read(
-    path: str, lines: Optional[Sequence[str]] = ..., time: Optional[str] = ...
+    path: str,
+    lines: Optional[Sequence[str]] = ...,
+    time: Optional[str] = ...,
+    renames: Optional[Sequence[Tuple[str, str]]] = ...,
 ) -> Tuple[List[str], List[Any], List[Tuple[str, float]], List[str]]: ...
 def fit(
     source: str,

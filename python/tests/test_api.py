@@ -1,0 +1,48 @@
+"""The Python API as a new user meets it: DataFrames wherever the CLI takes files, the same
+argument names, a model's own scalar, errors that name Python's arguments, a light import."""
+
+import subprocess
+import sys
+
+import pytest
+
+import tolles
+
+
+def test_importing_tolles_leaves_scikit_learn_and_helpers_out():
+    code = "import sys, tolles; print('sklearn' in sys.modules, sorted(set(dir(tolles)) & {'np', 'pd', 'os', 'json'}))"
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert done.stdout.split("\n")[0] == "False []", done.stdout
+    assert tolles.TollesLawson.__name__ == "TollesLawson"  # loaded on first use
+
+
+def test_fom_takes_the_scalar_of_a_one_fit_model(flights):
+    cal = tolles.read(flights / "cal.csv", renames={"mag_1_uc": "mag_4_uc"})
+    assert "mag_4_uc" in cal.columns and "mag_1_uc" not in cal.columns
+    model = tolles.fit(cal, scalar="mag_4_uc", vector="flux_a", lambda_=0.01)
+    fom = tolles.fom(cal, model=model)
+    assert fom["compensated"]["fom_nT"] < fom["fom_nT"]
+
+
+def test_a_report_takes_a_data_frame(flights, tmp_path):
+    survey = tolles.read(flights / "survey.csv")
+    index = tolles.report(survey, tmp_path / "r", model=flights / "model.json")
+    assert index.exists()
+    assert "survey" in index.read_text()
+
+
+def test_convert_and_read_name_the_lines_alike(flights, tmp_path):
+    kept = tolles.convert(flights / "survey.csv", tmp_path / "a.csv", line=1001)
+    also = tolles.convert(flights / "survey.csv", tmp_path / "b.csv", lines=1001)
+    assert kept == also
+    assert kept["rows"] == len(tolles.read(flights / "survey.csv", line=1001))
+    with pytest.raises(tolles.TollesError):
+        tolles.convert(flights / "survey.csv", tmp_path / "c.csv", line=1001, lines=1002)
+
+
+def test_a_missing_rate_names_the_argument_that_gives_it(flights):
+    cal = tolles.read(flights / "cal.csv").drop(columns=["tt"])
+    cal.attrs.pop("dt", None)
+    with pytest.raises(tolles.TollesError, match="fs="):
+        tolles.fit(cal, scalar="mag_1_uc", vector="flux_a")
+    assert tolles.fit(cal, scalar="mag_1_uc", vector="flux_a", fs=10.0).columns
