@@ -35,6 +35,7 @@ use crate::error::IoError;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 use tolles_core::fit::Fit;
+use tolles_core::model::extra::{MAX_LAG_S, MAX_LOWPASS_HZ};
 use tolles_core::model::interpret::{AircraftField, PatentTerms};
 
 /// The `format` tag of a model file.
@@ -230,6 +231,7 @@ fn check_numbers(fit: &ScalarModel) -> Result<(), String> {
             show(bt)
         ));
     }
+    check_lags(fit)?;
     let level = fit.fit.level_nt;
     if !believable(level) {
         return Err(format!(
@@ -247,6 +249,37 @@ fn check_numbers(fit: &ScalarModel) -> Result<(), String> {
         }
     }
     check_trust(fit)
+}
+
+/// The fluxgate's lag and each extra channel's lag and low-pass, as `fit` accepts them: lags
+/// finite within ±[`MAX_LAG_S`] s, a low-pass corner in (0, [`MAX_LOWPASS_HZ`]] Hz.
+fn check_lags(fit: &ScalarModel) -> Result<(), String> {
+    let scalar = &fit.scalar;
+    let lag_ok = |lag: f64| lag.is_finite() && lag.abs() <= MAX_LAG_S;
+    if !lag_ok(fit.fit.lag_s) {
+        return Err(format!(
+            "fit of {scalar}: lag_s {} is not a lag within ±{MAX_LAG_S} s",
+            show(fit.fit.lag_s)
+        ));
+    }
+    for extra in &fit.fit.settings.design.extras {
+        let name = &extra.name;
+        if !lag_ok(extra.lag_s) {
+            return Err(format!(
+                "fit of {scalar}: extra channel {name}: lag_s {} is not a lag within ±{MAX_LAG_S} s",
+                show(extra.lag_s)
+            ));
+        }
+        if let Some(corner) = extra.lowpass_hz {
+            if !(corner > 0.0 && corner <= MAX_LOWPASS_HZ) {
+                return Err(format!(
+                    "fit of {scalar}: extra channel {name}: lowpass_hz {} is not a corner in (0, {MAX_LOWPASS_HZ:e}] Hz",
+                    show(corner)
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// The uncertainty and coverage a compensation reads: as long as the design needs and finite.
@@ -384,6 +417,43 @@ mod tests {
                 .to_string();
             assert!(err.contains(says), "{field}: {err}");
             assert_eq!(err.lines().count(), 1, "{err}");
+        }
+    }
+
+    #[test]
+    fn hand_edited_lags_and_low_passes_are_refused() {
+        let edited = |edit: &dyn Fn(&mut serde_json::Value)| {
+            let mut value: serde_json::Value =
+                serde_json::from_str(&model_with("/version", "3")).unwrap();
+            edit(&mut value["fits"][0]);
+            ModelFile::from_json(&value.to_string(), "m.json")
+        };
+        assert!(edited(&|_| {}).is_ok());
+        for lag in [1e300, -61.0] {
+            let err = edited(&|fit| fit["lag_s"] = lag.into()).unwrap_err();
+            assert!(err.to_string().contains("lag_s"), "{err}");
+        }
+        let with_extra = |lowpass: f64, lag: f64| {
+            edited(&|fit| {
+                fit["settings"]["design"]["extras"] = serde_json::json!([
+                    {"name": "cur", "lowpass_hz": lowpass, "lag_s": lag}
+                ]);
+                let coefficients = fit["coefficients"].as_array_mut().unwrap();
+                coefficients.extend([0.0.into(), 0.0.into(), 0.0.into()]);
+            })
+        };
+        assert!(with_extra(0.5, 0.2).is_ok());
+        for (lowpass, lag, says) in [
+            (0.0, 0.0, "lowpass_hz 0"),
+            (-1.0, 0.0, "lowpass_hz -1"),
+            (1e300, 0.0, "lowpass_hz"),
+            (0.5, 1e300, "lag_s"),
+        ] {
+            let err = with_extra(lowpass, lag).unwrap_err().to_string();
+            assert!(
+                err.contains("extra channel cur") && err.contains(says),
+                "{err}"
+            );
         }
     }
 }
