@@ -2,7 +2,7 @@
 //! show (the CLI prints them on standard error, Python raises `UserWarning`s).
 
 use std::fmt;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use tolles_io::schema::TIME_COLUMN;
 
 /// Something a caller should know about a result.
@@ -121,6 +121,30 @@ pub enum Warning {
     },
     /// Anything else, as a sentence that names the file.
     Other(String),
+}
+
+impl Warning {
+    /// [`Warning::Extrapolated`] for `rows` of the `of` rows of `column` in `path`, when there
+    /// are any: the whole-file and the chunked compensation say it alike.
+    pub(crate) fn extrapolated(path: &Path, rows: usize, of: usize, column: &str) -> Option<Self> {
+        (rows > 0).then(|| Warning::Extrapolated {
+            path: path.to_path_buf(),
+            rows,
+            of,
+            column: column.to_string(),
+        })
+    }
+
+    /// [`Warning::Uncomputable`] for `rows` of the `of` rows of `column` in `path`, when there
+    /// are any.
+    pub(crate) fn uncomputable(path: &Path, rows: usize, of: usize, column: &str) -> Option<Self> {
+        (rows > 0).then(|| Warning::Uncomputable {
+            path: path.to_path_buf(),
+            rows,
+            of,
+            column: column.to_string(),
+        })
+    }
 }
 
 impl fmt::Display for Warning {

@@ -250,25 +250,25 @@ impl RidgeSolution {
     /// precision `Λ/nu` (see [`crate::fit::prior`]), so coefficients the rows hardly determine
     /// keep the prior's uncertainty. NaN where the factor cannot be inverted.
     pub fn covariance(&self, nu: f64) -> DMatrix<f64> {
+        self.g_inverse() * nu
+    }
+
+    /// `G⁻¹ = (AᵀA + Λ)⁻¹ = R⁻¹R⁻ᵀ` from the triangular factor; NaN where it cannot be
+    /// inverted.
+    fn g_inverse(&self) -> DMatrix<f64> {
         let p = self.r_a.nrows();
         let r_inv = self
             .r_a
             .clone()
             .try_inverse()
             .unwrap_or_else(|| DMatrix::from_element(p, p, f64::NAN));
-        (&r_inv * r_inv.transpose()) * nu
+        &r_inv * r_inv.transpose()
     }
 
     /// The sandwich covariance `G⁻¹·S·G⁻¹` of β, `G = AᵀA + Λ`, for the scores' covariance
     /// `middle` (`S`; `ν·AᵀA` for white residuals of variance ν).
     pub fn sandwich(&self, middle: &DMatrix<f64>) -> DMatrix<f64> {
-        let p = self.r_a.nrows();
-        let r_inv = self
-            .r_a
-            .clone()
-            .try_inverse()
-            .unwrap_or_else(|| DMatrix::from_element(p, p, f64::NAN));
-        let g_inv = &r_inv * r_inv.transpose();
+        let g_inv = self.g_inverse();
         &g_inv * middle * &g_inv
     }
 
@@ -276,12 +276,7 @@ impl RidgeSolution {
     /// `σ²·G⁻¹·AᵀA·G⁻¹ = σ²·(G⁻¹ − G⁻¹ΛG⁻¹)`, `G = AᵀA + Λ`.
     pub fn std_errors(&self, sigma2: f64) -> Vec<f64> {
         let p = self.r_a.nrows();
-        let r_inv = self
-            .r_a
-            .clone()
-            .try_inverse()
-            .unwrap_or_else(|| DMatrix::from_element(p, p, f64::NAN));
-        let g_inv = &r_inv * r_inv.transpose();
+        let g_inv = self.g_inverse();
         let lambda = DMatrix::from_diagonal(&DVector::from_column_slice(&self.penalty));
         let covariance = &g_inv - &g_inv * lambda * &g_inv;
         (0..p)

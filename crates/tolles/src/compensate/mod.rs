@@ -116,22 +116,9 @@ pub fn compensate(
         let (result, trust, noticed) = result?;
         warnings.extend(noticed);
         warnings.extend(crate::fit::verdict_warning(&fit.scalar, &fit.fit));
-        if trust.outside > 0 {
-            warnings.push(Warning::Extrapolated {
-                path: table.path().to_path_buf(),
-                rows: trust.outside,
-                of: table.len(),
-                column: fit.output_column.clone(),
-            });
-        }
-        if result.uncomputable > 0 {
-            warnings.push(Warning::Uncomputable {
-                path: table.path().to_path_buf(),
-                rows: result.uncomputable,
-                of: table.len(),
-                column: fit.output_column.clone(),
-            });
-        }
+        let (path, of, column) = (table.path(), table.len(), &fit.output_column);
+        warnings.extend(Warning::extrapolated(path, trust.outside, of, column));
+        warnings.extend(Warning::uncomputable(path, result.uncomputable, of, column));
         if renamed {
             warnings.push(Warning::OutputRenamed {
                 path: table.path().to_path_buf(),

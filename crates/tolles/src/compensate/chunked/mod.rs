@@ -332,14 +332,12 @@ impl Report<'_> {
         for ((fit, (&rows, &out)), (name, renamed)) in fits.iter().zip(counts).zip(names) {
             warnings.extend(fit.rate_warning.clone());
             warnings.extend(fit.verdict.clone());
-            if out > 0 {
-                warnings.push(Warning::Extrapolated {
-                    path: self.survey.to_path_buf(),
-                    rows: out,
-                    of: self.rows,
-                    column: fit.output.clone(),
-                });
-            }
+            warnings.extend(Warning::extrapolated(
+                self.survey,
+                out,
+                self.rows,
+                &fit.output,
+            ));
             self.uncomputable(fit, rows, warnings);
             if renamed {
                 warnings.push(Warning::OutputRenamed {
@@ -373,14 +371,12 @@ impl Report<'_> {
     }
 
     fn uncomputable(&self, fit: &ReadyFit, rows: usize, warnings: &mut Vec<Warning>) {
-        if rows > 0 {
-            warnings.push(Warning::Uncomputable {
-                path: self.survey.to_path_buf(),
-                rows,
-                of: self.rows,
-                column: fit.output.clone(),
-            });
-        }
+        warnings.extend(Warning::uncomputable(
+            self.survey,
+            rows,
+            self.rows,
+            &fit.output,
+        ));
     }
 }
 
