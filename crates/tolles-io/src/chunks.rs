@@ -401,8 +401,8 @@ struct ParquetChunks {
     notes: Vec<String>,
     /// Names and (schema index, max definition level) of the columns read.
     names: Vec<String>,
-    wanted: Vec<(usize, i16)>,
-    all: Vec<(usize, i16)>,
+    wanted: Vec<crate::parquet::NumericColumn>,
+    all: Vec<crate::parquet::NumericColumn>,
     group: usize,
     left_in_group: usize,
     columns: Vec<ColumnReader>,
@@ -455,16 +455,16 @@ impl ParquetChunks {
             self.columns = self
                 .wanted
                 .iter()
-                .map(|(k, _)| group.get_column_reader(*k))
+                .map(|wanted| group.get_column_reader(wanted.index))
                 .collect::<Result<_, _>>()
                 .map_err(|e| invalid(path, e))?;
             self.group += 1;
         }
         let n = rows.min(self.left_in_group);
         let mut values = Vec::with_capacity(self.wanted.len());
-        for (column, (_, max_def)) in self.columns.iter_mut().zip(&self.wanted) {
+        for (column, wanted) in self.columns.iter_mut().zip(&self.wanted) {
             let mut out = Vec::with_capacity(n);
-            crate::parquet::read_column(column, *max_def, n, &mut out)
+            crate::parquet::read_column(column, wanted, n, &mut out)
                 .map_err(|e| invalid(path, e))?;
             values.push(Column::Numbers(out));
         }

@@ -74,21 +74,31 @@ fn read_from<R: ChunkReader + 'static>(source: R, path: &Path) -> Result<Table, 
     for g in 0..reader.num_row_groups() {
         let group = reader.get_row_group(g).map_err(invalid)?;
         let rows = group.metadata().num_rows() as usize;
-        for ((k, max_def), out) in wanted.iter().zip(values.iter_mut()) {
-            let mut column = group.get_column_reader(*k).map_err(invalid)?;
-            read_column(&mut column, *max_def, rows, out).map_err(invalid)?;
+        for (wanted, out) in wanted.iter().zip(values.iter_mut()) {
+            let mut column = group.get_column_reader(wanted.index).map_err(invalid)?;
+            read_column(&mut column, wanted, rows, out).map_err(invalid)?;
         }
     }
     let columns = values.into_iter().map(Column::Numbers).collect();
     Ok(Table::from_columns(path, headers, columns, None)?.with_notes(notes))
 }
 
-/// The numeric columns of a file: their names, their (schema index, max definition level), and
-/// a note for every column left out.
-#[allow(clippy::type_complexity)]
+/// A numeric column of a Parquet file, as read.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct NumericColumn {
+    /// Its index in the file's schema.
+    pub index: usize,
+    /// Its maximum definition level (0: no nulls possible).
+    pub max_def: i16,
+    /// Seconds per stored unit, for a timestamp or date (read as seconds since 1970).
+    pub seconds_per: Option<f64>,
+}
+
+/// The numeric columns of a file: their names, how to read each, and a note for every column
+/// left out or converted.
 pub(crate) fn numeric_columns<R: ChunkReader + 'static>(
     reader: &SerializedFileReader<R>,
-) -> (Vec<String>, Vec<(usize, i16)>, Vec<String>) {
+) -> (Vec<String>, Vec<NumericColumn>, Vec<String>) {
     let schema = reader.metadata().file_metadata().schema_descr_ptr();
     let mut headers = Vec::new();
     let mut wanted = Vec::new();
@@ -105,21 +115,47 @@ pub(crate) fn numeric_columns<R: ChunkReader + 'static>(
         );
         if column.max_rep_level() > 0 || !numeric {
             notes.push(format!("column {name:?} is not a numeric column; left out"));
-        } else {
-            headers.push(name);
-            wanted.push((k, column.max_def_level()));
+            continue;
         }
+        let seconds_per = seconds_per_unit(column.logical_type_ref());
+        if let Some((unit, _)) = seconds_per {
+            notes.push(format!(
+                "column {name:?} holds {unit}: read as seconds since 1970-01-01"
+            ));
+        }
+        headers.push(name);
+        wanted.push(NumericColumn {
+            index: k,
+            max_def: column.max_def_level(),
+            seconds_per: seconds_per.map(|(_, s)| s),
+        });
     }
     (headers, wanted, notes)
 }
 
-/// Appends the next `rows` values of one column chunk to `out`, NaN for nulls.
+/// For a timestamp or date column, what it holds and the seconds per stored unit.
+fn seconds_per_unit(logical: Option<&LogicalType>) -> Option<(&'static str, f64)> {
+    use ::parquet::basic::TimeUnit;
+    match logical? {
+        LogicalType::Timestamp(timestamp) => Some(match timestamp.unit {
+            TimeUnit::MILLIS => ("timestamps (ms)", 1e-3),
+            TimeUnit::MICROS => ("timestamps (µs)", 1e-6),
+            TimeUnit::NANOS => ("timestamps (ns)", 1e-9),
+        }),
+        LogicalType::Date => Some(("dates (days)", 86_400.0)),
+        _ => None,
+    }
+}
+
+/// Appends the next `rows` values of one column chunk to `out`, NaN for nulls, timestamps and
+/// dates in seconds.
 pub(crate) fn read_column(
     column: &mut ColumnReader,
-    max_def: i16,
+    wanted: &NumericColumn,
     rows: usize,
     out: &mut Vec<f64>,
 ) -> Result<(), ParquetError> {
+    let (max_def, from) = (wanted.max_def, out.len());
     match column {
         ColumnReader::DoubleColumnReader(r) => read_typed(r, max_def, rows, out, |v| v),
         ColumnReader::FloatColumnReader(r) => read_typed(r, max_def, rows, out, f64::from),
@@ -129,7 +165,11 @@ pub(crate) fn read_column(
             read_typed(r, max_def, rows, out, |v| f64::from(u8::from(v)))
         }
         _ => Err(ParquetError::General("not a numeric column".into())),
+    }?;
+    if let Some(seconds) = wanted.seconds_per {
+        out[from..].iter_mut().for_each(|v| *v *= seconds);
     }
+    Ok(())
 }
 
 fn read_typed<T: DataType>(

@@ -304,3 +304,59 @@ mod round_trips {
         }
     }
 }
+
+/// A pandas `datetime64[ns]` time column (Parquet INT64, TIMESTAMP(NANOS)) reads as seconds
+/// since 1970, with a note, not as nanoseconds (a 1e-8 Hz flight).
+#[test]
+fn parquet_timestamps_read_as_seconds() {
+    use parquet::basic::{LogicalType, Repetition, TimeUnit, Type as Physical};
+    use parquet::data_type::{DoubleType, Int64Type};
+    use parquet::file::properties::WriterProperties;
+    use parquet::file::writer::SerializedFileWriter;
+    use parquet::schema::types::Type;
+    use std::sync::Arc;
+    let dir = tempfile::TempDir::new().unwrap();
+    let path = dir.path().join("t.parquet");
+    let time = Type::primitive_type_builder("tt", Physical::INT64)
+        .with_repetition(Repetition::REQUIRED)
+        .with_logical_type(Some(LogicalType::timestamp(true, TimeUnit::NANOS)))
+        .build()
+        .unwrap();
+    let mag = Type::primitive_type_builder("mag", Physical::DOUBLE)
+        .with_repetition(Repetition::REQUIRED)
+        .build()
+        .unwrap();
+    let schema = Type::group_type_builder("flight")
+        .with_fields(vec![Arc::new(time), Arc::new(mag)])
+        .build()
+        .unwrap();
+    let file = std::fs::File::create(&path).unwrap();
+    let properties = Arc::new(WriterProperties::builder().build());
+    let mut writer = SerializedFileWriter::new(file, Arc::new(schema), properties).unwrap();
+    let mut group = writer.next_row_group().unwrap();
+    let start_ns: i64 = 1_600_000_000_000_000_000;
+    let tt: Vec<i64> = (0..4).map(|k| start_ns + k * 100_000_000).collect();
+    let mut column = group.next_column().unwrap().unwrap();
+    column
+        .typed::<Int64Type>()
+        .write_batch(&tt, None, None)
+        .unwrap();
+    column.close().unwrap();
+    let mut column = group.next_column().unwrap().unwrap();
+    column
+        .typed::<DoubleType>()
+        .write_batch(&[5e4; 4], None, None)
+        .unwrap();
+    column.close().unwrap();
+    group.close().unwrap();
+    writer.close().unwrap();
+    let table = Table::read(&path, None).unwrap();
+    let tt = table.numeric("tt").unwrap();
+    assert_eq!(tt[0], 1.6e9);
+    assert!((tt[3] - tt[0] - 0.3).abs() < 1e-6, "{tt:?}");
+    assert!(
+        table.notes().iter().any(|n| n.contains("timestamps (ns)")),
+        "{:?}",
+        table.notes()
+    );
+}
