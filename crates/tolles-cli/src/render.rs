@@ -34,7 +34,8 @@ pub fn warning_text(warning: &Warning, purpose: Use) -> String {
             given_hz,
             from_time_hz,
         } => format!(
-            "warning: --fs {given_hz} Hz differs from the {from_time_hz:.6} Hz of column \"tt\"; using --fs"
+            "warning: --fs {} Hz differs from the {from_time_hz:.6} Hz of column \"tt\"; using --fs",
+            tolles::warning::hz(*given_hz)
         ),
         Warning::RowsSelected { path, selection } => {
             let consequence = match purpose {

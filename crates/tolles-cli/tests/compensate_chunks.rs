@@ -288,8 +288,6 @@ fn bad_input_gives_the_message_reading_whole_gives() {
     };
     let mut ragged = lines.clone();
     ragged[1 + 1200] += ",7";
-    let mut backwards = lines.clone();
-    backwards.swap(1 + 1500, 1 + 1501);
     let cases: Vec<(&str, Vec<String>, &str)> = vec![
         // The scalar's bad cell is reported before the fluxgate's, though it comes later.
         (
@@ -303,7 +301,6 @@ fn bad_input_gives_the_message_reading_whole_gives() {
             "column \"truth_earth\"",
         ),
         ("ragged", ragged, "fields, but the header has"),
-        ("backwards", backwards, "time does not increase"),
         (
             "magnitude",
             damaged(&[(1700, "flux_b_x", "1e9"), (1800, "flux_a_x", "1e9")]),
@@ -328,6 +325,70 @@ fn bad_input_gives_the_message_reading_whole_gives() {
     let args = ["text.csv", "--model", "m.json", "--out", "t.parquet"];
     let (ok, _, stderr) = same_both_ways(dir.path(), &args);
     assert!(!ok && stderr.contains("column \"lat\""), "{stderr}");
+}
+
+/// A file sorted by line: time steps back between stretches, and repeats once inside one.
+/// Both ways split the runs there and warn once, naming the first place.
+#[test]
+fn time_that_steps_back_splits_the_runs_both_ways() {
+    let dir = TempDir::new().unwrap();
+    let lines = flight_and_model(dir.path());
+    let n = lines.len() - 1;
+    let mut sorted = vec![lines[0].clone()];
+    sorted.extend_from_slice(&lines[1 + n / 2..]);
+    sorted.extend_from_slice(&lines[1..1 + n / 2]);
+    sorted.insert(1 + n / 4, sorted[n / 4].clone());
+    write(dir.path(), "sorted.csv", &sorted);
+    let (ok, csv, stderr) = same_both_ways(dir.path(), &["sorted.csv", "--model", "m.json"]);
+    assert!(ok, "{stderr}");
+    assert_eq!(csv.lines().count(), sorted.len());
+    let first = format!("line {}", 2 + n / 4);
+    assert!(
+        stderr
+            .matches("time steps back or repeats at 2 place(s)")
+            .count()
+            == 1
+            && stderr.contains(&first),
+        "{stderr}"
+    );
+    // Each stretch is compensated as its own flight would be.
+    write(dir.path(), "first.csv", &lines[..1 + n / 2]);
+    let model_level = ["--model", "m.json", "--level", "model"];
+    let (_, alone, _) = compensate(
+        dir.path(),
+        &[&["first.csv"], &model_level[..]].concat(),
+        None,
+    );
+    let (_, all, _) = compensate(
+        dir.path(),
+        &[&["sorted.csv"], &model_level[..]].concat(),
+        None,
+    );
+    let row = |text: &str, k: usize| text.lines().nth(k).unwrap().to_string();
+    // The first half of the flight starts after the second half and one repeated row.
+    let moved = 1 + (n - n / 2) + 1;
+    for k in [1, 2, 10, n / 2] {
+        assert_eq!(row(&all, moved + k - 1), row(&alone, k));
+    }
+}
+
+/// Time written too coarsely for the rate (10 Hz to 0.036 s, as hours with five decimals
+/// give it): both ways take 10 Hz from the mean usual step, not 9.26 Hz from the median.
+#[test]
+fn a_quantised_clock_gives_its_true_rate_both_ways() {
+    let dir = TempDir::new().unwrap();
+    let mut lines = flight_and_model(dir.path());
+    let header: Vec<String> = lines[0].split(',').map(str::to_string).collect();
+    let tt = header.iter().position(|h| h == "tt").unwrap();
+    for line in lines.iter_mut().skip(1) {
+        if let Ok(t) = line.split(',').nth(tt).unwrap().parse::<f64>() {
+            *line = set(line, tt, &format!("{:.3}", (t / 0.036).round() * 0.036));
+        }
+    }
+    write(dir.path(), "coarse.csv", &lines);
+    let args = ["coarse.csv", "--model", "m.json", "--fs", "9.26"];
+    let (ok, _, stderr) = same_both_ways(dir.path(), &args);
+    assert!(ok && stderr.contains("differs from the 10.0"), "{stderr}");
 }
 
 #[test]

@@ -131,3 +131,40 @@ fn an_empty_fluxgate_column_or_time_column_is_named_for_what_it_is() {
         "{err}"
     );
 }
+
+/// `fit` never writes a model the other commands refuse (issue 46, item 23): a NaN or
+/// unordered band, and a sample rate no model can be kept at, are one-line errors and leave
+/// no model behind.
+#[test]
+fn fit_refuses_what_would_make_a_model_others_reject() {
+    let dir = TempDir::new().unwrap();
+    damaged(dir.path(), "f.csv", "flux_a_x", 101, "1e4");
+    let cases: [(&[&str], &str); 5] = [
+        (
+            &["--band", "nan,0.9"],
+            "the band's edges must be finite frequencies in Hz",
+        ),
+        (
+            &["--band", "0.1,inf"],
+            "the band's edges must be finite frequencies in Hz",
+        ),
+        (&["--fs", "1e-300"], "a model cannot be fitted at 1e-300 Hz"),
+        (&["--fs", "1e7"], "a model cannot be fitted at 1e7 Hz"),
+        (&["--fs", "0.0001"], "a model cannot be fitted at 1e-4 Hz"),
+    ];
+    for (flags, expected) in cases {
+        let (ok, _, err) = fit(dir.path(), "box.csv", flags);
+        assert!(!ok && err.contains(expected), "{flags:?}: {err}");
+        let lines: Vec<&str> = err.lines().filter(|l| l.starts_with("error")).collect();
+        assert_eq!(lines.len(), 1, "{flags:?}: {err}");
+        assert!(!dir.path().join("out.json").exists(), "{flags:?}");
+    }
+    // A high-pass (upper edge off) is still a band.
+    let (ok, _, err) = fit(dir.path(), "box.csv", &["--band", "0.1,0"]);
+    assert!(ok, "{err}");
+    let (ok, _, err) = run(
+        dir.path(),
+        &["compensate", "box.csv", "--model", "out.json"],
+    );
+    assert!(ok, "{err}");
+}

@@ -310,3 +310,128 @@ fn a_file_sorted_by_line_shows_its_time_span_earliest_to_latest() {
     );
     assert!(span.contains("not in time order"), "{span}");
 }
+
+/// `lines` (a CSV's header and rows) with its data rows' halves swapped: time steps back once.
+fn halves_swapped(text: &str) -> String {
+    let lines: Vec<&str> = text.lines().collect();
+    let rows = &lines[1..];
+    let (first, second) = rows.split_at(rows.len() / 2);
+    let swapped = [&lines[..1], second, first].concat();
+    swapped.join("\n") + "\n"
+}
+
+#[test]
+fn a_file_sorted_by_line_is_fitted_compensated_and_measured_without_flags() {
+    let dir = TempDir::new().unwrap();
+    box_model(dir.path());
+    survey(dir.path(), "10");
+    let read = |name: &str| std::fs::read_to_string(dir.path().join(name)).unwrap();
+    std::fs::write(
+        dir.path().join("box_sorted.csv"),
+        halves_swapped(&read("box.csv")),
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("sorted.csv"),
+        halves_swapped(&read("survey.csv")),
+    )
+    .unwrap();
+    let fit = [
+        "fit",
+        "box_sorted.csv",
+        "--scalar",
+        "mag_1_uc",
+        "--vector",
+        "flux_a",
+        "--out",
+        "s.json",
+    ];
+    let (_, warned) = run(dir.path(), &fit);
+    assert!(
+        warned.contains("time steps back or repeats at 1 place(s)"),
+        "{warned}"
+    );
+    let compensated = |survey: &str, model: &str| {
+        let args = ["compensate", survey, "--model", model, "--level", "model"];
+        let out = run(dir.path(), &args).0;
+        let values = column(&out, "mag_1_c");
+        let tt = column(&out, "tt");
+        let mut rows: Vec<(f64, f64)> = (tt.iter().zip(values))
+            .map(|(t, v)| (t.unwrap(), v.unwrap()))
+            .collect();
+        rows.sort_by(|a, b| a.0.total_cmp(&b.0));
+        rows
+    };
+    // The same rows, compensated as in time order (each half is its own run there too, as
+    // the join is a gap), by the model of the box in time order or sorted by leg.
+    let truth = compensated("survey.csv", "m.json");
+    for model in ["m.json", "s.json"] {
+        let sorted = compensated("sorted.csv", model);
+        let error = sorted
+            .iter()
+            .zip(&truth)
+            .map(|(a, b)| (a.1 - b.1).abs())
+            .fold(0.0, f64::max);
+        eprintln!("{model}: largest difference to the time-ordered file {error:.4} nT");
+        assert!(error < 0.5, "{model}: {error}");
+    }
+    let noise = |file: &str| {
+        let args = ["fom", file, "--scalar", "mag_1_uc", "--json"];
+        let json: Value = serde_json::from_str(&run(dir.path(), &args).0).unwrap();
+        json["fourth_difference_nT"].as_f64().unwrap()
+    };
+    let (ordered, sorted) = (noise("survey.csv"), noise("sorted.csv"));
+    assert!(
+        (sorted / ordered - 1.0).abs() < 0.05,
+        "{ordered} vs {sorted}"
+    );
+}
+
+/// The example surveys with a fluxgate, as delivered: every command runs on them without
+/// flags, at the rate their time gives (HillValley's time is in hours with five decimals:
+/// 10 Hz, not the 9.26 Hz of its median step).
+#[test]
+fn the_example_surveys_run_through_every_command_without_flags() {
+    let dir = TempDir::new().unwrap();
+    let cases = [
+        (
+            "Example_Mag_Gondwana_200Ma",
+            "CompMag",
+            "Fluxx:Fluxy:Fluxz",
+            "10.00",
+        ),
+        (
+            "Example_Mag_HillValley_1985",
+            "RAWMAG",
+            "FLUXX:FLUXY:FLUXZ",
+            "10.00",
+        ),
+    ];
+    for (stem, scalar, vector, rate) in cases {
+        let file = example(stem);
+        let file = file.to_str().unwrap();
+        let (info, _) = run(dir.path(), &["info", file]);
+        assert!(
+            info.contains(&format!("sample rate: {rate}")),
+            "{stem}: {info}"
+        );
+        let model = format!("{stem}.json");
+        let fit = [
+            "fit", file, "--scalar", scalar, "--vector", vector, "--out", &model,
+        ];
+        run(dir.path(), &fit);
+        let (csv, _) = run(dir.path(), &["compensate", file, "--model", &model]);
+        let compensated = column(&csv, &format!("{scalar}_c"));
+        assert!(compensated.iter().all(Option::is_some), "{stem}");
+        let (fom, warned) = run(dir.path(), &["fom", file, "--scalar", scalar, "--json"]);
+        let fom: Value = serde_json::from_str(&fom).unwrap();
+        assert!(fom["fom_nT"].is_null() && fom["fourth_difference_nT"].as_f64().unwrap() > 0.0);
+        assert!(warned.contains("no attitude column"), "{warned}");
+        let report = [
+            "report", file, "--scalar", scalar, "--model", &model, "--out", stem,
+        ];
+        run(dir.path(), &report);
+        let html = std::fs::read_to_string(dir.path().join(stem).join("index.html")).unwrap();
+        assert!(html.contains("<svg"), "{stem}");
+    }
+}

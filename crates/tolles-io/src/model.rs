@@ -192,6 +192,12 @@ impl ModelFile {
         Ok(())
     }
 
+    /// The model as a reader of its file sees it: an error (naming `name`) where writing and
+    /// reading it back would fail, a number JSON cannot hold or one no fit can produce.
+    pub fn validated(self, name: impl AsRef<Path>) -> Result<Self, IoError> {
+        Self::from_json(&self.to_json(), name)
+    }
+
     /// Reads a model file.
     pub fn read(path: &Path) -> Result<Self, IoError> {
         let text = std::fs::read_to_string(path).map_err(|source| IoError::Open {
@@ -208,7 +214,7 @@ impl ModelFile {
 }
 
 /// Sample rates (Hz) a model can have been fitted at; outside them eddy terms rescale to garbage.
-const FS_RANGE_HZ: (f64, f64) = (1e-3, 1e6);
+pub const FS_RANGE_HZ: (f64, f64) = (1e-3, 1e6);
 /// Largest believable |coefficient| or |level| (nT per unit of its column): anything larger is
 /// a damaged file, and would otherwise surface later as an unrelated-looking failure.
 const COEFFICIENT_LIMIT: f64 = 1e9;

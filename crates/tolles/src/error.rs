@@ -36,16 +36,6 @@ pub enum Error {
     /// Rows could not be selected by line or time.
     #[error(transparent)]
     Select(#[from] SelectError),
-    /// The time column does not increase at `place`.
-    #[error("{}: {place}, column {TIME_COLUMN:?}: time does not increase ({t} after {before}); sort the file or remove repeated rows", path.display())]
-    TimeNotIncreasing {
-        path: PathBuf,
-        place: String,
-        /// The offending time (s).
-        t: f64,
-        /// The last earlier time (s).
-        before: f64,
-    },
     /// A fluxgate magnitude outside the physical range.
     #[error("{}: {place}: fluxgate {vector} magnitude {} nT is outside 1,000–100,000 nT; are columns {vector}_x/_y/_z in nT?", path.display(), tolles_core::fit::show_nt(*magnitude))]
     FluxMagnitude {
@@ -95,6 +85,20 @@ pub enum Error {
     /// A given sample rate that is not a positive number of hertz.
     #[error("the sample rate must be a positive number of hertz, got {fs_hz}")]
     BadSampleRate { fs_hz: f64 },
+    /// A band edge that is not a finite frequency.
+    #[error("the band's edges must be finite frequencies in Hz (0 switches an edge off), got {pass1_hz},{pass2_hz} (--band; band= in Python)")]
+    BadBand { pass1_hz: f64, pass2_hz: f64 },
+    /// A fit at a sample rate (Hz) no model can be kept at.
+    #[error("{}: a model cannot be fitted at {} Hz: the sample rate must lie within {}–{} Hz (is time in seconds? give the rate with --fs; fs= in Python)", path.display(), crate::warning::hz(*fs_hz), crate::warning::hz(*lo_hz), crate::warning::hz(*hi_hz))]
+    FitRateOutOfRange {
+        path: PathBuf,
+        fs_hz: f64,
+        lo_hz: f64,
+        hi_hz: f64,
+    },
+    /// The model a fit produced would not read back (a number JSON cannot hold).
+    #[error("{}: the model fitted cannot be written: {message}", path.display())]
+    UnwritableModel { path: PathBuf, message: String },
     /// A model file without fits.
     #[error("{}: the model holds no fits", path.display())]
     EmptyModel { path: PathBuf },

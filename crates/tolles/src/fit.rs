@@ -295,11 +295,14 @@ pub fn fit(
 ) -> Result<ModelFile> {
     checked_names(&request.scalars, "scalar")?;
     checked_names(&request.vectors, "fluxgate")?;
+    check_band(request.band)?;
     check_extras(table, request)?;
     let mut flight = Flight::from_table(table, &request.scalars[0], &request.vectors)?
         .with_extras(&request.extras)?;
     let (fs_hz, warning) = flight.sample_rate(request.fs_hz)?;
+    warnings.extend(flight.time_steps_back.take());
     warnings.extend(warning);
+    check_fit_rate(table, fs_hz)?;
     let settings = request.settings();
     let columns = targets(table, request, std::mem::take(&mut flight.scalar))?;
     progress.begin(Stage::Fitting, None);
@@ -321,7 +324,37 @@ pub fn fit(
                 .with_calibration_flight(table.path()))
         })
         .collect::<Result<Vec<_>>>()?;
-    Ok(ModelFile::new(models))
+    // What `compensate`, `fom` and Python would refuse to read is refused here, unwritten.
+    (ModelFile::new(models).validated("model")).map_err(|e| Error::UnwritableModel {
+        path: table.path().to_path_buf(),
+        message: match e {
+            tolles_io::IoError::Model { message, .. } => message,
+            other => other.to_string(),
+        },
+    })
+}
+
+/// Band edges a model can store and a filter can take: finite (0 or ≥ Nyquist turn one off).
+pub fn check_band(band: Band) -> Result<()> {
+    let (pass1_hz, pass2_hz) = band.edges_hz();
+    match pass1_hz.is_finite() && pass2_hz.is_finite() {
+        true => Ok(()),
+        false => Err(Error::BadBand { pass1_hz, pass2_hz }),
+    }
+}
+
+/// A sample rate (Hz) a model can be kept at ([`tolles_io::model::FS_RANGE_HZ`]).
+fn check_fit_rate(table: &Table, fs_hz: f64) -> Result<()> {
+    let (lo_hz, hi_hz) = tolles_io::model::FS_RANGE_HZ;
+    match (lo_hz..=hi_hz).contains(&fs_hz) {
+        true => Ok(()),
+        false => Err(Error::FitRateOutOfRange {
+            path: table.path().to_path_buf(),
+            fs_hz,
+            lo_hz,
+            hi_hz,
+        }),
+    }
 }
 
 /// The extra channels of `request` checked: each a column of its own (not a scalar, a

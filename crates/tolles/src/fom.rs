@@ -75,42 +75,33 @@ pub struct FomOutcome {
 
 /// Finds the box maneuvers of the flight `table` in its attitude columns and the FOM of the
 /// request's scalar before and, given the scalar's fit, after compensation (as `compensate`
-/// does it, the correction's mean kept). What is missing is added to `warnings`.
+/// does it, the correction's mean kept). What is missing is added to `warnings`: a flight
+/// without the attitude columns (a survey file as delivered, say) has no maneuvers, FOM or
+/// heading levels, which a [`Warning::NoAttitude`] says, but still its noise.
 pub fn fom(
     table: &Table,
     request: &FomRequest,
     fit: Option<&ScalarModel>,
     warnings: &mut Vec<Warning>,
 ) -> Result<FomOutcome> {
+    crate::fit::check_band(request.band)?;
+    let missing: Vec<&str> = [ROLL, PITCH, YAW]
+        .into_iter()
+        .filter(|c| !table.has(c))
+        .collect();
+    if !missing.is_empty() {
+        warnings.push(Warning::NoAttitude {
+            path: table.path().to_path_buf(),
+            columns: missing.join(", "),
+        });
+        return measure_flight(table, request, fit, None, warnings);
+    }
     let attitude = [
         table.numeric(ROLL)?,
         table.numeric(PITCH)?,
         table.numeric(YAW)?,
     ];
     measure_flight(table, request, fit, Some(attitude), warnings)
-}
-
-/// [`fom`] of any flight: one without the attitude columns (a survey file as delivered, say)
-/// has no maneuvers and no heading levels, which a [`Warning::NoAttitude`] says, instead of
-/// being an error.
-pub fn fom_or_survey(
-    table: &Table,
-    request: &FomRequest,
-    fit: Option<&ScalarModel>,
-    warnings: &mut Vec<Warning>,
-) -> Result<FomOutcome> {
-    let missing: Vec<&str> = [ROLL, PITCH, YAW]
-        .into_iter()
-        .filter(|c| !table.has(c))
-        .collect();
-    if missing.is_empty() {
-        return fom(table, request, fit, warnings);
-    }
-    warnings.push(Warning::NoAttitude {
-        path: table.path().to_path_buf(),
-        columns: missing.join(", "),
-    });
-    measure_flight(table, request, fit, None, warnings)
 }
 
 fn measure_flight(
@@ -121,7 +112,8 @@ fn measure_flight(
     warnings: &mut Vec<Warning>,
 ) -> Result<FomOutcome> {
     let scalar = table.numeric(&request.scalar)?;
-    let tt = time_column(table)?;
+    let (tt, steps_back) = time_column(table)?;
+    warnings.extend(steps_back);
     // A flight that states no rate is taken at its model's, as `compensate` takes it.
     let states_rate = tt.is_some() || table.metadata(SAMPLE_INTERVAL).is_some();
     let given = match (request.fs_hz, fit) {
@@ -513,14 +505,13 @@ mod tests {
     }
 
     #[test]
-    fn a_flight_without_attitude_is_an_error_for_fom_but_a_survey_for_the_report() {
+    fn a_flight_without_attitude_has_its_noise_but_no_maneuvers() {
         let mut table = flight(PlanKind::Survey, 6);
         table.rename(ROLL, "roll_elsewhere").unwrap();
         let request = FomRequest::new("mag_1_uc");
-        let e = fom(&table, &request, None, &mut Vec::new()).unwrap_err();
-        assert!(e.to_string().contains(ROLL), "{e}");
         let mut warnings = Vec::new();
-        let outcome = fom_or_survey(&table, &request, None, &mut warnings).unwrap();
+        let outcome = fom(&table, &request, None, &mut warnings).unwrap();
+        assert!(outcome.before.fourth_difference_nt > 0.0);
         assert!(outcome.maneuvers.is_empty());
         assert!(outcome.heading_before.levels.is_empty());
         assert_eq!(outcome.scalar.len(), table.len());

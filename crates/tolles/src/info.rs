@@ -17,7 +17,7 @@ use crate::progress::Progress;
 use crate::warning::Warning;
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
-use tolles_core::signal::segment::median_step;
+use tolles_core::signal::segment::sampling_step;
 use tolles_io::format::Format;
 use tolles_io::schema::{LINE_COLUMN, TIME_COLUMN};
 use tolles_io::table::{Column, Table};
@@ -165,7 +165,7 @@ pub fn info(
         })
         .collect();
     let tt = table.numeric(TIME_COLUMN).ok();
-    let step = tt.as_deref().and_then(median_step);
+    let step = tt.as_deref().and_then(sampling_step);
     let sample_rate_hz = step
         .map(|s| 1.0 / s)
         .or_else(|| {

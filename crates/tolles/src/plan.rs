@@ -274,7 +274,7 @@ const WHAT: &str = "identifiability";
 fn flown(table: &Table, vector: &str, design: &Design) -> Result<Flown> {
     let path = table.path();
     let flux = table.vector(vector)?;
-    let tt = time_column(table)?.ok_or_else(|| Error::NoTimeColumn {
+    let tt = time_column(table)?.0.ok_or_else(|| Error::NoTimeColumn {
         path: path.to_path_buf(),
         what: WHAT,
     })?;

@@ -100,7 +100,9 @@ pub fn procedure(
 ) -> Result<ProcedureOutcome> {
     let path = table.path().to_path_buf();
     let scalar = table.numeric(&request.scalar)?;
-    let tt = time_column(table)?.ok_or_else(|| Error::NoTimeColumn {
+    let (tt, steps_back) = time_column(table)?;
+    warnings.extend(steps_back);
+    let tt = tt.ok_or_else(|| Error::NoTimeColumn {
         path: path.clone(),
         what: "the procedure",
     })?;

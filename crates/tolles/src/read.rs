@@ -8,7 +8,7 @@ use std::path::Path;
 use tolles_core::fit::FitError;
 use tolles_core::model::extra::ExtraChannel;
 use tolles_core::model::vector::VectorSeries;
-use tolles_core::signal::segment::{first_non_increasing, median_step, run_on};
+use tolles_core::signal::segment::{first_non_increasing, run_on, sampling_step};
 use tolles_io::format::Format;
 use tolles_io::schema::{SAMPLE_INTERVAL, TIME_COLUMN};
 use tolles_io::select::RowSelection;
@@ -271,8 +271,10 @@ pub struct Flight<'t> {
     pub flux: Vec<VectorSeries>,
     /// The fluxgates' column prefixes.
     pub vectors: Vec<String>,
-    /// Time (s), when the table has a time column.
+    /// Time (s), when the table has a time column; it may step back (see `time_steps_back`).
     pub tt: Option<Vec<f64>>,
+    /// Where time steps back or repeats, for the workflow to warn of once.
+    pub time_steps_back: Option<Warning>,
     /// Extra channels (e.g. currents) as read, one per spec in `extra_specs`.
     pub extras: Vec<Vec<f64>>,
     /// The extra channels' columns and conditioning.
@@ -301,15 +303,18 @@ impl<'t> Flight<'t> {
             .iter()
             .map(|v| parsed.vector(v))
             .collect::<std::result::Result<Vec<_>, _>>()?;
+        // Time may step back (a file sorted by line): the runs split there, as at a gap.
         let tt = match table.has(TIME_COLUMN) {
-            true => checked_time(table, parsed.numeric(TIME_COLUMN)?)?,
+            true => Some(parsed.numeric(TIME_COLUMN)?),
             false => None,
         };
+        let places = tt.as_deref().map(non_increasing_places).unwrap_or_default();
         Ok(Self {
             table,
             scalar,
             flux,
             vectors: vectors.to_vec(),
+            time_steps_back: steps_back(table, &places, false),
             tt,
             extras: Vec::new(),
             extra_specs: Vec::new(),
@@ -422,44 +427,44 @@ impl<'t> Flight<'t> {
 /// report can filter and plot the whole file; filters restart at each join. Returns a warning
 /// naming the first place moved, or `None` when time already increased (or there is none).
 pub fn run_time_on(table: &mut Table) -> Result<Option<Warning>> {
+    let (tt, warning) = time_column(table)?;
+    if let (Some(tt), Some(_)) = (tt, &warning) {
+        table.set_numeric(TIME_COLUMN, tt)?;
+    }
+    Ok(warning)
+}
+
+/// The time column of `table` (s), if it has one, run on where it steps back or repeats
+/// ([`tolles_core::signal::segment::run_on`]), with the warning saying where.
+pub fn time_column(table: &Table) -> Result<(Option<Vec<f64>>, Option<Warning>)> {
     if !table.has(TIME_COLUMN) {
-        return Ok(None);
+        return Ok((None, None));
     }
     let (tt, moved) = run_on(&table.numeric(TIME_COLUMN)?);
-    let Some(&first) = moved.first() else {
-        return Ok(None);
-    };
-    table.set_numeric(TIME_COLUMN, tt)?;
-    Ok(Some(Warning::TimeRunOn {
+    let warning = steps_back(table, &moved, true);
+    Ok((Some(tt), warning))
+}
+
+/// The warning for a time column that steps back or repeats at the samples `places`, if any.
+fn steps_back(table: &Table, places: &[usize], run_on: bool) -> Option<Warning> {
+    let first = *places.first()?;
+    Some(Warning::TimeStepsBack {
         path: table.path().to_path_buf(),
         place: table.place_of(first),
-        places: moved.len(),
-    }))
+        places: places.len(),
+        run_on,
+    })
 }
 
-/// The time column of `table` (s), if it has one; an error if time does not increase.
-pub fn time_column(table: &Table) -> Result<Option<Vec<f64>>> {
-    if !table.has(TIME_COLUMN) {
-        return Ok(None);
+/// The samples of `tt` (s) whose time is not after the previous finite one.
+fn non_increasing_places(tt: &[f64]) -> Vec<usize> {
+    match first_non_increasing(tt) {
+        None => Vec::new(),
+        Some(_) => run_on(tt).1,
     }
-    checked_time(table, table.numeric(TIME_COLUMN)?)
 }
 
-/// `tt`, the time column of `table` (s), or the error naming where it does not increase.
-fn checked_time(table: &Table, tt: Vec<f64>) -> Result<Option<Vec<f64>>> {
-    if let Some(k) = first_non_increasing(&tt) {
-        let before = tt[..k].iter().rev().find(|t| t.is_finite()).copied();
-        return Err(Error::TimeNotIncreasing {
-            path: table.path().to_path_buf(),
-            place: table.place_of(k),
-            t: tt[k],
-            before: before.unwrap_or(f64::NAN),
-        });
-    }
-    Ok(Some(tt))
-}
-
-/// The sample rate (Hz) of `table`: `fs_hz` if given, else 1 / median step of `tt`, else 1 /
+/// The sample rate (Hz) of `table`: `fs_hz` if given, else 1 / sampling interval of `tt`, else 1 /
 /// the file's `dt` scalar (s; SGL HDF5 files carry one). A given rate more than 1 % away from
 /// the time column's is used, with a warning.
 pub fn sample_rate(
@@ -467,7 +472,7 @@ pub fn sample_rate(
     tt: Option<&[f64]>,
     fs_hz: Option<f64>,
 ) -> Result<(f64, Option<Warning>)> {
-    let step = tt.and_then(median_step);
+    let step = tt.and_then(sampling_step);
     let dt = table.metadata(SAMPLE_INTERVAL);
     if tt.is_some() && step.is_none() && dt.is_none() && fs_hz.is_none() {
         return Err(Error::TimeUnusable {
@@ -477,18 +482,18 @@ pub fn sample_rate(
     sample_rate_from(table.path(), table.metadata(SAMPLE_INTERVAL), step, fs_hz)
 }
 
-/// [`sample_rate`] from its ingredients: the file's `dt` scalar (s) and the median step of its
-/// time column (s), if any.
+/// [`sample_rate`] from its ingredients: the file's `dt` scalar (s) and the sampling interval of
+/// its time column (s; [`sampling_step`]), if any.
 pub fn sample_rate_from(
     path: &Path,
     dt: Option<f64>,
-    median_step: Option<f64>,
+    sampling_step_s: Option<f64>,
     fs_hz: Option<f64>,
 ) -> Result<(f64, Option<Warning>)> {
     let from_dt = dt
         .filter(|dt| dt.is_finite() && *dt > 0.0)
         .map(|dt| 1.0 / dt);
-    let from_time = median_step.map(|dt| 1.0 / dt).or(from_dt);
+    let from_time = sampling_step_s.map(|dt| 1.0 / dt).or(from_dt);
     match (fs_hz, from_time) {
         (Some(fs), _) if !(fs.is_finite() && fs > 0.0) => Err(Error::BadSampleRate { fs_hz: fs }),
         (Some(fs), Some(t)) if ((fs - t) / t).abs() > 0.01 => Ok((
@@ -561,15 +566,17 @@ mod tests {
     }
 
     #[test]
-    fn time_that_does_not_increase_names_the_line() {
-        let e = time_column(&table("tt\n0\n1\n1\n"))
-            .unwrap_err()
-            .to_string();
+    fn time_that_steps_back_is_run_on_and_named() {
+        let (tt, warning) = time_column(&table("tt\n0\n1\n1\n2\n")).unwrap();
+        let tt = tt.unwrap();
+        assert!(tt[2] > tt[1] && tt[3] - tt[2] == 1.0, "{tt:?}");
+        let text = warning.unwrap().to_string();
         assert!(
-            e.contains("f.csv: line 4") && e.contains("1 after 1"),
-            "{e}"
+            text.contains("f.csv: time steps back or repeats at 1 place(s), the first at line 4"),
+            "{text}"
         );
-        assert_eq!(time_column(&table("x\n1\n")).unwrap(), None);
+        assert_eq!(time_column(&table("x\n1\n")).unwrap(), (None, None));
+        assert_eq!(time_column(&table("tt\n0\n1\n")).unwrap().1, None);
     }
 
     #[test]

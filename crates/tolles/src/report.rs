@@ -4,7 +4,7 @@
 //! `tolles-report` crate lays it out as HTML.
 
 use crate::error::{Error, Result};
-use crate::fom::{fit_for, fom_or_survey, scalar_to_use, straight_levels, FomOutcome, FomRequest};
+use crate::fom::{fit_for, fom, scalar_to_use, straight_levels, FomOutcome, FomRequest};
 use crate::lines::{line_table, track, LineInputs, LineTable, Track};
 use crate::progress::Progress;
 use crate::warning::Warning;
@@ -308,7 +308,7 @@ fn build_scalar(
         fs_hz: request.fs_hz,
         ..FomRequest::new(scalar)
     };
-    let outcome = fom_or_survey(table, &fom_request, fit.as_ref(), warnings)?;
+    let outcome = fom(table, &fom_request, fit.as_ref(), warnings)?;
     let trace_of = |x: &[f64]| trace(x, &outcome, request);
     let lines = line_table(
         table,

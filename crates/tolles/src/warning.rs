@@ -45,12 +45,14 @@ pub enum Warning {
     },
     /// No maneuvers were found in the attitude.
     NoManeuvers { path: PathBuf, columns: String },
-    /// The time column steps back or repeats at `places` places (the first at `place`); the
-    /// report runs time on across them.
-    TimeRunOn {
+    /// The time column steps back or repeats at `places` places (the first at `place`): each
+    /// stretch between them is taken on its own, as after a gap. With `run_on`, the times
+    /// used after the first are moved on so they increase (reports, FOM, the procedure).
+    TimeStepsBack {
         path: PathBuf,
         place: String,
         places: usize,
+        run_on: bool,
     },
     /// The flight has no attitude columns, so no maneuvers and no heading levels.
     NoAttitude { path: PathBuf, columns: String },
@@ -172,7 +174,7 @@ impl fmt::Display for Warning {
                 from_time_hz,
             } => write!(
                 f,
-                "the given sample rate {given_hz} Hz differs from the {from_time_hz:.6} Hz of column {TIME_COLUMN:?}; using the given rate"
+                "the given sample rate {} Hz differs from the {from_time_hz:.6} Hz of column {TIME_COLUMN:?}; using the given rate", hz(*given_hz)
             ),
             Warning::Uncomputable { path, rows, of, column } => write!(
                 f,
@@ -194,10 +196,14 @@ impl fmt::Display for Warning {
                 "{}: no roll, pitch or yaw maneuvers found in columns {columns}; is this a compensation flight?",
                 path.display()
             ),
-            Warning::TimeRunOn { path, place, places } => write!(
+            Warning::TimeStepsBack { path, place, places, run_on } => write!(
                 f,
-                "{}: time steps back or repeats at {places} place(s), the first at {place}; the report runs time on across them (each later stretch starts after a gap, where filters restart), so its times after there are not the file's",
-                path.display()
+                "{}: time steps back or repeats at {places} place(s), the first at {place} (a file sorted by line?); each stretch is filtered on its own, as after a gap{}",
+                path.display(),
+                match run_on {
+                    true => ", and its times are run on after the stretch before, so times after there are not the file's",
+                    false => "",
+                }
             ),
             Warning::NoAttitude { path, columns } => write!(
                 f,
@@ -259,4 +265,13 @@ fn name_lengths(columns: &[(String, usize)]) -> String {
         .map(|(name, len)| format!("{name} ({len})"))
         .collect();
     list.join(", ")
+}
+
+/// A rate (Hz) for a message: as written when of ordinary size, else in scientific notation,
+/// so that 1e-300 is not three hundred zeros.
+pub fn hz(v: f64) -> String {
+    match v == 0.0 || (1e-3..1e7).contains(&v.abs()) {
+        true => format!("{v}"),
+        false => format!("{v:e}"),
+    }
 }

@@ -407,6 +407,13 @@ pub fn magnav_bandpass(
     if order == 0 {
         return Err(FilterError::InvalidOrder(order));
     }
+    // An edge may be off (≤ 0 or ≥ Nyquist, infinite included), but is never NaN.
+    if pass1_hz.is_nan() || pass2_hz.is_nan() {
+        return Err(FilterError::InvalidBand {
+            low_hz: pass1_hz,
+            high_hz: pass2_hz,
+        });
+    }
     let valid = |f: f64| f > 0.0 && f < fs_hz / 2.0;
     let response = match (valid(pass1_hz), valid(pass2_hz)) {
         (true, true) => Response::BandPass {

@@ -35,6 +35,8 @@ pub struct MedianSearch {
     prefix: u64,
     fixed_bits: u32,
     answer: Option<Option<f64>>,
+    /// The distinct values and their counts, ascending, when the first pass saw only a few.
+    few: Option<Vec<(f64, usize)>>,
 }
 
 /// One pass over the sequence: push every value, in any order.
@@ -69,6 +71,11 @@ impl MedianSearch {
     /// Takes in a finished pass; afterwards [`MedianSearch::needs_pass`] says whether another
     /// pass over the same sequence is needed.
     pub fn finish_pass(&mut self, pass: MedianPass) {
+        let first = self.rank.is_none();
+        if first && !pass.overflow && pass.distinct.len() <= crate::signal::segment::FEW_STEPS {
+            let few = pass.distinct.iter().map(|(key, n)| (from_key(*key), *n));
+            self.few = Some(few.collect());
+        }
         let rank = *self.rank.get_or_insert(pass.count / 2);
         if pass.count == 0 {
             self.answer = Some(None);
@@ -102,6 +109,12 @@ impl MedianSearch {
     /// The median, once known; `None` for an empty sequence (or before the last pass).
     pub fn median(&self) -> Option<f64> {
         self.answer.flatten()
+    }
+
+    /// The distinct values and how often each occurs, ascending, when the sequence holds at
+    /// most 32 distinct values (a regular or quantised clock's steps); else `None`.
+    pub fn few_values(&self) -> Option<&[(f64, usize)]> {
+        self.few.as_deref()
     }
 }
 

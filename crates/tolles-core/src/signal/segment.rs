@@ -15,7 +15,8 @@ use std::ops::Range;
 pub const GAP_FACTOR: f64 = 1.5;
 
 /// Maximal runs of `usable` samples, also split where the time step (`tt`, seconds) exceeds
-/// [`GAP_FACTOR`] times the median step.
+/// [`GAP_FACTOR`] times the median step, or where time steps back or repeats (a survey file
+/// sorted by line): each stretch is then filtered and differenced on its own.
 pub fn contiguous_runs(usable: &[bool], tt: Option<&[f64]>) -> Vec<Range<usize>> {
     let step = tt.and_then(median_step);
     contiguous_runs_with_step(usable, tt, step)
@@ -56,8 +57,8 @@ pub fn contiguous_runs_with_step(
     runs
 }
 
-/// The samples k whose step to sample k + 1 is a gap ([`GAP_FACTOR`] median `step`s, s),
-/// ascending.
+/// The samples k whose step to sample k + 1 is a gap (more than [`GAP_FACTOR`] median
+/// `step`s, s, or none at all: time stepping back), ascending.
 fn gaps(tt: &[f64], n: usize, step: f64) -> Vec<usize> {
     let limit = GAP_FACTOR * step;
     let tt = &tt[..n.min(tt.len())];
@@ -66,7 +67,7 @@ fn gaps(tt: &[f64], n: usize, step: f64) -> Vec<usize> {
     let found = crate::parallel::map_parts(steps, 1, |part| {
         part.filter(|&k| {
             let dt = tt[k + 1] - tt[k];
-            dt.is_finite() && dt > limit
+            dt.is_finite() && (dt > limit || dt <= 0.0)
         })
         .collect::<Vec<usize>>()
     });
@@ -79,12 +80,25 @@ pub fn median_step(tt: &[f64]) -> Option<f64> {
 }
 
 /// Distinct step values counted when a clock has only a few of them.
-const FEW_STEPS: usize = 32;
+pub(crate) const FEW_STEPS: usize = 32;
 
 /// [`median_step`] of a clock whose steps take at most [`FEW_STEPS`] distinct values (a
 /// regular clock written with a few decimals: 0.1 s give a handful of values a few ulp apart)
 /// by counting them: one pass, no copy. `None` for any other clock (or no step at all).
 fn median_of_few(tt: &[f64]) -> Option<f64> {
+    let counts = few_step_counts(tt)?;
+    // The value at sorted position ⌊n/2⌋, as the selection below takes it.
+    let mid = counts.iter().map(|(_, n)| n).sum::<usize>() / 2;
+    let mut seen = 0;
+    counts.into_iter().find_map(|(v, n)| {
+        seen += n;
+        (seen > mid).then_some(v)
+    })
+}
+
+/// Each distinct finite positive step of `tt` (s) and how often it occurs, ascending; `None`
+/// when there are more than [`FEW_STEPS`] distinct steps.
+fn few_step_counts(tt: &[f64]) -> Option<Vec<(f64, usize)>> {
     let mut counts: Vec<(f64, usize)> = Vec::with_capacity(2 * FEW_STEPS);
     for part in step_counts_on_all_cores(tt) {
         for (v, n) in part? {
@@ -98,13 +112,42 @@ fn median_of_few(tt: &[f64]) -> Option<f64> {
         return None;
     }
     counts.sort_by(|a, b| a.0.total_cmp(&b.0));
-    // The value at sorted position ⌊n/2⌋, as the selection below takes it.
-    let mid = counts.iter().map(|(_, n)| n).sum::<usize>() / 2;
-    let mut seen = 0;
-    counts.into_iter().find_map(|(v, n)| {
-        seen += n;
-        (seen > mid).then_some(v)
-    })
+    Some(counts)
+}
+
+/// The sampling interval (s) of the clock `tt`: its [`median_step`], unless the clock is
+/// written too coarsely for its rate (time in hours with five decimals reads 0.1 s steps as
+/// 0.072 or 0.108 s), when it is the mean of its usual steps (see [`sampling_step_of`]).
+pub fn sampling_step(tt: &[f64]) -> Option<f64> {
+    let median = median_step(tt)?;
+    Some(sampling_step_of(few_step_counts(tt).as_deref(), median))
+}
+
+/// Usual steps lie within this factor of the median step; the rest are gaps or glitches.
+const USUAL_STEP: std::ops::RangeInclusive<f64> = 0.5..=1.5;
+
+/// Usual steps further apart than this (relative) mark a quantised clock, not rounding.
+const QUANTISED: f64 = 0.01;
+
+/// [`sampling_step`] from the clock's distinct steps and their counts (`None` when there are
+/// many: a jittered clock, whose median is its interval) and its median step (s).
+pub fn sampling_step_of(counts: Option<&[(f64, usize)]>, median_s: f64) -> f64 {
+    let Some(counts) = counts else {
+        return median_s;
+    };
+    let usual: Vec<(f64, usize)> = (counts.iter().copied())
+        .filter(|(v, _)| USUAL_STEP.contains(&(v / median_s)))
+        .collect();
+    let (low, high) = usual
+        .iter()
+        .fold((f64::INFINITY, 0.0f64), |(lo, hi), (v, _)| {
+            (lo.min(*v), hi.max(*v))
+        });
+    if usual.is_empty() || high <= low * (1.0 + QUANTISED) {
+        return median_s;
+    }
+    let (sum, n) = (usual.iter()).fold((0.0, 0usize), |(s, c), (v, n)| (s + v * *n as f64, c + n));
+    sum / n as f64
 }
 
 /// Samples of time below which [`step_counts`] runs on one core.
@@ -301,7 +344,7 @@ mod tests {
                 return false;
             };
             let dt = tt[k + 1] - tt[k];
-            k + 1 < usable.len() && dt.is_finite() && dt > GAP_FACTOR * step
+            k + 1 < usable.len() && dt.is_finite() && (dt > GAP_FACTOR * step || dt <= 0.0)
         };
         let mut runs = Vec::new();
         let mut start = None;
@@ -326,10 +369,11 @@ mod tests {
     proptest! {
         #[test]
         fn runs_split_at_unusable_samples_and_gaps(
-            samples in prop::collection::vec((any::<bool>(), prop::sample::select(vec![0.1, 0.1, 0.1, 0.5, 2.0, f64::NAN])), 0..80),
+            samples in prop::collection::vec((any::<bool>(), prop::sample::select(vec![0.1, 0.1, 0.1, 0.5, 2.0, -3.0, 0.0, f64::NAN])), 0..80),
         ) {
             let usable: Vec<bool> = samples.iter().map(|s| s.0).collect();
-            // Steps of 0.1 s with longer ones among them; a NaN step leaves that time missing.
+            // Steps of 0.1 s with longer ones, steps back and repeats among them; a NaN step
+            // leaves that time missing.
             let mut t = 0.0f64;
             let tt: Vec<f64> = samples
                 .iter()
@@ -369,6 +413,29 @@ mod tests {
     fn empty_and_all_unusable() {
         assert!(contiguous_runs(&[], None).is_empty());
         assert!(contiguous_runs(&[false, false], None).is_empty());
+    }
+
+    #[test]
+    fn a_file_sorted_by_line_splits_where_time_steps_back_or_repeats() {
+        // Line 2 flown first, then line 1; a repeated time inside line 1.
+        let tt = [20.0, 20.1, 20.2, 10.0, 10.1, 10.1, 10.2];
+        let runs = contiguous_runs(&[true; 7], Some(&tt));
+        assert_eq!(runs, [0..3, 3..5, 5..7]);
+    }
+
+    #[test]
+    fn a_clock_written_too_coarsely_gives_its_mean_usual_step() {
+        // 10 Hz written in hours with five decimals: steps of 0.072 and 0.108 s.
+        let tt: Vec<f64> = (0..1000)
+            .map(|k| ((16.8 + k as f64 * 0.1 / 3600.0) * 1e5).round() / 1e5 * 3600.0)
+            .collect();
+        let median = median_step(&tt).unwrap();
+        let step = sampling_step(&tt).unwrap();
+        assert!((median - 0.108).abs() < 1e-6, "{median}");
+        assert!((step - 0.1).abs() < 1e-4, "{step}");
+        // A clean clock keeps its median to the bit, gaps and all.
+        let clean = [0.0, 0.1, 0.2, 0.30000000000000004, 0.4, 9.0, 9.1];
+        assert_eq!(sampling_step(&clean), median_step(&clean));
     }
 
     #[test]

@@ -85,6 +85,9 @@ pub struct CompensatedColumn {
     pub trust: RowTrust,
 }
 
+/// One fit's compensation, how far to trust it, its warnings, and where time steps back.
+type FitOutcome = (Compensation, RowTrust, Vec<Warning>, Option<Warning>);
+
 /// Compensates every fit of `model` on `table`, on all cores, in the model's order. Rows that
 /// cannot be compensated are NaN and counted in `warnings`; so is a renamed output column.
 pub fn compensate(
@@ -93,7 +96,7 @@ pub fn compensate(
     request: &CompensateRequest,
     warnings: &mut Vec<Warning>,
 ) -> Result<Vec<CompensatedColumn>> {
-    let results: Vec<Result<(Compensation, RowTrust, Vec<Warning>)>> = model
+    let results: Vec<Result<FitOutcome>> = model
         .fits
         .par_iter()
         .map(|fit| {
@@ -102,7 +105,7 @@ pub fn compensate(
             let mut noticed = Vec::new();
             let result = compensate_flight(&flight, fit, request, &mut noticed)?;
             let trust = row_trust(&flight, fit, request, &mut Vec::new())?;
-            Ok((result, trust, noticed))
+            Ok((result, trust, noticed, flight.time_steps_back))
         })
         .collect();
     let mut columns = Vec::new();
@@ -112,8 +115,14 @@ pub fn compensate(
         .map(|f| f.output_column.as_str())
         .collect();
     let names = output_names(table.headers(), &wanted);
-    for ((fit, result), (name, renamed)) in model.fits.iter().zip(results).zip(names) {
-        let (result, trust, noticed) = result?;
+    for (k, ((fit, result), (name, renamed))) in
+        model.fits.iter().zip(results).zip(names).enumerate()
+    {
+        let (result, trust, noticed, steps_back) = result?;
+        // Every fit reads the same time column: where it steps back is told once.
+        if k == 0 {
+            warnings.extend(steps_back);
+        }
         warnings.extend(noticed);
         warnings.extend(crate::fit::verdict_warning(&fit.scalar, &fit.fit));
         let (path, of, column) = (table.path(), table.len(), &fit.output_column);

@@ -88,14 +88,6 @@ fn check_fit(
     axes.iter().try_for_each(column)?;
     if let Some(p) = plan.tt {
         column(&Ok(p))?;
-        if let Some((place, t, before)) = &scan.not_increasing {
-            return Err(Error::TimeNotIncreasing {
-                path: survey.to_path_buf(),
-                place: place.clone(),
-                t: *t,
-                before: *before,
-            });
-        }
     }
     if let Some((place, magnitude)) = &scan.bad_magnitude[columns.fluxgate] {
         return Err(Error::FluxMagnitude {
@@ -108,7 +100,7 @@ fn check_fit(
     // Chunked formats carry no `dt` scalar: the rate comes from the time column or is given.
     let (fs_hz, rate_warning) = match (fs_hz, plan.tt) {
         (None, None) => (fit.fit.fs_hz, None),
-        (fs, _) => sample_rate_from(survey, None, scan.median_step, fs)?,
+        (fs, _) => sample_rate_from(survey, None, scan.sampling_step, fs)?,
     };
     Ok(ReadyFit {
         output: fit.output_column.clone(),

@@ -4,7 +4,7 @@
 //!
 //! 1. **Scan** ([`scan`]) the columns the fits use (every column when writing Parquet, which
 //!    holds numbers only) for what reading the file whole finds: the first bad cell of each
-//!    column, time that does not increase, an implausible fluxgate magnitude, and the exact
+//!    column, where time steps back, an implausible fluxgate magnitude, and the exact
 //!    median time step (sample rate and gap threshold). [`check`] reports them in the order the
 //!    whole-file path meets them.
 //! 2. **Level** ([`level`]): each fit's correction `A·β`, computed a chunk at a time by the
@@ -183,6 +183,7 @@ fn run(
         survey: &request.survey,
         rows: file.scan.rows,
         headers: &file.headers,
+        steps_back: file.scan.steps_back.as_ref(),
     };
     if let Some(levels) = &levels {
         let counts: Vec<usize> = levels.iter().map(|l| l.uncomputable).collect();
@@ -315,10 +316,13 @@ struct Report<'a> {
     survey: &'a Path,
     rows: usize,
     headers: &'a [String],
+    /// Where time first steps back or repeats, and at how many places.
+    steps_back: Option<&'a (String, usize)>,
 }
 
 impl Report<'_> {
-    /// Per fit: a given sample rate far from the time column's, its verdict when not good,
+    /// Where time steps back (before the first fit's warnings); then per fit: a given sample
+    /// rate far from the time column's, its verdict when not good,
     /// its rows `outside` what its calibration flew, its `uncomputable` rows, and its column
     /// renamed.
     fn fits(
@@ -328,6 +332,14 @@ impl Report<'_> {
         warnings: &mut Vec<Warning>,
     ) {
         let names = self.names(fits);
+        if let (Some((place, places)), false) = (self.steps_back, fits.is_empty()) {
+            warnings.push(Warning::TimeStepsBack {
+                path: self.survey.to_path_buf(),
+                place: place.clone(),
+                places: *places,
+                run_on: false,
+            });
+        }
         let counts = uncomputable.iter().zip(outside);
         for ((fit, (&rows, &out)), (name, renamed)) in fits.iter().zip(counts).zip(names) {
             warnings.extend(fit.rate_warning.clone());

@@ -5,6 +5,7 @@ use crate::progress::Progress;
 use tolles_core::fit::{check_flux_magnitude, FitError};
 use tolles_core::model::vector::VectorSeries;
 use tolles_core::signal::median::{MedianPass, MedianSearch};
+use tolles_core::signal::segment::sampling_step_of;
 use tolles_io::chunks::{ChunkReader, NumberSpill, DEFAULT_CHUNK_ROWS};
 use tolles_io::format::Format;
 use tolles_io::model::ModelFile;
@@ -109,12 +110,15 @@ pub(super) struct Scan {
     pub rows: usize,
     /// Per column read, the first cell that is not a number.
     pub bad_cell: Vec<Option<IoError>>,
-    /// Where time first fails to increase: (place, time, the time before), seconds.
-    pub not_increasing: Option<(String, f64, f64)>,
+    /// Where time first steps back or repeats, and at how many places it does.
+    pub steps_back: Option<(String, usize)>,
     /// Per fluxgate, the first implausible magnitude: (place, nT).
     pub bad_magnitude: Vec<Option<(String, f64)>>,
-    /// The median step of the time column (s), exact.
+    /// The median step of the time column (s), exact: the gap threshold's unit.
     pub median_step: Option<f64>,
+    /// The sampling interval of the time column (s), as
+    /// [`tolles_core::signal::segment::sampling_step`] gives it.
+    pub sampling_step: Option<f64>,
     /// The numbers used, kept for pass 2 when the file is text.
     pub spill: Option<NumberSpill>,
 }
@@ -172,19 +176,21 @@ pub(super) fn scan(mut reader: ChunkReader, plan: &Plan, progress: &dyn Progress
     Ok(Scan {
         rows,
         bad_cell,
-        not_increasing: time.not_increasing,
+        steps_back: time.first_back.map(|place| (place, time.places_back)),
         bad_magnitude,
         median_step: median.median(),
+        sampling_step: (median.median()).map(|m| sampling_step_of(median.few_values(), m)),
         spill,
     })
 }
 
-/// The time column followed across chunks: its steps for the median, and where it first fails
-/// to increase.
+/// The time column followed across chunks: its steps for the median, and where it steps back
+/// or repeats (a file sorted by line; its runs split there).
 struct TimeCheck {
     previous: f64,
     last_finite: f64,
-    not_increasing: Option<(String, f64, f64)>,
+    first_back: Option<String>,
+    places_back: usize,
 }
 
 impl Default for TimeCheck {
@@ -192,7 +198,8 @@ impl Default for TimeCheck {
         Self {
             previous: f64::NAN,
             last_finite: f64::NEG_INFINITY,
-            not_increasing: None,
+            first_back: None,
+            places_back: 0,
         }
     }
 }
@@ -206,8 +213,9 @@ impl TimeCheck {
             if !t.is_finite() {
                 continue;
             }
-            if t <= self.last_finite && self.not_increasing.is_none() {
-                self.not_increasing = Some((place(k), t, self.last_finite));
+            if t <= self.last_finite {
+                self.places_back += 1;
+                self.first_back.get_or_insert_with(|| place(k));
             }
             self.last_finite = t;
         }
