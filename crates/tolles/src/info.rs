@@ -218,6 +218,8 @@ fn counts(column: &Column) -> (usize, usize) {
 fn lines(table: &Table) -> Option<Vec<LineInfo>> {
     let k = table.index_of(LINE_COLUMN).ok()?;
     let mut out: Vec<LineInfo> = Vec::new();
+    // Survey files can hold 10⁵ line ids: find each by hash, not by search.
+    let mut found: std::collections::HashMap<String, usize> = std::collections::HashMap::new();
     let column = &table.columns()[k];
     for row in 0..table.len() {
         let id = match column {
@@ -228,9 +230,12 @@ fn lines(table: &Table) -> Option<Vec<LineInfo>> {
             Column::Numbers(v) if v[row].is_nan() => continue,
             Column::Numbers(v) => format!("{}", v[row]),
         };
-        match out.iter_mut().rev().find(|l| l.id == id) {
-            Some(line) => line.rows += 1,
-            None => out.push(LineInfo { id, rows: 1 }),
+        match found.get(&id) {
+            Some(&j) => out[j].rows += 1,
+            None => {
+                found.insert(id.clone(), out.len());
+                out.push(LineInfo { id, rows: 1 });
+            }
         }
     }
     Some(out)

@@ -181,17 +181,22 @@ fn line_ids(table: &Table) -> Option<Vec<String>> {
 /// The lines in order of first appearance, each with its runs of consecutive rows.
 fn group(ids: &[String]) -> Vec<Line> {
     let mut lines: Vec<Line> = Vec::new();
+    // Survey files can hold 10⁵ line ids: find each by hash, not by search.
+    let mut found: std::collections::HashMap<&str, usize> = std::collections::HashMap::new();
     let mut start = 0;
     for k in 1..=ids.len() {
         if k < ids.len() && ids[k] == ids[start] {
             continue;
         }
-        match lines.iter_mut().find(|l| l.id == ids[start]) {
-            Some(line) => line.runs.push(start..k),
-            None => lines.push(Line {
-                id: ids[start].clone(),
-                runs: std::iter::once(start..k).collect(),
-            }),
+        match found.get(ids[start].as_str()) {
+            Some(&j) => lines[j].runs.push(start..k),
+            None => {
+                found.insert(&ids[start], lines.len());
+                lines.push(Line {
+                    id: ids[start].clone(),
+                    runs: std::iter::once(start..k).collect(),
+                });
+            }
         }
         start = k;
     }

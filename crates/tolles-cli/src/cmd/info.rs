@@ -52,6 +52,9 @@ pub fn run(args: Args) -> Result<()> {
 }
 
 /// The description as text, one fact a line and a table of columns.
+/// Line ids printed before the rest are counted: a terminal line, not a file of them.
+const LINES_SHOWN: usize = 50;
+
 fn text(about: &FlightInfo) -> String {
     let mut s = format!("{} ({})\n", about.path.display(), about.format);
     s += &format!("rows: {}\n", about.rows);
@@ -68,10 +71,15 @@ fn text(about: &FlightInfo) -> String {
     }
     match &about.lines {
         Some(lines) => {
-            let ids: Vec<String> = lines
-                .iter()
+            let mut ids: Vec<String> = (lines.iter().take(LINES_SHOWN))
                 .map(|l| format!("{} ({} rows)", l.id, l.rows))
                 .collect();
+            if lines.len() > LINES_SHOWN {
+                ids.push(format!(
+                    "… {} more (--json lists every one)",
+                    lines.len() - LINES_SHOWN
+                ));
+            }
             s += &format!("lines: {}: {}\n", lines.len(), ids.join(", "));
         }
         None => s += "lines: no line column\n",
