@@ -168,3 +168,25 @@ fn fit_refuses_what_would_make_a_model_others_reject() {
     );
     assert!(ok, "{err}");
 }
+
+/// Column names HDF5 would read as something else (issue 46, item 26): a '/' (a group path),
+/// "." (the group itself), a NUL (the name's end) are one-line errors naming the column, and
+/// nothing is written; renamed, the column converts.
+#[test]
+fn convert_to_hdf5_refuses_names_other_readers_cannot_open() {
+    let dir = TempDir::new().unwrap();
+    for (header, shown) in [("speed m/s", "speed m/s"), (".", "."), ("a\u{0}b", "a\\0b")] {
+        let csv = format!("tt,{header}\n0,1\n0.1,2\n");
+        std::fs::write(dir.path().join("n.csv"), csv).unwrap();
+        let (ok, _, err) = run(dir.path(), &["convert", "n.csv", "n.h5"]);
+        assert!(!ok && err.contains(&format!("cannot write column \"{shown}\"")), "{err}");
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+        assert!(!dir.path().join("n.h5").exists());
+    }
+    std::fs::write(dir.path().join("s.csv"), "tt,speed m/s\n0,1\n0.1,2\n").unwrap();
+    let args = ["convert", "s.csv", "s.h5", "--rename", "speed m/s=speed_mps"];
+    let (ok, _, err) = run(dir.path(), &args);
+    assert!(ok, "{err}");
+    let (ok, info, err) = run(dir.path(), &["info", "s.h5"]);
+    assert!(ok && info.contains("speed_mps"), "{err}");
+}

@@ -272,18 +272,28 @@ const MAX_NAME_BYTES: usize = 65_000;
 
 /// Errors for a column name the file could not hold, before anything is written.
 fn check_name(path: &Path, name: &str) -> Result<(), IoError> {
-    if !name.is_empty() && name.len() <= MAX_NAME_BYTES {
-        return Ok(());
-    }
     let shown: String = name.chars().take(20).collect();
     let more = if shown.len() < name.len() { "..." } else { "" };
-    Err(IoError::Invalid {
-        path: path.to_path_buf(),
-        message: format!(
-            "cannot write column {shown:?}{more}: an HDF5 column name must be 1 to {MAX_NAME_BYTES} bytes long, not {}",
+    let refuse = |why: String| {
+        Err(IoError::Invalid {
+            path: path.to_path_buf(),
+            message: format!("cannot write column {shown:?}{more}: {why}"),
+        })
+    };
+    if name.is_empty() || name.len() > MAX_NAME_BYTES {
+        return refuse(format!(
+            "an HDF5 column name must be 1 to {MAX_NAME_BYTES} bytes long, not {}",
             name.len()
-        ),
-    })
+        ));
+    }
+    // HDF5 reads '/' as a path into groups, "." as the group itself, and a name up to its
+    // first NUL: such a dataset would not open under its own name in h5py or MATLAB.
+    if name.contains(['/', '\0']) || name == "." {
+        return refuse(
+            "HDF5 takes '/' as a group path, '.' as the group and a NUL as the name's end; rename the column (--rename OLD=NEW)".to_string(),
+        );
+    }
+    Ok(())
 }
 
 /// The file from its superblock on, with the superblock's base address set to 0. A user block
