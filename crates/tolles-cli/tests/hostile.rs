@@ -190,3 +190,16 @@ fn convert_to_hdf5_refuses_names_other_readers_cannot_open() {
     let (ok, info, err) = run(dir.path(), &["info", "s.h5"]);
     assert!(ok && info.contains("speed_mps"), "{err}");
 }
+
+/// An infinite value read from a binary file stays infinite in CSV, signed, as pandas writes
+/// it; a missing one stays an empty cell (issue 46, item 27).
+#[test]
+fn infinities_survive_conversion_to_csv() {
+    let dir = TempDir::new().unwrap();
+    std::fs::write(dir.path().join("i.csv"), "tt,v\n0,inf\n1,-inf\n2,\n3,1e400\n").unwrap();
+    assert!(run(dir.path(), &["convert", "i.csv", "i.h5"]).0);
+    let (ok, _, err) = run(dir.path(), &["convert", "i.h5", "back.csv"]);
+    assert!(ok, "{err}");
+    let back = std::fs::read_to_string(dir.path().join("back.csv")).unwrap();
+    assert_eq!(back, "tt,v\n0,inf\n1,-inf\n2,\n3,inf\n");
+}

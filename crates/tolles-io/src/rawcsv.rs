@@ -997,10 +997,12 @@ fn format_block(rows: &RawRows, extra: &[&[f64]], range: Range<usize>, text: &mu
 }
 
 /// Appends `v` as [`crate::table::format_value`] writes it — the shortest text that reads back
-/// as the same f64, with an exponent below 1e-5 and from 1e17 on; nothing for a missing value —
-/// three times faster: the shortest digits come from `zmij` and are laid out here.
+/// as the same f64, with an exponent below 1e-5 and from 1e17 on; `inf`/`-inf` for an infinite
+/// value and nothing for a missing one — three times faster: the shortest digits come from
+/// `zmij` and are laid out here.
 pub fn format_number(v: f64, buffer: &mut zmij::Buffer, out: &mut Vec<u8>) {
     if !v.is_finite() {
+        out.extend_from_slice(crate::table::non_finite_text(v).as_bytes());
         return;
     }
     let magnitude = v.abs();

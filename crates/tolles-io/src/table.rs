@@ -1299,11 +1299,13 @@ pub fn write_columns_to(path: &Path, columns: &[(&str, &[f64])]) -> Result<(), I
     crate::atomic::write_with(path, |out| write_columns(columns, out))
 }
 
-/// Shortest text that reads back as the same f64; empty for a missing value. Magnitudes below
-/// 1e-5 or from 1e17 on are written with an exponent (`3.3347e-11`), not as dozens of zeros.
+/// Shortest text that reads back as the same f64; `inf`/`-inf` for an infinite value (as pandas
+/// writes it), empty for a missing one. Magnitudes below 1e-5 or from 1e17 on are written with
+/// an exponent (`3.3347e-11`), not as dozens of zeros.
 pub fn format_value(v: f64, out: &mut String) {
     use std::fmt::Write;
     if !v.is_finite() {
+        out.push_str(non_finite_text(v));
         return;
     }
     let magnitude = v.abs();
@@ -1311,6 +1313,15 @@ pub fn format_value(v: f64, out: &mut String) {
         let _ = write!(out, "{v:e}");
     } else {
         let _ = write!(out, "{v}");
+    }
+}
+
+/// The cell text of a value that is not finite: an infinity keeps its sign, NaN is missing.
+pub(crate) fn non_finite_text(v: f64) -> &'static str {
+    match v {
+        f64::INFINITY => "inf",
+        f64::NEG_INFINITY => "-inf",
+        _ => "",
     }
 }
 
