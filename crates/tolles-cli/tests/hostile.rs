@@ -179,12 +179,21 @@ fn convert_to_hdf5_refuses_names_other_readers_cannot_open() {
         let csv = format!("tt,{header}\n0,1\n0.1,2\n");
         std::fs::write(dir.path().join("n.csv"), csv).unwrap();
         let (ok, _, err) = run(dir.path(), &["convert", "n.csv", "n.h5"]);
-        assert!(!ok && err.contains(&format!("cannot write column \"{shown}\"")), "{err}");
+        assert!(
+            !ok && err.contains(&format!("cannot write column \"{shown}\"")),
+            "{err}"
+        );
         assert_eq!(err.trim().lines().count(), 1, "{err}");
         assert!(!dir.path().join("n.h5").exists());
     }
     std::fs::write(dir.path().join("s.csv"), "tt,speed m/s\n0,1\n0.1,2\n").unwrap();
-    let args = ["convert", "s.csv", "s.h5", "--rename", "speed m/s=speed_mps"];
+    let args = [
+        "convert",
+        "s.csv",
+        "s.h5",
+        "--rename",
+        "speed m/s=speed_mps",
+    ];
     let (ok, _, err) = run(dir.path(), &args);
     assert!(ok, "{err}");
     let (ok, info, err) = run(dir.path(), &["info", "s.h5"]);
@@ -196,7 +205,11 @@ fn convert_to_hdf5_refuses_names_other_readers_cannot_open() {
 #[test]
 fn infinities_survive_conversion_to_csv() {
     let dir = TempDir::new().unwrap();
-    std::fs::write(dir.path().join("i.csv"), "tt,v\n0,inf\n1,-inf\n2,\n3,1e400\n").unwrap();
+    std::fs::write(
+        dir.path().join("i.csv"),
+        "tt,v\n0,inf\n1,-inf\n2,\n3,1e400\n",
+    )
+    .unwrap();
     assert!(run(dir.path(), &["convert", "i.csv", "i.h5"]).0);
     let (ok, _, err) = run(dir.path(), &["convert", "i.h5", "back.csv"]);
     assert!(ok, "{err}");

@@ -109,3 +109,70 @@ fn an_extra_channel_must_vary_and_be_a_channel_of_its_own() {
     assert!(fails("cal.csv", "mag_1_uc").contains("already uses as a scalar"));
     assert!(fails("cal.csv", "FLUX_A_X").contains("a fluxgate component"));
 }
+
+/// Every file a report writes under `dir`, with its bytes, but the temporary ones.
+fn report_files(dir: &std::path::Path) -> std::collections::BTreeMap<String, Vec<u8>> {
+    let mut files = std::collections::BTreeMap::new();
+    for sub in ["", "plots", "data"] {
+        let Ok(entries) = std::fs::read_dir(dir.join(sub)) else {
+            continue;
+        };
+        for entry in entries.flatten() {
+            if entry.path().is_file() {
+                let name = format!("{sub}/{}", entry.file_name().to_string_lossy());
+                files.insert(name, std::fs::read(entry.path()).unwrap());
+            }
+        }
+    }
+    files
+}
+
+/// A report that fails part-way (issue 46, item 27: a full disk; here the assets directory,
+/// written after the plots and data, cannot be made) leaves the previous report whole: its
+/// page, plots and the data its page loads, and no temporary files.
+#[test]
+fn a_report_that_fails_part_way_leaves_the_previous_one_whole() {
+    let dir = TempDir::new().unwrap();
+    for seed in ["1", "2"] {
+        let sim = [
+            "simulate",
+            "--plan",
+            "box",
+            "--seed",
+            seed,
+            "--out",
+            &format!("b{seed}.csv"),
+        ];
+        run_in(dir.path(), &sim);
+    }
+    let report = |flight: &str| {
+        let args = ["report", flight, "--scalar", "mag_1_uc", "--out", "r"];
+        common::tolles()
+            .current_dir(dir.path())
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    assert!(report("b1.csv").status.success());
+    let before = report_files(&dir.path().join("r"));
+    assert!(
+        before.keys().any(|k| k.starts_with("data/")),
+        "{:?}",
+        before.keys()
+    );
+    std::fs::remove_dir_all(dir.path().join("r/assets")).unwrap();
+    std::fs::write(dir.path().join("r/assets"), "in the way").unwrap();
+    let failed = report("b2.csv");
+    let stderr = String::from_utf8_lossy(&failed.stderr);
+    assert!(
+        !failed.status.success() && stderr.contains("assets"),
+        "{stderr}"
+    );
+    let mut after = report_files(&dir.path().join("r"));
+    after.remove("/assets");
+    assert_eq!(
+        before.keys().collect::<Vec<_>>(),
+        after.keys().collect::<Vec<_>>()
+    );
+    assert!(before == after, "a file of the old report was replaced");
+}

@@ -36,10 +36,12 @@ pub fn page(data: &ReportData) -> Report {
 /// writes it as `dir/index.html` with its plots; returns the page's path.
 pub fn write_each(data: &[ReportData], dir: &Path) -> Result<PathBuf, ReportError> {
     let (page, maps) = page_and_maps(data);
-    let index = page.write(dir)?;
+    let mut staged = crate::Staged::default();
+    let index = page.stage(dir, &mut staged)?;
     for map in &maps {
-        crate::write_file(&dir.join(&map.src), &map.svg)?;
+        staged.file(&dir.join(&map.src), &map.svg)?;
     }
+    staged.commit()?;
     Ok(index)
 }
 

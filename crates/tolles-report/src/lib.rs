@@ -218,9 +218,17 @@ impl Report {
 
     /// Writes `dir/index.html` and `dir/plots/NN-title.svg` (creating the directories) and
     /// returns the path of `index.html`. Existing files of the same names are replaced; other
-    /// files in `dir` are left alone.
+    /// files in `dir` are left alone. Every file is written in full before any replaces its
+    /// old version, and the page last: a failure (a full disk) leaves the old report whole.
     pub fn write(&self, dir: impl AsRef<Path>) -> Result<PathBuf, ReportError> {
-        let dir = dir.as_ref();
+        let mut staged = Staged::default();
+        let index = self.stage(dir.as_ref(), &mut staged)?;
+        staged.commit()?;
+        Ok(index)
+    }
+
+    /// [`Report::write`], its files left in `staged` to commit with others (maps).
+    pub(crate) fn stage(&self, dir: &Path, staged: &mut Staged) -> Result<PathBuf, ReportError> {
         let plots_dir = dir.join("plots");
         create_dir(&plots_dir)?;
         let mut body = String::new();
@@ -231,10 +239,10 @@ impl Report {
                 Block::LinePlot(p) => {
                     plot_number += 1;
                     let rendered = p.to_svg()?;
-                    let file = write_svg(&plots_dir, plot_number, &p.title, &rendered)?;
+                    let file = write_svg(&plots_dir, plot_number, &p.title, &rendered, staged)?;
                     let live = match &p.live {
                         Some(options) => {
-                            let (src, data) = write_live(dir, &file, p, options)?;
+                            let (src, data) = write_live(dir, &file, p, options, staged)?;
                             live_scripts.push(src.clone());
                             Some((src, data))
                         }
@@ -253,7 +261,7 @@ impl Report {
                 Block::BarChart(c) => {
                     plot_number += 1;
                     let rendered = c.to_svg()?;
-                    let file = write_svg(&plots_dir, plot_number, &c.title, &rendered)?;
+                    let file = write_svg(&plots_dir, plot_number, &c.title, &rendered, staged)?;
                     figure(
                         &mut body,
                         &c.title,
@@ -274,7 +282,8 @@ impl Report {
                         for p in &cell.plots {
                             plot_number += 1;
                             let rendered = p.to_svg()?;
-                            let file = write_svg(&plots_dir, plot_number, &p.title, &rendered)?;
+                            let file =
+                                write_svg(&plots_dir, plot_number, &p.title, &rendered, staged)?;
                             image(&mut body, &file, &rendered, &p.title);
                             notes(&mut body, &rendered);
                         }
@@ -289,10 +298,10 @@ impl Report {
             }
         }
         if !live_scripts.is_empty() {
-            write_uplot(dir)?;
+            write_uplot(dir, staged)?;
         }
         let index = dir.join("index.html");
-        write_file(&index, &self.page(&body, &live_scripts))?;
+        staged.page(&index, &self.page(&body, &live_scripts))?;
         Ok(index)
     }
 
@@ -448,11 +457,11 @@ const UPLOT_JS_FILE: &str = "assets/uPlot.iife.min.js";
 const UPLOT_CSS_FILE: &str = "assets/uPlot.min.css";
 const UPLOT_LICENSE_FILE: &str = "assets/uPlot-LICENSE.txt";
 
-fn write_uplot(dir: &Path) -> Result<(), ReportError> {
+fn write_uplot(dir: &Path, staged: &mut Staged) -> Result<(), ReportError> {
     create_dir(&dir.join("assets"))?;
-    write_file(&dir.join(UPLOT_JS_FILE), live::UPLOT_JS)?;
-    write_file(&dir.join(UPLOT_CSS_FILE), live::UPLOT_CSS)?;
-    write_file(&dir.join(UPLOT_LICENSE_FILE), live::UPLOT_LICENSE)
+    staged.file(&dir.join(UPLOT_JS_FILE), live::UPLOT_JS)?;
+    staged.file(&dir.join(UPLOT_CSS_FILE), live::UPLOT_CSS)?;
+    staged.file(&dir.join(UPLOT_LICENSE_FILE), live::UPLOT_LICENSE)
 }
 
 /// Writes the data of the live chart of `plot` (whose SVG is `svg_file`) as `data/NAME.js`;
@@ -462,12 +471,13 @@ fn write_live(
     svg_file: &str,
     plot: &LinePlot,
     options: &live::Live,
+    staged: &mut Staged,
 ) -> Result<(String, live::LiveData), ReportError> {
     let id = svg_file.trim_end_matches(".svg");
     let data = live::data_script(id, plot, options)?;
     create_dir(&dir.join("data"))?;
     let src = format!("data/{id}.js");
-    write_file(&dir.join(&src), &data.script)?;
+    staged.file(&dir.join(&src), &data.script)?;
     Ok((src, data))
 }
 
@@ -594,9 +604,10 @@ fn write_svg(
     number: usize,
     title: &str,
     plot: &RenderedPlot,
+    staged: &mut Staged,
 ) -> Result<String, ReportError> {
     let name = format!("{number:02}-{}.svg", slug(title));
-    write_file(&dir.join(&name), &plot.svg)?;
+    staged.file(&dir.join(&name), &plot.svg)?;
     Ok(name)
 }
 
@@ -607,10 +618,58 @@ fn create_dir(path: &Path) -> Result<(), ReportError> {
     })
 }
 
-/// Writes `path` whole or not at all, so a failed write leaves no half page.
-fn write_file(path: &Path, text: &str) -> Result<(), ReportError> {
+/// A report's files written in full to temporary files beside their targets, renamed over
+/// them only once every one is written, the page last: until then the old report (page and
+/// the plots and data it loads) is untouched, and a failure removes the temporary files.
+#[derive(Default)]
+pub(crate) struct Staged {
+    files: Vec<tolles::tolles_io::atomic::AtomicFile>,
+    page: Option<tolles::tolles_io::atomic::AtomicFile>,
+}
+
+impl Staged {
+    /// Stages `text` for `path`.
+    pub(crate) fn file(&mut self, path: &Path, text: &str) -> Result<(), ReportError> {
+        self.files.push(staged(path, text)?);
+        Ok(())
+    }
+
+    /// Stages the page `text` for `path`, renamed after every other file.
+    fn page(&mut self, path: &Path, text: &str) -> Result<(), ReportError> {
+        self.page = Some(staged(path, text)?);
+        Ok(())
+    }
+
+    /// Renames every staged file over its target, the page last.
+    pub(crate) fn commit(self) -> Result<(), ReportError> {
+        for file in self.files.into_iter().chain(self.page) {
+            let path = file.target().to_path_buf();
+            file.commit().map_err(|e| io_error(&path, e))?;
+        }
+        Ok(())
+    }
+}
+
+/// `text` written in full to a temporary file beside `path`.
+fn staged(path: &Path, text: &str) -> Result<tolles::tolles_io::atomic::AtomicFile, ReportError> {
+    use std::io::Write;
+    let file =
+        tolles::tolles_io::atomic::AtomicFile::create(path).map_err(|e| io_error(path, e))?;
+    let mut writer = std::io::BufWriter::new(file.file());
+    writer
+        .write_all(text.as_bytes())
+        .and_then(|()| writer.flush())
+        .map_err(|source| ReportError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    drop(writer);
+    Ok(file)
+}
+
+fn io_error(path: &Path, e: tolles::tolles_io::IoError) -> ReportError {
     use tolles::tolles_io::IoError;
-    tolles::tolles_io::atomic::write_bytes(path, text.as_bytes()).map_err(|e| match e {
+    match e {
         IoError::Write { source, .. } => ReportError::Io {
             path: path.to_path_buf(),
             source,
@@ -619,7 +678,7 @@ fn write_file(path: &Path, text: &str) -> Result<(), ReportError> {
             path: path.to_path_buf(),
             source: std::io::Error::other(other.to_string()),
         },
-    })
+    }
 }
 
 #[cfg(test)]
