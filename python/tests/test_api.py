@@ -46,3 +46,26 @@ def test_a_missing_rate_names_the_argument_that_gives_it(flights):
     with pytest.raises(tolles.TollesError, match="fs="):
         tolles.fit(cal, scalar="mag_1_uc", vector="flux_a")
     assert tolles.fit(cal, scalar="mag_1_uc", vector="flux_a", fs=10.0).columns
+
+
+@pytest.mark.parametrize("order, trim", [(-1, 20), (2**70, 20), (4, -5), (2.5, 20)])
+def test_a_count_out_of_range_names_its_parameter(flights, order, trim):
+    cal = tolles.read(flights / "cal.csv")
+    name = "order" if (order, trim)[1] == 20 else "trim"
+    with pytest.raises(tolles.TollesError, match=f"^{name} must be a whole number"):
+        tolles.fit(cal, scalar="mag_1_uc", vector="flux_a", order=order, trim=trim)
+
+
+def test_duplicate_columns_are_refused_as_the_cli_refuses_them(flights):
+    cal = tolles.read(flights / "cal.csv")
+    doubled = cal.rename(columns={"truth_earth": "mag_1_uc"})
+    with pytest.raises(tolles.TollesError, match="column 'mag_1_uc' appears more than once"):
+        tolles.fit(doubled, scalar="mag_1_uc", vector="flux_a")
+
+
+def test_text_in_a_numeric_column_names_the_column_and_row(flights):
+    cal = tolles.read(flights / "cal.csv")
+    cal["flux_a_y"] = cal["flux_a_y"].astype(object)
+    cal.loc[7, "flux_a_y"] = "n/a"
+    with pytest.raises(tolles.TollesError, match=r"row 7, column 'flux_a_y': 'n/a' is not a number"):
+        tolles.fit(cal, scalar="mag_1_uc", vector="flux_a")

@@ -21,6 +21,7 @@ z down). Column names follow the DAF-MIT/SGL flight files: ``tt`` (s), ``mag_1_u
 from __future__ import annotations
 
 import json as _json
+import operator as _operator
 import os as _os
 import pathlib as _pathlib
 import tempfile as _tempfile
@@ -91,6 +92,17 @@ def _band(band: Any) -> Tuple[float, float]:
         band = [v for v in band.split(",")]
     low, high = band
     return (float(low), float(high))
+
+
+def _count(value: Any, name: str, least: int) -> int:
+    """A whole number ≥ ``least`` for the parameter ``name``, or a TollesError naming it."""
+    try:
+        whole = _operator.index(value)
+    except TypeError:
+        whole = None
+    if whole is None or not least <= whole < 2**32:
+        raise TollesError(f"{name} must be a whole number from {least} to 2**32 - 1, got {value!r}")
+    return whole
 
 
 def _terms(terms: Any) -> str:
@@ -200,6 +212,12 @@ class _Columns:
         self.df = df
         self.names = [str(c) for c in df.columns]
         self.source = str(df.attrs.get("source", "<DataFrame>"))
+        seen = set()
+        for name in self.names:
+            if name in seen:
+                # As the CLI refuses such a file: which of the two would be meant is a guess.
+                raise TollesError(f"{self.source}: column {name!r} appears more than once")
+            seen.add(name)
         dt = df.attrs.get("dt")
         self.dt = float(dt) if dt is not None else None
 
@@ -208,8 +226,20 @@ class _Columns:
         try:
             values = column.to_numpy(dtype=_np.float64, na_value=_np.nan)
         except (TypeError, ValueError):
-            values = _pd.to_numeric(column, errors="raise").to_numpy(dtype=_np.float64)
+            values = self._numbers(i, column)
         return _np.ascontiguousarray(values)
+
+    def _numbers(self, i: int, column: _pd.Series) -> _np.ndarray:
+        """A text column's cells as numbers, or a TollesError naming the first that is not."""
+        numbers = _pd.to_numeric(column, errors="coerce")
+        bad = numbers.isna().to_numpy() & column.notna().to_numpy()
+        if bad.any():
+            row = int(bad.argmax())
+            raise TollesError(
+                f"{self.source}: row {row}, column {self.names[i]!r}: "
+                f"{column.iloc[row]!r} is not a number"
+            )
+        return numbers.to_numpy(dtype=_np.float64, na_value=_np.nan)
 
     def args(self) -> tuple:
         return (self.source, self.names, self.get, self.dt)
@@ -418,8 +448,8 @@ def fit(
         _terms(terms),
         lam,
         _band(band),
-        int(order),
-        int(trim),
+        _count(order, "order", 1),
+        _count(trim, "trim", 0),
         None if fs is None else float(fs),
         magnitude,
         None if levels is None else bool(levels),
@@ -518,7 +548,7 @@ def fom(
         _fom_scalar(scalar, model),
         None if model is None else model.to_json(),
         _band(band),
-        int(order),
+        _count(order, "order", 1),
         None if fs is None else float(fs),
     )
     _warn(notes)
@@ -582,7 +612,7 @@ def report(
             _time_range(time),
             list((renames or {}).items()),
             _band(band),
-            int(order),
+            _count(order, "order", 1),
             None if fs is None else float(fs),
             None if pdf is None else _os.fspath(pdf),
         )

@@ -465,3 +465,25 @@ fn a_file_with_a_hundred_thousand_line_ids_is_described_and_reported() {
     let html = std::fs::read_to_string(dir.path().join("r/index.html")).unwrap();
     assert!(html.contains("99999"));
 }
+
+/// `info` names a MAT-file a MAT-file, and standard input by its content (issue 46, item 18).
+#[test]
+fn info_names_the_format_it_read() {
+    let dir = TempDir::new().unwrap();
+    let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tolles-io/tests/fixtures");
+    for name in ["matlab_v5.mat", "matlab_v73.mat"] {
+        let (text, _) = run(dir.path(), &["info", fixtures.join(name).to_str().unwrap()]);
+        assert!(text.lines().next().unwrap().ends_with(" (mat)"), "{text}");
+    }
+    for (name, format) in [("pyarrow.parquet", "parquet"), ("geosoft.xyz", "xyz")] {
+        let input = std::fs::read(fixtures.join(name)).unwrap();
+        let out = common::tolles()
+            .current_dir(dir.path())
+            .args(["info", "-"])
+            .write_stdin(input)
+            .output()
+            .unwrap();
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(text.starts_with(&format!("<stdin> ({format})")), "{text}");
+    }
+}

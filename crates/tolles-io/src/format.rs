@@ -138,9 +138,35 @@ fn read_hdf5_or_mat(path: &Path) -> Result<Table, IoError> {
         source,
     })?;
     if crate::mat::is_v5(&bytes) {
-        crate::mat::from_bytes(&bytes, path)
-    } else {
-        crate::hdf5::from_bytes(bytes, path)
+        return Ok(crate::mat::from_bytes(&bytes, path)?.with_format_name("mat"));
+    }
+    let is_mat = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("mat"));
+    // A MAT-file that is neither v5 nor HDF5 is named as what it claims to be, not as HDF5.
+    let v5_text = bytes.starts_with(b"MATLAB 5.0 MAT-file");
+    let (is_v73, size) = (bytes.starts_with(b"MATLAB 7.3 MAT-file"), bytes.len());
+    match crate::hdf5::from_bytes(bytes, path) {
+        Err(IoError::Invalid { path, .. }) if is_mat && v5_text => Err(IoError::Invalid {
+            path,
+            message: format!(
+                "a MATLAB v5 MAT-file cut short ({size} bytes; its header alone is 128)"
+            ),
+        }),
+        Err(IoError::Invalid { path, message }) if is_mat => Err(IoError::Invalid {
+            path,
+            message: match is_v73 {
+                true => format!(
+                    "not a readable MATLAB v7.3 MAT-file (HDF5): {}",
+                    message
+                        .trim_start_matches("not a readable HDF5 file")
+                        .trim_start_matches([':', ' '])
+                ),
+                false => "not a MATLAB MAT-file (neither a v5 nor a v7.3 header)".to_string(),
+            },
+        }),
+        Ok(table) if is_mat => Ok(table.with_format_name("mat")),
+        read => read,
     }
 }
 

@@ -148,16 +148,22 @@ impl ModelFile {
         if value.get("format").and_then(|f| f.as_str()) != Some(FORMAT) {
             return Err(fail(format!("missing \"format\": \"{FORMAT}\"")));
         }
-        match value.get("version").and_then(|v| v.as_u64()) {
-            Some(v) if v >= 1 && v <= VERSION as u64 => {}
-            Some(0) => {
+        let version = value.get("version");
+        match version.map(|v| (v, v.as_u64())) {
+            Some((_, Some(v))) if v >= 1 && v <= VERSION as u64 => {}
+            Some((_, Some(0))) => {
                 return Err(fail(
                     "version 0 is not a version tolles wrote (versions start at 1)".to_string(),
                 ))
             }
-            Some(v) => {
+            Some((_, Some(v))) => {
                 return Err(fail(format!(
                     "version {v} is newer than this tolles understands ({VERSION}); upgrade tolles"
+                )))
+            }
+            Some((v, None)) => {
+                return Err(fail(format!(
+                    "\"version\" must be a whole number from 1 to {VERSION}, got {v}"
                 )))
             }
             None => return Err(fail("missing \"version\"".to_string())),
@@ -417,6 +423,21 @@ mod tests {
             ("/fits/0/coefficients/2", "1e308", "coefficients[2]"),
             ("/fits/0/level_nt", "1e300", "level_nt"),
             ("/version", "0", "version 0 is not a version tolles wrote"),
+            (
+                "/version",
+                "-1",
+                "\"version\" must be a whole number from 1 to 3, got -1",
+            ),
+            (
+                "/version",
+                "1.5",
+                "must be a whole number from 1 to 3, got 1.5",
+            ),
+            (
+                "/version",
+                "\"2\"",
+                "must be a whole number from 1 to 3, got \"2\"",
+            ),
         ] {
             let err = ModelFile::from_json(&model_with(field, value), "m.json")
                 .unwrap_err()

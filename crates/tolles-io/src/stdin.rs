@@ -43,11 +43,14 @@ pub fn read(format: Option<Format>) -> Result<Table, IoError> {
 /// A flight table from the bytes of standard input, in `format` or the one [`sniff`] finds.
 pub fn from_bytes(bytes: Vec<u8>, format: Option<Format>) -> Result<Table, IoError> {
     let name = Path::new(STDIN_NAME);
-    match format.unwrap_or_else(|| sniff(&bytes)) {
+    let format = format.unwrap_or_else(|| sniff(&bytes));
+    let table = match format {
         Format::Csv => Table::from_csv_bytes(bytes, name),
         Format::Xyz => crate::xyz::from_reader(bytes.as_slice(), name),
         Format::Parquet => crate::parquet::from_bytes(bytes, name),
-        Format::Hdf5 if crate::mat::is_v5(&bytes) => crate::mat::from_bytes(&bytes, name),
+        Format::Hdf5 if crate::mat::is_v5(&bytes) => {
+            return Ok(crate::mat::from_bytes(&bytes, name)?.with_format_name("mat"))
+        }
         Format::Hdf5 => crate::hdf5::from_bytes(bytes, name),
         // Its data file is named by its definition file; there is no second standard input.
         Format::Gdf => Err(IoError::Invalid {
@@ -56,7 +59,8 @@ pub fn from_bytes(bytes: Vec<u8>, format: Option<Format>) -> Result<Table, IoErr
                       give the .dfn file's name"
                 .into(),
         }),
-    }
+    };
+    Ok(table?.with_format_name(format.names()[0]))
 }
 
 /// The format `bytes` are in: HDF5 (also MATLAB v7.3, whose HDF5 signature follows a 512-byte

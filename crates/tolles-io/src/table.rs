@@ -238,6 +238,9 @@ pub struct Table {
     aliases: Vec<(String, usize)>,
     /// Units the file declares for its columns: `(column index, unit)`.
     units: Vec<(usize, String)>,
+    /// What the reader found the file to be, where its name does not say (a MAT-file read as
+    /// HDF5, standard input).
+    format_name: Option<&'static str>,
 }
 
 impl Table {
@@ -279,6 +282,7 @@ impl Table {
             notes: Vec::new(),
             aliases: Vec::new(),
             units: Vec::new(),
+            format_name: None,
         })
     }
 
@@ -340,6 +344,17 @@ impl Table {
 
     /// Adds notes about what the reader left out of the table (e.g. a 2-D dataset), so the
     /// caller can tell the user: data is never dropped silently.
+    /// The table, its format named (`"mat"`, `"xyz"`, …) where the file's name does not say.
+    pub fn with_format_name(mut self, name: &'static str) -> Self {
+        self.format_name = Some(name);
+        self
+    }
+
+    /// What the reader found the file to be, where its name does not say it.
+    pub fn format_name(&self) -> Option<&'static str> {
+        self.format_name
+    }
+
     pub fn with_notes(mut self, notes: Vec<String>) -> Self {
         self.notes = notes;
         self
@@ -662,6 +677,7 @@ impl Table {
             notes: self.notes.clone(),
             aliases: self.aliases.clone(),
             units: self.units.clone(),
+            format_name: self.format_name,
         }
     }
 

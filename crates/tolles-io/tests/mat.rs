@@ -170,3 +170,27 @@ fn damaged_files_give_one_line_errors() {
         }
     }
 }
+
+/// A MAT-file cut short is named for what it claims to be (issue 46, item 29), not "not a
+/// readable HDF5 file".
+#[test]
+fn a_truncated_mat_file_is_called_a_mat_file() {
+    let dir = tempfile::TempDir::new().unwrap();
+    let cases = [
+        (
+            "matlab_v5.mat",
+            100,
+            "a MATLAB v5 MAT-file cut short (100 bytes",
+        ),
+        ("matlab_v73.mat", 1000, "MATLAB v7.3 MAT-file (HDF5)"),
+        ("sgl_flight.h5", 1000, "not a MATLAB MAT-file"),
+    ];
+    for (name, len, says) in cases {
+        let bytes = std::fs::read(fixture(name)).unwrap();
+        let path = dir.path().join("cut.mat");
+        std::fs::write(&path, &bytes[..len]).unwrap();
+        let e = Table::read(&path, None).unwrap_err().to_string();
+        assert!(e.contains(says) && !e.contains("HDF5 file"), "{name}: {e}");
+        assert_eq!(e.lines().count(), 1, "{e}");
+    }
+}

@@ -49,7 +49,8 @@ pub struct LineInfo {
 #[derive(Debug, Clone, PartialEq)]
 pub struct FlightInfo {
     pub path: PathBuf,
-    /// The format the extension names (`csv`, `xyz`, `gdf`, `hdf5`, `parquet`).
+    /// The format: the one the extension names (`csv`, `xyz`, `gdf`, `hdf5`, `parquet`), `mat`
+    /// for a MAT-file, and the one its content shows for standard input.
     pub format: String,
     pub rows: usize,
     pub columns: Vec<ColumnInfo>,
@@ -184,7 +185,9 @@ pub fn info(
         .is_none_or(|tt| tolles_core::signal::segment::first_non_increasing(tt).is_none());
     Ok(FlightInfo {
         path: table.path().to_path_buf(),
-        format: format.names()[0].to_string(),
+        format: (table.format_name())
+            .unwrap_or(format.names()[0])
+            .to_string(),
         rows: table.len(),
         columns,
         sample_rate_hz,
