@@ -218,4 +218,18 @@ fn a_model_with_a_fluxgate_lag_streams_as_compensated() {
     let model = std::fs::read_to_string(dir.path().join("m.json")).unwrap();
     assert!(model.contains(r#""lag_s": 0.13"#), "{model}");
     stream_equals_batch(dir.path(), "survey.csv");
+    // The first lines wait on cur_1's lag: said so, not "nan in cur_1" (issue 46, item 29).
+    let input = std::fs::read_to_string(dir.path().join("survey.csv")).unwrap();
+    let out = tolles()
+        .current_dir(dir.path())
+        .args(["stream", "--model", "m.json"])
+        .write_stdin(input)
+        .output()
+        .unwrap();
+    let text = String::from_utf8(out.stdout).unwrap();
+    let first = text.lines().nth(1).unwrap();
+    assert!(
+        first.contains("cur_1 not yet conditioned") && !first.contains("nan in cur_1"),
+        "{first}"
+    );
 }

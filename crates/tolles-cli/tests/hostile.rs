@@ -216,3 +216,43 @@ fn infinities_survive_conversion_to_csv() {
     let back = std::fs::read_to_string(dir.path().join("back.csv")).unwrap();
     assert_eq!(back, "tt,v\n0,inf\n1,-inf\n2,\n3,inf\n");
 }
+
+/// Degenerate references and extras are named for what they are (issue 46, item 29): an
+/// all-missing or absurd `--reference` is the reference's fault, not the scalar's; a low-pass
+/// corner of 1e-320 Hz is refused at once; a fit with an extra channel counts samples, not
+/// rows (it said "9242 of 4661 samples used").
+#[test]
+fn degenerate_references_and_extras_are_named_for_what_they_are() {
+    let dir = TempDir::new().unwrap();
+    let sim = [
+        "simulate", "--plan", "box", "--preset", "uav", "--out", "uav.csv",
+    ];
+    assert!(run(dir.path(), &sim).0);
+    let text = std::fs::read_to_string(dir.path().join("uav.csv")).unwrap();
+    let mut lines = text.lines();
+    let mut out = format!("{},ref_nan,ref_big\n", lines.next().unwrap());
+    for line in lines {
+        out += &format!("{line},,1e300\n");
+    }
+    std::fs::write(dir.path().join("f.csv"), out).unwrap();
+    for column in ["ref_nan", "ref_big"] {
+        let (ok, _, err) = fit(dir.path(), "f.csv", &["--reference", column]);
+        assert!(
+            !ok && err.contains(&format!("column \"{column}\" has no usable value")),
+            "{err}"
+        );
+    }
+    let (ok, _, err) = fit(dir.path(), "f.csv", &["--extra", "cur_1:lowpass=1e-320"]);
+    assert!(
+        !ok && err.contains("lowpass wants a frequency in [1e-6, 1e6] Hz"),
+        "{err}"
+    );
+    let (ok, _, err) = fit(dir.path(), "f.csv", &["--extra", "cur_1"]);
+    assert!(ok, "{err}");
+    let summary = err.lines().find(|l| l.contains("samples used")).unwrap();
+    let numbers: Vec<usize> = summary
+        .split_whitespace()
+        .filter_map(|w| w.parse().ok())
+        .collect();
+    assert!(numbers.len() == 2 && numbers[0] <= numbers[1], "{summary}");
+}

@@ -35,7 +35,7 @@ use crate::error::IoError;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 use tolles_core::fit::Fit;
-use tolles_core::model::extra::{MAX_LAG_S, MAX_LOWPASS_HZ};
+use tolles_core::model::extra::{MAX_LAG_S, MAX_LOWPASS_HZ, MIN_LOWPASS_HZ};
 use tolles_core::model::interpret::{AircraftField, PatentTerms};
 
 /// The `format` tag of a model file.
@@ -264,7 +264,7 @@ fn check_numbers(fit: &ScalarModel) -> Result<(), String> {
 }
 
 /// The fluxgate's lag and each extra channel's lag and low-pass, as `fit` accepts them: lags
-/// finite within ±[`MAX_LAG_S`] s, a low-pass corner in (0, [`MAX_LOWPASS_HZ`]] Hz.
+/// finite within ±[`MAX_LAG_S`] s, a low-pass corner in [[`MIN_LOWPASS_HZ`], [`MAX_LOWPASS_HZ`]] Hz.
 fn check_lags(fit: &ScalarModel) -> Result<(), String> {
     let scalar = &fit.scalar;
     let lag_ok = |lag: f64| lag.is_finite() && lag.abs() <= MAX_LAG_S;
@@ -283,9 +283,9 @@ fn check_lags(fit: &ScalarModel) -> Result<(), String> {
             ));
         }
         if let Some(corner) = extra.lowpass_hz {
-            if !(corner > 0.0 && corner <= MAX_LOWPASS_HZ) {
+            if !(MIN_LOWPASS_HZ..=MAX_LOWPASS_HZ).contains(&corner) {
                 return Err(format!(
-                    "fit of {scalar}: extra channel {name}: lowpass_hz {} is not a corner in (0, {MAX_LOWPASS_HZ:e}] Hz",
+                    "fit of {scalar}: extra channel {name}: lowpass_hz {} is not a corner in [{MIN_LOWPASS_HZ:e}, {MAX_LOWPASS_HZ:e}] Hz",
                     show(corner)
                 ));
             }

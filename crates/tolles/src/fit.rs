@@ -264,7 +264,7 @@ fn targets(table: &Table, request: &FitRequest, first: Vec<f64>) -> Result<Vec<V
                  already compensated magnetometer"
             )))
         }
-        Some(name) => Some(table.numeric(name)?),
+        Some(name) => Some(usable_reference(table, name)?),
         None => None,
     };
     let mut first = Some(first);
@@ -282,6 +282,19 @@ fn targets(table: &Table, request: &FitRequest, first: Vec<f64>) -> Result<Vec<V
             })
         })
         .collect()
+}
+
+/// The reference column `name` of `table` (nT), an error naming it when no value is a
+/// believable field: the scalar minus it would have nothing to fit, and blame the scalar.
+fn usable_reference(table: &Table, name: &str) -> Result<Vec<f64>> {
+    let values = table.numeric(name)?;
+    match values.iter().any(|v| tolles_core::fit::scalar_usable(*v)) {
+        true => Ok(values),
+        false => Err(Error::NoUsableRow {
+            path: table.path().to_path_buf(),
+            column: name.to_string(),
+        }),
+    }
 }
 
 /// Fits every scalar of `request` on the calibration flight `table`, on all cores: one model

@@ -336,8 +336,14 @@ fn serve_lines(
         stats.samples_in.fetch_add(1, Ordering::Relaxed);
         let values = sources(&line);
         aligner.push((line, arrived), &values, |payload, aligned| {
-            let layout = (&layout, setup.uncertainty);
-            compensate_line(&mut stream, layout, stats, payload, aligned, &mut text)
+            compensate_line(
+                &mut stream,
+                (&layout, setup),
+                stats,
+                payload,
+                aligned,
+                &mut text,
+            )
         });
         out.write_all(text.as_bytes()).map_err(Error::StreamIo)?;
         text.clear();
@@ -347,8 +353,14 @@ fn serve_lines(
         }
     }
     aligner.finish(|payload, aligned| {
-        let layout = (&layout, setup.uncertainty);
-        compensate_line(&mut stream, layout, stats, payload, aligned, &mut text)
+        compensate_line(
+            &mut stream,
+            (&layout, setup),
+            stats,
+            payload,
+            aligned,
+            &mut text,
+        )
     });
     stream.finish(|o| format_output((&layout, setup.uncertainty), stats, o, &mut text));
     out.write_all(text.as_bytes()).map_err(Error::StreamIo)?;
@@ -359,15 +371,27 @@ fn serve_lines(
 /// them), into the compensator; appends the output lines that are ready to `text`.
 fn compensate_line(
     stream: &mut StreamCompensator<(Line, Instant)>,
-    layout: (&Layout, bool),
+    (layout, setup): (&Layout, &Setup),
     stats: &Stats,
     (line, arrived): (Line, Instant),
     aligned: &[f64],
     text: &mut String,
 ) {
+    let layout = (layout, setup.uncertainty);
     let (vectors, extras) = aligned.split_at(3 * stream.fluxgate_count());
     let fluxgates: Vec<[f64; 3]> = vectors.chunks(3).map(|v| [v[0], v[1], v[2]]).collect();
-    let (scalars, flags) = (line.scalars.clone(), line.flags.clone());
+    let (scalars, mut flags) = (line.scalars.clone(), line.flags.clone());
+    // A channel read fine on this line whose conditioned value is missing waits on its lag
+    // or low-pass, which is not what "nan in" the channel would say.
+    for (conditioned, channel) in extras.iter().zip(&setup.extras) {
+        let column = setup.extra_columns.iter().position(|c| *c == channel.name);
+        let read = column.and_then(|k| line.extras.get(k));
+        if conditioned.is_nan() && read.is_some_and(|v| v.is_finite()) {
+            flags.push(Flag::NotConditioned {
+                column: channel.name.clone(),
+            });
+        }
+    }
     let sample = line.well_formed.then_some(Sample {
         time_s: line.time_s,
         scalars: &scalars,

@@ -108,6 +108,12 @@ pub enum Flag {
     TimeBackwards,
     /// Time equals the previous sample's.
     TimeRepeated,
+    /// An extra channel read at this line has no conditioned value yet: its lag or low-pass
+    /// reaches samples not (or not validly) read — the stream's first lines, or a missing cell.
+    NotConditioned {
+        /// Column name.
+        column: String,
+    },
 }
 
 impl fmt::Display for Flag {
@@ -124,6 +130,12 @@ impl fmt::Display for Flag {
             Flag::TimeGap { seconds } => write!(f, "time gap {seconds:.3} s"),
             Flag::TimeBackwards => write!(f, "time went backwards"),
             Flag::TimeRepeated => write!(f, "time repeated"),
+            Flag::NotConditioned { column } => {
+                write!(
+                    f,
+                    "{column} not yet conditioned (its lag or low-pass reaches past the data)"
+                )
+            }
         }
     }
 }
@@ -134,7 +146,8 @@ impl Flag {
             Flag::NotFinite { column, .. }
             | Flag::OutOfRange { column, .. }
             | Flag::Missing { column }
-            | Flag::NotANumber { column, .. } => Some(column),
+            | Flag::NotANumber { column, .. }
+            | Flag::NotConditioned { column } => Some(column),
             _ => None,
         }
     }

@@ -734,6 +734,7 @@ fn fit_reusing(
         Wanted::Coefficients => f64::NAN,
     };
     let (short, runs_used) = (prepared.short, prepared.runs_used());
+    let above_rows = prepared.above_rows();
     let band_scores = match wanted {
         Wanted::Everything => {
             let terms = designs[chosen.index].design_terms();
@@ -773,6 +774,7 @@ fn fit_reusing(
         &chosen.solution,
         DiagnosticCounts {
             level_rows: levels.as_ref().map_or(0, |l| l.row_count()),
+            above_rows,
             level_rss: levels.as_ref().map_or(0.0, |l| {
                 l.weighted_rss(&terms, &chosen.solution.coefficients)
             }),
@@ -1135,6 +1137,8 @@ struct DiagnosticCounts {
     /// Level rows in the solution, and their weighted residual sum of squares (nT²).
     level_rows: usize,
     level_rss: f64,
+    /// Rows above the band (extra channels): a second row of samples already counted.
+    above_rows: usize,
     total: usize,
     nonfinite: usize,
     short: usize,
@@ -1166,7 +1170,7 @@ fn diagnostics(
         samples_total: c.total,
         samples_nonfinite: c.nonfinite,
         samples_in_short_runs: c.short,
-        samples_used: band_rows,
+        samples_used: band_rows.saturating_sub(c.above_rows),
         runs_used: c.runs_used,
         filtered_std_before_nt: c.before_std,
         residual_std_nt: residual_std,

@@ -429,6 +429,15 @@ impl Prepared {
         &r.data[start + rows.start..start + rows.end]
     }
 
+    /// The rows above the band (one per sample used, with extra channels; else none).
+    pub(super) fn above_rows(&self) -> usize {
+        self.runs
+            .iter()
+            .filter_map(|r| r.above.as_ref())
+            .map(|a| a.nrows())
+            .sum()
+    }
+
     /// The residual sum of squares (nT²) and count of the rows above the band, for the
     /// coefficients `beta` of the stored columns.
     pub(super) fn above_residual(&self, beta: &[f64]) -> (f64, usize) {

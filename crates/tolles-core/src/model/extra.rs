@@ -36,6 +36,10 @@ pub const MAX_LAG_S: f64 = 60.0;
 /// low-pass no longer acts; a larger number is a typing slip.
 pub const MAX_LOWPASS_HZ: f64 = 1e6;
 
+/// Smallest low-pass corner (Hz): a time constant of about two days, longer than any flight.
+/// Below it the channel would be a constant, indistinguishable from the permanent field.
+pub const MIN_LOWPASS_HZ: f64 = 1e-6;
+
 /// One extra channel of a design: its column name and how it is conditioned.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(from = "Stored", into = "Stored")]
@@ -123,12 +127,12 @@ impl FromStr for ExtraChannel {
             let (key, value) = option.split_once('=').unwrap_or((option, ""));
             let number = value.trim().parse::<f64>().ok().filter(|v| v.is_finite());
             match (key.trim().to_ascii_lowercase().as_str(), number) {
-                ("lowpass", Some(hz)) if hz > 0.0 && hz <= MAX_LOWPASS_HZ => {
+                ("lowpass", Some(hz)) if (MIN_LOWPASS_HZ..=MAX_LOWPASS_HZ).contains(&hz) => {
                     spec.lowpass_hz = Some(hz)
                 }
                 ("lowpass", _) => {
                     return Err(format!(
-                        "{text:?}: lowpass wants a frequency in (0, {MAX_LOWPASS_HZ:e}] Hz, got {value:?}"
+                        "{text:?}: lowpass wants a frequency in [{MIN_LOWPASS_HZ:e}, {MAX_LOWPASS_HZ:e}] Hz, got {value:?}"
                     ))
                 }
                 ("lag", Some(s)) if s.abs() <= MAX_LAG_S => spec.lag_s = s,
