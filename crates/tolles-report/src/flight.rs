@@ -79,14 +79,16 @@ fn several_header(data: &[ReportData]) -> Report {
         first.map_or(String::new(), |d| d.request.flight.display().to_string())
     ));
     if let Some(d) = first {
-        report = report.subtitle(format!(
-            "Scalars {} at {:.3} Hz, {} samples; figure-of-merit band {}–{} Hz.",
-            scalars.join(", "),
-            d.fom.fs_hz,
-            d.fom.tt.len(),
-            d.request.band.pass1_hz,
-            d.request.band.pass2_hz
-        ));
+        report = report
+            .subtitle(format!(
+                "Scalars {} at {:.3} Hz, {} samples; figure-of-merit band {}–{} Hz.",
+                scalars.join(", "),
+                d.fom.fs_hz,
+                d.fom.tt.len(),
+                d.request.band.pass1_hz,
+                d.request.band.pass2_hz
+            ))
+            .provenance(provenance(d));
     }
     let rows: Vec<Vec<String>> = data.iter().map(comparison_cells).collect();
     report
@@ -215,7 +217,8 @@ fn page_with(data: &ReportData, maps: &[Map]) -> Report {
             data.fom.tt.len(),
             request.band.pass1_hz,
             request.band.pass2_hz
-        ));
+        ))
+        .provenance(provenance(data));
     report = summary(report, data);
     if let Some(fit) = &data.fit {
         report = model_banner(report, fit, request.model.as_deref());
@@ -236,10 +239,37 @@ fn page_with(data: &ReportData, maps: &[Map]) -> Report {
     report = heading_error(report, data);
     report = level_against_heading(report, data);
     if let Some(fit) = &data.fit {
-        report = model(report, fit);
-        report = diagnostics(report, fit);
+        let from = fitted_on(fit, &request.flight);
+        report = model(report, fit).paragraph(from.clone());
+        report = diagnostics(report, fit).paragraph(from);
     }
     report
+}
+
+/// The tool, the time of writing and the files a page comes from.
+fn provenance(data: &ReportData) -> String {
+    let model =
+        (data.request.model.as_deref()).map_or("none".to_string(), |m| m.display().to_string());
+    format!(
+        "Written by tolles {} on {}; flight {}; model {model}.",
+        env!("CARGO_PKG_VERSION"),
+        crate::utc_stamp(std::time::SystemTime::now()),
+        data.request.flight.display()
+    )
+}
+
+/// Which flight the model's sections describe: the calibration flight, which is this page's
+/// flight only for a calibration report.
+fn fitted_on(fit: &ScalarModel, flight: &std::path::Path) -> String {
+    let Some(calibration) = fit.calibration_flight.as_deref() else {
+        return "From the model's calibration flight (its file does not name it), not this one."
+            .to_string();
+    };
+    let same = std::path::Path::new(calibration).file_name() == flight.file_name();
+    match same {
+        true => format!("From the calibration on this flight ({calibration})."),
+        false => format!("From the calibration flight {calibration}, not this flight."),
+    }
 }
 
 /// What the page's model is and whether to trust it, under the summary: the model file, its
@@ -1623,7 +1653,10 @@ mod tests {
             assert!(!html.contains(text), "{text} present");
         }
         for text in ["NaN", "nan", "inf", "∞"] {
-            assert!(!html.contains(text), "{text} in the page");
+            let at = html
+                .find(text)
+                .map(|k| &html[k.saturating_sub(80)..(k + 40).min(html.len())]);
+            assert!(at.is_none(), "{text} in the page: {at:?}");
         }
     }
 

@@ -106,7 +106,8 @@ dl.kv dt:nth-last-of-type(1), dl.kv dd:last-of-type { border-bottom: 0; }
 .table-wrap { overflow-x: auto; margin: 14px 0; border: 1px solid var(--line); border-radius: 8px;
   width: fit-content; max-width: 100%; min-width: 420px; }
 table { border-collapse: collapse; width: 100%; font-size: 15px; }
-th, td { padding: 7px 20px; text-align: left; white-space: nowrap; }
+th, td { padding: 7px 12px; text-align: left; white-space: nowrap; }
+thead th { white-space: normal; vertical-align: bottom; }
 thead th { background: var(--wash); color: var(--muted); font-weight: 600; font-size: 13px;
   border-bottom: 1px solid var(--line); }
 tbody tr + tr td { border-top: 1px solid var(--line); }
@@ -150,8 +151,13 @@ figure.is-live > img, figure.is-live > .svg-note, figure.is-live > ul.legend { d
   nav.toc, #tolles-check { display: none; }
   main > h2:not(:first-child) { break-before: page; }
   h2, h3 { break-after: avoid; }
-  figure, .table-wrap, dl.kv, tr { break-inside: avoid; }
-  .table-wrap { overflow: visible; }
+  /* A long table splits across pages (its header repeats); every column stays on the page. */
+  figure, dl.kv, tr { break-inside: avoid; }
+  .table-wrap { overflow: visible; width: auto; max-width: none; min-width: 0; }
+  table { font-size: 8.5pt; }
+  th, td { padding: 2px 5px; }
+  thead { display: table-header-group; }
+  .written-by { color: #333; }
   tbody tr:hover { background: none; }
 }
 "#;

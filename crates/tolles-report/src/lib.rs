@@ -118,6 +118,7 @@ pub struct GridCell {
 pub struct Report {
     title: String,
     subtitle: Option<String>,
+    provenance: Option<String>,
     summary: Vec<(String, String)>,
     summary_notes: Vec<String>,
     blocks: Vec<Block>,
@@ -136,6 +137,7 @@ impl Report {
         Report {
             title: title.into(),
             subtitle: None,
+            provenance: None,
             summary: Vec::new(),
             summary_notes: Vec::new(),
             blocks: Vec::new(),
@@ -145,6 +147,13 @@ impl Report {
     /// A line of prose under the title.
     pub fn subtitle(mut self, text: impl Into<String>) -> Self {
         self.subtitle = Some(text.into());
+        self
+    }
+
+    /// Where the page comes from (tool version, date, input files), under the subtitle, so a
+    /// printed page says it too.
+    pub fn provenance(mut self, text: impl Into<String>) -> Self {
+        self.provenance = Some(text.into());
         self
     }
 
@@ -326,6 +335,9 @@ impl Report {
         if let Some(s) = &self.subtitle {
             let _ = writeln!(out, "<p class=\"subtitle\">{}</p>", escape(s));
         }
+        if let Some(p) = &self.provenance {
+            let _ = writeln!(out, "<p class=\"subtitle written-by\">{}</p>", escape(p));
+        }
         if !self.summary.is_empty() {
             out.push_str("<dl class=\"summary\">\n");
             for (k, v) in &self.summary {
@@ -346,9 +358,10 @@ impl Report {
         let _ = write!(
             out,
             "<main class=\"wrap\">\n{body}</main>\n\
-             <footer><div class=\"wrap\">Written by tolles-report. This page and its plots open \
+             <footer><div class=\"wrap\">Written by tolles-report {}. This page and its plots open \
              without a network connection.</div></footer>\n\
              <div id=\"tolles-check\" hidden>pending</div>\n{}<script>{}</script>\n</body>\n</html>\n",
+            env!("CARGO_PKG_VERSION"),
             live_tags(live_scripts),
             html::SELF_CHECK
         );
@@ -681,8 +694,43 @@ fn io_error(path: &Path, e: tolles::tolles_io::IoError) -> ReportError {
     }
 }
 
+/// The date and time `now` as `YYYY-MM-DD HH:MM UTC`, for a page's provenance line.
+pub fn utc_stamp(now: std::time::SystemTime) -> String {
+    let seconds = now
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs()) as i64;
+    let (days, rest) = (seconds.div_euclid(86_400), seconds.rem_euclid(86_400));
+    let (y, m, d) = civil_from_days(days);
+    format!(
+        "{y:04}-{m:02}-{d:02} {:02}:{:02} UTC",
+        rest / 3600,
+        rest % 3600 / 60
+    )
+}
+
+/// The proleptic Gregorian date of `days` since 1970-01-01 (Hinnant's civil-from-days).
+fn civil_from_days(days: i64) -> (i64, i64, i64) {
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    (yoe + era * 400 + i64::from(m <= 2), m, d)
+}
+
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn a_stamp_is_the_utc_date_and_minute() {
+        let at = |s: u64| utc_stamp(std::time::UNIX_EPOCH + std::time::Duration::from_secs(s));
+        assert_eq!(at(0), "1970-01-01 00:00 UTC");
+        assert_eq!(at(951_782_400 + 3_661), "2000-02-29 01:01 UTC");
+        assert_eq!(at(1_795_862_700), "2026-11-28 10:45 UTC");
+    }
+
     use super::plot::{BarSeries, Colour, Series};
     use super::*;
 

@@ -88,10 +88,14 @@ impl Frame {
         // A track along one axis (or one point) still needs a width to scale.
         let span_km = ((e1 - e0).max(1e-3), (n1 - n0).max(1e-3));
         let (w, h) = Self::area();
+        let px_per_km = (w / span_km.0).min(h / span_km.1);
+        // The frame fills the plotting area at that one scale, the track centred in it: a
+        // line flown north keeps an east axis wide enough to label both ends apart.
+        let span_km = (w / px_per_km, h / px_per_km);
         Frame {
-            east0: e0,
-            north0: n0,
-            px_per_km: (w / span_km.0).min(h / span_km.1),
+            east0: (e0 + e1 - span_km.0) / 2.0,
+            north0: (n0 + n1 - span_km.1) / 2.0,
+            px_per_km,
             span_km,
         }
     }
