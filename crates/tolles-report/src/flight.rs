@@ -166,7 +166,7 @@ fn maps(data: &ReportData, tag: &str) -> Vec<Map> {
                 before.iter().zip(after).map(|(b, a)| b - a).collect(),
             ),
         ],
-        None => vec![("uncompensated", "uncompensated field (nT)", before.clone())],
+        None => vec![("uncompensated", "field as read (nT)", before.clone())],
     };
     colourings
         .into_iter()
@@ -549,16 +549,18 @@ fn signals(mut report: Report, data: &ReportData) -> Report {
     let series =
         |name: &str, y: &[f64], colour| Series::new(name, t.clone(), y.to_vec()).colour(colour);
     let (before, after) = (&data.uncompensated, data.compensated.as_ref());
-    let mut raw = vec![series(
-        "uncompensated",
-        &before.centred,
-        Colour::UNCOMPENSATED,
-    )];
-    let mut filtered = vec![series(
-        "uncompensated",
-        &before.bandpassed,
-        Colour::UNCOMPENSATED,
-    )];
+    // Without a model the scalar is shown as read: it may be a compensated channel already.
+    let scalar = data.request.scalar.as_deref().unwrap_or("scalar");
+    let as_read = match after {
+        Some(_) => "uncompensated".to_string(),
+        None => format!("{scalar} as read"),
+    };
+    let mut raw = vec![series(&as_read, &before.centred, Colour::UNCOMPENSATED)];
+    let mut filtered = vec![series(&as_read, &before.bandpassed, Colour::UNCOMPENSATED)];
+    // The truth goes under the compensated curve, which it should hide where they agree.
+    if let Some(truth) = &data.truth {
+        raw.push(series("truth (earth field)", truth, Colour::REFERENCE));
+    }
     if let Some(after) = after {
         raw.push(series("compensated", &after.centred, Colour::COMPENSATED));
         filtered.push(series(
@@ -567,11 +569,19 @@ fn signals(mut report: Report, data: &ReportData) -> Report {
             Colour::COMPENSATED,
         ));
     }
-    if let Some(truth) = &data.truth {
-        raw.push(series("truth (earth field)", truth, Colour::REFERENCE));
-    }
+    let raw_caption = after.map(|_| {
+        "What compensation removes is the difference between the uncompensated and compensated curves."
+            .to_string()
+    });
+    let band_is = match has_box(data) {
+        true => "the maneuver noise",
+        false => "the figure of merit's band",
+    };
     let band = &data.request.band;
-    let windows = maneuver_windows(data);
+    let windows = match has_box(data) {
+        true => maneuver_windows(data),
+        false => line_windows(data),
+    };
     let over_time = |title: String, y_label: &str, series, caption: Option<String>| LinePlot {
         title,
         x_label: "time (s)".into(),
@@ -586,16 +596,16 @@ fn signals(mut report: Report, data: &ReportData) -> Report {
     };
     report = report
         .section("Signals")
-        .paragraph(signals_intro(&windows))
+        .paragraph(signals_intro(&windows, has_box(data)))
         .line_plot(over_time(
             "Scalar magnetometer, mean removed".into(),
             "field − mean (nT)",
             raw,
-            Some("What compensation removes is the difference between the two curves.".into()),
+            raw_caption,
         ))
         .line_plot(over_time(
             format!(
-                "Band-passed {}–{} Hz (the maneuver noise)",
+                "Band-passed {}–{} Hz ({band_is})",
                 band.pass1_hz, band.pass2_hz
             ),
             "band-passed field (nT)",
@@ -641,14 +651,19 @@ fn signals(mut report: Report, data: &ReportData) -> Report {
 }
 
 /// Says what the shaded windows of the time series are, when there are any.
-fn signals_intro(windows: &[Span]) -> String {
+fn signals_intro(windows: &[Span], maneuvers: bool) -> String {
     let mut text =
         String::from("Each time series is a chart you can zoom (its static image is what prints).");
-    if !windows.is_empty() {
-        text += &format!(
+    match (windows.is_empty(), maneuvers) {
+        (true, _) => {}
+        (false, true) => text += &format!(
             " Shaded: the {} maneuvers the figure of merit counts, labelled when there is room.",
             windows.len()
-        );
+        ),
+        (false, false) => {
+            text += " Shaded: every other flight line, labelled with its id when there is room, \
+                     so each line's start and end show."
+        }
     }
     text
 }
@@ -667,6 +682,29 @@ fn maneuver_windows(data: &ReportData) -> Vec<Span> {
 }
 
 /// The same windows unlabelled: a static image has no room for a dozen labels.
+/// Most line stretches marked on a chart; beyond, the shading would be a grey wash.
+const MOST_LINES_MARKED: usize = 80;
+
+/// A survey's lines as alternate shaded spans labelled with their ids, so a chart shows where
+/// each line begins and ends (none when there are too many to tell apart).
+fn line_windows(data: &ReportData) -> Vec<Span> {
+    let Some(lines) = &data.lines else {
+        return Vec::new();
+    };
+    if lines.stretches.len() > MOST_LINES_MARKED {
+        return Vec::new();
+    }
+    (lines.stretches.iter().enumerate())
+        .filter(|(k, _)| k % 2 == 0)
+        .map(|(_, (id, from, to))| Span {
+            label: id.clone(),
+            from: *from,
+            to: *to,
+            colour: Colour::CYCLE[5],
+        })
+        .collect()
+}
+
 fn shading_only(windows: &[Span]) -> Vec<Span> {
     windows
         .iter()
@@ -1658,6 +1696,22 @@ mod tests {
                 .map(|k| &html[k.saturating_sub(80)..(k + 40).min(html.len())]);
             assert!(at.is_none(), "{text} in the page: {at:?}");
         }
+    }
+
+    #[test]
+    fn a_survey_report_marks_where_each_line_begins_and_ends() {
+        let dir = tempfile::tempdir().unwrap();
+        let (data, html) = survey_report(dir.path());
+        let stretches = &data.lines.as_ref().unwrap().stretches;
+        // Four lines and the turns between them, each a stretch, in time order.
+        assert!(stretches.len() >= 4, "{stretches:?}");
+        assert!(
+            stretches.windows(2).all(|w| w[0].2 < w[1].1),
+            "{stretches:?}"
+        );
+        assert_eq!(line_windows(&data).len(), stretches.len().div_ceil(2));
+        assert!(html.contains("Shaded: every other flight line"));
+        assert!(!html.contains("(the maneuver noise)"));
     }
 
     #[test]

@@ -78,7 +78,8 @@ body {
 header.masthead { background: var(--head); color: #fff; padding: 34px 0 30px; }
 .kicker { margin: 0 0 4px; font-size: 13px; letter-spacing: .08em;
   color: #9fc3e6; font-weight: 600; }
-header h1 { margin: 0; font-size: 32px; line-height: 1.2; font-weight: 650; }
+header h1 { margin: 0; font-size: 32px; line-height: 1.2; font-weight: 650;
+  overflow-wrap: anywhere; }
 header .subtitle { margin: 8px 0 0; color: #cfdbe7; max-width: 70ch; }
 .summary { display: grid; grid-template-columns: repeat(auto-fill, minmax(180px, 1fr));
   gap: 12px; margin: 24px 0 0; }

@@ -71,6 +71,9 @@ pub struct LineTable {
     pub heading_from: HeadingSource,
     /// What the extents measure.
     pub extent_from: ExtentSource,
+    /// Each stretch of consecutive rows on one line, in row order: its id and its first and
+    /// last time (s), for charts to mark where lines begin and end.
+    pub stretches: Vec<(String, f64, f64)>,
 }
 
 /// The signals of a flight, row by row, that the table is computed from.
@@ -132,7 +135,27 @@ pub fn line_table(table: &Table, inputs: &LineInputs) -> Option<LineTable> {
         rows,
         heading_from,
         extent_from,
+        stretches: stretches(&lines, inputs.tt),
     })
+}
+
+/// The stretches of consecutive rows of `lines`, in row order, with their first and last
+/// finite times in `tt` (s); a stretch without a finite time is left out.
+fn stretches(lines: &[Line], tt: &[f64]) -> Vec<(String, f64, f64)> {
+    let mut out: Vec<(usize, String, f64, f64)> = Vec::new();
+    for line in lines {
+        for run in &line.runs {
+            let times = tt[run.clone()].iter().copied().filter(|t| t.is_finite());
+            let (first, last) = times.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), t| {
+                (a.min(t), b.max(t))
+            });
+            if first <= last {
+                out.push((run.start, line.id.clone(), first, last));
+            }
+        }
+    }
+    out.sort_by_key(|s| s.0);
+    out.into_iter().map(|(_, id, a, b)| (id, a, b)).collect()
 }
 
 /// Where the aircraft was, row by row, on a local flat earth.
