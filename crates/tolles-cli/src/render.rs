@@ -234,17 +234,14 @@ pub fn fit_summary(model: &ScalarModel, cal: &Path) -> std::io::Result<()> {
     }
     writeln!(
         err,
-        "  {:<12} {:>14} {:>12}",
+        "  {:<12} {:>14} {:>12}  unit",
         "term", "coefficient", "std error"
     )?;
-    for ((name, beta), se) in model
-        .fit
-        .columns
-        .iter()
-        .zip(&model.fit.coefficients)
-        .zip(&d.std_errors)
-    {
-        writeln!(err, "  {name:<12} {beta:>14.6} {se:>12.4}")?;
+    let terms = model.fit.settings.design.design_terms();
+    let columns = model.fit.columns.iter().zip(&model.fit.coefficients);
+    for (k, ((name, beta), se)) in columns.zip(&d.std_errors).enumerate() {
+        let unit = terms.get(k).map_or("nT", |t| t.coefficient_unit());
+        writeln!(err, "  {name:<12} {beta:>14.6} {se:>12.4}  {unit}")?;
     }
     let p = &model.patent;
     writeln!(

@@ -286,6 +286,20 @@ fn the_fit_summary_prints_the_score_it_chose_by_and_small_terms_in_full() {
         scores.iter().any(|&(s, chosen)| chosen && s == lowest),
         "{summary}"
     );
+    // Every coefficient carries its unit (item 18).
+    let header = summary
+        .lines()
+        .position(|l| l.contains("coefficient"))
+        .unwrap();
+    assert!(
+        summary.lines().nth(header).unwrap().ends_with("unit"),
+        "{summary}"
+    );
+    let first = summary.lines().nth(header + 1).unwrap();
+    assert!(
+        first.trim_start().starts_with("perm") && first.ends_with(" nT"),
+        "{summary}"
+    );
     let patent = summary
         .lines()
         .find(|l| l.contains("patent terms"))
@@ -486,4 +500,22 @@ fn info_names_the_format_it_read() {
         let text = String::from_utf8_lossy(&out.stdout);
         assert!(text.starts_with(&format!("<stdin> ({format})")), "{text}");
     }
+}
+
+/// `stream` suggests the column meant, as the file commands do (item 18).
+#[test]
+fn stream_suggests_the_column_meant() {
+    let dir = TempDir::new().unwrap();
+    box_model(dir.path());
+    let out = common::tolles()
+        .current_dir(dir.path())
+        .args(["stream", "--model", "m.json"])
+        .write_stdin("tt,mag1uc,flux_a_x,flux_a_y,flux_a_z\n0,5e4,1e4,1e4,4e4\n")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("no column \"mag_1_uc\"; did you mean mag1uc?"),
+        "{err}"
+    );
 }

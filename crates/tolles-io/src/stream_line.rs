@@ -114,9 +114,10 @@ impl Layout {
                 })
         };
         let find = |name: &str| {
-            index(name)
-                .map(|k| (k, name.to_string()))
-                .ok_or_else(|| format!("header has no column {name:?}"))
+            index(name).map(|k| (k, name.to_string())).ok_or_else(|| {
+                let hint = crate::table::suggest(&names, name);
+                format!("header has no column {name:?}{hint}")
+            })
         };
         let scalars = scalars.iter().map(|s| find(s)).collect::<Result<_, _>>()?;
         let fluxgates = fluxgates

@@ -949,18 +949,27 @@ pub fn indices_after_renames(
 pub(crate) fn suggest(headers: &[String], name: &str) -> String {
     let n = name.to_ascii_lowercase();
     let stem = n.trim_end_matches(['x', 'y', 'z']).trim_end_matches('_');
+    // Spelled without its separators (mag1uc, MAG-1-UC) a name is still near.
+    let bare = |s: &str| s.replace(['_', '-', ' ', '.'], "");
     let near: Vec<&str> = headers
         .iter()
         .filter(|h| {
             let h = h.to_ascii_lowercase();
-            h.contains(&n) || n.contains(&h) || (!stem.is_empty() && h.starts_with(stem))
+            h.contains(&n)
+                || n.contains(&h)
+                || (!stem.is_empty() && h.starts_with(stem))
+                || (!h.is_empty() && bare(&h) == bare(&n))
         })
         .map(String::as_str)
         .take(6)
         .collect();
     if near.is_empty() {
         let shown: Vec<&str> = headers.iter().map(String::as_str).take(12).collect();
-        format!("; the header has: {}", shown.join(", "))
+        let more = match headers.len().saturating_sub(shown.len()) {
+            0 => String::new(),
+            n => format!(" and {n} more (tolles info lists them)"),
+        };
+        format!("; the header has: {}{more}", shown.join(", "))
     } else {
         format!("; did you mean {}?", near.join(", "))
     }
@@ -1350,6 +1359,19 @@ pub(crate) fn into_io(e: csv::Error) -> std::io::Error {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn a_long_header_is_listed_in_part_with_the_rest_counted() {
+        let headers: Vec<String> = (0..20).map(|k| format!("col{k}")).collect();
+        let said = suggest(&headers, "mag_1_uc");
+        assert!(said.starts_with("; the header has: col0, col1,"), "{said}");
+        assert!(
+            said.ends_with("col11 and 8 more (tolles info lists them)"),
+            "{said}"
+        );
+        let few = suggest(&headers[..3], "mag_1_uc");
+        assert_eq!(few, "; the header has: col0, col1, col2");
+    }
+
     use super::*;
 
     fn read(text: &str) -> Result<Table, IoError> {

@@ -13,7 +13,6 @@ use tolles::report::{HeadingRow, ManeuverRow, ReportData};
 use tolles::tolles_core::fit::Target;
 use tolles::tolles_core::maneuvers::detect::Maneuver;
 use tolles::tolles_core::maneuvers::heading::HeadingLevels;
-use tolles::tolles_core::model::terms::Column;
 use tolles::tolles_core::signal::metrics::std_dev;
 use tolles::tolles_core::signal::spectrum::Spectrum;
 use tolles::tolles_io::model::ScalarModel;
@@ -656,10 +655,12 @@ fn signals_intro(windows: &[Span], maneuvers: bool) -> String {
         String::from("Each time series is a chart you can zoom (its static image is what prints).");
     match (windows.is_empty(), maneuvers) {
         (true, _) => {}
-        (false, true) => text += &format!(
+        (false, true) => {
+            text += &format!(
             " Shaded: the {} maneuvers the figure of merit counts, labelled when there is room.",
             windows.len()
-        ),
+        )
+        }
         (false, false) => {
             text += " Shaded: every other flight line, labelled with its id when there is room, \
                      so each line's start and end show."
@@ -1169,12 +1170,7 @@ fn model(report: Report, model: &ScalarModel) -> Report {
         .zip(&fit.diagnostics.std_errors)
         .enumerate()
         .map(|(k, ((name, beta), se))| {
-            // Design columns are dimensionless (B̂, B̂·B/Bt_scale, B̂·Ḃ/Bt_scale, 1), so their
-            // coefficients are in nT; an extra channel keeps its own unit.
-            let unit = match terms.get(k).map(|t| t.column) {
-                Some(Column::Extra { .. }) => "nT per channel unit",
-                _ => "nT",
-            };
+            let unit = terms.get(k).map_or("nT", |t| t.coefficient_unit());
             vec![
                 name.clone(),
                 format!("{beta:.6}"),

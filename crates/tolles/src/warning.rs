@@ -224,10 +224,14 @@ impl fmt::Display for Warning {
                 write!(f, "{}: {}", path.display(), selection.summary)
             }
             Warning::ColumnsAliased { path, aliases } => {
-                let list: Vec<String> = aliases
-                    .iter()
+                // A file under its own names (29 of an SGL flight's) needs no essay each time.
+                let mut list: Vec<String> = (aliases.iter().take(ALIASES_NAMED))
                     .map(|(raw, name)| format!("{raw} as {name}"))
                     .collect();
+                if aliases.len() > ALIASES_NAMED {
+                    let more = aliases.len() - ALIASES_NAMED;
+                    list.push(format!("and {more} more (tolles info shows each)"));
+                }
                 write!(f, "{}: using columns {}", path.display(), list.join(", "))
             }
             Warning::SideColumns { path, rows, columns } => write!(
@@ -273,5 +277,40 @@ pub fn hz(v: f64) -> String {
     match v == 0.0 || (1e-3..1e7).contains(&v.abs()) {
         true => format!("{v}"),
         false => format!("{v:e}"),
+    }
+}
+
+/// Aliased columns a warning names before it counts the rest.
+const ALIASES_NAMED: usize = 5;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn many_aliased_columns_are_named_in_part() {
+        let aliases = |n: usize| -> Vec<(String, String)> {
+            (0..n)
+                .map(|k| (format!("RAW{k}"), format!("name{k}")))
+                .collect()
+        };
+        let path = PathBuf::from("f.h5");
+        let many = Warning::ColumnsAliased {
+            path: path.clone(),
+            aliases: aliases(29),
+        };
+        assert_eq!(
+            many.to_string(),
+            "f.h5: using columns RAW0 as name0, RAW1 as name1, RAW2 as name2, RAW3 as name3, \
+             RAW4 as name4, and 24 more (tolles info shows each)"
+        );
+        let few = Warning::ColumnsAliased {
+            path,
+            aliases: aliases(2),
+        };
+        assert_eq!(
+            few.to_string(),
+            "f.h5: using columns RAW0 as name0, RAW1 as name1"
+        );
     }
 }
