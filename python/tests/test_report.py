@@ -18,8 +18,10 @@ def box(tmp_path_factory, cli):
     return flight, model
 
 
-def test_report_writes_the_page_the_cli_writes(box, cli, tmp_path):
+def test_report_writes_the_page_the_cli_writes(box, cli, tmp_path, monkeypatch):
     flight, model = box
+    # Both pages say when they were written: the same time, as reproducible builds fix it.
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1795862700")
     index = tolles.report(flight, tmp_path / "py", model=model, scalar="mag_1_uc", time="..600")
     assert index == tmp_path / "py" / "index.html"
     page = index.read_bytes()

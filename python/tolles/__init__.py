@@ -26,10 +26,31 @@ import os as _os
 import pathlib as _pathlib
 import tempfile as _tempfile
 import warnings as _warnings
-from typing import Any, Iterable, Mapping, Optional, Sequence, Tuple, Union
+from typing import TYPE_CHECKING, Any, Iterable, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as _np
-import pandas as _pd
+
+
+class _OnFirstUse:
+    """A module imported when first used: pandas alone takes 0.4 s to import, which a script
+    that only loads a model or streams should not pay."""
+
+    def __init__(self, name: str):
+        self._name = name
+        self._module = None
+
+    def __getattr__(self, attr: str) -> Any:
+        if self._module is None:
+            import importlib
+
+            self._module = importlib.import_module(self._name)
+        return getattr(self._module, attr)
+
+
+if TYPE_CHECKING:
+    import pandas as _pd
+else:
+    _pd = _OnFirstUse("pandas")
 
 from . import _tolles
 from ._tolles import TollesError, __version__

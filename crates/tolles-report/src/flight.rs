@@ -252,7 +252,7 @@ fn provenance(data: &ReportData) -> String {
     format!(
         "Written by tolles {} on {}; flight {}; model {model}.",
         env!("CARGO_PKG_VERSION"),
-        crate::utc_stamp(std::time::SystemTime::now()),
+        crate::utc_stamp(crate::written_at()),
         data.request.flight.display()
     )
 }

@@ -694,6 +694,16 @@ fn io_error(path: &Path, e: tolles::tolles_io::IoError) -> ReportError {
     }
 }
 
+/// When a page says it was written: now, or `SOURCE_DATE_EPOCH` (s since 1970) when set, the
+/// reproducible-builds convention, so the same inputs can give the same bytes.
+pub fn written_at() -> std::time::SystemTime {
+    let fixed = std::env::var("SOURCE_DATE_EPOCH").ok();
+    match fixed.and_then(|s| s.trim().parse::<u64>().ok()) {
+        Some(s) => std::time::UNIX_EPOCH + std::time::Duration::from_secs(s),
+        None => std::time::SystemTime::now(),
+    }
+}
+
 /// The date and time `now` as `YYYY-MM-DD HH:MM UTC`, for a page's provenance line.
 pub fn utc_stamp(now: std::time::SystemTime) -> String {
     let seconds = now
