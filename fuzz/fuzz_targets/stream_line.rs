@@ -42,6 +42,7 @@ fuzz_target!(|data: &[u8]| {
             time_s: line.time_s,
             scalars: &scalars,
             fluxgates: &fluxgates,
+            extras: &[],
         });
         stream.push((k, line), sample, flags, &mut check);
     }
