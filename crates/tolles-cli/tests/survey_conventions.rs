@@ -447,6 +447,8 @@ fn the_example_surveys_run_through_every_command_without_flags() {
         run(dir.path(), &report);
         let html = std::fs::read_to_string(dir.path().join(stem).join("index.html")).unwrap();
         assert!(html.contains("<svg"), "{stem}");
+        // No attitude: no heading-error section that would only say "none".
+        assert!(!html.contains(">Heading error<"), "{stem}");
     }
 }
 

@@ -871,6 +871,11 @@ fn maneuver_cells(row: &ManeuverRow) -> Vec<String> {
 
 /// The heading levels before and after, and what the heading error is.
 fn heading_error(mut report: Report, data: &ReportData) -> Report {
+    // Nothing levelled (no attitude, no straight legs): no section, rather than one that
+    // only says "none".
+    if data.headings.is_empty() && data.fom.heading_before.heading_error_nt.is_none() {
+        return report;
+    }
     report = report.section("Heading error");
     let (before, after) = (&data.fom.heading_before, data.fom.heading_after.as_ref());
     let mut text = format!(

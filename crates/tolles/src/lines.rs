@@ -195,8 +195,14 @@ impl Line {
 /// Each row's line id as text, or `None` without a line column.
 fn line_ids(table: &Table) -> Option<Vec<String>> {
     let index = table.index_of(LINE_COLUMN).ok()?;
+    // A row without a line id (a survey file's truncated last record) is on no line.
     Some(match &table.columns()[index] {
-        Column::Numbers(v) => v.iter().map(|x| x.to_string()).collect(),
+        Column::Numbers(v) => (v.iter())
+            .map(|x| match x.is_nan() {
+                true => String::new(),
+                false => x.to_string(),
+            })
+            .collect(),
         Column::Text(t) => (0..t.len()).map(|k| t.get(k).trim().to_string()).collect(),
     })
 }
@@ -209,6 +215,10 @@ fn group(ids: &[String]) -> Vec<Line> {
     let mut start = 0;
     for k in 1..=ids.len() {
         if k < ids.len() && ids[k] == ids[start] {
+            continue;
+        }
+        if ids[start].is_empty() {
+            start = k;
             continue;
         }
         match found.get(ids[start].as_str()) {
@@ -327,6 +337,28 @@ mod tests {
             .map(|(_, v)| Column::Numbers(v.clone()))
             .collect();
         Table::from_columns(Path::new("t"), headers, columns, None).unwrap()
+    }
+
+    #[test]
+    fn a_row_without_a_line_id_is_on_no_line() {
+        let n = 30;
+        let tt: Vec<f64> = (0..n).map(|k| k as f64).collect();
+        let mut line: Vec<f64> = (0..n).map(|k| if k < 15 { 1.0 } else { 2.0 }).collect();
+        line[n - 1] = f64::NAN; // a truncated last record
+        let before = vec![1.0; n];
+        let t = table(&[("line", line.clone())]);
+        let inputs = LineInputs {
+            tt: &tt,
+            before: &before,
+            after: None,
+        };
+        let lines = line_table(&t, &inputs).unwrap();
+        let ids: Vec<&str> = lines.rows.iter().map(|r| r.line.as_str()).collect();
+        assert_eq!(ids, ["1", "2"]);
+        assert_eq!(lines.rows[1].rows, 14);
+        // One line and a row without an id is a flight of one line: no table.
+        line[..15].fill(2.0);
+        assert!(line_table(&table(&[("line", line)]), &inputs).is_none());
     }
 
     #[test]
