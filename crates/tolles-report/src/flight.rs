@@ -225,7 +225,8 @@ fn page_with(data: &ReportData, maps: &[Map]) -> Report {
     if !has_box(data) {
         report = report.paragraph(NO_BOX);
     }
-    if let Some(lines) = &data.lines {
+    // A box's "lines" are its legs and turns, which the maneuver sections describe.
+    if let (Some(lines), false) = (&data.lines, has_box(data)) {
         report = per_line(report, lines, data.compensated.is_some());
     }
     report = map_section(report, data, maps);
@@ -1573,6 +1574,17 @@ mod tests {
         for bad in ["NaN", "inf"] {
             assert!(!html.contains(bad), "{bad} in the page");
         }
+    }
+
+    #[test]
+    fn a_box_lists_its_legs_as_maneuvers_not_as_lines() {
+        let dir = tempfile::tempdir().unwrap();
+        let (data, html) = box_report(dir.path(), true);
+        assert!(
+            data.lines.is_some(),
+            "the box's line column numbers its legs"
+        );
+        assert!(!html.contains(">Lines<") && html.contains(">Maneuvers<"));
     }
 
     #[test]
