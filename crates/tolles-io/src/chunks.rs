@@ -463,10 +463,10 @@ impl ParquetChunks {
         let n = rows.min(self.left_in_group);
         let mut values = Vec::with_capacity(self.wanted.len());
         for (column, wanted) in self.columns.iter_mut().zip(&self.wanted) {
-            let mut out = Vec::with_capacity(n);
-            crate::parquet::read_column(column, wanted, n, &mut out)
+            let mut out = crate::parquet::empty_column(wanted);
+            crate::parquet::read_any_column(column, wanted, n, &mut out)
                 .map_err(|e| invalid(path, e))?;
-            values.push(Column::Numbers(out));
+            values.push(out);
         }
         self.left_in_group -= n;
         Table::from_columns(path, self.names.clone(), values, None).map(Some)

@@ -70,20 +70,19 @@ fn read_from<R: ChunkReader + 'static>(source: R, path: &Path) -> Result<Table, 
     };
     let reader = SerializedFileReader::new(source).map_err(invalid)?;
     let (headers, wanted, notes) = numeric_columns(&reader);
-    let mut values = vec![Vec::new(); wanted.len()];
+    let mut columns: Vec<Column> = wanted.iter().map(empty_column).collect();
     for g in 0..reader.num_row_groups() {
         let group = reader.get_row_group(g).map_err(invalid)?;
         let rows = group.metadata().num_rows() as usize;
-        for (wanted, out) in wanted.iter().zip(values.iter_mut()) {
+        for (wanted, out) in wanted.iter().zip(columns.iter_mut()) {
             let mut column = group.get_column_reader(wanted.index).map_err(invalid)?;
-            read_column(&mut column, wanted, rows, out).map_err(invalid)?;
+            read_any_column(&mut column, wanted, rows, out).map_err(invalid)?;
         }
     }
-    let columns = values.into_iter().map(Column::Numbers).collect();
     Ok(Table::from_columns(path, headers, columns, None)?.with_notes(notes))
 }
 
-/// A numeric column of a Parquet file, as read.
+/// A column of a Parquet file tolles reads: numbers, or UTF-8 text.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct NumericColumn {
     /// Its index in the file's schema.
@@ -92,10 +91,12 @@ pub(crate) struct NumericColumn {
     pub max_def: i16,
     /// Seconds per stored unit, for a timestamp or date (read as seconds since 1970).
     pub seconds_per: Option<f64>,
+    /// A string column (line ids, dates as text), read as text cells.
+    pub text: bool,
 }
 
-/// The numeric columns of a file: their names, how to read each, and a note for every column
-/// left out or converted.
+/// The columns of a file tolles reads (numbers and UTF-8 strings): their names, how to read
+/// each, and a note for every column left out or converted.
 pub(crate) fn numeric_columns<R: ChunkReader + 'static>(
     reader: &SerializedFileReader<R>,
 ) -> (Vec<String>, Vec<NumericColumn>, Vec<String>) {
@@ -113,8 +114,13 @@ pub(crate) fn numeric_columns<R: ChunkReader + 'static>(
                 | PhysicalType::INT64
                 | PhysicalType::BOOLEAN
         );
-        if column.max_rep_level() > 0 || !numeric {
-            notes.push(format!("column {name:?} is not a numeric column; left out"));
+        let text = column.physical_type() == PhysicalType::BYTE_ARRAY
+            && matches!(column.logical_type_ref(), Some(LogicalType::String))
+            || column.converted_type() == ::parquet::basic::ConvertedType::UTF8;
+        if column.max_rep_level() > 0 || !(numeric || text) {
+            notes.push(format!(
+                "column {name:?} is not a numeric or text column; left out"
+            ));
             continue;
         }
         let seconds_per = seconds_per_unit(column.logical_type_ref());
@@ -128,6 +134,7 @@ pub(crate) fn numeric_columns<R: ChunkReader + 'static>(
             index: k,
             max_def: column.max_def_level(),
             seconds_per: seconds_per.map(|(_, s)| s),
+            text,
         });
     }
     (headers, wanted, notes)
@@ -144,6 +151,27 @@ fn seconds_per_unit(logical: Option<&LogicalType>) -> Option<(&'static str, f64)
         }),
         LogicalType::Date => Some(("dates (days)", 86_400.0)),
         _ => None,
+    }
+}
+
+/// An empty column of the kind `wanted` reads into.
+pub(crate) fn empty_column(wanted: &NumericColumn) -> Column {
+    match wanted.text {
+        true => Column::Text(TextColumn::new(Default::default())),
+        false => Column::Numbers(Vec::new()),
+    }
+}
+
+/// Appends the next `rows` cells of one column chunk to `out`, numbers or text as it holds.
+pub(crate) fn read_any_column(
+    column: &mut ColumnReader,
+    wanted: &NumericColumn,
+    rows: usize,
+    out: &mut Column,
+) -> Result<(), ParquetError> {
+    match out {
+        Column::Text(text) => read_text_column(column, wanted, rows, text),
+        Column::Numbers(values) => read_column(column, wanted, rows, values),
     }
 }
 
@@ -172,6 +200,26 @@ pub(crate) fn read_column(
     Ok(())
 }
 
+/// Appends the next `rows` cells of one UTF-8 column chunk to `out`; a null is an empty cell
+/// (a missing value), text that is not UTF-8 is read with replacement characters.
+pub(crate) fn read_text_column(
+    column: &mut ColumnReader,
+    wanted: &NumericColumn,
+    rows: usize,
+    out: &mut TextColumn,
+) -> Result<(), ParquetError> {
+    let ColumnReader::ByteArrayColumnReader(reader) = column else {
+        return Err(ParquetError::General("not a text column".into()));
+    };
+    let mut cells: Vec<Option<String>> = Vec::with_capacity(rows);
+    let text = |v: ByteArray| Some(String::from_utf8_lossy(v.data()).into_owned());
+    read_typed_into(reader, wanted.max_def, rows, &mut cells, text, None)?;
+    for cell in cells {
+        out.push(cell.as_deref().unwrap_or(""));
+    }
+    Ok(())
+}
+
 fn read_typed<T: DataType>(
     reader: &mut ColumnReaderImpl<T>,
     max_def: i16,
@@ -180,7 +228,22 @@ fn read_typed<T: DataType>(
     convert: impl Fn(T::T) -> f64,
 ) -> Result<(), ParquetError>
 where
-    T::T: Copy,
+    T::T: Clone,
+{
+    read_typed_into(reader, max_def, rows, out, convert, f64::NAN)
+}
+
+/// Appends the next `rows` values of one column chunk to `out`, converted, `null` for nulls.
+fn read_typed_into<T: DataType, V: Clone>(
+    reader: &mut ColumnReaderImpl<T>,
+    max_def: i16,
+    rows: usize,
+    out: &mut Vec<V>,
+    convert: impl Fn(T::T) -> V,
+    null: V,
+) -> Result<(), ParquetError>
+where
+    T::T: Clone,
 {
     let mut defs = Vec::new();
     let mut present = Vec::new();
@@ -196,13 +259,13 @@ where
                 "column chunk ends after {read} of {rows} rows"
             )));
         }
-        let mut values = present.iter().copied();
+        let mut values = present.iter().cloned();
         if max_def == 0 {
             out.extend(values.map(&convert));
         } else {
             for def in &defs {
                 let value = if *def == max_def { values.next() } else { None };
-                out.push(value.map_or(f64::NAN, &convert));
+                out.push(value.map_or(null.clone(), &convert));
             }
         }
         read += records;

@@ -367,7 +367,10 @@ mod tests {
             &["flux_a"],
             &["mag_1_c"],
         );
-        assert_eq!(e.unwrap_err(), "header has no column \"flux_a_y\"");
+        assert_eq!(
+            e.unwrap_err(),
+            "header has no column \"flux_a_y\"; did you mean flux_a_x?"
+        );
     }
 
     #[test]

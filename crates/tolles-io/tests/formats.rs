@@ -84,8 +84,14 @@ fn pyarrow_parquet_reads_numbers_nulls_and_integers() {
         let t = read(name);
         assert_fixture_values(&t, COLUMNS);
         assert_eq!(t.numeric("fid").unwrap()[5], 5.0);
-        assert!(!t.has("pilot"));
-        assert_eq!(t.notes().len(), 1, "{:?}", t.notes());
+        // A string column reads as text (it was left out before issue 46).
+        assert!(t.numeric("pilot").is_err());
+        let k = t.index_of("pilot").unwrap();
+        let tolles_io::table::Column::Text(pilot) = &t.columns()[k] else {
+            panic!("pilot is not text");
+        };
+        assert_eq!(pilot.get(0), "ana");
+        assert!(t.notes().is_empty(), "{:?}", t.notes());
     }
 }
 
@@ -359,4 +365,32 @@ fn parquet_timestamps_read_as_seconds() {
         "{:?}",
         table.notes()
     );
+}
+
+/// Text columns written to Parquet (line ids, dates as text) read back as text, whole and in
+/// chunks, as `convert` writes them (issue 46: the reader used to leave them out, so a file it
+/// wrote could read back empty).
+#[test]
+fn parquet_text_columns_read_back_as_text() {
+    let dir = tempfile::TempDir::new().unwrap();
+    let csv = dir.path().join("t.csv");
+    std::fs::write(&csv, "line,tt,mag\nL1,0,1\nL1,0.1,2\n,0.2,3\nL2,0.3,4\n").unwrap();
+    let table = Table::read(&csv, None).unwrap();
+    let pq = dir.path().join("t.parquet");
+    write_everything(&table, &pq, Format::Parquet).unwrap();
+    let back = Table::read(&pq, None).unwrap();
+    assert_eq!(back.headers(), ["line", "tt", "mag"]);
+    let mut text = Vec::new();
+    tolles_io::table::write_with_column(&back, &[], &mut text).unwrap();
+    assert_eq!(
+        String::from_utf8(text).unwrap(),
+        "line,tt,mag\nL1,0,1\nL1,0.1,2\n,0.2,3\nL2,0.3,4\n"
+    );
+    let mut reader = tolles_io::chunks::ChunkReader::open(&pq, Format::Parquet, 3).unwrap();
+    let mut rows = 0;
+    while let Some(chunk) = reader.next_chunk().unwrap() {
+        assert_eq!(chunk.headers(), ["line", "tt", "mag"]);
+        rows += chunk.len();
+    }
+    assert_eq!(rows, 4);
 }
