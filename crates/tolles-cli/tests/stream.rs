@@ -309,7 +309,8 @@ fn a_model_column_missing_from_the_header_is_a_one_line_error() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(
         stderr.trim(),
-        "error: stream on standard input: header has no column \"flux_a_y\""
+        "error: stream on standard input: header has no column \"flux_a_y\"; did you mean \
+         flux_a_x, flux_a_z?"
     );
 }
 

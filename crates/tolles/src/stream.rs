@@ -866,7 +866,10 @@ mod tests {
         let input = "tt,mag_1_uc,flux_a_x,flux_a_z\n1,2,3,4\n";
         let e = serve(&setup(), &Stats::default(), input.as_bytes(), &mut output).unwrap_err();
         assert!(matches!(&e, Error::StreamHeader(_)));
-        assert_eq!(e.to_string(), "header has no column \"flux_a_y\"");
+        assert_eq!(
+            e.to_string(),
+            "header has no column \"flux_a_y\"; did you mean flux_a_x, flux_a_z?"
+        );
         assert!(output.is_empty());
     }
 
