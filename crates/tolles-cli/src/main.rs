@@ -31,7 +31,7 @@ mod progress;
 mod render;
 mod select;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
 
 const ABOUT: &str = "Aircraft magnetic compensation (Tolles-Lawson): learn the aircraft's \
@@ -92,8 +92,20 @@ enum Command {
     Stream(cmd::stream::Args),
 }
 
+/// The command line with each subcommand's usage fixed to its own: clap's error messages would
+/// otherwise list the flags given (`--out` among them) as if they were required.
+fn command() -> clap::Command {
+    let mut cli = Cli::command();
+    cli.build();
+    cli.mut_subcommands(|mut sub| {
+        let usage = sub.render_usage().to_string();
+        let own = usage.trim_start_matches("Usage:").trim().to_string();
+        sub.override_usage(own)
+    })
+}
+
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = Cli::from_arg_matches(&command().get_matches()).unwrap_or_else(|e| e.exit());
     let result = match cli.command {
         Command::Fit(args) => cmd::fit::run(args),
         Command::Compensate(args) => cmd::compensate::run(args),

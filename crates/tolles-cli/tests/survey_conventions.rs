@@ -521,3 +521,21 @@ fn stream_suggests_the_column_meant() {
         "{err}"
     );
 }
+
+/// A mistyped flag's error shows the command's own usage, not the flags given (`--out`) as if
+/// they were required (item 18).
+#[test]
+fn a_usage_line_shows_what_is_required_not_what_was_given() {
+    let out = common::tolles()
+        .args([
+            "fit", "c.csv", "--scalar", "a", "--vector", "b", "--out", "m.json", "--bogus",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    let usage = err.lines().find(|l| l.starts_with("Usage:")).unwrap();
+    assert_eq!(
+        usage,
+        "Usage: tolles fit [OPTIONS] --scalar <SCALAR> --vector <VECTOR> <CAL>"
+    );
+}
