@@ -222,7 +222,7 @@ impl Setup {
             (0..3).map(move |axis| Channel::shifted(3 * g.fluxgate + axis, shift))
         });
         let extras = self.extras.iter().map(|e| {
-            let column = self.extra_columns.iter().position(|c| *c == e.name);
+            let column = self.extra_column(e);
             Channel {
                 source: 3 * self.fluxgates.len() + column.expect("every name is listed"),
                 lowpass: e.lowpass_hz.map(|hz| LowPass::new(hz, self.fs_hz)),
@@ -230,6 +230,11 @@ impl Setup {
             }
         });
         flux.chain(extras).collect()
+    }
+
+    /// Where `channel`'s column is among a line's extra columns ([`Setup::extra_columns`]).
+    fn extra_column(&self, channel: &ExtraChannel) -> Option<usize> {
+        self.extra_columns.iter().position(|c| *c == channel.name)
     }
 
     /// A new compensator for one stream.
@@ -384,8 +389,7 @@ fn compensate_line(
     // A channel read fine on this line whose conditioned value is missing waits on its lag
     // or low-pass, which is not what "nan in" the channel would say.
     for (conditioned, channel) in extras.iter().zip(&setup.extras) {
-        let column = setup.extra_columns.iter().position(|c| *c == channel.name);
-        let read = column.and_then(|k| line.extras.get(k));
+        let read = setup.extra_column(channel).and_then(|k| line.extras.get(k));
         if conditioned.is_nan() && read.is_some_and(|v| v.is_finite()) {
             flags.push(Flag::NotConditioned {
                 column: channel.name.clone(),

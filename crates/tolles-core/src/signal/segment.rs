@@ -76,21 +76,27 @@ fn gaps(tt: &[f64], n: usize, step: f64) -> Vec<usize> {
 
 /// Median of the finite positive time steps (seconds), if any.
 pub fn median_step(tt: &[f64]) -> Option<f64> {
-    median_of_few(tt).or_else(|| median_by_selection(tt))
+    median_from(few_step_counts(tt).as_deref(), tt)
+}
+
+/// [`median_step`] from the clock's few distinct steps when it has them (`counts`, see
+/// [`few_step_counts`]), else by selection over `tt`.
+fn median_from(counts: Option<&[(f64, usize)]>, tt: &[f64]) -> Option<f64> {
+    match counts {
+        Some(counts) => median_of_counts(counts),
+        None => median_by_selection(tt),
+    }
 }
 
 /// Distinct step values counted when a clock has only a few of them.
 pub(crate) const FEW_STEPS: usize = 32;
 
-/// [`median_step`] of a clock whose steps take at most [`FEW_STEPS`] distinct values (a
-/// regular clock written with a few decimals: 0.1 s give a handful of values a few ulp apart)
-/// by counting them: one pass, no copy. `None` for any other clock (or no step at all).
-fn median_of_few(tt: &[f64]) -> Option<f64> {
-    let counts = few_step_counts(tt)?;
-    // The value at sorted position ⌊n/2⌋, as the selection below takes it.
+/// The value at sorted position ⌊n/2⌋ of distinct `counts` (ascending), as the selection
+/// below takes it.
+fn median_of_counts(counts: &[(f64, usize)]) -> Option<f64> {
     let mid = counts.iter().map(|(_, n)| n).sum::<usize>() / 2;
     let mut seen = 0;
-    counts.into_iter().find_map(|(v, n)| {
+    counts.iter().find_map(|&(v, n)| {
         seen += n;
         (seen > mid).then_some(v)
     })
@@ -119,8 +125,10 @@ fn few_step_counts(tt: &[f64]) -> Option<Vec<(f64, usize)>> {
 /// written too coarsely for its rate (time in hours with five decimals reads 0.1 s steps as
 /// 0.072 or 0.108 s), when it is the mean of its usual steps (see [`sampling_step_of`]).
 pub fn sampling_step(tt: &[f64]) -> Option<f64> {
-    let median = median_step(tt)?;
-    Some(sampling_step_of(few_step_counts(tt).as_deref(), median))
+    // One count of the steps serves both the median and the mean.
+    let counts = few_step_counts(tt);
+    let median = median_from(counts.as_deref(), tt)?;
+    Some(sampling_step_of(counts.as_deref(), median))
 }
 
 /// Usual steps lie within this factor of the median step; the rest are gaps or glitches.
@@ -317,6 +325,13 @@ pub fn run_on(tt: &[f64]) -> (Vec<f64>, Vec<usize>) {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    /// [`median_step`] of a clock whose steps take at most [`FEW_STEPS`] distinct values (a
+    /// regular clock written with a few decimals: 0.1 s give a handful of values a few ulp apart)
+    /// by counting them: one pass, no copy. `None` for any other clock (or no step at all).
+    fn median_of_few(tt: &[f64]) -> Option<f64> {
+        median_of_counts(&few_step_counts(tt)?)
+    }
 
     proptest! {
         #[test]
