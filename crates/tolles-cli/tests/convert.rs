@@ -307,3 +307,43 @@ fn selection_and_renames_apply() {
         "tt,line,mag_1_uc\n0.2,2,7\n"
     );
 }
+
+#[test]
+fn renames_reach_side_columns_and_scalars_and_refuse_a_name_they_would_share() {
+    let dir = TempDir::new().unwrap();
+    let mat = io_fixture("magnav_test_data_TL.mat");
+    let h5 = dir.path().join("renamed.h5");
+    let result = tolles()
+        .arg("convert")
+        .arg(&mat)
+        .arg(&h5)
+        .args(["--rename", "TL_a_1=tl_coefficients,fs=rate_hz,mag_1_uc=mag"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8(result.stderr).unwrap();
+    assert!(result.status.success(), "{stderr}");
+    let t = Table::read(&h5, None).unwrap();
+    assert_eq!(t.numeric("mag").unwrap(), magnav("mag_1_uc"));
+    let side: Vec<&str> = t.side_columns().iter().map(|c| c.name.as_str()).collect();
+    assert_eq!(side, ["tl_coefficients", "mag_1_uc_f_t"]);
+    assert_eq!(t.side_columns()[0].values, magnav("TL_a_1"));
+    assert_eq!(t.metadata("rate_hz"), Some(magnav("fs")[0]));
+    assert_eq!(t.metadata("fs"), None);
+
+    for clash in ["mag_1_uc=TL_a_1", "TL_a_1=mag_1_uc", "fs=TL_a_1"] {
+        let out = dir.path().join("clash.h5");
+        let result = tolles()
+            .arg("convert")
+            .arg(&mat)
+            .arg(&out)
+            .args(["--rename", clash])
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8(result.stderr).unwrap();
+        assert!(!result.status.success(), "{clash}: {stderr}");
+        let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error")).collect();
+        assert_eq!(errors.len(), 1, "{clash}: {stderr}");
+        assert!(errors[0].contains("more than once"), "{clash}: {stderr}");
+        assert!(!out.exists(), "{clash}");
+    }
+}

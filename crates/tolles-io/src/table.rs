@@ -422,13 +422,53 @@ impl Table {
         &self.aliases
     }
 
-    /// Renames column `old` (found as [`Table::index_of`] finds it) to `new`; an error if there
-    /// is no such column or another column is already called `new`. Aliases of the table are
-    /// dropped (they were chosen for the old names).
+    /// Renames column `old` (found as [`Table::index_of`] finds it) to `new`; where no column is
+    /// called `old`, the side column or file scalar of that exact name is renamed instead. An
+    /// error if there is none of these, or a column, side column or scalar is already called
+    /// `new` (the file could not be written back). Aliases of the table are dropped (they were
+    /// chosen for the old names).
     pub fn rename(&mut self, old: &str, new: &str) -> Result<(), IoError> {
-        rename_header(&self.path, &mut self.headers, old, new)?;
+        let new = new.trim();
+        if new.is_empty() {
+            return Err(IoError::Empty {
+                path: self.path.clone(),
+            });
+        }
+        let taken = self.beside_names().any(|name| name == new && name != old);
+        let beside = find_column(&self.path, &self.headers, old).is_err()
+            && self.beside_names().any(|name| name == old);
+        if taken || (beside && self.headers.iter().any(|h| h == new)) {
+            return Err(IoError::DuplicateColumn {
+                path: self.path.clone(),
+                column: new.to_string(),
+            });
+        }
+        if beside {
+            self.rename_beside(old, new);
+        } else {
+            rename_header(&self.path, &mut self.headers, old, new)?;
+        }
         self.aliases.clear();
         Ok(())
+    }
+
+    /// The names of the side columns and of the scalars the file holds.
+    fn beside_names(&self) -> impl Iterator<Item = &str> {
+        let side = self.side.iter().map(|s| s.name.as_str());
+        side.chain(self.file_metadata().map(|(name, _)| name.as_str()))
+    }
+
+    /// Renames the side column or file scalar called exactly `old` to `new`.
+    fn rename_beside(&mut self, old: &str, new: &str) {
+        if let Some(side) = self.side.iter_mut().find(|s| s.name == old) {
+            side.name = new.to_string();
+        } else if let Some((name, _)) = self
+            .metadata
+            .iter_mut()
+            .find(|(n, _)| n == old && !self.derived.contains(n))
+        {
+            *name = new.to_string();
+        }
     }
 
     /// Replaces the cells of column `name` with `values` (as numbers; NaN is missing); an error
