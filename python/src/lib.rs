@@ -301,9 +301,17 @@ fn compensate<'py>(
     Ok((out, texts(&warnings)))
 }
 
+/// The straight legs and box headings of a FOM: (nominal headings or `None` for the cardinal
+/// ones, heading tolerance, level tolerance, cardinal tolerance), all in degrees.
+type Legs = (Option<Vec<f64>>, f64, f64, f64);
+
+fn with_legs(request: FomRequest, (headings, heading, level, cardinal): Legs) -> FomRequest {
+    request.with_legs(headings, heading, level, cardinal)
+}
+
 /// The figure of merit; returns (JSON as `tolles fom --json` prints it, warnings).
 #[pyfunction]
-#[pyo3(signature = (source, names, get, dt, scalar, model, band, order, fs))]
+#[pyo3(signature = (source, names, get, dt, scalar, model, band, order, fs, legs))]
 #[allow(clippy::too_many_arguments)]
 fn fom(
     py: Python<'_>,
@@ -316,6 +324,7 @@ fn fom(
     band: (f64, f64),
     order: usize,
     fs: Option<f64>,
+    legs: Legs,
 ) -> PyResult<(String, Vec<String>)> {
     let model = model.map(parse_model).transpose()?;
     let fit = model
@@ -336,15 +345,18 @@ fn fom(
         );
     }
     let table = Frame::new(source, names, get, dt).table(&wanted)?;
-    let request = FomRequest {
-        band: Band {
-            pass1_hz: band.0,
-            pass2_hz: band.1,
+    let request = with_legs(
+        FomRequest {
+            band: Band {
+                pass1_hz: band.0,
+                pass2_hz: band.1,
+            },
+            order,
+            fs_hz: fs,
+            ..FomRequest::new(&scalar)
         },
-        order,
-        fs_hz: fs,
-        ..FomRequest::new(&scalar)
-    };
+        legs,
+    );
     let mut warnings = Vec::new();
     let outcome = py
         .detach(|| tolles::fom::fom(&table, &request, fit, &mut warnings))
@@ -508,7 +520,7 @@ fn convert(
 /// as `tolles report` does, and prints it to `pdf` if given; returns (index.html's path,
 /// warnings).
 #[pyfunction]
-#[pyo3(signature = (flight, out, model, scalars, lines, time, renames, band, order, fs, pdf))]
+#[pyo3(signature = (flight, out, model, scalars, lines, time, renames, band, order, fs, pdf, legs))]
 #[allow(clippy::too_many_arguments)]
 fn report(
     py: Python<'_>,
@@ -523,8 +535,12 @@ fn report(
     order: usize,
     fs: Option<f64>,
     pdf: Option<PathBuf>,
+    legs: Legs,
 ) -> PyResult<(PathBuf, Vec<String>)> {
+    let legs = with_legs(FomRequest::new(""), legs);
     let request = tolles::report::ReportRequest {
+        headings: legs.headings,
+        cardinal_tolerance_deg: legs.cardinal_tolerance_deg,
         scalar: None,
         model,
         band: Band {

@@ -121,6 +121,23 @@ def test_fom_equals_the_cli_json(flights, cli):
     )
 
 
+def test_fom_heading_settings_match_the_cli_flags(flights, cli):
+    cal = tolles.read(flights / "cal.csv")
+    ours = tolles.fom(
+        cal, "mag_1_uc", headings=[0, 180], heading_tolerance=2, level_tolerance=0.5
+    )
+    assert [level["heading_deg"] for level in ours["heading_error"]["levels"]] == [0, 180]
+    assert ours == fom_json(
+        cli, flights / "cal.csv", "--scalar", "mag_1_uc", "--headings", "0,180",
+        "--heading-tolerance", "2", "--level-tolerance", "0.5",
+    )
+    assert ours != tolles.fom(cal, "mag_1_uc", headings="0,180")
+    with pytest.raises(tolles.TollesError, match="heading_tolerance"):
+        tolles.fom(cal, "mag_1_uc", heading_tolerance=95)
+    with pytest.raises(tolles.TollesError, match="cardinal_tolerance"):
+        tolles.fom(cal, "mag_1_uc", cardinal_tolerance="wide")
+
+
 def test_selected_lines_fit_as_the_cli_selects_them(flights, cli, tmp_path):
     survey = tolles.read(flights / "survey.csv", line=[1001, 1002], time=(None, 1e9))
     assert set(survey["line"].unique()) == {1001.0, 1002.0}

@@ -126,6 +126,30 @@ def _count(value: Any, name: str, least: int) -> int:
     return whole
 
 
+def _angle(value: Any, name: str) -> float:
+    """A number of degrees for the parameter ``name``, or a TollesError naming it."""
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        raise TollesError(f"{name} must be a number of degrees, got {value!r}") from None
+
+
+def _legs(
+    headings: Any, heading_tolerance: Any, level_tolerance: Any, cardinal_tolerance: Any
+) -> Tuple[Optional[Sequence[float]], float, float, float]:
+    """The straight legs and box headings of a FOM as the native module takes them (degrees);
+    the ranges are checked there, as for ``tolles fom``."""
+    if isinstance(headings, str):
+        headings = [h for h in headings.split(",") if h.strip()]
+    nominal = None if headings is None else [_angle(h, "headings") for h in headings]
+    return (
+        nominal,
+        _angle(heading_tolerance, "heading_tolerance"),
+        _angle(level_tolerance, "level_tolerance"),
+        _angle(cardinal_tolerance, "cardinal_tolerance"),
+    )
+
+
 def _terms(terms: Any) -> str:
     """``"auto"``, ``"permanent,induced,eddy"`` or ``["permanent", "induced", "eddy"]``."""
     return terms if isinstance(terms, str) else ",".join(str(t) for t in terms)
@@ -551,6 +575,10 @@ def fom(
     band: Tuple[float, float] = (0.05, 1.0),
     order: int = 4,
     fs: Optional[float] = None,
+    headings: Optional[Sequence[float]] = None,
+    heading_tolerance: float = 10.0,
+    level_tolerance: float = 3.0,
+    cardinal_tolerance: float = 20.0,
 ) -> dict:
     """Figure of merit of a compensation box: exactly ``tolles fom --json``, as a dict.
 
@@ -561,6 +589,12 @@ def fom(
     (``levels``), largest minus smallest, with its uncertainty. With ``model``, also after
     compensation (under ``"compensated"``, heading error on the same samples) and the
     improvement ratio.
+
+    Straight legs and box headings (degrees), as ``tolles fom``'s flags: ``headings`` are the
+    nominal headings whose straight legs give the heading error (default 0, 90, 180, 270);
+    on a leg the yaw lies within ``heading_tolerance`` (0–90) of one and roll and pitch within
+    ``level_tolerance`` (0–90); a box maneuver within ``cardinal_tolerance`` (0–45) of north,
+    east, south or west counts as that heading's.
     """
     model = None if model is None else _model(model)
     columns = _Columns(df)
@@ -571,6 +605,7 @@ def fom(
         _band(band),
         _count(order, "order", 1),
         None if fs is None else float(fs),
+        _legs(headings, heading_tolerance, level_tolerance, cardinal_tolerance),
     )
     _warn(notes)
     return _json.loads(text)
@@ -603,6 +638,10 @@ def report(
     order: int = 4,
     fs: Optional[float] = None,
     pdf: Optional[PathLike] = None,
+    headings: Optional[Sequence[float]] = None,
+    heading_tolerance: float = 10.0,
+    level_tolerance: float = 3.0,
+    cardinal_tolerance: float = 20.0,
 ) -> _pathlib.Path:
     """Write the HTML report of a flight into the directory ``out``, as ``tolles report``.
 
@@ -614,7 +653,8 @@ def report(
     the uncompensated flight only. ``line``, ``time``, ``renames``: as in :func:`convert`.
     ``band`` (Hz), ``order``: the figure of merit's band-pass. ``pdf``: also print the page to
     this PDF with headless Chromium (``$TOLLES_CHROMIUM``, or chromium on ``PATH``).
-    Returns the path of ``index.html``; what was noticed is warned about.
+    ``headings``, ``heading_tolerance``, ``level_tolerance``, ``cardinal_tolerance``: as in
+    :func:`fom`. Returns the path of ``index.html``; what was noticed is warned about.
     """
     scalars = [] if scalar is None else _names(scalar, "scalar")
     with _tempfile.TemporaryDirectory() as scratch:
@@ -636,6 +676,7 @@ def report(
             _count(order, "order", 1),
             None if fs is None else float(fs),
             None if pdf is None else _os.fspath(pdf),
+            _legs(headings, heading_tolerance, level_tolerance, cardinal_tolerance),
         )
     _warn(notes)
     return _pathlib.Path(index)

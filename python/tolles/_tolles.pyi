@@ -11,6 +11,8 @@ class TollesError(ValueError):
     """A flight, model or request tolles cannot use; the message names the file, row or column."""
 
 Getter = Callable[[int], npt.NDArray[np.float64]]
+# Nominal headings (None: the cardinal ones), heading, level and cardinal tolerances; degrees.
+Legs = Tuple[Optional[Sequence[float]], float, float, float]
 
 def read(
     path: str,
@@ -56,6 +58,7 @@ def fom(
     band: Tuple[float, float],
     order: int,
     fs: Optional[float],
+    legs: Legs,
 ) -> Tuple[str, List[str]]: ...
 def procedure(
     source: str,
@@ -99,6 +102,7 @@ def report(
     order: int,
     fs: Optional[float],
     pdf: Optional[str],
+    legs: Legs,
 ) -> Tuple[str, List[str]]: ...
 def load_model(path: str) -> str: ...
 def check_model(json: str) -> str: ...

@@ -37,3 +37,54 @@ pub fn parse_band(text: &str) -> Result<(f64, f64)> {
     };
     Ok((parse(lo)?, parse(hi)?))
 }
+
+/// How `fom` and `report` tell straight legs and box maneuvers apart by heading.
+#[derive(clap::Args, Debug, Clone)]
+pub struct Legs {
+    /// Nominal headings (degrees clockwise from north) whose straight legs give the heading
+    /// error, e.g. 45,225 for a survey flown on those lines
+    #[arg(
+        long,
+        value_name = "DEG,...",
+        value_delimiter = ',',
+        allow_negative_numbers = true
+    )]
+    pub headings: Option<Vec<f64>>,
+    /// How far the yaw may stray from a nominal heading on a straight leg (degrees, 0–90)
+    #[arg(
+        long,
+        value_name = "DEG",
+        default_value_t = 10.0,
+        allow_negative_numbers = true
+    )]
+    pub heading_tolerance: f64,
+    /// Largest |roll| and |pitch| on a straight leg (degrees, 0–90)
+    #[arg(
+        long,
+        value_name = "DEG",
+        default_value_t = 3.0,
+        allow_negative_numbers = true
+    )]
+    pub level_tolerance: f64,
+    /// A box maneuver flown within this of north, east, south or west counts as that
+    /// heading's (degrees, 0–45)
+    #[arg(
+        long,
+        value_name = "DEG",
+        default_value_t = 20.0,
+        allow_negative_numbers = true
+    )]
+    pub cardinal_tolerance: f64,
+}
+
+impl Legs {
+    /// `request` with these legs.
+    pub fn apply(&self, request: tolles::fom::FomRequest) -> tolles::fom::FomRequest {
+        request.with_legs(
+            self.headings.clone(),
+            self.heading_tolerance,
+            self.level_tolerance,
+            self.cardinal_tolerance,
+        )
+    }
+}

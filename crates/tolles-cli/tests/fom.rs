@@ -321,3 +321,67 @@ fn a_model_for_another_scalar_is_refused() {
         "{err}"
     );
 }
+
+/// A box flown 6° east of the cardinal headings: the default tolerances take its legs and
+/// maneuvers; tighter ones leave them out; other nominal headings find their own legs.
+#[test]
+fn heading_tolerances_and_nominal_headings_are_flags() {
+    let dir = TempDir::new().unwrap();
+    let plan = BoxPlan {
+        headings_deg: vec![6.0, 96.0, 186.0, 276.0],
+        ..BoxPlan::default()
+    };
+    let csv = box_csv(dir.path(), &plan, "");
+    let csv = csv.to_str().unwrap();
+    let fom = |flags: &[&str]| {
+        let mut args = vec!["fom", csv, "--scalar", "mag_1_uc", "--json"];
+        args.extend(flags);
+        json(&args)
+    };
+    let levels = |v: &Value| -> Vec<(f64, u64)> {
+        let levels = v["heading_error"]["levels"].as_array().unwrap();
+        levels
+            .iter()
+            .map(|l| {
+                let heading = l["heading_deg"].as_f64().unwrap();
+                (heading, l["samples"].as_u64().unwrap())
+            })
+            .collect()
+    };
+
+    let default = fom(&[]);
+    assert_eq!(slots(&default["maneuvers"]), all_slots());
+    let found = levels(&default);
+    assert_eq!(found.len(), 4, "{found:?}");
+
+    let tight = fom(&["--heading-tolerance", "3", "--cardinal-tolerance", "3"]);
+    assert!(levels(&tight).is_empty(), "{:?}", levels(&tight));
+    assert_eq!(tight["missing"].as_array().unwrap().len(), 12, "{tight}");
+    assert!(tight["fom_nT"].as_f64().is_none_or(|f| f == 0.0), "{tight}");
+
+    let own = fom(&["--headings", "6,96,186,276", "--heading-tolerance", "3"]);
+    let own_levels = levels(&own);
+    assert_eq!(
+        own_levels.iter().map(|l| l.0).collect::<Vec<_>>(),
+        [6.0, 96.0, 186.0, 276.0]
+    );
+    // The same legs: nothing of them lies more than 3° off their own heading.
+    let samples = |l: &[(f64, u64)]| l.iter().map(|l| l.1).collect::<Vec<_>>();
+    assert_eq!(samples(&own_levels), samples(&found));
+
+    let level = fom(&["--level-tolerance", "0.01"]);
+    let fewer: u64 = samples(&levels(&level)).iter().sum();
+    assert!(fewer < samples(&found).iter().sum(), "{fewer}");
+
+    for (flag, value) in [
+        ("--heading-tolerance", "91"),
+        ("--heading-tolerance", "-1"),
+        ("--cardinal-tolerance", "nan"),
+        ("--cardinal-tolerance", "46"),
+        ("--level-tolerance", "inf"),
+        ("--headings", "0,inf"),
+    ] {
+        let err = fails(&["fom", csv, "--scalar", "mag_1_uc", flag, value]);
+        assert!(err.contains(flag), "{flag} {value}: {err}");
+    }
+}

@@ -205,6 +205,14 @@ pub enum Error {
     /// A `YYYY-MM-DD` date that is not a day of the calendar.
     #[error("date {text}: {reason}")]
     Date { text: String, reason: IgrfError },
+    /// A heading setting of the FOM outside its range (degrees).
+    #[error("{flag} ({python}= in Python) must be {range}, got {value}")]
+    BadHeadingSetting {
+        flag: &'static str,
+        python: &'static str,
+        range: &'static str,
+        value: f64,
+    },
     /// A maneuver period that is not a positive number of seconds.
     #[error("the maneuver period must be a positive number of seconds, got {period_s}")]
     BadPeriod {

@@ -30,6 +30,13 @@ pub struct FomRequest {
     pub order: usize,
     /// Sample rate (Hz) when the flight has no time column (or to override it).
     pub fs_hz: Option<f64>,
+    /// What counts as a straight leg for the heading error: the nominal headings (degrees
+    /// clockwise from north), how far the yaw may stray from one (degrees, 0–90), the largest
+    /// roll and pitch (degrees) and so on; default the four cardinal headings, within 10°.
+    pub headings: HeadingSettings,
+    /// A maneuver flown on a measured heading within this of north, east, south or west counts
+    /// as that heading's (degrees, 0–45); default 20°.
+    pub cardinal_tolerance_deg: f64,
 }
 
 impl FomRequest {
@@ -43,6 +50,96 @@ impl FomRequest {
             },
             order: 4,
             fs_hz: None,
+            headings: HeadingSettings::default(),
+            cardinal_tolerance_deg: ManeuverSettings::default().cardinal_tolerance_deg,
+        }
+    }
+
+    /// The request's angles checked: finite, tolerances within their ranges.
+    fn check(&self) -> Result<()> {
+        let h = &self.headings;
+        let angles = [
+            (
+                "--heading-tolerance",
+                "heading_tolerance",
+                "an angle from 0 to 90 degrees",
+                h.heading_tolerance_deg,
+                90.0,
+            ),
+            (
+                "--cardinal-tolerance",
+                "cardinal_tolerance",
+                "an angle from 0 to 45 degrees",
+                self.cardinal_tolerance_deg,
+                45.0,
+            ),
+            (
+                "--level-tolerance",
+                "level_tolerance",
+                "an angle from 0 to 90 degrees",
+                h.max_roll_deg,
+                90.0,
+            ),
+            (
+                "--level-tolerance",
+                "level_tolerance",
+                "an angle from 0 to 90 degrees",
+                h.max_pitch_deg,
+                90.0,
+            ),
+        ];
+        let bad = angles
+            .into_iter()
+            .find(|(.., value, most)| !(0.0..=*most).contains(value));
+        if let Some((flag, python, range, value, _)) = bad {
+            return Err(Error::BadHeadingSetting {
+                flag,
+                python,
+                range,
+                value,
+            });
+        }
+        match h.headings_deg.iter().find(|v| !v.is_finite()) {
+            Some(&value) => Err(Error::BadHeadingSetting {
+                flag: "--headings",
+                python: "headings",
+                range: "finite angles in degrees",
+                value,
+            }),
+            None => Ok(()),
+        }
+    }
+
+    /// The request with the straight legs of the heading error on `headings_deg` (degrees;
+    /// `None` keeps the cardinal headings), the yaw within `heading_tolerance_deg` of one and
+    /// roll and pitch within `level_tolerance_deg` (degrees), and box maneuvers assigned to a
+    /// cardinal heading within `cardinal_tolerance_deg` (degrees): the flags of `tolles fom`.
+    pub fn with_legs(
+        self,
+        headings_deg: Option<Vec<f64>>,
+        heading_tolerance_deg: f64,
+        level_tolerance_deg: f64,
+        cardinal_tolerance_deg: f64,
+    ) -> Self {
+        let default = HeadingSettings::default();
+        Self {
+            headings: HeadingSettings {
+                headings_deg: headings_deg.unwrap_or(default.headings_deg),
+                heading_tolerance_deg,
+                max_roll_deg: level_tolerance_deg,
+                max_pitch_deg: level_tolerance_deg,
+                ..default
+            },
+            cardinal_tolerance_deg,
+            ..self
+        }
+    }
+
+    /// The maneuver detector's settings with this request's cardinal tolerance.
+    fn maneuver_settings(&self) -> ManeuverSettings {
+        ManeuverSettings {
+            cardinal_tolerance_deg: self.cardinal_tolerance_deg,
+            ..ManeuverSettings::default()
         }
     }
 }
@@ -85,6 +182,7 @@ pub fn fom(
     warnings: &mut Vec<Warning>,
 ) -> Result<FomOutcome> {
     crate::fit::check_band(request.band)?;
+    request.check()?;
     let missing: Vec<&str> = [ROLL, PITCH, YAW]
         .into_iter()
         .filter(|c| !table.has(c))
@@ -125,7 +223,7 @@ fn measure_flight(
     let tt = tt.unwrap_or_else(|| (0..table.len()).map(|k| k as f64 / fs_hz).collect());
     let maneuvers = match &attitude {
         Some([roll, pitch, yaw]) => {
-            detect_maneuvers(&tt, roll, pitch, yaw, &ManeuverSettings::default())
+            detect_maneuvers(&tt, roll, pitch, yaw, &request.maneuver_settings())
         }
         None => Vec::new(),
     };
@@ -159,6 +257,7 @@ fn measure_flight(
             &maneuvers,
             &scalar,
             compensated.as_deref(),
+            &request.headings,
         )?,
         None => (no_levels(), compensated.as_ref().map(|_| no_levels())),
     };
@@ -200,10 +299,12 @@ fn headings(
     maneuvers: &[Maneuver],
     scalar: &[f64],
     compensated: Option<&[f64]>,
+    settings: &HeadingSettings,
 ) -> Result<(HeadingLevels, Option<HeadingLevels>)> {
     let mut signals = vec![scalar];
     signals.extend(compensated);
-    let mut levels = straight_levels(path, tt, attitude, maneuvers, &signals)?.into_iter();
+    let mut levels =
+        straight_levels(path, tt, attitude, maneuvers, &signals, settings)?.into_iter();
     let before = levels.next().expect("the scalar's levels");
     Ok((before, levels.next()))
 }
@@ -216,14 +317,14 @@ pub(crate) fn straight_levels(
     [roll, pitch, yaw]: [&[f64]; 3],
     maneuvers: &[Maneuver],
     signals: &[&[f64]],
+    settings: &HeadingSettings,
 ) -> Result<Vec<HeadingLevels>> {
     let error = |cause| Error::Heading {
         path: path.to_path_buf(),
         cause,
     };
-    let settings = HeadingSettings::default();
     let mut selection =
-        select_straight(tt, roll, pitch, yaw, maneuvers, &settings).map_err(error)?;
+        select_straight(tt, roll, pitch, yaw, maneuvers, settings).map_err(error)?;
     for s in signals {
         selection.require_finite(s).map_err(error)?;
     }
@@ -479,6 +580,7 @@ mod tests {
             &outcome.maneuvers,
             &outcome.scalar,
             Some(&residual),
+            &HeadingSettings::default(),
         )
         .unwrap();
         let residual = residual.unwrap();

@@ -12,7 +12,7 @@ use std::path::PathBuf;
 use tolles_core::fit::Band;
 use tolles_core::maneuvers::detect::Maneuver;
 use tolles_core::maneuvers::fom::{bandpassed, FomSettings};
-use tolles_core::maneuvers::heading::HeadingLevels;
+use tolles_core::maneuvers::heading::{HeadingLevels, HeadingSettings};
 use tolles_core::maneuvers::ManeuverKind;
 use tolles_core::signal::metrics::std_dev;
 use tolles_core::signal::spectrum::{welch, Spectrum};
@@ -43,6 +43,11 @@ pub struct ReportRequest {
     pub selection: RowSelection,
     /// Columns renamed `(old, new)` right after reading (see [`crate::read::rename`]).
     pub renames: Vec<(String, String)>,
+    /// The straight legs of the heading error, as [`FomRequest::headings`].
+    pub headings: HeadingSettings,
+    /// How near a cardinal heading a maneuver counts as its (degrees), as
+    /// [`FomRequest::cardinal_tolerance_deg`].
+    pub cardinal_tolerance_deg: f64,
 }
 
 impl ReportRequest {
@@ -58,6 +63,8 @@ impl ReportRequest {
             fs_hz: None,
             selection: RowSelection::default(),
             renames: Vec::new(),
+            headings: fom.headings,
+            cardinal_tolerance_deg: fom.cardinal_tolerance_deg,
         }
     }
 }
@@ -306,6 +313,8 @@ fn build_scalar(
         band: request.band,
         order: request.order,
         fs_hz: request.fs_hz,
+        headings: request.headings.clone(),
+        cardinal_tolerance_deg: request.cardinal_tolerance_deg,
         ..FomRequest::new(scalar)
     };
     let outcome = fom(table, &fom_request, fit.as_ref(), warnings)?;
@@ -327,7 +336,10 @@ fn build_scalar(
             let error: Vec<f64> = c.iter().zip(t).map(|(c, t)| c - t).collect();
             let signals = [outcome.scalar.as_slice(), c.as_slice(), error.as_slice()];
             let path = table.path();
-            let levels = straight_levels(path, &outcome.tt, attitude, &outcome.maneuvers, &signals);
+            let maneuvers = &outcome.maneuvers;
+            let settings = &request.headings;
+            let levels =
+                straight_levels(path, &outcome.tt, attitude, maneuvers, &signals, settings);
             // Without straight legs there is nothing to level; the FOM says why.
             levels.ok().and_then(|mut l| l.pop())
         }

@@ -31,9 +31,10 @@ Examples:
 /// does, and the improvement ratio is uncompensated FOM / compensated FOM (null without a model).
 ///
 /// The heading error is the surveyors' measure: the scalar's mean level over the straight and
-/// level samples of each cardinal heading (outside maneuvers and 2 s around them, roll and pitch
-/// within 3°, yaw within 10° of the heading and turning less than 1°/s; headings with less than
-/// 3 s of such flight are skipped), largest level minus smallest, ± the two levels' standard
+/// level samples of each cardinal heading (or those of --headings; outside maneuvers and 2 s
+/// around them, roll and pitch within 3° (--level-tolerance), yaw within 10° of the heading
+/// (--heading-tolerance) and turning less than 1°/s; headings with less than 3 s of such flight
+/// are skipped), largest level minus smallest, ± the two levels' standard
 /// errors combined (each allows for autocorrelation). Before and after compensation it uses the
 /// same samples. Geology and diurnal variation between the legs stay in both numbers.
 #[derive(clap::Args)]
@@ -61,6 +62,8 @@ pub struct Args {
     #[arg(long, allow_negative_numbers = true)]
     pub fs: Option<f64>,
     #[command(flatten)]
+    pub legs: crate::input::Legs,
+    #[command(flatten)]
     pub select: crate::select::Selection,
 }
 
@@ -86,12 +89,12 @@ fn evaluate(args: &Args) -> Result<(String, FomOutcome)> {
         .transpose()?;
     let model = model.as_ref().map(|(m, path)| (m, *path));
     let scalar = tolles::fom::scalar_to_use(args.scalar.as_deref(), model).or_render()?;
-    let request = FomRequest {
+    let request = args.legs.apply(FomRequest {
         band: Band { pass1_hz, pass2_hz },
         order: args.order,
         fs_hz: args.fs,
         ..FomRequest::new(&scalar)
-    };
+    });
     let fit = model
         .map(|(model, path)| tolles::fom::fit_for(model, path, &scalar))
         .transpose()

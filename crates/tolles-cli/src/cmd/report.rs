@@ -48,12 +48,17 @@ pub struct Args {
     #[arg(long, allow_negative_numbers = true)]
     pub fs: Option<f64>,
     #[command(flatten)]
+    pub legs: crate::input::Legs,
+    #[command(flatten)]
     pub select: crate::select::Selection,
 }
 
 pub fn run(args: Args) -> Result<()> {
     let (pass1_hz, pass2_hz) = parse_band(&args.band)?;
+    let legs = args.legs.apply(tolles::fom::FomRequest::new(""));
     let request = ReportRequest {
+        headings: legs.headings,
+        cardinal_tolerance_deg: legs.cardinal_tolerance_deg,
         model: args.model,
         band: Band { pass1_hz, pass2_hz },
         fs_hz: args.fs,
