@@ -105,6 +105,53 @@ fn a_time_column_declared_in_hours_or_milliseconds_is_read_in_seconds() {
     }
 }
 
+/// The sample rate `tolles info` reports for `file` in `dir` (Hz).
+fn info_rate(dir: &Path, file: &str) -> f64 {
+    let (info, _) = run(dir, &["info", file]);
+    info.split("sample rate: ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .and_then(|r| r.trim().parse().ok())
+        .unwrap_or_else(|| panic!("{info}"))
+}
+
+/// Times written as read keep their unit in HDF5; CSV cannot say it, and the command says so.
+#[test]
+fn a_declared_time_unit_is_kept_in_hdf5_and_its_loss_in_csv_is_warned_of() {
+    let dir = TempDir::new().unwrap();
+    let gdf = box_as_gdf(dir.path(), "hours", 1.0 / 3600.0);
+    for out in ["box.h5", "box.parquet"] {
+        let (_, quiet) = run(dir.path(), &["convert", &gdf, out]);
+        assert!(!quiet.contains("cannot declare"), "{quiet}");
+        assert!((info_rate(dir.path(), out) - 10.0).abs() < 1e-3, "{out}");
+    }
+
+    let (_, said) = run(dir.path(), &["convert", &gdf, "box_converted.csv"]);
+    assert!(
+        said.contains("box_converted.csv: time column \"TIME\" is written in \"hours\""),
+        "{said}"
+    );
+    assert!((info_rate(dir.path(), "box_converted.csv") - 36_000.0).abs() < 1.0);
+
+    let fit = [
+        "fit",
+        &gdf,
+        "--scalar",
+        "RAWMAG",
+        "--vector",
+        "FLUXX:FLUXY:FLUXZ",
+        "--out",
+        "m.json",
+    ];
+    run(dir.path(), &fit);
+    let compensate = ["compensate", &gdf, "--model", "m.json", "--out"];
+    let (_, said) = run(dir.path(), &[&compensate[..], &["c.csv"]].concat());
+    assert!(said.contains("c.csv: time column \"TIME\""), "{said}");
+    let (_, quiet) = run(dir.path(), &[&compensate[..], &["c.h5"]].concat());
+    assert!(!quiet.contains("cannot declare"), "{quiet}");
+    assert!((info_rate(dir.path(), "c.h5") - 10.0).abs() < 1e-3);
+}
+
 #[test]
 fn a_time_column_in_an_unknown_unit_and_an_unlikely_rate_are_warned_of() {
     let dir = TempDir::new().unwrap();
@@ -146,6 +193,16 @@ fn fiducials_and_projected_coordinates_answer_to_tolles_names() {
         notes.contains("EASTMGA56 as east_m") && notes.contains("FID as tt"),
         "{notes}"
     );
+    // A heading column is the yaw when the file has no AZIMUTH, so the heading error needs no
+    // renaming.
+    let csv = dir.path().join("heading.csv");
+    std::fs::write(
+        &csv,
+        "Fiducial,Heading,Roll,Pitch,mag\n1,90,0,0,5\n2,90,0,0,6\n",
+    )
+    .unwrap();
+    let (_, notes) = run(dir.path(), &["info", csv.to_str().unwrap()]);
+    assert!(notes.contains("Heading as ins_yaw"), "{notes}");
     // A file with its own time keeps it: HillValley has FIDUCIAL and TIME (in hours).
     let hill = example("Example_Mag_HillValley_1985");
     let (_, notes) = run(dir.path(), &["info", hill.to_str().unwrap()]);
@@ -205,6 +262,10 @@ fn a_flight_without_maneuvers_has_no_figure_of_merit_rather_than_zero() {
     let (text, _) = run(dir.path(), &["fom", "survey.csv", "--scalar", "mag_1_uc"]);
     assert!(text.contains("FOM  none"), "{text}");
     assert!(!text.contains("0.000\n"), "{text}");
+    assert!(
+        !text.contains("missing:"),
+        "one 'none', not twelve missing: {text}"
+    );
     let (json, _) = run(
         dir.path(),
         &["fom", "survey.csv", "--scalar", "mag_1_uc", "--json"],

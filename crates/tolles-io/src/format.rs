@@ -198,6 +198,11 @@ pub struct Written {
     /// Columns shorter than [`Written::rows`], padded with missing cells (CSV and Parquet), as
     /// `(name, own length)`.
     pub padded: Vec<(String, usize)>,
+    /// The time column and the unit of time its file declared, when that is not seconds and
+    /// the column is written as read into CSV, which cannot declare it: read back, its times are
+    /// taken as seconds. HDF5 and Parquet write such a time column in seconds (HDF5 with a
+    /// `units` attribute `s`; every other declared unit is kept as its `units` attribute).
+    pub time_unit_dropped: Option<(String, String)>,
 }
 
 /// Writes everything `table` holds to `path` in `format`, for `tolles convert`: its columns
@@ -300,6 +305,7 @@ fn write_parts(
             .map(|(_, name)| name.clone())
             .collect(),
         padded,
+        time_unit_dropped: (format == Format::Csv).then(|| table.time_unit()).flatten(),
     })
 }
 
@@ -323,7 +329,19 @@ fn write_hdf5(
         .collect();
     outputs.extend(extra.iter().map(|(n, v)| Output::Numbers(n, v)));
     outputs.extend(scalars.iter().map(|(n, v)| Output::Scalar(n, *v)));
-    crate::hdf5::write_datasets(path, &outputs)
+    // The time column is written in seconds (see `column_kinds`).
+    let time = table.time_scale().map(|(index, _)| index);
+    let units: Vec<(&str, &str)> = (table.headers().iter().enumerate())
+        .filter_map(|(k, name)| {
+            let unit = if Some(k) == time {
+                "s"
+            } else {
+                table.unit(name)?
+            };
+            Some((name.as_str(), unit))
+        })
+        .collect();
+    crate::hdf5::write_datasets(path, &outputs, &units)
 }
 
 /// How a column of the table is written in HDF5 or Parquet.
@@ -339,9 +357,12 @@ fn column_kinds(table: &Table, format: Format, text: Text) -> Result<Vec<Kind<'_
     if format == Format::Csv {
         return Ok(Vec::new());
     }
+    // A time column declared in another unit is written in seconds, as it is read.
+    let time = table.time_scale().map(|(index, _)| index);
     let mut kinds = Vec::with_capacity(table.columns().len());
     for (k, column) in table.columns().iter().enumerate() {
         kinds.push(match column {
+            _ if Some(k) == time => Kind::Numbers(table.numeric_at(k)?.into()),
             Column::Numbers(values) => Kind::Numbers(values.as_slice().into()),
             Column::Text(cells) => match table.numeric_at(k) {
                 Ok(values) => Kind::Numbers(values.into()),

@@ -193,7 +193,7 @@ pub fn write(path: &Path, columns: &[(String, Vec<f64>)]) -> Result<(), IoError>
         .iter()
         .map(|(name, values)| Output::Numbers(name, values))
         .collect();
-    write_datasets(path, &datasets)
+    write_datasets(path, &datasets, &[])
 }
 
 /// One dataset [`write_datasets`] writes at the root of a file.
@@ -215,14 +215,22 @@ impl Output<'_> {
     }
 }
 
-/// Writes `datasets` at the root of a new HDF5 file, whole or not at all ([`crate::atomic`]).
-pub fn write_datasets(path: &Path, datasets: &[Output<'_>]) -> Result<(), IoError> {
+/// Writes `datasets` at the root of a new HDF5 file, whole or not at all ([`crate::atomic`]);
+/// a dataset named in `units` as `(name, unit)` gets that text as its `units` attribute.
+pub fn write_datasets(
+    path: &Path,
+    datasets: &[Output<'_>],
+    units: &[(&str, &str)],
+) -> Result<(), IoError> {
     for dataset in datasets {
         check_name(path, dataset.name())?;
     }
     let mut builder = FileBuilder::new();
     for dataset in datasets {
         let created = builder.create_dataset(dataset.name());
+        if let Some((_, unit)) = units.iter().find(|(name, _)| *name == dataset.name()) {
+            created.set_attr("units", AttrValue::String(unit.to_string()));
+        }
         match dataset {
             Output::Numbers(_, values) => {
                 created.with_f64_data(values);
@@ -495,8 +503,10 @@ mod tests {
                 Output::Scalar("dt", 0.1),
                 Output::Numbers("side", &[3.0]),
             ],
+            &[("a", "h")],
         )
         .unwrap();
+        assert_eq!(super::units(&path), [("a".to_string(), "h".to_string())]);
         let file = File::open(&path).unwrap();
         assert_eq!(
             file.dataset("s").unwrap().read_string().unwrap(),

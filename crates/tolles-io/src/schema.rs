@@ -157,13 +157,16 @@ const COORDINATE_TOKENS: [&str; 11] = [
 ];
 
 /// The tolles name a survey file's own spelling of a channel stands for when neither the file
-/// nor [`canonical_names`] gives it: a fiducial as time (s) when the file has no time, and
-/// coordinates under their datum or projection (`GDA94LAT` latitude, `EAST_MGA` or `X`
-/// easting in m, …).
+/// nor [`canonical_names`] gives it: a fiducial as time (s) when the file has no time, a
+/// heading (`HEADING`, `HDG`, `YAW`; degrees clockwise from north) as the yaw when the file has
+/// no `AZIMUTH` (a track heading differs from the aircraft's by its crab angle, a few degrees,
+/// well inside the heading error's 10° tolerance), and coordinates under their datum or
+/// projection (`GDA94LAT` latitude, `EAST_MGA` or `X` easting in m, …).
 ///
 /// ```
 /// use tolles_io::schema::fallback_name;
 /// assert_eq!(fallback_name("FIDUCIAL"), Some("tt"));
+/// assert_eq!(fallback_name("Heading"), Some("ins_yaw"));
 /// assert_eq!(fallback_name("GDA94LAT"), Some("lat"));
 /// assert_eq!(fallback_name("LONG_GDA94"), Some("lon"));
 /// assert_eq!(fallback_name("EASTMGA56"), Some("east_m"));
@@ -175,6 +178,7 @@ pub fn fallback_name(raw: &str) -> Option<&'static str> {
     let upper = raw.trim().to_ascii_uppercase();
     match upper.as_str() {
         "FIDUCIAL" | "FID" | "FIDU" => return Some(TIME_COLUMN),
+        "HEADING" | "HDG" | "YAW" => return Some(YAW),
         "X" => return Some(EAST),
         "Y" => return Some(NORTH),
         _ => {}

@@ -391,9 +391,16 @@ impl Table {
             .map(|(_, u)| u.as_str())
     }
 
+    /// The time column's name and the unit of time its file declares, when that is not seconds.
+    pub fn time_unit(&self) -> Option<(String, String)> {
+        let (index, _) = self.time_scale()?;
+        let unit = self.units.iter().find(|(k, _)| *k == index)?;
+        Some((self.headers[index].clone(), unit.1.clone()))
+    }
+
     /// The time column's index and the seconds in one of its declared units, when that is not
     /// one second.
-    fn time_scale(&self) -> Option<(usize, f64)> {
+    pub(crate) fn time_scale(&self) -> Option<(usize, f64)> {
         if self.units.is_empty() {
             return None;
         }

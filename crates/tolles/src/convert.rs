@@ -103,6 +103,13 @@ pub fn convert(
     let data = data?;
     let table = &data.table;
     let written = write_everything(table, &request.output, format)?;
+    if let Some((column, unit)) = written.time_unit_dropped {
+        warnings.push(Warning::TimeUnitNotWritten {
+            path: request.output.clone(),
+            column,
+            unit,
+        });
+    }
     if !written.padded.is_empty() {
         warnings.push(Warning::Padded {
             path: request.output.clone(),

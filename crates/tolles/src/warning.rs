@@ -103,6 +103,13 @@ pub enum Warning {
         rows: usize,
         columns: Vec<(String, usize)>,
     },
+    /// A time column the input declared in a unit other than seconds, written as read to CSV,
+    /// which cannot declare units: read back, its times are taken as seconds.
+    TimeUnitNotWritten {
+        path: PathBuf,
+        column: String,
+        unit: String,
+    },
     /// A model whose verdict is not `good` (see `tolles_core::fit::verdict`).
     Verdict {
         scalar: String,
@@ -248,6 +255,13 @@ impl fmt::Display for Warning {
                     name_lengths(columns)
                 )
             }
+            Warning::TimeUnitNotWritten { path, column, unit } => write!(
+                f,
+                "{}: time column {column:?} is written in {unit:?} as read, which CSV cannot \
+                 declare: read back, its times count as seconds (write .h5 or .parquet, which \
+                 hold it in seconds, or give --fs when reading it)",
+                path.display()
+            ),
             Warning::Verdict { scalar, verdict } => {
                 write!(f, "the model of {scalar} is {verdict}")
             }

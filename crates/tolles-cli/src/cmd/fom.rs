@@ -193,7 +193,13 @@ fn write_table(out: &mut impl Write, args: &Args, scalar: &str, o: &FomOutcome) 
         },
     }
     write_headings(out, &o.heading_before, o.heading_after.as_ref())?;
-    for slot in &o.before.missing {
+    // With no maneuver at all, the FOM line has said so; twelve "missing" lines add nothing.
+    let missing = if o.maneuvers.is_empty() {
+        &[][..]
+    } else {
+        &o.before.missing[..]
+    };
+    for slot in missing {
         writeln!(
             out,
             "missing: {} on heading {}°",

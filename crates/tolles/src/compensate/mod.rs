@@ -245,12 +245,14 @@ pub enum Destination<'w> {
     Csv(&'w mut dyn Write),
 }
 
-/// Writes `table` with the compensated `columns` after its own.
+/// Writes `table` with the compensated `columns` after its own; returns the time column and
+/// the unit of time the input declared for it when the output cannot say it (see
+/// [`tolles_io::format::Written::time_unit_dropped`]).
 pub fn write_compensated(
     table: &Table,
     columns: &[CompensatedColumn],
     destination: Destination<'_>,
-) -> Result<()> {
+) -> Result<Option<(String, String)>> {
     let trust = trust_columns(table.headers(), columns);
     let mut extra: Vec<(&str, &[f64])> = Vec::new();
     for (c, t) in columns.iter().zip(&trust) {
@@ -262,11 +264,12 @@ pub fn write_compensated(
     }
     match destination {
         Destination::File(path) => {
-            write_table(table, &extra, &path, Format::for_output(&path)?)?;
-            Ok(())
+            let written = write_table(table, &extra, &path, Format::for_output(&path)?)?;
+            Ok(written.time_unit_dropped)
         }
         Destination::Csv(out) => write_padded(table, &extra, table.len(), &mut *out)
             .and_then(|_| out.flush())
+            .map(|_| table.time_unit())
             .map_err(|source| Error::Write {
                 what: "writing the compensated data".to_string(),
                 source,
@@ -410,7 +413,13 @@ pub fn compensate_file(
         Some(path) => Destination::File(path.clone()),
         None => Destination::Csv(writer),
     };
-    write_compensated(&data.table, &columns, destination)?;
+    let dropped = write_compensated(&data.table, &columns, destination)?;
+    let output = request.out.clone().unwrap_or_else(|| "-".into());
+    warnings.extend(dropped.map(|(column, unit)| Warning::TimeUnitNotWritten {
+        path: output,
+        column,
+        unit,
+    }));
     Ok(FileOutcome {
         selected: data.selected,
         rows: data.table.len(),
