@@ -67,7 +67,7 @@ fn read_bytes(bytes: Vec<u8>, path: &Path) -> Result<Table, IoError> {
     let names = root
         .datasets()
         .map_err(|e| invalid(format!("cannot list the datasets at the root: {e}")))?;
-    let mut vectors = Vec::new();
+    let mut arrays = Vec::new();
     let mut metadata = Vec::new();
     let mut notes = Vec::new();
     for name in names {
@@ -79,7 +79,18 @@ fn read_bytes(bytes: Vec<u8>, path: &Path) -> Result<Table, IoError> {
                 let v = read_values(&dataset, &name, path, limit)?;
                 metadata.push((name, v[0]));
             }
-            Kind::Vector(_) => vectors.push((name, dataset)),
+            Kind::Vector(n) => arrays.push(Array {
+                name,
+                dataset,
+                len: n,
+                text: false,
+            }),
+            Kind::Text(n) => arrays.push(Array {
+                name,
+                dataset,
+                len: n,
+                text: true,
+            }),
             Kind::Other(why) => notes.push(format!("dataset {name:?} is {why}; left out")),
         }
     }
@@ -90,25 +101,45 @@ fn read_bytes(bytes: Vec<u8>, path: &Path) -> Result<Table, IoError> {
                 .map(|g| format!("group {g:?} is not a column; left out")),
         );
     }
-    let lengths = vectors.iter().filter_map(|(_, d)| match classify(d) {
-        Ok(Kind::Vector(n)) => Some(n),
-        _ => None,
-    });
-    let Some(rows) = crate::table::most_common_length(lengths) else {
+    // The rows are the numbers' most common length; a file of text only has the text's.
+    let lengths = |text: bool| arrays.iter().filter(move |a| a.text == text).map(|a| a.len);
+    let rows = crate::table::most_common_length(lengths(false))
+        .or_else(|| crate::table::most_common_length(lengths(true)));
+    let Some(rows) = rows else {
         return scalars_only(path, metadata, notes);
     };
     let mut headers = Vec::new();
     let mut columns = Vec::new();
     let mut side = Vec::new();
     let mut units = Vec::new();
-    for (name, dataset) in vectors {
-        let values = read_values(&dataset, &name, path, limit)?;
-        if values.len() == rows {
-            units.extend(dataset_unit(&dataset).map(|u| (name.clone(), u)));
-            headers.push(name);
-            columns.push(Column::Numbers(values));
+    for Array {
+        name,
+        dataset,
+        len,
+        text,
+    } in arrays
+    {
+        if text && len != rows {
+            notes.push(format!(
+                "dataset {name:?} holds {len} text cells, not one per row ({rows}); left out"
+            ));
+        } else if text {
+            match read_text(&dataset, &name, path, limit)? {
+                Some(cells) => {
+                    headers.push(name);
+                    columns.push(Column::Text(cells));
+                }
+                None => notes.push(format!("dataset {name:?} is unreadable text; left out")),
+            }
         } else {
-            side.push(SideColumn { name, values });
+            let values = read_values(&dataset, &name, path, limit)?;
+            if values.len() == rows {
+                units.extend(dataset_unit(&dataset).map(|u| (name.clone(), u)));
+                headers.push(name);
+                columns.push(Column::Numbers(values));
+            } else {
+                side.push(SideColumn { name, values });
+            }
         }
     }
     Ok(Table::from_columns(path, headers, columns, None)?
@@ -117,6 +148,14 @@ fn read_bytes(bytes: Vec<u8>, path: &Path) -> Result<Table, IoError> {
         .with_side_columns(side)
         .with_notes(notes)
         .with_dt_from_fs())
+}
+
+/// A 1-D dataset at the root: numbers or text, `len` long.
+struct Array<'f> {
+    name: String,
+    dataset: Dataset<'f>,
+    len: usize,
+    text: bool,
 }
 
 /// A file of scalars only, as a one-row table of them (the sample interval also as metadata,
@@ -341,6 +380,8 @@ fn without_user_block(mut bytes: Vec<u8>) -> Vec<u8> {
 enum Kind {
     Scalar,
     Vector(usize),
+    /// A 1-D dataset of strings, of this length.
+    Text(usize),
     Other(String),
 }
 
@@ -367,8 +408,15 @@ fn classify(dataset: &Dataset) -> Result<Kind, hdf5_pure::Error> {
             }
         }
     }
+    let dtype = dataset.dtype()?;
+    if matches!(dtype, DType::String | DType::VariableLengthString) {
+        return Ok(match dataset.shape()?[..] {
+            [n] => Kind::Text(n as usize),
+            _ => Kind::Other("text, not a column".to_string()),
+        });
+    }
     let numeric = matches!(
-        dataset.dtype()?,
+        dtype,
         DType::F32
             | DType::F64
             | DType::I8
@@ -394,6 +442,34 @@ fn classify(dataset: &Dataset) -> Result<Kind, hdf5_pure::Error> {
         [n] => Kind::Vector(n as usize),
         _ => Kind::Other(format!("of shape {shape:?}, not a column")),
     })
+}
+
+/// The cells of a 1-D string dataset (as [`write_datasets`] writes a text column), refused
+/// unread when its cells would take more than `limit` bytes (32 each at least); `None` when
+/// the library cannot read them as text.
+fn read_text(
+    dataset: &Dataset,
+    name: &str,
+    path: &Path,
+    limit: u64,
+) -> Result<Option<TextColumn>, IoError> {
+    let cells = dataset.shape().ok().and_then(|s| s.first().copied());
+    if cells.is_none_or(|n| n.saturating_mul(32) > limit) {
+        return Err(IoError::Invalid {
+            path: path.to_path_buf(),
+            message: format!(
+                "dataset {name:?}: its declared shape is larger than the file could hold"
+            ),
+        });
+    }
+    let Ok(strings) = dataset.read_string() else {
+        return Ok(None);
+    };
+    let mut text = TextColumn::new(Default::default());
+    for cell in &strings {
+        text.push(cell);
+    }
+    Ok(Some(text))
 }
 
 /// The values of `dataset` as numbers, refused unclaimed when their declared size (8 bytes
@@ -515,7 +591,11 @@ mod tests {
         let back = read(&path).unwrap();
         assert_eq!(back.metadata("dt"), Some(0.1));
         assert_eq!(back.side_columns()[0].values, [3.0]);
-        assert_eq!(back.headers(), ["a"]);
+        assert_eq!(back.headers(), ["a", "s"]);
+        let Column::Text(cells) = &back.columns()[1] else {
+            panic!("text read back as text")
+        };
+        assert_eq!((cells.get(0), cells.get(1)), ("x", "long é"));
     }
 
     #[test]
