@@ -366,3 +366,16 @@ fn text_columns_travel_through_every_format_and_back() {
         }
     }
 }
+
+/// A one-column row whose cell is only blanks is a missing cell, not a blank line a reader
+/// skips: every row reaches the output (the fuzzer's second find).
+#[test]
+fn a_one_column_row_of_blanks_stays_a_row() {
+    let dir = TempDir::new().unwrap();
+    let input = dir.path().join("in.csv");
+    std::fs::write(&input, "a\n1\n\t\n3\n").unwrap();
+    let out = dir.path().join("out.csv");
+    convert(&input, &out);
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), "a\n1\n\"\"\n3\n");
+    assert_eq!(Table::read(&out, None).unwrap().len(), 3);
+}

@@ -978,12 +978,18 @@ fn format_block(rows: &RawRows, extra: &[&[f64]], range: Range<usize>, text: &mu
     let mut number = zmij::Buffer::new();
     for k in range {
         if untidy.next_if(|&&u| u as usize == k).is_some() {
+            let start = text.len();
             for (j, cell) in rows.line(k).split(|&b| b == b',').enumerate() {
                 if j > 0 {
                     text.push(b',');
                 }
                 let cell = std::str::from_utf8(cell).unwrap_or_default();
                 text.extend_from_slice(cell.trim().as_bytes());
+            }
+            // A row of one empty cell must not become a blank line, which readers skip; the
+            // csv crate quotes it so too.
+            if text.len() == start && extra.is_empty() {
+                text.extend_from_slice(b"\"\"");
             }
         } else {
             text.extend_from_slice(rows.line(k));
