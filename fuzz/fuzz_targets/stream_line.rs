@@ -36,7 +36,7 @@ fuzz_target!(|data: &[u8]| {
         let (scalars, fluxgates, flags) = (
             line.scalars.clone(),
             line.fluxgates.clone(),
-            line.flags.clone(),
+            line.flags.iter().map(tolles::stream::flag).collect(),
         );
         let sample = line.well_formed.then_some(Sample {
             time_s: line.time_s,

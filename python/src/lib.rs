@@ -14,9 +14,9 @@ use std::path::{Path, PathBuf};
 use tolles::compensate::{CompensateRequest, LevelChoice};
 use tolles::fit::{FitRequest, Lag, Terms};
 use tolles::fom::FomRequest;
+use tolles::model::ModelFile;
 use tolles::{Silent, Warning};
 use tolles_core::fit::{Band, Lambda, MagnitudeChoice};
-use tolles_io::model::ModelFile;
 use tolles_io::schema::{vector_columns, PITCH, ROLL, SAMPLE_INTERVAL, TIME_COLUMN, YAW};
 use tolles_io::select::RowSelection;
 use tolles_io::table::{find_column, Column, Table};
@@ -604,13 +604,13 @@ fn simulate<'py>(py: Python<'py>, options: &str) -> PyResult<(Vec<String>, Array
     let simulated = py
         .detach(|| tolles::simulate::simulate(&request, &Silent))
         .map_err(failed)?;
-    let columns = tolles_io::simulation::flight_columns(&simulated.flight);
+    let columns = tolles::simulate::output::flight_columns(&simulated.flight);
     let names = columns.iter().map(|(n, _)| n.to_string()).collect();
     let arrays = columns
         .iter()
         .map(|(_, v)| v.to_vec().into_pyarray(py))
         .collect();
-    let sidecar = tolles_io::simulation::Sidecar::new(
+    let sidecar = tolles::simulate::output::Sidecar::new(
         simulated.plan_kind.name(),
         &simulated.plan,
         &simulated.scenario,

@@ -6,9 +6,9 @@ use crate::progress::Terminal;
 use anyhow::Context;
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use tolles::model::ScalarModel;
 use tolles::report::ReportRequest;
 use tolles::{Error, Warning};
-use tolles_io::model::ScalarModel;
 use tolles_io::select::SelectError;
 
 /// What a command does with the rows a selection kept, for the message that says so.

@@ -6,10 +6,13 @@
 //! - [`xyz`], [`gdf`], [`hdf5`], [`mat`], [`parquet`]: Geosoft XYZ, ASEG-GDF2, HDF5, MATLAB v5
 //!   MAT-file and Parquet tables;
 //! - [`chunks`]: flight tables read and written a chunk of rows at a time (bounded memory);
-//! - [`model`]: the model file (JSON) that `tolles fit` writes and `tolles compensate` reads;
 //! - [`schema`]: every column name tolles gives a meaning to, and how added columns are named;
 //! - [`select`]: choosing rows by flight line and time (`--line`, `--time`);
-//! - [`simulation`]: simulated flights (CSV) and their JSON sidecars.
+//! - [`simulation`]: the columns of a simulated flight, and named columns written in any format;
+//! - [`stream_line`]: the CSV lines of a live stream, read and written one at a time.
+//!
+//! Formats know nothing of the numerics: this crate depends on no other tolles crate. The model
+//! file, whose contents are the numerics' types, is the facade's (`tolles::model`).
 //!
 //! Every error names the file, and where it can the line and column, so a user can fix the input.
 
@@ -23,7 +26,6 @@ pub mod gdf;
 mod guard;
 pub mod hdf5;
 pub mod mat;
-pub mod model;
 pub mod parquet;
 pub mod rawcsv;
 pub mod schema;

@@ -5,7 +5,8 @@
 //! let layout = Layout::from_header("tt,mag_1_uc,flux_a_x,flux_a_y,flux_a_z", &["mag_1_uc"], &["flux_a"], &["mag_1_c"]).unwrap();
 //! let line = layout.parse(b"0.1,50000,20000,,45000");
 //! assert_eq!(line.time_s, Some(0.1));
-//! assert_eq!(line.flags[0].to_string(), "missing flux_a_y");
+//! use tolles_io::stream_line::CellFlag;
+//! assert_eq!(line.flags[0], CellFlag::Missing { column: "flux_a_y".into() });
 //! let mut out = String::new();
 //! layout.write_output(&line, &[f64::NAN], "missing flux_a_y", &mut out);
 //! assert_eq!(out, "0.1,50000,20000,,45000,,missing flux_a_y\n");
@@ -19,7 +20,6 @@
 
 use std::borrow::Cow;
 use std::fmt::Write;
-use tolles_core::compensate::stream::Flag;
 
 pub use crate::schema::TIME_COLUMN;
 
@@ -33,6 +33,26 @@ pub struct Layout {
     extras: Vec<(usize, String)>,
     /// The output header line (without newline): the input's plus the added columns.
     pub output_header: String,
+}
+
+/// What was wrong with a line or one of its cells; the compensator's own flags (see
+/// `tolles_core::compensate::stream::Flag`) say the same in its words.
+#[derive(Debug, Clone, PartialEq)]
+pub enum CellFlag {
+    /// An empty cell.
+    Missing {
+        /// Column name.
+        column: String,
+    },
+    /// A cell that is not a number.
+    NotANumber {
+        /// Column name.
+        column: String,
+        /// The cell's text.
+        text: String,
+    },
+    /// The line cannot be read (wrong field count, bad quoting, not UTF-8).
+    Malformed(String),
 }
 
 /// One parsed input line.
@@ -53,7 +73,7 @@ pub struct Line {
     /// Extra channels ([`Layout::from_header_with_extras`]), NaN when unreadable.
     pub extras: Vec<f64>,
     /// What was wrong with the line or its cells.
-    pub flags: Vec<Flag>,
+    pub flags: Vec<CellFlag>,
 }
 
 impl Layout {
@@ -174,18 +194,19 @@ impl Layout {
             flags: Vec::new(),
         };
         let Ok(text) = std::str::from_utf8(raw) else {
-            line.flags.push(Flag::Malformed("not UTF-8".to_string()));
+            line.flags
+                .push(CellFlag::Malformed("not UTF-8".to_string()));
             return line;
         };
         let fields = match split_fields(text) {
             Ok(f) => f,
             Err(e) => {
-                line.flags.push(Flag::Malformed(e));
+                line.flags.push(CellFlag::Malformed(e));
                 return line;
             }
         };
         if fields.len() != self.width {
-            line.flags.push(Flag::Malformed(format!(
+            line.flags.push(CellFlag::Malformed(format!(
                 "{} fields, header has {}",
                 fields.len(),
                 self.width
@@ -297,16 +318,16 @@ fn push_field(out: &mut String, field: &str) {
     }
 }
 
-fn read_cell(cell: &str, column: &str, flags: &mut Vec<Flag>) -> f64 {
+fn read_cell(cell: &str, column: &str, flags: &mut Vec<CellFlag>) -> f64 {
     let cell = cell.trim();
     if cell.is_empty() {
-        flags.push(Flag::Missing {
+        flags.push(CellFlag::Missing {
             column: column.to_string(),
         });
         return f64::NAN;
     }
     cell.parse::<f64>().unwrap_or_else(|_| {
-        flags.push(Flag::NotANumber {
+        flags.push(CellFlag::NotANumber {
             column: column.to_string(),
             text: cell.to_string(),
         });
@@ -386,15 +407,13 @@ mod tests {
         let l = layout();
         let line = l.parse(b"1,2,3");
         assert!(!line.well_formed);
-        assert_eq!(
-            line.flags[0].to_string(),
-            "malformed: 3 fields, header has 6"
-        );
+        let why = "3 fields, header has 6";
+        assert_eq!(line.flags, [CellFlag::Malformed(why.into())]);
         let mut out = String::new();
-        l.write_output(&line, &[f64::NAN], &line.flags[0].to_string(), &mut out);
-        assert_eq!(out, "1,2,3,,,,,\"malformed: 3 fields, header has 6\"\n");
+        l.write_output(&line, &[f64::NAN], why, &mut out);
+        assert_eq!(out, "1,2,3,,,,,\"3 fields, header has 6\"\n");
         let bad = l.parse(&[0xff, b',']);
-        assert_eq!(bad.flags[0].to_string(), "malformed: not UTF-8");
+        assert_eq!(bad.flags, [CellFlag::Malformed("not UTF-8".into())]);
     }
 
     #[test]
@@ -403,11 +422,11 @@ mod tests {
         assert_eq!(line.time_s, Some(0.5));
         assert!(line.scalars[0].is_nan() && line.fluxgates[0][1].is_nan());
         assert_eq!(line.fluxgates[0][0], 10_000.0);
-        assert_eq!(line.flags.len(), 1);
-        assert_eq!(
-            line.flags[0].to_string(),
-            "not a number in mag_1_uc: \"abc\""
-        );
+        let abc = CellFlag::NotANumber {
+            column: "mag_1_uc".into(),
+            text: "abc".into(),
+        };
+        assert_eq!(line.flags, [abc]);
     }
 
     #[test]

@@ -7,7 +7,7 @@
 //! let mag = table.numeric("mag_1_uc").unwrap();
 //! assert_eq!(mag[0], 50_000.0);
 //! assert!(mag[1].is_nan()); // an empty cell is a missing value, not an error
-//! assert_eq!(table.vector("flux_a").unwrap().x[1], 30_001.0);
+//! assert_eq!(table.vector("flux_a").unwrap()[0][1], 30_001.0);
 //! ```
 //!
 //! Columns from text files (CSV, XYZ, GDF) keep their cells as text so that a file can be written
@@ -21,7 +21,6 @@ use crate::rawcsv::RawRows;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use tolles_core::model::vector::VectorSeries;
 
 /// How a text column marks a missing value besides an empty cell or `NaN`.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -831,10 +830,10 @@ impl Table {
         }
     }
 
-    /// Columns `PREFIX_x`, `PREFIX_y`, `PREFIX_z` as a vector series (the suffixes in any
+    /// Columns `PREFIX_x`, `PREFIX_y`, `PREFIX_z` as numbers, `[x, y, z]` (the suffixes in any
     /// case), or the three columns of a triple `X:Y:Z`; see [`crate::schema::vector_columns`].
     /// A missing column's error suggests the fluxgate prefixes the file has.
-    pub fn vector(&self, spec: &str) -> Result<VectorSeries, IoError> {
+    pub fn vector(&self, spec: &str) -> Result<[Vec<f64>; 3], IoError> {
         self.parse_together(&[]).vector(spec)
     }
 
@@ -896,7 +895,7 @@ impl Parsed<'_> {
     }
 
     /// The vector `spec` as numbers, as [`Table::vector`] gives it.
-    pub fn vector(&mut self, spec: &str) -> Result<VectorSeries, IoError> {
+    pub fn vector(&mut self, spec: &str) -> Result<[Vec<f64>; 3], IoError> {
         let [x, y, z] = crate::schema::vector_columns(spec);
         let headers = self.table.headers();
         let mut column = |name: &str| {
@@ -908,7 +907,7 @@ impl Parsed<'_> {
                 other => other,
             })
         };
-        Ok(VectorSeries::new(column(&x)?, column(&y)?, column(&z)?))
+        Ok([column(&x)?, column(&y)?, column(&z)?])
     }
 }
 
@@ -1501,8 +1500,8 @@ mod tests {
         assert!(err.contains("did you mean FLUXA?"), "{err}");
         let err = t.vector("flux").unwrap_err().to_string();
         assert!(err.contains("did you mean FLUXA?"), "{err}");
-        assert_eq!(t.vector("fluxa").unwrap().z[0], 4.0);
-        assert_eq!(t.vector("FLUXA_Z:FLUXA_Y:FLUXA_X").unwrap().x[0], 4.0);
+        assert_eq!(t.vector("fluxa").unwrap()[2][0], 4.0);
+        assert_eq!(t.vector("FLUXA_Z:FLUXA_Y:FLUXA_X").unwrap()[0][0], 4.0);
         let err = t.numeric("fluxa").unwrap_err().to_string();
         assert!(
             err.contains("did you mean FLUXA_X, FLUXA_Y, FLUXA_Z?"),

@@ -9,13 +9,13 @@ use crate::{GridCell, Report, ReportError};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use tolles::lines::{ExtentSource, HeadingSource, LineRow, LineTable};
+use tolles::model::ScalarModel;
 use tolles::report::{HeadingRow, ManeuverRow, ReportData};
 use tolles::tolles_core::fit::Target;
 use tolles::tolles_core::maneuvers::detect::Maneuver;
 use tolles::tolles_core::maneuvers::heading::HeadingLevels;
 use tolles::tolles_core::signal::metrics::std_dev;
 use tolles::tolles_core::signal::spectrum::Spectrum;
-use tolles::tolles_io::model::ScalarModel;
 
 /// Said in place of the figure-of-merit sections when the flight has no box maneuvers.
 const NO_BOX: &str =

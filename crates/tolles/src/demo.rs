@@ -3,6 +3,7 @@
 //! result came to the truth.
 
 use crate::error::Result;
+use crate::model::ScalarModel;
 use crate::progress::Progress;
 use crate::report::ReportRequest;
 use crate::simulate::{simulate_plan, PlanKind, Simulated};
@@ -11,7 +12,6 @@ use tolles_core::flight::plan::{BoxPlan, SurveyPlan};
 use tolles_core::flight::sim::Installation;
 use tolles_core::signal::filter::magnav_bandpass;
 use tolles_core::signal::metrics::{improvement_ratio, noise_level, std_dev};
-use tolles_io::model::ScalarModel;
 use tolles_io::simulation::SCALAR;
 use tolles_io::table::Table;
 

@@ -1,6 +1,7 @@
 //! Learning a model from a calibration flight: one fit per scalar, in parallel.
 
 use crate::error::{Error, Result};
+use crate::model::{ModelFile, ScalarModel};
 use crate::progress::{Progress, Stage};
 use crate::read::{checked_names, Flight};
 use crate::warning::Warning;
@@ -12,7 +13,6 @@ use tolles_core::fit::{
 use tolles_core::model::design::Design;
 pub use tolles_core::model::extra::ExtraChannel;
 use tolles_core::model::terms::TermSet;
-use tolles_io::model::{ModelFile, ScalarModel};
 use tolles_io::table::Table;
 
 /// Which terms to fit: a fixed set, or a choice by cross-validation.
@@ -356,9 +356,9 @@ pub fn check_band(band: Band) -> Result<()> {
     }
 }
 
-/// A sample rate (Hz) a model can be kept at ([`tolles_io::model::FS_RANGE_HZ`]).
+/// A sample rate (Hz) a model can be kept at ([`crate::model::FS_RANGE_HZ`]).
 fn check_fit_rate(table: &Table, fs_hz: f64) -> Result<()> {
-    let (lo_hz, hi_hz) = tolles_io::model::FS_RANGE_HZ;
+    let (lo_hz, hi_hz) = crate::model::FS_RANGE_HZ;
     match (lo_hz..=hi_hz).contains(&fs_hz) {
         true => Ok(()),
         false => Err(Error::FitRateOutOfRange {

@@ -5,6 +5,7 @@
 
 use crate::compensate::{compensate_flight, CompensateRequest};
 use crate::error::{Error, Result};
+use crate::model::{ModelFile, ScalarModel};
 use crate::read::{sample_rate, time_column, Flight};
 use crate::warning::Warning;
 use serde_json::{json, Value};
@@ -15,7 +16,6 @@ use tolles_core::maneuvers::fom::{
     fom as fom_of, improvement_ratio, FomReport, FomSettings, ManeuverFom, Slot,
 };
 use tolles_core::maneuvers::heading::{select_straight, HeadingLevels, HeadingSettings};
-use tolles_io::model::{ModelFile, ScalarModel};
 use tolles_io::schema::{PITCH, ROLL, SAMPLE_INTERVAL, YAW};
 use tolles_io::table::Table;
 

@@ -38,6 +38,7 @@ use tolles_core::maneuvers::identifiability::{
 use tolles_core::model::design::Design;
 use tolles_core::model::interpret::AircraftField;
 use tolles_core::model::terms::TermSet;
+use tolles_core::model::vector::VectorSeries;
 use tolles_core::signal::filter::{magnav_bandpass, Butterworth, FilterError};
 use tolles_io::schema::{PITCH, ROLL, YAW};
 use tolles_io::select::RowSelection;
@@ -273,7 +274,7 @@ const WHAT: &str = "identifiability";
 
 fn flown(table: &Table, vector: &str, design: &Design) -> Result<Flown> {
     let path = table.path();
-    let flux = table.vector(vector)?;
+    let flux = VectorSeries::from(table.vector(vector)?);
     let tt = time_column(table)?.0.ok_or_else(|| Error::NoTimeColumn {
         path: path.to_path_buf(),
         what: WHAT,

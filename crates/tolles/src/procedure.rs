@@ -113,7 +113,9 @@ pub fn procedure(
     );
     let dt = median_step(&tt).ok_or_else(|| Error::NoTimeStep { path: path.clone() })?;
     let geometry = match &request.direction {
-        Direction::Fluxgate { vector } => Geometry::from_fluxgate(&tt, &table.vector(vector)?),
+        Direction::Fluxgate { vector } => {
+            Geometry::from_fluxgate(&tt, &table.vector(vector)?.into())
+        }
         Direction::Attitude { dip_deg } => {
             let h_nt = scalar_intensity(&scalar).ok_or_else(|| Error::NoFiniteValue {
                 path: path.clone(),

@@ -301,7 +301,7 @@ impl<'t> Flight<'t> {
         let scalar = parsed.numeric(scalar)?;
         let flux = vectors
             .iter()
-            .map(|v| parsed.vector(v))
+            .map(|v| parsed.vector(v).map(VectorSeries::from))
             .collect::<std::result::Result<Vec<_>, _>>()?;
         // Time may step back (a file sorted by line): the runs split there, as at a gap.
         let tt = match table.has(TIME_COLUMN) {

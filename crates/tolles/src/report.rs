@@ -6,6 +6,7 @@
 use crate::error::{Error, Result};
 use crate::fom::{fit_for, fom, scalar_to_use, straight_levels, FomOutcome, FomRequest};
 use crate::lines::{line_table, track, LineInputs, LineTable, Track};
+use crate::model::{ModelFile, ScalarModel};
 use crate::progress::Progress;
 use crate::warning::Warning;
 use std::path::PathBuf;
@@ -16,7 +17,6 @@ use tolles_core::maneuvers::heading::{HeadingLevels, HeadingSettings};
 use tolles_core::maneuvers::ManeuverKind;
 use tolles_core::signal::metrics::std_dev;
 use tolles_core::signal::spectrum::{welch, Spectrum};
-use tolles_io::model::{ModelFile, ScalarModel};
 use tolles_io::schema::{PITCH, ROLL, YAW};
 use tolles_io::select::RowSelection;
 use tolles_io::table::Table;

@@ -37,6 +37,7 @@
 //! when the reader is slow, so nothing queues without bound.
 
 use crate::error::{Error, Result};
+use crate::model::ModelFile;
 use std::io::{BufRead, BufReader, ErrorKind, Read, Write};
 use std::net::{TcpListener, TcpStream};
 use std::path::Path;
@@ -49,8 +50,7 @@ pub use tolles_core::compensate::stream::Derivative;
 use tolles_core::compensate::stream::{Flag, Output, Sample, ScalarSpec, StreamCompensator, Trust};
 use tolles_core::model::extra::{ExtraChannel, LowPass};
 use tolles_core::signal::shift::Shift;
-use tolles_io::model::ModelFile;
-use tolles_io::stream_line::{Layout, Line};
+use tolles_io::stream_line::{CellFlag, Layout, Line};
 
 /// How to stream.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -385,7 +385,8 @@ fn compensate_line(
     let layout = (layout, setup.uncertainty);
     let (vectors, extras) = aligned.split_at(3 * stream.fluxgate_count());
     let fluxgates: Vec<[f64; 3]> = vectors.chunks(3).map(|v| [v[0], v[1], v[2]]).collect();
-    let (scalars, mut flags) = (line.scalars.clone(), line.flags.clone());
+    let scalars = line.scalars.clone();
+    let mut flags: Vec<Flag> = line.flags.iter().map(flag).collect();
     // A channel read fine on this line whose conditioned value is missing waits on its lag
     // or low-pass, which is not what "nan in" the channel would say.
     for (conditioned, channel) in extras.iter().zip(&setup.extras) {
@@ -452,10 +453,19 @@ fn format_output(
     stats.record_out(arrived.elapsed(), o.is_ok());
 }
 
+/// The compensator's flag for what the line reader found wrong.
+pub fn flag(cell: &CellFlag) -> Flag {
+    match cell.clone() {
+        CellFlag::Missing { column } => Flag::Missing { column },
+        CellFlag::NotANumber { column, text } => Flag::NotANumber { column, text },
+        CellFlag::Malformed(why) => Flag::Malformed(why),
+    }
+}
+
 /// The output line of an input line over `limit` bytes: its cells are not kept.
 fn too_long(layout: &Layout, limit: usize) -> Line {
     let mut line = layout.parse(b"");
-    line.flags = vec![Flag::Malformed(format!("line over {limit} bytes"))];
+    line.flags = vec![CellFlag::Malformed(format!("line over {limit} bytes"))];
     line
 }
 

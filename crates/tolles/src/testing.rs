@@ -1,8 +1,8 @@
 //! Flights for the unit tests: simulated, held in memory as the readers would hold them.
 
+use crate::simulate::output::flight_columns;
 use crate::simulate::{simulate, PlanKind, SimulateRequest};
 use crate::Silent;
-use tolles_io::simulation::flight_columns;
 use tolles_io::table::{Column, Table};
 
 /// A cabin installation flying `plan`, as a table of number columns named like the CLI's CSV.

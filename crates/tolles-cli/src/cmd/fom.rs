@@ -85,7 +85,7 @@ fn evaluate(args: &Args) -> Result<(String, FomOutcome)> {
     let model = args
         .model
         .as_deref()
-        .map(|path| tolles_io::model::ModelFile::read(path).map(|m| (m, path)))
+        .map(|path| tolles::model::ModelFile::read(path).map(|m| (m, path)))
         .transpose()?;
     let model = model.as_ref().map(|(m, path)| (m, *path));
     let scalar = tolles::fom::scalar_to_use(args.scalar.as_deref(), model).or_render()?;

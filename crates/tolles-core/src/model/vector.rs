@@ -17,6 +17,13 @@ pub struct VectorSeries {
     pub z: Vec<f64>,
 }
 
+impl From<[Vec<f64>; 3]> for VectorSeries {
+    /// The series of components `[x, y, z]` (nT), as a table's three columns give them.
+    fn from([x, y, z]: [Vec<f64>; 3]) -> Self {
+        Self::new(x, y, z)
+    }
+}
+
 impl VectorSeries {
     /// Builds a series from its components (nT).
     ///

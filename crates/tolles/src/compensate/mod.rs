@@ -6,6 +6,7 @@ mod chunked;
 pub use chunked::{needs_bounded_memory, reads_in_chunks};
 
 use crate::error::{Error, Result};
+use crate::model::{ModelFile, ScalarModel};
 use crate::read::{Flight, Selection};
 use crate::warning::Warning;
 use rayon::prelude::*;
@@ -15,7 +16,6 @@ use std::str::FromStr;
 use tolles_core::compensate::{compensate_model, Compensation, Level, Model};
 use tolles_core::fit::check_flux_magnitude;
 use tolles_io::format::{write_table, Format};
-use tolles_io::model::{ModelFile, ScalarModel};
 use tolles_io::schema::output_names;
 use tolles_io::select::RowSelection;
 use tolles_io::table::{write_padded, Table};

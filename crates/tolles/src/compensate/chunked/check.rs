@@ -3,6 +3,7 @@
 
 use super::scan::{clone_error, FitColumns, Plan, Scan};
 use crate::error::{Error, Result};
+use crate::model::{ModelFile, ScalarModel};
 use crate::read::sample_rate_from;
 use crate::warning::Warning;
 use std::path::Path;
@@ -10,7 +11,6 @@ use tolles_core::compensate::Model;
 use tolles_core::model::coverage::Coverage;
 use tolles_core::model::design::Design;
 use tolles_core::model::magnitude::Magnitude;
-use tolles_io::model::{ModelFile, ScalarModel};
 use tolles_io::IoError;
 
 /// One fit, checked and ready to compute.

@@ -28,6 +28,7 @@ mod write;
 
 use super::{FileOutcome, FileRequest, LevelChoice, Memory};
 use crate::error::{Error, Result};
+use crate::model::ModelFile;
 use crate::progress::{Progress, Stage};
 use crate::warning::Warning;
 use check::ReadyFit;
@@ -36,7 +37,6 @@ use std::io::Write;
 use std::path::Path;
 use tolles_io::chunks::{ChunkReader, DEFAULT_CHUNK_ROWS};
 use tolles_io::format::Format;
-use tolles_io::model::ModelFile;
 use tolles_io::schema::output_names;
 
 /// True when [`super::compensate_file`] reads the survey of `request` in chunks: CSV, XYZ or

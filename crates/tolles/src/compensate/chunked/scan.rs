@@ -1,6 +1,7 @@
 //! Pass 1: which columns are read, and what reading the file whole would find in them.
 
 use crate::error::{Error, Result};
+use crate::model::ModelFile;
 use crate::progress::Progress;
 use tolles_core::fit::{check_flux_magnitude, FitError};
 use tolles_core::model::vector::VectorSeries;
@@ -8,7 +9,6 @@ use tolles_core::signal::median::{MedianPass, MedianSearch};
 use tolles_core::signal::segment::sampling_step_of;
 use tolles_io::chunks::{ChunkReader, NumberSpill, DEFAULT_CHUNK_ROWS};
 use tolles_io::format::Format;
-use tolles_io::model::ModelFile;
 use tolles_io::schema::{vector_columns, TIME_COLUMN};
 use tolles_io::table::{find_column, Table};
 use tolles_io::IoError;

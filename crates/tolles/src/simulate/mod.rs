@@ -1,8 +1,11 @@
 //! Flights whose truth is known: a plan flown by a simulated installation over IGRF-14 (or a
 //! uniform field), with geology, diurnal variation and sensor errors.
 
+pub mod output;
+
 use crate::error::{Error, Result};
 use crate::progress::{Progress, Stage};
+use output::{write_flight, Sidecar};
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
 use tolles_core::flight::environment::{Diurnal, Environment, Geology, Location};
@@ -11,7 +14,6 @@ use tolles_core::flight::plan::{BoxPlan, PatentPlan, Plan, SurveyPlan};
 use tolles_core::flight::sim::{
     simulate_with_progress, EarthField, Installation, Scenario, SimulatedFlight,
 };
-use tolles_io::simulation::{write_flight, Sidecar};
 
 /// Which flight plan.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

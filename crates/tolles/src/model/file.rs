@@ -1,7 +1,7 @@
 //! The model file: everything needed to apply a fitted model later, as versioned JSON.
 //!
 //! ```
-//! use tolles_io::model::{ModelFile, FORMAT, VERSION};
+//! use tolles::model::{ModelFile, FORMAT, VERSION};
 //! let file = ModelFile::new(vec![]);
 //! let text = file.to_json();
 //! assert!(text.contains(FORMAT));
@@ -31,12 +31,12 @@
 //! A later release reads every earlier version; a file from a newer release is refused with a
 //! message saying so.
 
-use crate::error::IoError;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 use tolles_core::fit::Fit;
 use tolles_core::model::extra::{MAX_LAG_S, MAX_LOWPASS_HZ, MIN_LOWPASS_HZ};
 use tolles_core::model::interpret::{AircraftField, PatentTerms};
+use tolles_io::IoError;
 
 /// The `format` tag of a model file.
 pub const FORMAT: &str = "tolles-model";
@@ -118,7 +118,7 @@ impl ScalarModel {
     }
 }
 
-pub use crate::schema::compensated_name;
+pub use tolles_io::schema::compensated_name;
 
 impl ModelFile {
     /// A current-version file holding `fits`.
@@ -215,7 +215,7 @@ impl ModelFile {
 
     /// Writes a model file.
     pub fn write(&self, path: &Path) -> Result<(), IoError> {
-        crate::atomic::write_bytes(path, (self.to_json() + "\n").as_bytes())
+        tolles_io::atomic::write_bytes(path, (self.to_json() + "\n").as_bytes())
     }
 }
 

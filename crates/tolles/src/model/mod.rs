@@ -1,6 +1,8 @@
 //! Model files: what `fit` writes and every other workflow reads.
 
-pub use tolles_io::model::{compensated_name, ModelFile, ScalarModel, FORMAT, VERSION};
+mod file;
+
+pub use file::{compensated_name, ModelFile, ScalarModel, FORMAT, FS_RANGE_HZ, VERSION};
 
 use crate::error::Result;
 use std::path::Path;
