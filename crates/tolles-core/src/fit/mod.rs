@@ -632,6 +632,7 @@ fn fit_reusing(
         settings,
         spare,
         fs_hz,
+        window_samples: problem::window_samples(),
     };
     let prior = settings.prior_weights(&union, fs_hz);
     let above = problem.above.as_ref();
@@ -1456,7 +1457,7 @@ mod tests {
             let mut seen = Vec::new();
             for settings in [&recommended, &other_scale] {
                 problem::windows_in_tests::DONE.set(0);
-                let fitted = fit(scalar, flux, 10.0, tt, settings).unwrap();
+                let fitted = in_windows(|| fit(scalar, flux, 10.0, tt, settings)).unwrap();
                 assert_eq!(problem::windows_in_tests::DONE.get() > 0, windowed);
                 let levels = fitted.diagnostics.levels.unwrap();
                 // Another Bt_scale only rescales columns: the same fit, whose level rows'
@@ -1491,7 +1492,13 @@ mod tests {
         }
     }
 
-    /// A run of 100 000 samples at 10 Hz, done in windows in tests: its scalar and fluxgate.
+    /// Runs `f` with the fits it starts cutting runs of more than 2¹⁶ samples into windows.
+    fn in_windows<T>(f: impl FnOnce() -> T) -> T {
+        problem::with_window_samples(1 << 15, f)
+    }
+
+    /// A run of 100 000 samples at 10 Hz, done whole or (with [`in_windows`]) in windows: its
+    /// scalar and fluxgate.
     fn long_run() -> (Vec<f64>, VectorSeries) {
         let (fs, n) = (10.0, 100_000);
         let t = |k: usize| k as f64 / fs;
@@ -1522,17 +1529,16 @@ mod tests {
 
     #[test]
     fn a_long_run_done_in_windows_fits_as_when_done_whole() {
-        use problem::windows_in_tests::{ALLOWED, DONE};
+        use problem::windows_in_tests::DONE;
         let (scalar, flux) = long_run();
         let fs = 10.0;
         let settings = FitSettings::recommended();
         DONE.set(0);
-        let windowed = fit(&scalar, &flux, fs, None, &settings).unwrap();
+        let windowed = in_windows(|| fit(&scalar, &flux, fs, None, &settings)).unwrap();
         assert!(DONE.get() > 0, "the run was done in windows");
-        ALLOWED.set(false);
-        let whole = fit(&scalar, &flux, fs, None, &settings);
-        ALLOWED.set(true);
-        let whole = whole.unwrap();
+        DONE.set(0);
+        let whole = fit(&scalar, &flux, fs, None, &settings).unwrap();
+        assert_eq!(DONE.get(), 0, "the production window takes the run whole");
         let d = (&windowed.diagnostics, &whole.diagnostics);
         assert_eq!(d.0.exact_iterations, d.1.exact_iterations);
         assert_eq!(windowed.columns, whole.columns);
@@ -1552,7 +1558,7 @@ mod tests {
     /// 5 000 samples) is done whole, on however many cores, the other windows' work dropped.
     #[test]
     fn a_run_steady_at_its_start_is_done_whole() {
-        use problem::windows_in_tests::{ALLOWED, DONE};
+        use problem::windows_in_tests::DONE;
         let (mut scalar, mut flux) = long_run();
         for k in 0..5_000 {
             (flux.x[k], flux.y[k], flux.z[k], scalar[k]) =
@@ -1560,11 +1566,10 @@ mod tests {
         }
         let settings = FitSettings::recommended();
         DONE.set(0);
-        let dealt = crate::parallel::on_cores(3, || fit(&scalar, &flux, 10.0, None, &settings));
+        let fitted = || fit(&scalar, &flux, 10.0, None, &settings);
+        let dealt = crate::parallel::on_cores(3, || in_windows(fitted));
         assert_eq!(DONE.get(), 0, "no run was done in windows");
-        ALLOWED.set(false);
-        let whole = crate::parallel::on_cores(3, || fit(&scalar, &flux, 10.0, None, &settings));
-        ALLOWED.set(true);
+        let whole = crate::parallel::on_cores(3, fitted);
         let bits = |f: &Fit| {
             f.coefficients
                 .iter()
@@ -1583,7 +1588,7 @@ mod tests {
         let settings = FitSettings::recommended();
         let on = |cores| {
             crate::parallel::on_cores(cores, || {
-                fit(&scalar, &flux, 10.0, None, &settings).unwrap()
+                in_windows(|| fit(&scalar, &flux, 10.0, None, &settings)).unwrap()
             })
         };
         DONE.set(0);

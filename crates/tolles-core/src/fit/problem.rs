@@ -32,18 +32,37 @@ pub(super) type FillRun<'m> = dyn Fn(Range<usize>, Range<usize>, &mut [&mut [f64
 /// window taken whole by the next core free: the rows of a whole run need not be held at once (at 10⁷
 /// samples and 19 columns they are 1.5 GB, which on a virtual machine take seconds to fault in).
 /// Runs shorter than two windows are done whole. 2¹⁶ to 2¹⁹ timed the same at 10⁷ samples;
-/// 2¹⁸ keeps the overlap a thirtieth of a window and two windows' buffers near 85 MB.
-#[cfg(not(test))]
+/// 2¹⁸ keeps the overlap a thirtieth of a window and two windows' buffers near 85 MB. Tests
+/// run with it too; those about windows ask for shorter ones ([`with_window_samples`]).
 const WINDOW_SAMPLES: usize = 1 << 18;
-/// Shorter in tests, so that runs of tens of thousands of samples are done in windows.
-#[cfg(test)]
-const WINDOW_SAMPLES: usize = 1 << 15;
 
-/// Samples of each window's own part (its core) of a run of `n` samples done in windows: the
-/// run cut into equal parts of at most [`WINDOW_SAMPLES`], as many as a multiple of
-/// [`WINDOW_MULTIPLE`].
-fn window_core(n: usize) -> usize {
-    n.div_ceil(n.div_ceil(WINDOW_SAMPLES).next_multiple_of(WINDOW_MULTIPLE))
+thread_local! {
+    /// Samples per window of the fits started on this thread when not [`WINDOW_SAMPLES`]: set
+    /// only by [`with_window_samples`], so a test can have a run of tens of thousands of
+    /// samples done in windows.
+    static WINDOW_SAMPLES_HERE: std::cell::Cell<Option<usize>> = const { std::cell::Cell::new(None) };
+}
+
+/// Samples per window of a fit started on this thread.
+pub(super) fn window_samples() -> usize {
+    WINDOW_SAMPLES_HERE.get().unwrap_or(WINDOW_SAMPLES)
+}
+
+/// Runs `f` with the fits it starts on this thread cutting long runs into windows of
+/// `samples` (at least 2¹⁰).
+#[cfg(test)]
+pub(super) fn with_window_samples<T>(samples: usize, f: impl FnOnce() -> T) -> T {
+    let before = WINDOW_SAMPLES_HERE.replace(Some(samples.max(1 << 10)));
+    let out = f();
+    WINDOW_SAMPLES_HERE.set(before);
+    out
+}
+
+/// Samples of each window's own part (its core) of a run of `n` samples done in windows of
+/// `window` samples: the run cut into equal parts of at most `window`, as many as a multiple
+/// of [`WINDOW_MULTIPLE`].
+fn window_core(n: usize, window: usize) -> usize {
+    n.div_ceil(n.div_ceil(window).next_multiple_of(WINDOW_MULTIPLE))
 }
 
 /// The windows of a run come in a multiple of this many. They are taken whole by the cores:
@@ -52,24 +71,23 @@ fn window_core(n: usize) -> usize {
 /// does not depend on the cores, so neither do the values; four balances one, two and four.
 const WINDOW_MULTIPLE: usize = 4;
 
-/// Samples of the longest window of a run of `n` samples done in windows overlapping by
-/// `margin`: a core and a margin on each side.
-fn window_len(n: usize, margin: usize) -> usize {
-    window_core(n) + 2 * margin
+/// Samples of the longest window of a run of `n` samples done in windows of `window` samples
+/// overlapping by `margin`: a core and a margin on each side.
+fn window_len(n: usize, window: usize, margin: usize) -> usize {
+    window_core(n, window) + 2 * margin
 }
 
-/// Windows of a run of `n` samples done in windows that are worked on at once: one per core,
-/// at most one per window. A window's buffer is taken for each.
-fn windows_dealt(n: usize) -> usize {
-    crate::parallel::cores().min(n.div_ceil(window_core(n)))
+/// Windows of a run of `n` samples done in windows of `window` samples that are worked on at
+/// once: one per core, at most one per window. A window's buffer is taken for each.
+fn windows_dealt(n: usize, window: usize) -> usize {
+    crate::parallel::cores().min(n.div_ceil(window_core(n, window)))
 }
 
-/// In tests, whether long runs may be done in windows, and how many were.
+/// In tests, how many runs were done in windows.
 #[cfg(test)]
 pub(super) mod windows_in_tests {
     use std::cell::Cell;
     thread_local! {
-        pub(in crate::fit) static ALLOWED: Cell<bool> = const { Cell::new(true) };
         pub(in crate::fit) static DONE: Cell<usize> = const { Cell::new(0) };
     }
 }
@@ -142,6 +160,8 @@ pub(super) struct Problem<'p, 'a> {
     pub(super) spare: &'p Spare,
     /// Sample rate (Hz).
     pub(super) fs_hz: f64,
+    /// Samples per window of a long run ([`window_samples`]).
+    pub(super) window_samples: usize,
 }
 
 /// Rows above the fitting band for extra channels. A current may switch or flash faster than
@@ -718,7 +738,8 @@ impl Windows {
         buffer: &mut [f64],
     ) -> Option<(Factored, Option<LevelRows>)> {
         let n = self.run.len();
-        let core = window_core(n);
+        let window = problem.window_samples;
+        let core = window_core(n, window);
         let inputs = WindowInputs {
             problem,
             fill,
@@ -728,12 +749,12 @@ impl Windows {
             reference: levels.map(|l| LevelReference::of(l, self.run.clone())),
         };
         let starts: Vec<usize> = (0..n).step_by(core).collect();
-        let longest = window_len(n, self.margin);
+        let longest = window_len(n, window, self.margin);
         // The buffer may be longer than this run asked for (a spare one of a wider fit's), so
         // its shares are counted as they were sized, not by how many it holds.
         let shares: Vec<&mut [f64]> = buffer
             .chunks_exact_mut(longest * (self.width + 1 + self.extra))
-            .take(windows_dealt(n))
+            .take(windows_dealt(n, window))
             .collect();
         let dealt = shares.len();
         let mut targets = problem.spare.take_each(&vec![longest; dealt]);
@@ -1308,17 +1329,14 @@ impl Problem<'_, '_> {
         above_band: Option<&AboveBand>,
     ) -> Option<usize> {
         let band = self.filter.as_ref()?;
-        if above_band.is_some() || n < 2 * WINDOW_SAMPLES {
+        let window = self.window_samples;
+        if above_band.is_some() || n < window.saturating_mul(2) {
             return None;
         }
         let margin = low
             .map_or(0, |l| l.filter().settling_samples())
             .max(band.settling_samples());
-        #[cfg(test)]
-        if !windows_in_tests::ALLOWED.get() {
-            return None;
-        }
-        (margin <= WINDOW_SAMPLES / 4).then_some(margin)
+        (margin <= window / 4).then_some(margin)
     }
 
     /// Values a run of `n` samples needs in its buffer, `width` columns and the target: all of
@@ -1331,7 +1349,10 @@ impl Problem<'_, '_> {
         above_band: Option<&AboveBand>,
     ) -> usize {
         match self.window_margin(n, low, above_band) {
-            Some(margin) => windows_dealt(n) * window_len(n, margin) * (width + 1),
+            Some(margin) => {
+                let window = self.window_samples;
+                windows_dealt(n, window) * window_len(n, window, margin) * (width + 1)
+            }
             None => n * (width + 1),
         }
     }
