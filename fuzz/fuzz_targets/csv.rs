@@ -5,7 +5,7 @@ use libfuzzer_sys::fuzz_target;
 use tolles_io::table::Table;
 
 fuzz_target!(|data: &[u8]| {
-    if let Ok(table) = Table::from_reader(data, "fuzz.csv") {
+    if let Ok(table) = Table::csv().reader(data, "fuzz.csv") {
         for k in 0..table.headers().len() {
             let _ = table.numeric_at(k);
         }

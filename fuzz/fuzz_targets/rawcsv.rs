@@ -10,7 +10,7 @@ use libfuzzer_sys::fuzz_target;
 use tolles_io::table::Table;
 
 fuzz_target!(|data: &[u8]| {
-    let raw = Table::from_csv_bytes(data.to_vec(), "fuzz.csv");
-    let general = Table::from_reader(data, "fuzz.csv");
+    let raw = Table::csv().bytes(data.to_vec(), "fuzz.csv");
+    let general = Table::csv().reader(data, "fuzz.csv");
     same_csv::assert_agree(raw, general, data, 1);
 });

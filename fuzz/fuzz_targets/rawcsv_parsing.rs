@@ -20,7 +20,7 @@ fuzz_target!(|data: &[u8]| {
             .filter(|k| mask >> k & 1 == 1)
             .collect()
     };
-    let raw = Table::from_csv_bytes_parsing(text.to_vec(), "fuzz.csv", &wanted);
-    let general = Table::from_reader(text, "fuzz.csv");
+    let raw = Table::csv().parsing(&wanted).bytes(text.to_vec(), "fuzz.csv");
+    let general = Table::csv().reader(text, "fuzz.csv");
     same_csv::assert_agree(raw, general, text, 2);
 });

@@ -45,12 +45,12 @@ fn stages(c: &mut Criterion) {
     let mut group = c.benchmark_group("csv");
     group.sample_size(10).throughput(Throughput::Bytes(bytes));
     group.bench_function("read, 5 columns parsed on the way", |b| {
-        b.iter(|| black_box(Table::read_csv_raw_parsing(&path, &wanted).unwrap()))
+        b.iter(|| black_box(Table::csv().parsing(&wanted).path_in_place(&path).unwrap()))
     });
     group.bench_function("read cell by cell (general reader)", |b| {
-        b.iter(|| black_box(Table::read_csv_general(&path).unwrap()))
+        b.iter(|| black_box(Table::csv().cell_by_cell().path(&path).unwrap()))
     });
-    let table = Table::read_csv_raw(&path).unwrap().unwrap();
+    let table = Table::csv().path_in_place(&path).unwrap().unwrap();
     group.bench_function("parse 5 columns on demand", |b| {
         b.iter(|| black_box(table.parse_together(&NEEDED).numeric("flux_a_z").unwrap()))
     });

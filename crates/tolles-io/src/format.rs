@@ -121,7 +121,7 @@ impl Table {
             return crate::stdin::read(format);
         }
         match format.unwrap_or_else(|| Format::from_path(path)) {
-            Format::Csv => Table::read_csv(path),
+            Format::Csv => Table::csv().path(path),
             Format::Xyz => crate::xyz::read(path),
             Format::Gdf => crate::gdf::read(path),
             Format::Hdf5 => read_hdf5_or_mat(path),

@@ -567,7 +567,9 @@ mod tests {
     fn text_and_scalar_datasets_are_written() {
         let dir = tempfile::TempDir::new().unwrap();
         let path = dir.path().join("t.h5");
-        let table = Table::from_reader("a,s\n1,x\n2,long é\n".as_bytes(), "t.csv").unwrap();
+        let table = Table::csv()
+            .reader("a,s\n1,x\n2,long é\n".as_bytes(), "t.csv")
+            .unwrap();
         let Column::Text(text) = &table.columns()[1] else {
             panic!("text")
         };

@@ -1,7 +1,8 @@
 //! File formats for tolles.
 //!
 //! - [`atomic`]: every file written whole or not at all (a temporary file renamed over it);
-//! - [`table`]: flight data as a table of named columns, read from CSV with a header row;
+//! - [`table`]: flight data as a table of named columns;
+//! - [`csv_reader`]: CSV text with a header row read into a table, from a file, bytes or a reader;
 //! - [`format`](mod@format): which format a flight file is in, [`table::Table::read`] for any of them;
 //! - [`xyz`], [`gdf`], [`hdf5`], [`mat`], [`parquet`]: Geosoft XYZ, ASEG-GDF2, HDF5, MATLAB v5
 //!   MAT-file and Parquet tables;
@@ -19,6 +20,7 @@
 pub mod atomic;
 mod bytemask;
 pub mod chunks;
+pub mod csv_reader;
 mod decimal;
 pub mod error;
 pub mod format;

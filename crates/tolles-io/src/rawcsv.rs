@@ -1,7 +1,7 @@
 //! CSV held as the file's own bytes: a row is a span of the file, a cell is parsed only when a
 //! command asks for its column, and a row is written back by copying its bytes.
 //!
-//! This is how a large CSV file is read whole ([`crate::table::Table::read_csv`]). The general
+//! This is how a large CSV file is read whole ([`crate::table::Table::csv`]). The general
 //! reader (the `csv` crate, every cell copied into its column) stays the reference: a file this
 //! one cannot take exactly as the general reader would — a quote anywhere, a carriage return
 //! that does not end a line, a line with another number of cells than the header (whose error
@@ -1435,8 +1435,8 @@ pub(crate) mod tests {
             extra in prop::collection::vec(prop::num::f64::ANY, 24),
             keep in prop::collection::vec(any::<bool>(), 24),
         ) {
-            let raw = Table::from_csv_bytes(text.as_bytes().to_vec(), "t.csv");
-            let general = Table::from_reader(text.as_bytes(), "t.csv");
+            let raw = Table::csv().bytes(text.as_bytes().to_vec(), "t.csv");
+            let general = Table::csv().reader(text.as_bytes(), "t.csv");
             let comparable = !text.contains('\r') && text.ends_with('\n');
             match (raw, general) {
                 (Ok(a), Ok(b)) => {

@@ -4,7 +4,7 @@
 //! use tolles_io::select::RowSelection;
 //! use tolles_io::table::Table;
 //! let csv = "tt,line,mag\n0,1001,1\n1,1002.020,2\n2,1002.020,3\n3,1003,4\n";
-//! let table = Table::from_reader(csv.as_bytes(), "flight.csv").unwrap();
+//! let table = Table::csv().reader(csv.as_bytes(), "flight.csv").unwrap();
 //! let selection = RowSelection {
 //!     lines: vec!["1002.02".parse().unwrap()],
 //!     time: Some("..1.5".parse().unwrap()),
@@ -389,7 +389,7 @@ mod tests {
     use super::*;
 
     fn table(text: &str) -> Table {
-        Table::from_reader(text.as_bytes(), "f.csv").unwrap()
+        Table::csv().reader(text.as_bytes(), "f.csv").unwrap()
     }
 
     fn selection(lines: &[&str], time: Option<&str>) -> RowSelection {

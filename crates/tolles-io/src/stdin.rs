@@ -45,7 +45,7 @@ pub fn from_bytes(bytes: Vec<u8>, format: Option<Format>) -> Result<Table, IoErr
     let name = Path::new(STDIN_NAME);
     let format = format.unwrap_or_else(|| sniff(&bytes));
     let table = match format {
-        Format::Csv => Table::from_csv_bytes(bytes, name),
+        Format::Csv => Table::csv().bytes(bytes, name),
         Format::Xyz => crate::xyz::from_reader(bytes.as_slice(), name),
         Format::Parquet => crate::parquet::from_bytes(bytes, name),
         Format::Hdf5 if crate::mat::is_v5(&bytes) => {

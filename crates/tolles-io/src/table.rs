@@ -3,7 +3,7 @@
 //! ```
 //! use tolles_io::table::Table;
 //! let csv = "tt,mag_1_uc,flux_a_x,flux_a_y,flux_a_z\n0.0,50000,30000,0,40000\n0.1,,30001,1,40000\n";
-//! let table = Table::from_reader(csv.as_bytes(), "example.csv").unwrap();
+//! let table = Table::csv().reader(csv.as_bytes(), "example.csv").unwrap();
 //! let mag = table.numeric("mag_1_uc").unwrap();
 //! assert_eq!(mag[0], 50_000.0);
 //! assert!(mag[1].is_nan()); // an empty cell is a missing value, not an error
@@ -16,6 +16,8 @@
 //! the NULL value of a GDF field); anything else that does not parse as a number is an error
 //! naming the line (or, for binary files, the row) and column.
 
+pub(crate) use crate::csv_reader::{bounded_header, csv_error, read_located, Bounded};
+pub use crate::csv_reader::{CsvReader, MAX_HEADER_BYTES};
 use crate::error::IoError;
 use crate::rawcsv::RawRows;
 use std::io::Read;
@@ -505,104 +507,16 @@ impl Table {
         self.headers = names;
     }
 
-    /// Reads a CSV file with a header row: its rows left in the file's bytes and parsed on
-    /// demand ([`crate::rawcsv`]) where that reader takes the file, else cell by cell; the
-    /// table, its messages and what it writes are the same either way.
-    pub fn read_csv(path: &Path) -> Result<Self, IoError> {
-        if let Some(table) = Self::read_csv_raw(path)? {
-            return Ok(table);
-        }
-        Self::read_csv_general(path)
+    /// A reader of CSV text with a header row into a table (see [`CsvReader`]): from a file,
+    /// bytes in memory or any reader, left in its bytes where it can be.
+    pub fn csv() -> CsvReader<'static> {
+        CsvReader::new()
     }
 
-    /// A CSV file read by [`crate::rawcsv`]; `None` when that reader hands it to the general one.
-    pub fn read_csv_raw(path: &Path) -> Result<Option<Self>, IoError> {
-        Self::read_csv_raw_parsing(path, &|_| Vec::new())
-    }
-
-    /// CSV text held in memory (standard input), named `name` in messages: left in its bytes
-    /// where [`crate::rawcsv`] takes it, else read cell by cell; the same table either way.
-    pub fn from_csv_bytes(bytes: Vec<u8>, name: impl AsRef<Path>) -> Result<Self, IoError> {
-        Self::from_csv_bytes_parsing(bytes, name, &|_| Vec::new())
-    }
-
-    /// [`Table::from_csv_bytes`], parsing the columns `wanted` picks while the rows are found,
-    /// as [`Table::read_csv_raw_parsing`] does for a file.
-    pub fn from_csv_bytes_parsing(
-        bytes: Vec<u8>,
-        name: impl AsRef<Path>,
-        wanted: crate::rawcsv::Wanted<'_>,
-    ) -> Result<Self, IoError> {
-        let path = name.as_ref();
-        let bytes = Arc::new(crate::rawcsv::Bytes::Owned(bytes));
-        match crate::rawcsv::from_bytes(Arc::clone(&bytes), path, wanted) {
-            Some(csv) => Self::from_raw(path, csv),
-            None => Self::from_reader(&bytes[..], path),
-        }
-    }
-
-    /// [`Table::read_csv_raw`], parsing the columns `wanted` picks (given the header's names,
-    /// their indices) while the rows are found: later asked for as numbers, they are there.
-    pub fn read_csv_raw_parsing(
-        path: &Path,
-        wanted: crate::rawcsv::Wanted<'_>,
-    ) -> Result<Option<Self>, IoError> {
-        let Some(csv) = crate::rawcsv::read(path, wanted)? else {
-            return Ok(None);
-        };
-        Self::from_raw(path, csv).map(Some)
-    }
-
-    /// The table of a CSV file [`crate::rawcsv`] took.
-    fn from_raw(path: &Path, csv: crate::rawcsv::RawCsv) -> Result<Self, IoError> {
-        let rows = Arc::new(csv.rows);
-        let columns = (0..csv.headers.len())
-            .map(|field| Column::Text(TextColumn::raw(Arc::clone(&rows), field)))
-            .collect();
-        let mut table = Self::from_columns(path, csv.headers, columns, csv.lines.clone())?;
-        if csv.lines.is_none() {
-            // The header is line 1 and no line is blank.
-            table.origin = Origin::LinesFrom(2);
-        }
-        Ok(table)
-    }
-
-    /// Reads a CSV file cell by cell with the `csv` crate.
-    pub fn read_csv_general(path: &Path) -> Result<Self, IoError> {
-        let file = std::fs::File::open(path).map_err(|source| IoError::Open {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        Self::from_reader(std::io::BufReader::new(file), path)
-    }
-
-    /// Reads CSV text from any reader; `name` is used in error messages.
-    pub fn from_reader(reader: impl Read, name: impl AsRef<Path>) -> Result<Self, IoError> {
-        let path = name.as_ref().to_path_buf();
-        let reader = bounded_header(reader, &path)?;
-        // Cells are trimmed as they are stored: the reader's own field trimming copies every
-        // record twice, which was a third of the time to read a large file.
-        let mut csv = csv::ReaderBuilder::new()
-            .has_headers(true)
-            .trim(csv::Trim::Headers)
-            .from_reader(reader);
-        let headers: Vec<String> = csv
-            .headers()
-            .map_err(|e| csv_error(&path, e))?
-            .iter()
-            .map(str::to_string)
-            .collect();
-        let mut columns = vec![TextColumn::default(); headers.len()];
-        let mut lines = Vec::new();
-        let mut record = csv::StringRecord::new();
-        while let Some(line) = read_located(&mut csv, &mut record, &path)? {
-            lines.push(line);
-            for (column, cell) in columns.iter_mut().zip(record.iter()) {
-                column.push(cell.trim());
-            }
-        }
-        let columns = columns.into_iter().map(Column::Text).collect();
-        Self::from_columns(path, headers, columns, Some(lines))
+    /// Row `k` is the file's line `k + first`: a text file without blank lines, as read.
+    pub(crate) fn with_lines_from(mut self, first: u64) -> Self {
+        self.origin = Origin::LinesFrom(first);
+        self
     }
 
     /// The file this table came from.
@@ -1073,167 +987,6 @@ fn check_unique(path: &Path, headers: &[String]) -> Result<(), IoError> {
     }
 }
 
-/// The longest header line a CSV file may have (bytes); far beyond any real flight's.
-pub const MAX_HEADER_BYTES: usize = 1 << 20;
-
-/// A reader whose header line was checked by [`bounded_header`], which also notes how it ended:
-/// the csv crate does not say whether the last row had a newline of its own, and without one
-/// that row's line is counted differently (see [`read_located`]).
-pub(crate) struct Bounded<R> {
-    inner: std::io::Chain<std::io::Cursor<Vec<u8>>, std::io::BufReader<R>>,
-    /// Bytes read so far.
-    read: u64,
-    /// The last byte read.
-    last: Option<u8>,
-    /// Whether the end of the input was reached.
-    ended: bool,
-}
-
-impl<R: Read> Read for Bounded<R> {
-    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
-        let n = self.inner.read(buf)?;
-        match n {
-            0 => self.ended |= !buf.is_empty(),
-            _ => {
-                self.read += n as u64;
-                self.last = Some(buf[n - 1]);
-            }
-        }
-        Ok(n)
-    }
-}
-
-impl<R> Bounded<R> {
-    /// Whether a row that ends at byte `at` is the input's last and has no newline of its own.
-    fn unterminated_at(&self, at: u64) -> bool {
-        self.ended && at == self.read && self.last != Some(b'\n')
-    }
-}
-
-/// `reader` with its first line checked to be at most [`MAX_HEADER_BYTES`] long, so a huge
-/// header is refused before the header's names are held in memory.
-pub(crate) fn bounded_header<R: Read>(reader: R, path: &Path) -> Result<Bounded<R>, IoError> {
-    use std::io::BufRead;
-    let mut reader = std::io::BufReader::new(reader);
-    let mut first = Vec::new();
-    (&mut reader)
-        .take(MAX_HEADER_BYTES as u64 + 1)
-        .read_until(b'\n', &mut first)
-        .map_err(|source| IoError::Open {
-            path: path.to_path_buf(),
-            source,
-        })?;
-    if first.len() > MAX_HEADER_BYTES {
-        return Err(IoError::Malformed {
-            path: path.to_path_buf(),
-            line: 1,
-            message: format!("the header line is longer than {MAX_HEADER_BYTES} bytes"),
-        });
-    }
-    Ok(Bounded {
-        inner: std::io::Cursor::new(first).chain(reader),
-        read: 0,
-        last: None,
-        ended: false,
-    })
-}
-
-/// Lines the terminator of the row just read adds to the reader's count: 1, or 0 for a last row
-/// with no newline of its own.
-fn terminator<R: Read>(reader: &csv::Reader<Bounded<R>>) -> u64 {
-    u64::from(!reader.get_ref().unterminated_at(reader.position().byte()))
-}
-
-/// Reads the next record into `record` and returns its file line (1-based), `None` at the end.
-///
-/// The csv crate dates a record from where it started reading it, which is before any blank
-/// lines it skipped; so the line is counted back from where the record ended instead (less its
-/// terminator, unless it is the last row and has none, and any newlines inside quoted cells).
-/// Errors name the line the same way.
-pub(crate) fn read_located<R: Read>(
-    reader: &mut csv::Reader<Bounded<R>>,
-    record: &mut csv::StringRecord,
-    path: &Path,
-) -> Result<Option<u64>, IoError> {
-    match reader.read_record(record) {
-        Ok(false) => Ok(None),
-        Ok(true) => {
-            let start = record.position().map_or(1, |p| p.line());
-            let text = record.as_slice();
-            let inside = if text.contains('\n') {
-                text.matches('\n').count() as u64
-            } else {
-                0
-            };
-            let end = reader.position().line();
-            Ok(Some(
-                start.max(end.saturating_sub(terminator(reader) + inside)),
-            ))
-        }
-        Err(error) => {
-            let end = reader.position().line();
-            let start = error.position().map_or(0, |p| p.line());
-            if unterminated_quote(reader, record, &error) {
-                return Err(IoError::Malformed {
-                    path: path.to_path_buf(),
-                    line: start,
-                    message: "a quote opened on this line is never closed".to_string(),
-                });
-            }
-            let line = start.max(end.saturating_sub(terminator(reader)));
-            Err(csv_error_at(path, error, line))
-        }
-    }
-}
-
-/// True when a ragged `record` (the csv crate fills it before checking its length) has a
-/// line break in a cell and runs to the end of the file: the csv crate reads an unclosed
-/// quote to the end, so without this the error named the last line.
-fn unterminated_quote<R: Read>(
-    reader: &mut csv::Reader<R>,
-    record: &csv::StringRecord,
-    error: &csv::Error,
-) -> bool {
-    let ragged = matches!(error.kind(), csv::ErrorKind::UnequalLengths { .. });
-    // The file is failing anyway, so reading on to see whether it ended costs nothing.
-    let mut at_end = || matches!(reader.read_record(&mut csv::StringRecord::new()), Ok(false));
-    ragged && record.as_slice().contains('\n') && at_end()
-}
-
-pub(crate) fn csv_error(path: &Path, error: csv::Error) -> IoError {
-    let line = error.position().map_or(0, |p| p.line());
-    csv_error_at(path, error, line)
-}
-
-fn csv_error_at(path: &Path, error: csv::Error, line: u64) -> IoError {
-    // The csv crate's Display is one line; its kinds' Debug form is a struct.
-    let message = error.to_string();
-    match error.into_kind() {
-        csv::ErrorKind::UnequalLengths {
-            expected_len, len, ..
-        } => IoError::Ragged {
-            path: path.to_path_buf(),
-            line,
-            expected: expected_len as usize,
-            found: len as usize,
-        },
-        csv::ErrorKind::Io(source) => IoError::Open {
-            path: path.to_path_buf(),
-            source,
-        },
-        csv::ErrorKind::Utf8 { pos, err } => IoError::Malformed {
-            path: path.to_path_buf(),
-            line: pos.map_or(line, |p| p.line()).max(1),
-            message: format!("field {} is not UTF-8 text", err.field() + 1),
-        },
-        _ => IoError::Malformed {
-            path: path.to_path_buf(),
-            line,
-            message,
-        },
-    }
-}
-
 /// Writes `table` plus the `extra` columns (empty cell for NaN) as CSV.
 ///
 /// Every input row is written, in order, with its cells unchanged (a format's own dummy, such as
@@ -1421,14 +1174,16 @@ mod tests {
     use super::*;
 
     fn read(text: &str) -> Result<Table, IoError> {
-        Table::from_reader(text.as_bytes(), "t.csv")
+        Table::csv().reader(text.as_bytes(), "t.csv")
     }
 
     #[test]
     fn bytes_parsed_while_read_give_the_values_and_errors_of_bytes_parsed_later() {
         let text = "a,b,c\n1,2.5,x\n\n-3,4e1,5\n";
         let wanted = |_: &[String]| vec![0, 2];
-        let early = Table::from_csv_bytes_parsing(text.as_bytes().to_vec(), "t.csv", &wanted);
+        let early = Table::csv()
+            .parsing(&wanted)
+            .bytes(text.as_bytes().to_vec(), "t.csv");
         let (early, later) = (early.unwrap(), read(text).unwrap());
         for _ in 0..2 {
             assert_eq!(early.numeric("a").unwrap(), [1.0, -3.0]);
@@ -1452,7 +1207,9 @@ mod tests {
                 error.contains(&format!("line {line},")),
                 "{text:?}: {error}"
             );
-            let raw = Table::from_csv_bytes(text.as_bytes().to_vec(), "t.csv").unwrap();
+            let raw = Table::csv()
+                .bytes(text.as_bytes().to_vec(), "t.csv")
+                .unwrap();
             assert_eq!(raw.numeric("a").unwrap_err().to_string(), error, "{text:?}");
         }
         let error = read("a,b\n1,2\n\n3").unwrap_err().to_string();
@@ -1562,7 +1319,7 @@ mod tests {
         let b = [1.0, f64::NAN, 3.0];
         let mut out = Vec::new();
         write_columns(&[("a", &a), ("b", &b)], &mut out).unwrap();
-        let t = Table::from_reader(out.as_slice(), "w.csv").unwrap();
+        let t = Table::csv().reader(out.as_slice(), "w.csv").unwrap();
         assert_eq!(t.numeric("a").unwrap(), a);
         let back = t.numeric("b").unwrap();
         assert!(back[1].is_nan() && back[2] == 3.0);

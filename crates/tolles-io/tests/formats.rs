@@ -201,7 +201,9 @@ fn csv_round_trip_is_exact() {
 
 #[test]
 fn text_columns_are_written_as_text_to_binary_formats() {
-    let t = Table::from_reader("a,name,n\n1,ana,7\n2,,\n".as_bytes(), "t.csv").unwrap();
+    let t = Table::csv()
+        .reader("a,name,n\n1,ana,7\n2,,\n".as_bytes(), "t.csv")
+        .unwrap();
     let dir = tempfile::TempDir::new().unwrap();
     let h5 = dir.path().join("t.h5");
     // compensate's writer wants numbers, as its chunked writer does: the text cell is named.

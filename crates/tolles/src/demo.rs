@@ -86,7 +86,7 @@ pub struct Term {
 /// Compares the survey compensated by `fit` (column `fit.output_column` of the CSV file
 /// `compensated`, one row per survey sample) with the survey's truth.
 pub fn compare(survey: &Simulated, compensated: &Path, fit: &ScalarModel) -> Result<DemoOutcome> {
-    let table = Table::read_csv(compensated)?;
+    let table = Table::csv().path(compensated)?;
     let clean = table.numeric(&fit.output_column)?;
     let flight = &survey.flight;
     let error =

@@ -329,7 +329,7 @@ mod tests {
 
     #[test]
     fn ignoring_matches_labels_with_or_without_the_degree_sign() {
-        let table = Table::from_reader("tt\n0\n".as_bytes(), "f.csv").unwrap();
+        let table = Table::csv().reader("tt\n0\n".as_bytes(), "f.csv").unwrap();
         let window = |heading: f64| ManeuverWindow {
             kind: ManeuverKind::Roll,
             heading_deg: heading,
@@ -344,7 +344,7 @@ mod tests {
 
     #[test]
     fn a_flight_without_time_says_so() {
-        let table = Table::from_reader("mag\n1\n".as_bytes(), "f.csv").unwrap();
+        let table = Table::csv().reader("mag\n1\n".as_bytes(), "f.csv").unwrap();
         let request = ProcedureRequest::new("mag", Direction::Attitude { dip_deg: 60.0 });
         let e = procedure(&table, &request, &mut Vec::new()).unwrap_err();
         assert_eq!(

@@ -206,7 +206,7 @@ fn read_csv_raw(
     progress.begin(Stage::Reading, Some(size));
     let wanted =
         |headers: &[String]| tolles_io::table::indices_after_renames(headers, renames, needed);
-    let table = Table::read_csv_raw_parsing(path, &wanted);
+    let table = Table::csv().parsing(&wanted).path_in_place(path);
     progress.advance(size);
     progress.finish();
     Ok(table?)
@@ -227,7 +227,7 @@ fn read_text(path: &Path, format: Format, progress: &dyn Progress) -> Result<Tab
     let reader = std::io::BufReader::new(counted);
     let table = match format {
         Format::Xyz => tolles_io::xyz::from_reader(reader, path),
-        _ => Table::from_reader(reader, path),
+        _ => Table::csv().reader(reader, path),
     };
     progress.finish();
     Ok(table?)
@@ -543,7 +543,7 @@ mod tests {
     use super::*;
 
     fn table(csv: &str) -> Table {
-        Table::from_reader(csv.as_bytes(), "f.csv").unwrap()
+        Table::csv().reader(csv.as_bytes(), "f.csv").unwrap()
     }
 
     #[test]
