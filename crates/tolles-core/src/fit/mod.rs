@@ -59,15 +59,19 @@
 mod basis;
 mod choice;
 pub mod crossval;
+mod exact;
 pub mod lag;
+mod level_setup;
 pub mod levels;
 pub mod plausible;
 pub mod prior;
 mod problem;
 mod qr;
 pub mod ridge;
+mod spare;
 pub mod trust;
 pub mod verdict;
+mod windows;
 
 use crate::compensate::{write_runs, Model};
 use crate::fit::basis::Basis;
@@ -124,7 +128,10 @@ pub enum Lambda {
     Fixed(f64),
     /// Choose `λ_rel` by blocked cross-validation over time in `folds` contiguous folds and add
     /// `λ_rel·diag(AᵀA)` (a ridge on standardised columns); see [`crate::fit::crossval`].
-    CrossValidated { folds: usize },
+    CrossValidated {
+        /// Number of contiguous folds (at least 2).
+        folds: usize,
+    },
 }
 
 impl Lambda {
@@ -367,56 +374,115 @@ impl FitSettings {
 /// Why a fit could not be made.
 #[derive(Debug, Error, PartialEq)]
 pub enum FitError {
+    /// The scalar and the fluxgate differ in length.
     #[error("scalar has {scalar} samples but the fluxgate has {flux}")]
-    LengthMismatch { scalar: usize, flux: usize },
+    LengthMismatch {
+        /// Length of the scalar series (samples).
+        scalar: usize,
+        /// Length of the fluxgate series (samples).
+        flux: usize,
+    },
+    /// The sample rate (Hz) is not positive and finite.
     #[error("sample rate must be positive and finite, got {0} Hz")]
     SampleRate(f64),
+    /// The ridge strength λ is negative or not finite.
     #[error("ridge strength λ must be finite and ≥ 0, got {0}")]
     Lambda(f64),
+    /// The ridge strength λ would shrink every coefficient to nothing.
     #[error("ridge strength λ = {lambda:e} is more than 1e8 times the largest design column's sum of squares ({largest:.3e}): every coefficient would be shrunk to nothing")]
-    LambdaTooLarge { lambda: f64, largest: f64 },
+    LambdaTooLarge {
+        /// The ridge strength λ given (units of `AᵀA`).
+        lambda: f64,
+        /// The largest design column's sum of squares (units of `AᵀA`).
+        largest: f64,
+    },
+    /// The fit overflowed: its coefficients or residual are not finite.
     #[error(
         "the fit is unusable: its {what} is not finite (an extreme value in the data overflowed)"
     )]
-    NotFinite { what: &'static str },
+    NotFinite {
+        /// The part of the fit that is not finite (`coefficients` or `residual`).
+        what: &'static str,
+    },
+    /// Cross-validation was asked for with fewer than 2 folds (the number given).
     #[error("cross-validation needs at least 2 folds, got {0}")]
     Folds(usize),
+    /// No ridge strength could be fitted on every cross-validation fold.
     #[error("no ridge strength could be fitted on every cross-validation fold (too little data for {terms} terms); fix the ridge strength λ or use fewer terms")]
-    CrossValidation { terms: usize },
+    CrossValidation {
+        /// Number of terms in the design.
+        terms: usize,
+    },
+    /// A fluxgate's field magnitude lies outside 1,000–100,000 nT: probably not in nT.
     #[error("fluxgate {} magnitude {} nT at sample {index} is outside 1,000–100,000 nT: is the fluxgate in nT?", fluxgate + 1, show_nt(*magnitude))]
     FluxMagnitude {
+        /// Fluxgate block (0-based).
         fluxgate: usize,
+        /// The first sample out of range (0-based sample index).
         index: usize,
+        /// Its field magnitude (nT).
         magnitude: f64,
     },
+    /// The number of fluxgates differs from the design's.
     #[error("the design is for {design} fluxgates but {given} were given")]
-    FluxgateCount { design: usize, given: usize },
+    FluxgateCount {
+        /// Number of fluxgates the design is for.
+        design: usize,
+        /// Number of fluxgates given.
+        given: usize,
+    },
+    /// The number of extra channels differs from the design's.
     #[error("the design names {design} extra channels but {given} were given")]
-    ExtraCount { design: usize, given: usize },
+    ExtraCount {
+        /// Number of extra channels the design names.
+        design: usize,
+        /// Number of extra channels given.
+        given: usize,
+    },
+    /// An extra channel differs in length from the fluxgate.
     #[error("extra channel {} has {samples} samples but the fluxgate has {first}", channel + 1)]
     ExtraLength {
+        /// Extra channel (0-based).
         channel: usize,
+        /// Its length (samples).
         samples: usize,
+        /// The first fluxgate's length (samples).
         first: usize,
     },
+    /// A fluxgate differs in length from the first.
     #[error("fluxgate {} has {samples} samples but the first has {first}", fluxgate + 1)]
     FluxgateLength {
+        /// Fluxgate block (0-based).
         fluxgate: usize,
+        /// Its length (samples).
         samples: usize,
+        /// The first fluxgate's length (samples).
         first: usize,
     },
+    /// No sample is usable; names the input that is missing, non-finite or out of range throughout.
     #[error("no sample has the scalar and every fluxgate component: {0} is missing, non-finite or out of range throughout")]
     NothingUsable(String),
+    /// The scalar magnetometer never changes over the usable samples.
     #[error("the scalar magnetometer is constant: there is nothing to fit")]
     ConstantScalar,
+    /// The fluxgate never changes over the usable samples: the aircraft did not maneuver.
     #[error("the fluxgate is constant: the aircraft did not maneuver, so no term can be fitted")]
     ConstantFlux,
+    /// Fewer usable samples than terms after filtering and trimming.
     #[error("only {usable} usable samples after filtering and trimming, fewer than the {terms} terms; use a longer flight, fewer terms or a smaller trim")]
-    TooFewSamples { usable: usize, terms: usize },
+    TooFewSamples {
+        /// Usable samples left after filtering and trimming.
+        usable: usize,
+        /// Number of terms in the design.
+        terms: usize,
+    },
+    /// The fitted model is physically implausible even with its terms restrained.
     #[error("refused: the fit found {0}, a field no aircraft has, even with its terms restrained; the flight does not determine the model (fly maneuvers, or use fewer terms)")]
     Implausible(plausible::Fault),
+    /// The regularised solve failed.
     #[error(transparent)]
     Ridge(#[from] RidgeError),
+    /// The band-pass filter could not be designed or applied.
     #[error(transparent)]
     Filter(#[from] FilterError),
 }
@@ -632,7 +698,7 @@ fn fit_reusing(
         settings,
         spare,
         fs_hz,
-        window_samples: problem::window_samples(),
+        window_samples: windows::window_samples(),
     };
     let prior = settings.prior_weights(&union, fs_hz);
     let above = problem.above.as_ref();
@@ -1456,9 +1522,9 @@ mod tests {
             let own = own.calibration;
             let mut seen = Vec::new();
             for settings in [&recommended, &other_scale] {
-                problem::windows_in_tests::DONE.set(0);
+                windows::windows_in_tests::DONE.set(0);
                 let fitted = in_windows(|| fit(scalar, flux, 10.0, tt, settings)).unwrap();
-                assert_eq!(problem::windows_in_tests::DONE.get() > 0, windowed);
+                assert_eq!(windows::windows_in_tests::DONE.get() > 0, windowed);
                 let levels = fitted.diagnostics.levels.unwrap();
                 // Another Bt_scale only rescales columns: the same fit, whose level rows'
                 // target was made from the reference in the pass or before it.
@@ -1494,7 +1560,7 @@ mod tests {
 
     /// Runs `f` with the fits it starts cutting runs of more than 2¹⁶ samples into windows.
     fn in_windows<T>(f: impl FnOnce() -> T) -> T {
-        problem::with_window_samples(1 << 15, f)
+        windows::with_window_samples(1 << 15, f)
     }
 
     /// A run of 100 000 samples at 10 Hz, done whole or (with [`in_windows`]) in windows: its
@@ -1529,7 +1595,7 @@ mod tests {
 
     #[test]
     fn a_long_run_done_in_windows_fits_as_when_done_whole() {
-        use problem::windows_in_tests::DONE;
+        use windows::windows_in_tests::DONE;
         let (scalar, flux) = long_run();
         let fs = 10.0;
         let settings = FitSettings::recommended();
@@ -1558,7 +1624,7 @@ mod tests {
     /// 5 000 samples) is done whole, on however many cores, the other windows' work dropped.
     #[test]
     fn a_run_steady_at_its_start_is_done_whole() {
-        use problem::windows_in_tests::DONE;
+        use windows::windows_in_tests::DONE;
         let (mut scalar, mut flux) = long_run();
         for k in 0..5_000 {
             (flux.x[k], flux.y[k], flux.z[k], scalar[k]) =
@@ -1583,7 +1649,7 @@ mod tests {
     /// how many cores share them changes no bit.
     #[test]
     fn windows_dealt_to_any_number_of_cores_give_the_same_bits() {
-        use problem::windows_in_tests::DONE;
+        use windows::windows_in_tests::DONE;
         let (scalar, flux) = long_run();
         let settings = FitSettings::recommended();
         let on = |cores| {

@@ -1,151 +1,24 @@
 //! One calibration flight cut into runs, and the rows a fit solves: band-passed design rows,
 //! interleaved level rows, and the Gauss-Newton rows of the exact magnitude.
 
-use super::choice::{choose_design, Chosen};
-use super::levels::{self, LevelDiagnostics, LevelRows, LowFrequency, Reference};
-use super::qr::{stacked_factor, triangular_factor, RowFactor};
-use super::{
-    FitError, FitSettings, Lambda, MagnitudeChoice, Samples, Target, EXACT_CLEAR_LOSS,
-    EXACT_ITERATIONS, EXACT_SETTLED, EXACT_TOLERANCE,
-};
+use super::choice::Chosen;
+use super::level_setup::LevelSetup;
+use super::levels::{self, LevelRows, LowFrequency};
+use super::qr::{stacked_factor, triangular_factor};
+pub(super) use super::spare::Spare;
+use super::windows::{window_len, windows_dealt, LevelReference, Windows};
+use super::{FitError, FitSettings, Lambda, Samples, Target};
 use crate::model::design::{Design, Term};
-use crate::model::magnitude::exact_jacobian_into;
 use crate::model::vector::Fluxgates;
-use crate::parallel::{blocks, split_rows};
-use crate::signal::filter::{
-    filtfilt_many_unless_constant, filtfilt_window_handed, filtfilt_window_sampled, surely_varying,
-    Butterworth, Ends, Fed, Jumps, PREFIX,
-};
-use multiversion::multiversion;
+use crate::signal::filter::{filtfilt_many_unless_constant, Butterworth};
 use nalgebra::DMatrix;
 use std::ops::Range;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::Mutex;
 
 /// Writes the rows `rows` (counted from the run's start) of a run's unfiltered columns and,
 /// after them, of its target into the slices given (one per column, `rows.len()` values
 /// each), every value of them: they hold whatever a [`Spare`] buffer last held. A row's values
 /// are those of the whole run's (its changes taken over the run), however the rows are cut.
 pub(super) type FillRun<'m> = dyn Fn(Range<usize>, Range<usize>, &mut [&mut [f64]]) + Sync + 'm;
-
-/// Samples per window of a long run, which is filtered and factored window by window, each
-/// window taken whole by the next core free: the rows of a whole run need not be held at once (at 10⁷
-/// samples and 19 columns they are 1.5 GB, which on a virtual machine take seconds to fault in).
-/// Runs shorter than two windows are done whole. 2¹⁶ to 2¹⁹ timed the same at 10⁷ samples;
-/// 2¹⁸ keeps the overlap a thirtieth of a window and two windows' buffers near 85 MB. Tests
-/// run with it too; those about windows ask for shorter ones ([`with_window_samples`]).
-const WINDOW_SAMPLES: usize = 1 << 18;
-
-thread_local! {
-    /// Samples per window of the fits started on this thread when not [`WINDOW_SAMPLES`]: set
-    /// only by [`with_window_samples`], so a test can have a run of tens of thousands of
-    /// samples done in windows.
-    static WINDOW_SAMPLES_HERE: std::cell::Cell<Option<usize>> = const { std::cell::Cell::new(None) };
-}
-
-/// Samples per window of a fit started on this thread.
-pub(super) fn window_samples() -> usize {
-    WINDOW_SAMPLES_HERE.get().unwrap_or(WINDOW_SAMPLES)
-}
-
-/// Runs `f` with the fits it starts on this thread cutting long runs into windows of
-/// `samples` (at least 2¹⁰).
-#[cfg(test)]
-pub(super) fn with_window_samples<T>(samples: usize, f: impl FnOnce() -> T) -> T {
-    let before = WINDOW_SAMPLES_HERE.replace(Some(samples.max(1 << 10)));
-    let out = f();
-    WINDOW_SAMPLES_HERE.set(before);
-    out
-}
-
-/// Samples of each window's own part (its core) of a run of `n` samples done in windows of
-/// `window` samples: the run cut into equal parts of at most `window`, as many as a multiple
-/// of [`WINDOW_MULTIPLE`].
-fn window_core(n: usize, window: usize) -> usize {
-    n.div_ceil(n.div_ceil(window).next_multiple_of(WINDOW_MULTIPLE))
-}
-
-/// The windows of a run come in a multiple of this many. They are taken whole by the cores:
-/// with one window more than a multiple of the cores (39 at 10⁷ samples on two), one core
-/// worked through it alone while the other waited, 0.14 s per pass over the rows. The layout
-/// does not depend on the cores, so neither do the values; four balances one, two and four.
-const WINDOW_MULTIPLE: usize = 4;
-
-/// Samples of the longest window of a run of `n` samples done in windows of `window` samples
-/// overlapping by `margin`: a core and a margin on each side.
-fn window_len(n: usize, window: usize, margin: usize) -> usize {
-    window_core(n, window) + 2 * margin
-}
-
-/// Windows of a run of `n` samples done in windows of `window` samples that are worked on at
-/// once: one per core, at most one per window. A window's buffer is taken for each.
-fn windows_dealt(n: usize, window: usize) -> usize {
-    crate::parallel::cores().min(n.div_ceil(window_core(n, window)))
-}
-
-/// In tests, how many runs were done in windows.
-#[cfg(test)]
-pub(super) mod windows_in_tests {
-    use std::cell::Cell;
-    thread_local! {
-        pub(in crate::fit) static DONE: Cell<usize> = const { Cell::new(0) };
-    }
-}
-
-/// Buffers a fit has finished with, for its next step to reuse. On a long flight, touching
-/// fresh memory costs more than the arithmetic done in it (on a virtual machine, gigabytes take
-/// seconds to fault in), so every large buffer of a fit comes from here and goes back.
-#[derive(Default)]
-pub(super) struct Spare(Mutex<Vec<Vec<f64>>>);
-
-impl Spare {
-    /// A buffer of at least `len` values, of which the taker uses the first `len`: the
-    /// smallest spare one that is long enough, as its last user left it (so every taker writes
-    /// all it uses before reading it: zeroing a gigabyte that is about to be overwritten costs
-    /// a tenth of a second), or a new one of `len` zeros.
-    ///
-    /// A new one is zeroed by the system as its pages are first written, by whichever thread
-    /// writes them, so the fills that write on all cores also fault its pages in on all cores.
-    pub(super) fn take(&self, len: usize) -> Vec<f64> {
-        let mut spare = self.0.lock().unwrap_or_else(|e| e.into_inner());
-        let fits = (0..spare.len())
-            .filter(|&i| spare[i].len() >= len)
-            .min_by_key(|&i| spare[i].len());
-        match fits {
-            Some(i) => spare.swap_remove(i),
-            None => vec![0.0; len],
-        }
-    }
-
-    /// [`Spare::take`] of each of `lens`, the longest first, so that the longest need gets the
-    /// longest buffer rather than one a shorter need took first. Empty for a length of 0.
-    pub(super) fn take_each(&self, lens: &[usize]) -> Vec<Vec<f64>> {
-        let mut order: Vec<usize> = (0..lens.len()).collect();
-        order.sort_by_key(|&i| std::cmp::Reverse(lens[i]));
-        let mut out = vec![Vec::new(); lens.len()];
-        for i in order.into_iter().filter(|&i| lens[i] > 0) {
-            out[i] = self.take(lens[i]);
-        }
-        out
-    }
-
-    /// Makes sure a spare buffer of at least `len` values is there, for a fit that will need
-    /// one that long after smaller ones: the smaller needs are then met by its first part,
-    /// and its pages are faulted in once, as far as each use reaches, rather than those of
-    /// every size in turn (on a virtual machine each new gigabyte costs about a second).
-    pub(super) fn reserve(&self, len: usize) {
-        let mut spare = self.0.lock().unwrap_or_else(|e| e.into_inner());
-        if spare.iter().all(|b| b.len() < len) {
-            spare.push(vec![0.0; len]);
-        }
-    }
-
-    /// Returns `buffers` for a later [`Spare::take`].
-    pub(super) fn give(&self, buffers: impl IntoIterator<Item = Vec<f64>>) {
-        let mut spare = self.0.lock().unwrap_or_else(|e| e.into_inner());
-        spare.extend(buffers.into_iter().filter(|b| !b.is_empty()));
-    }
-}
 
 /// One calibration flight, cut into runs, and how to fit it.
 pub(super) struct Problem<'p, 'a> {
@@ -182,7 +55,7 @@ impl AboveBand {
     /// The same rows for a design of the columns `terms`: only its extra channels' columns
     /// kept (a design without them has its rows zeroed, so they stay part of the score, as they
     /// were for the linear fit it is compared with, but explain nothing).
-    fn for_terms(&self, terms: &[Term]) -> AboveBand {
+    pub(super) fn for_terms(&self, terms: &[Term]) -> AboveBand {
         AboveBand {
             filter: self.filter.clone(),
             extra: terms
@@ -221,15 +94,15 @@ struct RunRows {
 }
 
 /// Consecutive ranges of a run's band rows and their factors.
-type Pieces = Vec<(Range<usize>, DMatrix<f64>)>;
+pub(super) type Pieces = Vec<(Range<usize>, DMatrix<f64>)>;
 
 /// The band rows of a run done window by window, factored as they were filtered.
-struct Factored {
+pub(super) struct Factored {
     /// Consecutive ranges of band rows, cut where windows and the folds of the plans given
     /// to [`Problem::prepare`] start, and their factors.
-    pieces: Pieces,
+    pub(super) pieces: Pieces,
     /// The scatter of its filtered target over its band rows.
-    target: super::RunningStd,
+    pub(super) target: super::RunningStd,
 }
 
 /// A used run's rows as the folds count them.
@@ -651,396 +524,6 @@ impl Prepared {
     }
 }
 
-/// A long run done window by window: each window is the run's samples of its core (about
-/// [`WINDOW_SAMPLES`]) widened by `margin` on each side within the run, filled, filtered with
-/// open ends where the run goes on, and its core's band rows factored; the margins' values are
-/// thrown away once their filters have settled.
-struct Windows {
-    run: Range<usize>,
-    margin: usize,
-    /// Columns, the target not included.
-    width: usize,
-    /// Signals after the target.
-    extra: usize,
-    trim: usize,
-}
-
-/// What one window of a run done in windows gives: its band rows' factors, its filtered
-/// target's scatter (block by block, merged in order afterwards), and with levels the samples of
-/// its level rows, per signal.
-struct WindowPart {
-    pieces: Pieces,
-    target: Vec<super::RunningStd>,
-    sampled: Vec<Vec<f64>>,
-}
-
-/// What every window of a run shares.
-struct WindowInputs<'w, 'p, 'a> {
-    problem: &'w Problem<'p, 'a>,
-    fill: &'w FillRun<'w>,
-    levels: Option<&'w LevelSetup>,
-    cuts: &'w [usize],
-    /// The samples of the run its level rows are taken at.
-    kept: Option<Vec<usize>>,
-    /// What the level rows' target is the scalar less, with levels.
-    reference: Option<LevelReference<'w>>,
-}
-
-/// What the level rows' target is the scalar less, over a run.
-#[derive(Clone, Copy)]
-enum LevelReference<'w> {
-    /// The calibrated reference's values (nT).
-    Values(&'w [f64]),
-    /// The fluxgate's magnitude, the signal after the target, while the fluxgate is calibrated
-    /// from the same rows ([`levels::InPass`]): the calibration's correction joins the level
-    /// rows' target afterwards. The magnitude rather than nothing, so that the low-pass sees
-    /// the small difference of two fields of 50 000 nT rather than each (its rounding is
-    /// relative to what it filters).
-    Magnitude,
-}
-
-impl<'w> LevelReference<'w> {
-    /// The reference of `setup` over `run`.
-    fn of(setup: &'w LevelSetup, run: Range<usize>) -> Self {
-        match &setup.reference {
-            Some(r) => LevelReference::Values(levels::reference_over(r, run)),
-            None => LevelReference::Magnitude,
-        }
-    }
-
-    /// The reference over `rows` (of the run), its `signals` over them at hand: the columns,
-    /// the target, the magnitude.
-    fn over<'s, S: AsRef<[f64]>>(&'s self, rows: Range<usize>, signals: &'s [S]) -> &'s [f64] {
-        match self {
-            LevelReference::Values(values) => &values[rows],
-            LevelReference::Magnitude => signals[signals.len() - 1].as_ref(),
-        }
-    }
-}
-
-impl Windows {
-    /// The run's band rows factored (cut at the band rows `cuts` and where windows start), the
-    /// scatter of its filtered target and, with `levels`, its level rows (not centred), in
-    /// windows taken whole by the cores, each core with its share of `buffer` (see
-    /// [`Problem::buffer_len`]); `None` if a column or a target is constant or nearly so over
-    /// the run (the filters leave a constant signal alone, which only the whole run can tell).
-    ///
-    /// Whole windows rather than each step of one spread over the cores: a window's fill,
-    /// filters and factor stay on one core with no thread started per step, and a fit of few
-    /// columns (the fluxgate's calibration: 10 signals, an 8-lane block on one core and a
-    /// 2-lane one on the other when its filters were shared) keeps both cores busy.
-    fn factor(
-        &self,
-        problem: &Problem,
-        fill: &FillRun<'_>,
-        levels: Option<&LevelSetup>,
-        cuts: &[usize],
-        buffer: &mut [f64],
-    ) -> Option<(Factored, Option<LevelRows>)> {
-        let n = self.run.len();
-        let window = problem.window_samples;
-        let core = window_core(n, window);
-        let inputs = WindowInputs {
-            problem,
-            fill,
-            levels,
-            cuts,
-            kept: levels.and_then(|l| l.low.kept(n)),
-            reference: levels.map(|l| LevelReference::of(l, self.run.clone())),
-        };
-        let starts: Vec<usize> = (0..n).step_by(core).collect();
-        let longest = window_len(n, window, self.margin);
-        // The buffer may be longer than this run asked for (a spare one of a wider fit's), so
-        // its shares are counted as they were sized, not by how many it holds.
-        let shares: Vec<&mut [f64]> = buffer
-            .chunks_exact_mut(longest * (self.width + 1 + self.extra))
-            .take(windows_dealt(n, window))
-            .collect();
-        let dealt = shares.len();
-        let mut targets = problem.spare.take_each(&vec![longest; dealt]);
-        let given_up = AtomicBool::new(false);
-        // Each core takes the next window when it is done with its last, rather than every
-        // `dealt`-th: on this virtual machine a core's speed varies, and with a fixed deal one
-        // core finished each pass alone for 0.06–0.14 s. Windows are put back in order
-        // afterwards, so the values do not depend on who did which.
-        let next = AtomicUsize::new(0);
-        let deal = |(share, target): (&mut [f64], &mut Vec<f64>)| {
-            let mut parts = Vec::new();
-            while !given_up.load(Ordering::Relaxed) {
-                let index = next.fetch_add(1, Ordering::Relaxed);
-                let Some(&start) = starts.get(index) else {
-                    break;
-                };
-                match self.window(&inputs, start..(start + core).min(n), share, target) {
-                    Some(part) => parts.push((index, part)),
-                    None => given_up.store(true, Ordering::Relaxed),
-                }
-            }
-            parts
-        };
-        let work = shares.into_iter().zip(targets.iter_mut());
-        let mut parts: Vec<(usize, WindowPart)> = match dealt {
-            1 => work.flat_map(deal).collect(),
-            _ => std::thread::scope(|scope| {
-                let handles: Vec<_> = work
-                    .map(|w| scope.spawn(|| crate::parallel::on_one_core(|| deal(w))))
-                    .collect();
-                handles
-                    .into_iter()
-                    .flat_map(|h| h.join().expect("a window's thread does not panic"))
-                    .collect()
-            }),
-        };
-        problem.spare.give(targets);
-        if given_up.into_inner() {
-            return None;
-        }
-        parts.sort_by_key(|(index, _)| *index);
-        let parts = parts.into_iter().map(|(_, p)| p);
-        Some(self.gathered(parts, levels.map(|_| inputs.kept)))
-    }
-
-    /// The windows' parts, in order, as one run's; with `levels` (the samples the level rows
-    /// are taken at, if any), its level rows.
-    fn gathered(
-        &self,
-        parts: impl Iterator<Item = WindowPart>,
-        levels: Option<Option<Vec<usize>>>,
-    ) -> (Factored, Option<LevelRows>) {
-        let mut factored = Factored {
-            pieces: Vec::new(),
-            target: super::RunningStd::default(),
-        };
-        let mut sampled = Vec::new();
-        for part in parts {
-            factored.pieces.extend(part.pieces);
-            for block in part.target {
-                factored.target.merge(block);
-            }
-            sampled.push(part.sampled);
-        }
-        let rows = levels.map(|kept| match kept {
-            Some(at) => LevelRows::from_parts(self.width, sampled, at),
-            None => LevelRows::none(self.width),
-        });
-        (factored, rows)
-    }
-
-    /// One window: its samples `core` of the run and the margins either side filled into
-    /// `buffer`, filtered and factored; `None` if it is the run's first and a column or the
-    /// target is not surely varying there.
-    ///
-    /// The window is filled a stretch at a time as the band-pass's forward pass asks for it
-    /// ([`Fed`]), and the level rows' low-pass takes each stretch as it is filled: the
-    /// unfiltered window (40 MB at 19 columns, more than this machine's last-level cache) is
-    /// never written whole and read again from memory by each filter in turn. A low-pass that
-    /// cannot jump ([`Jumps`]) needs the whole window first, and gets it.
-    fn window(
-        &self,
-        inputs: &WindowInputs,
-        core: Range<usize>,
-        buffer: &mut [f64],
-        target: &mut [f64],
-    ) -> Option<WindowPart> {
-        let n = self.run.len();
-        let band = inputs
-            .problem
-            .filter
-            .as_ref()
-            .expect("windows are band-passed");
-        let signals = self.width + 1 + self.extra;
-        let window = core.start.saturating_sub(self.margin)..(core.end + self.margin).min(n);
-        let m = window.len();
-        let mut columns: Vec<&mut [f64]> = buffer[..m * signals].chunks_mut(m).collect();
-        let mut source = Source {
-            inputs,
-            width: self.width,
-            run: self.run.clone(),
-            window: window.clone(),
-            filled: 0,
-            low_target: &mut target[..m],
-        };
-        if core.start == 0 {
-            source.fill(&mut columns, PREFIX.min(m));
-            if !source.varying(&columns, n) {
-                return None;
-            }
-        }
-        let ends = Ends::of_window(&window, n);
-        let (mut jumps, mut sampled) = (None, Vec::new());
-        if let (Some(setup), Some(kept)) = (inputs.levels, &inputs.kept) {
-            let at: Vec<usize> = kept
-                .iter()
-                .filter(|k| core.contains(k))
-                .map(|k| k - window.start)
-                .collect();
-            let low = setup.low.filter();
-            // The low-pass reads the columns and the target, not the signals after it.
-            jumps = Jumps::new(low, &at, ends, self.width + 1, m);
-            if jumps.is_none() {
-                source.fill(&mut columns, m);
-                sampled = filtfilt_window_sampled(low, &source.low_signals(&columns), &at, ends);
-            }
-        }
-        let lookback = jumps.as_ref().map_or(0, Jumps::lookback);
-        let mut feed = |rows: Range<usize>, columns: &mut [&mut [f64]]| {
-            source.fill(columns, rows.end);
-            if let Some(j) = jumps.as_mut() {
-                let low = source.low_signals(columns);
-                j.advance(&low, rows.end);
-                if rows.end == m {
-                    sampled = jumps.take().expect("jumps until the end").finish(&low);
-                }
-            }
-        };
-        let mut fed = Fed {
-            feed: &mut feed,
-            lookback,
-        };
-        let core = Core {
-            window: &window,
-            core: &core,
-            ends,
-        };
-        let (pieces, target) = self.factor_core(band, &mut columns, &core, inputs.cuts, &mut fed);
-        Some(WindowPart {
-            pieces,
-            target,
-            sampled,
-        })
-    }
-
-    /// The band-pass `band` of the `columns` of `core.window`, and the factors of the band rows
-    /// among its samples `core.core`, cut at `cuts`, with their target's scatter stretch by
-    /// stretch.
-    ///
-    /// The rows are factored as the backward pass hands them over, while they are in the
-    /// cache: the filtered window is not written back, nor read again from memory (at 19
-    /// columns a window is 40 MB, more than this machine's last-level cache).
-    fn factor_core(
-        &self,
-        band: &Butterworth,
-        columns: &mut [&mut [f64]],
-        core: &Core,
-        cuts: &[usize],
-        fed: &mut Fed,
-    ) -> (Pieces, Vec<super::RunningStd>) {
-        let n = self.run.len();
-        let window_start = core.window.start;
-        let samples = core.core.start.max(self.trim)..core.core.end.min(n - self.trim);
-        if samples.is_empty() {
-            return (Vec::new(), Vec::new());
-        }
-        let rows = samples.start - self.trim..samples.end - self.trim;
-        let mut pieces: Vec<(Range<usize>, RowFactor)> = cuts
-            .windows(2)
-            .map(|w| w[0].max(rows.start)..w[1].min(rows.end))
-            .filter(|piece| !piece.is_empty())
-            .map(|piece| (piece, RowFactor::new(columns.len())))
-            .collect();
-        let mut target = Vec::new();
-        // Sample `w` of the window is band row `w + window_start − trim`.
-        let (first, end) = (samples.start - window_start, samples.end - window_start);
-        let mut take = |start: usize, handed: &[&[f64]]| {
-            let span = start..(start + handed[0].len()).min(end);
-            if span.is_empty() {
-                return;
-            }
-            let row = |w: usize| w + window_start - self.trim;
-            let index = |r: usize| r + self.trim - window_start - start;
-            let stretch = row(span.start)..row(span.end);
-            for (piece, factor) in &mut pieces {
-                let both = piece.start.max(stretch.start)..piece.end.min(stretch.end);
-                if !both.is_empty() {
-                    let part: Vec<&[f64]> = handed
-                        .iter()
-                        .map(|c| &c[index(both.start)..index(both.end)])
-                        .collect();
-                    factor.push(&part);
-                }
-            }
-            let values = &handed[self.width][index(stretch.start)..index(stretch.end)];
-            target.push(super::RunningStd::of_block(values));
-        };
-        filtfilt_window_handed(band, columns, core.ends, first, fed, &mut take);
-        // The stretches came from the last.
-        target.reverse();
-        let pieces = pieces
-            .into_iter()
-            .map(|(piece, factor)| (piece, factor.factor()))
-            .collect();
-        (pieces, target)
-    }
-}
-
-/// Where a window's unfiltered values come from, filled row by row in order.
-struct Source<'s, 'w, 'p, 'a> {
-    inputs: &'s WindowInputs<'w, 'p, 'a>,
-    run: Range<usize>,
-    /// The window's samples of the run.
-    window: Range<usize>,
-    /// Rows of the window filled so far.
-    filled: usize,
-    /// Columns before the target.
-    width: usize,
-    /// The target less the heading levels' reference (nT), as far as filled, with levels.
-    low_target: &'s mut [f64],
-}
-
-impl Source<'_, '_, '_, '_> {
-    /// Fills the window's `columns` (its columns, its target, the signals after it) up to row
-    /// `upto`.
-    fn fill(&mut self, columns: &mut [&mut [f64]], upto: usize) {
-        let rows = self.filled..upto.max(self.filled);
-        if rows.is_empty() {
-            return;
-        }
-        let mut part: Vec<&mut [f64]> = columns.iter_mut().map(|c| &mut c[rows.clone()]).collect();
-        let start = self.window.start;
-        (self.inputs.fill)(
-            self.run.clone(),
-            start + rows.start..start + rows.end,
-            &mut part,
-        );
-        if let Some(reference) = &self.inputs.reference {
-            let y = &part[self.width];
-            let r = reference.over(start + rows.start..start + rows.end, &part);
-            for ((t, y), r) in self.low_target[rows.clone()]
-                .iter_mut()
-                .zip(y.iter())
-                .zip(r)
-            {
-                *t = y - r;
-            }
-        }
-        self.filled = rows.end;
-    }
-
-    /// Whether the columns and the target less the reference, filled as far as the test
-    /// needs ([`PREFIX`]), are surely varying over the run's `n` samples.
-    fn varying(&self, columns: &[&mut [f64]], n: usize) -> bool {
-        columns.iter().all(|c| surely_varying(c, n))
-            && (self.inputs.reference.is_none() || surely_varying(self.low_target, n))
-    }
-
-    /// What the level rows' low-pass reads: the unfiltered columns, and the target less the
-    /// reference in the target's place.
-    fn low_signals<'c>(&'c self, columns: &'c [&mut [f64]]) -> Vec<&'c [f64]> {
-        columns[..self.width]
-            .iter()
-            .map(|c| &**c)
-            .chain([&*self.low_target])
-            .collect()
-    }
-}
-
-/// A window of a run and its core, and which of the window's ends are the run's.
-struct Core<'w> {
-    window: &'w Range<usize>,
-    core: &'w Range<usize>,
-    ends: Ends,
-}
-
 impl Factored {
     /// The factor of the band rows `rows`, which start and end where pieces do.
     fn within(&self, rows: &Range<usize>) -> DMatrix<f64> {
@@ -1068,112 +551,6 @@ pub(super) fn fold_count(lambda: Lambda) -> usize {
     match lambda {
         Lambda::Fixed(_) => 1,
         Lambda::CrossValidated { folds } => folds,
-    }
-}
-
-/// What the heading levels need: the reference, the low-pass, and the weight of their rows.
-pub(super) struct LevelSetup {
-    /// The reference; `None` while the linear rows are made, when the fluxgate is calibrated
-    /// from them ([`levels::InPass`]): their level rows' target is then the scalar less the
-    /// fluxgate's magnitude.
-    pub(super) reference: Option<Reference>,
-    pub(super) low: LowFrequency,
-    /// Expected scatter of a level row (nT).
-    pub(super) sigma_nt: f64,
-    /// Scatter of a band row (nT).
-    pub(super) band_sigma_nt: f64,
-    /// Level rows of the fit kept (centred, unweighted), to measure the misfit.
-    pub(super) rows: Vec<LevelRows>,
-    /// The terms of the columns of `rows`: every candidate's for the linear rows, the chosen
-    /// design's for the Gauss-Newton ones.
-    pub(super) row_terms: Vec<Term>,
-}
-
-impl LevelSetup {
-    /// The setup with its `reference`, and the level rows' expected scatter from the
-    /// calibration's.
-    fn with_reference(self, reference: Reference, s: &FitSettings, fs_hz: f64) -> Self {
-        // White noise of the reference, seen through the low-pass instead of the band.
-        let low = &self.low;
-        let width = (s.band.pass2_hz.min(fs_hz / 2.0) - s.band.pass1_hz).max(low.cutoff_hz);
-        let sigma_nt =
-            (reference.calibration.residual_std_nt * (low.cutoff_hz / width).sqrt()).max(1e-3);
-        Self {
-            reference: Some(reference),
-            sigma_nt,
-            ..self
-        }
-    }
-
-    pub(super) fn weight(&self) -> f64 {
-        self.band_sigma_nt / self.sigma_nt
-    }
-
-    pub(super) fn row_count(&self) -> usize {
-        self.rows.iter().map(|r| r.y.len()).sum()
-    }
-
-    /// RMS misfit of the level rows (nT) for the coefficients `beta` of `terms`.
-    pub(super) fn misfit(&self, terms: &[Term], beta: &[f64]) -> f64 {
-        levels::rms_misfit(&self.rows, &on_columns(&self.row_terms, terms, beta))
-    }
-
-    /// The level rows' residual sum of squares as the solve saw it, weighted (nT²), for the
-    /// coefficients `beta` of `terms`.
-    pub(super) fn weighted_rss(&self, terms: &[Term], beta: &[f64]) -> f64 {
-        let misfit = self.misfit(terms, beta);
-        let count = self.row_count();
-        if count == 0 {
-            return 0.0;
-        }
-        (self.weight() * misfit).powi(2) * count as f64
-    }
-
-    /// The level rows' long-run score covariance as the solve weighted them (columns of
-    /// `row_terms`), for the coefficients `beta` of `terms`: see
-    /// [`Prepared::score_covariance`]. A level row is a low-passed sample, correlated with its
-    /// neighbours over about two periods of the cutoff, `fs_hz` samples a second.
-    pub(super) fn score_covariance(
-        &self,
-        terms: &[Term],
-        beta: &[f64],
-        fs_hz: f64,
-    ) -> DMatrix<f64> {
-        let b = on_columns(&self.row_terms, terms, beta);
-        let p = self.row_terms.len();
-        let w2 = self.weight().powi(2);
-        let mut total = DMatrix::zeros(p, p);
-        for rows in self.rows.iter().filter(|r| !r.y.is_empty()) {
-            let n = rows.y.len();
-            let fitted = &rows.a * nalgebra::DVector::from_column_slice(&b);
-            let residual: Vec<f64> = (0..n).map(|i| w2 * (rows.y[i] - fitted[i])).collect();
-            let span = (rows.at[n - 1] - rows.at[0] + 1) as f64;
-            let per_second = n as f64 / span * fs_hz;
-            let block = (per_second * 2.0 / self.low.cutoff_hz).ceil();
-            let block = if block.is_finite() { block as usize } else { n };
-            let data = rows.a.as_slice();
-            let columns: Vec<&[f64]> = data.chunks_exact(n).take(p).collect();
-            total += run_score_covariance(&columns, &residual, block.clamp(1, n));
-        }
-        total
-    }
-
-    pub(super) fn diagnostics(&self, terms: &[Term], beta: &[f64]) -> LevelDiagnostics {
-        let count = self.row_count();
-        let misfit = self.misfit(terms, beta);
-        LevelDiagnostics {
-            fluxgate: self
-                .reference
-                .as_ref()
-                .expect("the levels' diagnostics come after the calibration")
-                .calibration
-                .clone(),
-            rows: count,
-            cutoff_hz: self.low.cutoff_hz,
-            residual_rms_nt: misfit,
-            level_std_error_nt: misfit / (count as f64 / 4.0).max(1.0).sqrt(),
-            weight: self.weight(),
-        }
     }
 }
 
@@ -1411,7 +788,8 @@ impl Problem<'_, '_> {
                     windows.factor(self, fill, levels, &cuts, &mut buffer)
                 {
                     #[cfg(test)]
-                    windows_in_tests::DONE.set(windows_in_tests::DONE.get() + 1);
+                    super::windows::windows_in_tests::DONE
+                        .set(super::windows::windows_in_tests::DONE.get() + 1);
                     self.spare.give([buffer]);
                     level_rows.extend(rows);
                     runs.push(RunRows {
@@ -1545,190 +923,16 @@ impl Problem<'_, '_> {
         }
         Ok(chosen)
     }
-
-    /// The exact-magnitude fit of `design` by Gauss-Newton from the linear solution, when the
-    /// settings ask for it and the design has one fluxgate.
-    pub(super) fn exact(
-        &self,
-        design: &Design,
-        linear: &Chosen,
-        levels: Option<&LevelSetup>,
-    ) -> Result<Option<Exact>, FitError> {
-        // Several fluxgates stay linear, and so do extra channels: on simulated strobe currents
-        // an exact fit predicted the box's held-out rows better, yet its survey error above the
-        // band was 3–10 times the linear fit's (the second-order coupling of the current's
-        // field with the aircraft's, through a field the 16 terms describe only in projection,
-        // does not carry over to other headings).
-        if self.settings.magnitude == MagnitudeChoice::Linear
-            || design.fluxgates != 1
-            || !design.extras.is_empty()
-        {
-            return Ok(None);
-        }
-        let terms = design.design_terms();
-        let above = self.above.as_ref().map(|a| a.for_terms(&terms));
-        let designs = [design.clone()];
-        let series = self.flux.series()[0];
-        let count = fold_count(self.settings.lambda);
-        let mut beta = linear.solution.coefficients.clone();
-        let mut best: Option<Exact> = None;
-        let mut last_step = f64::INFINITY;
-        let plan = self
-            .plans_ahead(levels, above.as_ref(), &[levels.is_some()], count)
-            .pop()
-            .expect("one plan asked for");
-        for iteration in 1..=EXACT_ITERATIONS {
-            let current = beta.clone();
-            let fill = |run: Range<usize>, rows: Range<usize>, columns: &mut [&mut [f64]]| {
-                let series = [&series.x, &series.y, &series.z].map(|c| &c[run.clone()]);
-                let extras: Vec<&[f64]> =
-                    self.flux.extras().iter().map(|e| &e[run.clone()]).collect();
-                let scalar = &self.scalar[run];
-                split_rows(rows.len(), columns, |part, parts| {
-                    // Block by block, so the target is formed while the block's Jacobian is
-                    // still in the cache.
-                    let start = rows.start + part.start;
-                    let mut sum = vec![0.0; TARGET_BLOCK_ROWS];
-                    for block in blocks(0..part.len(), TARGET_BLOCK_ROWS) {
-                        let mut j: Vec<&mut [f64]> =
-                            parts.iter_mut().map(|c| &mut c[block.clone()]).collect();
-                        let (j, y) = j.split_at_mut(terms.len());
-                        let y = &mut *y[0];
-                        let block = start + block.start..start + block.end;
-                        let rows = block.clone();
-                        exact_jacobian_into(design, series, &extras, &current, &terms, rows, j, y);
-                        let sum = &mut sum[..block.len()];
-                        linearised_target(j, &current, &scalar[block], y, sum);
-                    }
-                });
-            };
-            let mut prepared =
-                self.prepare(terms.len(), 0, &fill, levels, above.as_ref(), &[&plan])?;
-            let weight = levels.map_or(0.0, LevelSetup::weight);
-            debug_assert!(prepared.plan(levels.is_some(), count) == plan);
-            let band = prepared.band_factors(&[&plan]);
-            let folds = prepared.fold_factors(&plan, weight, &band);
-            let prior = self.settings.prior_weights(&terms, self.fs_hz);
-            let lambda = self.settings.lambda;
-            let prior = prior.as_ref();
-            let chosen =
-                match choose_design(&folds, &designs, &terms, lambda, weight, prior, self.fs_hz) {
-                    // An exact fit that wanders off to an implausible field is not kept.
-                    Err(FitError::Implausible(_)) => return Ok(None),
-                    other => other?,
-                };
-            let level_rows = std::mem::take(&mut prepared.levels);
-            self.spare.give(prepared.into_buffers());
-            let step = relative_change(&beta, &chosen.solution.coefficients);
-            if diverges(iteration, step, last_step) {
-                return Ok(None);
-            }
-            beta = damped(&beta, &chosen.solution.coefficients, step);
-            let settled_loser = self.settles_losing(&chosen, linear, step, last_step);
-            best = Some(Exact {
-                chosen,
-                iterations: iteration,
-                level_rows,
-            });
-            if step < EXACT_TOLERANCE || settled_loser {
-                break;
-            }
-            last_step = step;
-        }
-        Ok(best)
-    }
-}
-
-/// Rows of a Gauss-Newton fill formed at once: the block's Jacobian (16 columns, 128 KiB)
-/// stays in the second-level cache until its target is formed.
-const TARGET_BLOCK_ROWS: usize = 1024;
-
-/// The Gauss-Newton target `scalar − Δ + J·β` over a block, into `y`, which holds the exact
-/// correction Δ (nT); `jacobian` has one slice per coefficient of `beta`; `sum` (as long as
-/// `y`) is room for `J·β`.
-///
-/// `J·β` is summed column after column, from the empty sum, as an iterator's `sum` over a
-/// row would: the same values, from loops over the block rather than across the columns of
-/// each row. Compiled also for AVX2 and AVX-512, as the Jacobian is.
-#[multiversion(targets("x86_64+avx512f", "x86_64+avx2"))]
-fn linearised_target(
-    jacobian: &[&mut [f64]],
-    beta: &[f64],
-    scalar: &[f64],
-    y: &mut [f64],
-    sum: &mut [f64],
-) {
-    let empty: f64 = std::iter::empty::<f64>().sum();
-    let mut columns = jacobian.iter().zip(beta);
-    match columns.next() {
-        // The first column's terms added to the empty sum as they are written.
-        Some((column, b)) => sum
-            .iter_mut()
-            .zip(column.iter())
-            .for_each(|(s, v)| *s = empty + v * b),
-        None => sum.fill(empty),
-    }
-    for (column, b) in columns {
-        sum.iter_mut()
-            .zip(column.iter())
-            .for_each(|(s, v)| *s += v * b);
-    }
-    for ((v, s), x) in y.iter_mut().zip(&*sum).zip(scalar) {
-        *v = x - *v + s;
-    }
-}
-
-/// The exact-magnitude fit: its solution, the Gauss-Newton iterations it took, and its last
-/// level rows (the columns of its design's terms), which describe it rather than the linear
-/// fit.
-pub(super) struct Exact {
-    pub(super) chosen: Chosen,
-    pub(super) iterations: usize,
-    pub(super) level_rows: Vec<LevelRows>,
-}
-
-/// `beta`, the coefficients of `terms`, as coefficients of `columns`: 0 for a column that is
-/// none of `terms`.
-pub(super) fn on_columns(columns: &[Term], terms: &[Term], beta: &[f64]) -> Vec<f64> {
-    columns
-        .iter()
-        .map(|c| terms.iter().position(|t| t == c).map_or(0.0, |k| beta[k]))
-        .collect()
-}
-
-/// The entries of `s`, whose rows and columns are `columns`, for the rows and columns
-/// `terms` (zero for a term not among `columns`).
-pub(super) fn on_column_pairs(columns: &[Term], terms: &[Term], s: &DMatrix<f64>) -> DMatrix<f64> {
-    let at: Vec<Option<usize>> = terms
-        .iter()
-        .map(|t| columns.iter().position(|c| c == t))
-        .collect();
-    DMatrix::from_fn(terms.len(), terms.len(), |i, j| match (at[i], at[j]) {
-        (Some(a), Some(b)) => s[(a, b)],
-        _ => 0.0,
-    })
-}
-
-impl Problem<'_, '_> {
-    /// Whether the exact fit `exact`, after a Gauss-Newton step of `step` that followed one of
-    /// `last_step` (relative changes of the coefficients), may stop: with the magnitude chosen
-    /// by score, when the next step is expected below [`EXACT_SETTLED`] and the exact fit loses
-    /// to `linear` by more than [`EXACT_CLEAR_LOSS`], no further iteration could change the
-    /// choice, and the score it reports is already as good as final.
-    fn settles_losing(&self, exact: &Chosen, linear: &Chosen, step: f64, last_step: f64) -> bool {
-        // The first step, from the linear fit, says nothing of the rate.
-        let expected = step * (step / last_step);
-        self.settings.magnitude == MagnitudeChoice::Auto
-            && last_step.is_finite()
-            && expected < EXACT_SETTLED
-            && exact.score() > linear.score() * (1.0 + EXACT_CLEAR_LOSS)
-    }
 }
 
 /// One run's long-run score covariance (see [`Prepared::score_covariance`]): with `Bₖ` the
 /// centred scores summed over rows `k..k+block`, `n/(block·positions)·Σₖ BₖBₖᵀ`. Block starts
 /// step by an eighth of a block, which costs nothing in accuracy next to the block's own.
-fn run_score_covariance(columns: &[&[f64]], residual: &[f64], block: usize) -> DMatrix<f64> {
+pub(super) fn run_score_covariance(
+    columns: &[&[f64]],
+    residual: &[f64],
+    block: usize,
+) -> DMatrix<f64> {
     let (p, n) = (columns.len(), residual.len());
     let score = |c: usize, t: usize| columns[c][t] * residual[t];
     let mean: Vec<f64> = (0..p)
@@ -1758,59 +962,32 @@ fn remove_mean(x: &mut [f64]) {
     x.iter_mut().for_each(|v| *v -= mean);
 }
 
-/// `‖a − b‖ / ‖b‖`.
-/// Largest relative change of the coefficients one Gauss-Newton step may make: the magnitude
-/// is nearly linear in them, so a good step moves them by about |H|/|B|, a percent or less; a
-/// larger one is a linearisation that does not hold, and is taken only this far (a trust
-/// region).
-const EXACT_MAX_STEP: f64 = 0.5;
-
-/// Step size above which a step that fails to shrink is divergence rather than rounding.
-const EXACT_DIVERGING_STEP: f64 = 1e-6;
-
-/// Whether Gauss-Newton diverges: from its second step on, each step must shrink (the
-/// iterations converge linearly), and none may be infinite or NaN. A diverging exact fit falls
-/// back to the linear one.
-fn diverges(iteration: usize, step: f64, last_step: f64) -> bool {
-    !step.is_finite() || (iteration > 1 && step > last_step && step > EXACT_DIVERGING_STEP)
-}
-
-/// The next linearisation point: `proposed`, or the way towards it from `current` cut to
-/// [`EXACT_MAX_STEP`] when the step (`step`, relative) is longer.
-fn damped(current: &[f64], proposed: &[f64], step: f64) -> Vec<f64> {
-    if step <= EXACT_MAX_STEP {
-        return proposed.to_vec();
-    }
-    let t = EXACT_MAX_STEP / step;
-    current
+/// `beta`, the coefficients of `terms`, as coefficients of `columns`: 0 for a column that is
+/// none of `terms`.
+pub(super) fn on_columns(columns: &[Term], terms: &[Term], beta: &[f64]) -> Vec<f64> {
+    columns
         .iter()
-        .zip(proposed)
-        .map(|(c, p)| c + t * (p - c))
+        .map(|c| terms.iter().position(|t| t == c).map_or(0.0, |k| beta[k]))
         .collect()
 }
 
-fn relative_change(a: &[f64], b: &[f64]) -> f64 {
-    let diff: f64 = a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum();
-    let size: f64 = b.iter().map(|y| y * y).sum();
-    (diff / size.max(f64::MIN_POSITIVE)).sqrt()
+/// The entries of `s`, whose rows and columns are `columns`, for the rows and columns
+/// `terms` (zero for a term not among `columns`).
+pub(super) fn on_column_pairs(columns: &[Term], terms: &[Term], s: &DMatrix<f64>) -> DMatrix<f64> {
+    let at: Vec<Option<usize>> = terms
+        .iter()
+        .map(|t| columns.iter().position(|c| c == t))
+        .collect();
+    DMatrix::from_fn(terms.len(), terms.len(), |i, j| match (at[i], at[j]) {
+        (Some(a), Some(b)) => s[(a, b)],
+        _ => 0.0,
+    })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    #[test]
-    fn gauss_newton_steps_are_cut_to_the_trust_region_and_divergence_is_caught() {
-        let current = [1.0, 0.0];
-        assert_eq!(damped(&current, &[1.01, 0.0], 0.01), vec![1.01, 0.0]);
-        let far = damped(&current, &[3.0, 0.0], 2.0);
-        assert!((far[0] - 1.5).abs() < 1e-12, "{far:?}");
-        assert!(!diverges(1, 0.3, f64::INFINITY));
-        assert!(!diverges(3, 1e-3, 1e-2));
-        assert!(diverges(3, 1e-2, 1e-3));
-        assert!(!diverges(3, 2e-9, 1e-9), "rounding is not divergence");
-        assert!(diverges(1, f64::NAN, f64::INFINITY));
-    }
     use crate::fit::ridge::Ridge;
 
     #[test]
