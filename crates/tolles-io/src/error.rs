@@ -6,61 +6,116 @@ use thiserror::Error;
 /// Why a file could not be read or written.
 #[derive(Debug, Error)]
 pub enum IoError {
+    /// The file could not be opened or read.
     #[error("{path}: cannot open: {source}")]
     Open {
+        /// The file the error is about.
         path: PathBuf,
+        /// The operating system's error.
         source: std::io::Error,
     },
+    /// The file could not be written.
     #[error("{path}: cannot write: {source}")]
     Write {
+        /// The file the error is about.
         path: PathBuf,
+        /// The operating system's error.
         source: std::io::Error,
     },
+    /// The file is empty.
     #[error("{path}: the file is empty; expected a header row and data rows")]
-    Empty { path: PathBuf },
+    Empty {
+        /// The file the error is about.
+        path: PathBuf,
+    },
+    /// The file has a header but no data rows.
     #[error("{path}: the file has a header but no data rows")]
-    NoRows { path: PathBuf },
+    NoRows {
+        /// The file the error is about.
+        path: PathBuf,
+    },
+    /// A column asked for is not in the file.
     #[error("{path}: no column {column:?}{hint}")]
     MissingColumn {
+        /// The file the error is about.
         path: PathBuf,
+        /// The column asked for.
         column: String,
+        /// A suggestion appended to the message (such as a close name); may be empty.
         hint: String,
     },
+    /// A column name appears more than once in the header.
     #[error("{path}: column {column:?} appears more than once in the header")]
-    DuplicateColumn { path: PathBuf, column: String },
+    DuplicateColumn {
+        /// The file the error is about.
+        path: PathBuf,
+        /// The repeated column name.
+        column: String,
+    },
+    /// A row has a different number of fields from the header.
     #[error("{path}: line {line}: {found} fields, but the header has {expected}")]
     Ragged {
+        /// The file the error is about.
         path: PathBuf,
+        /// Line of the file (1-based).
         line: u64,
+        /// Fields in the header.
         expected: usize,
+        /// Fields on the line.
         found: usize,
     },
     /// `place` is "line N" for text files, "row N" (1-based) for binary ones.
     #[error("{path}: {place}, column {column:?}: {value:?} is not a number")]
     NotANumber {
+        /// The file the error is about.
         path: PathBuf,
+        /// Where the value is: "line N" or "row N" (1-based).
         place: String,
+        /// The column of the value.
         column: String,
+        /// The value as written.
         value: String,
     },
+    /// A line of a text file cannot be parsed.
     #[error("{path}: line {line}: {message}")]
     Malformed {
+        /// The file the error is about.
         path: PathBuf,
+        /// Line of the file (1-based).
         line: u64,
+        /// What is wrong with the line.
         message: String,
     },
+    /// The file's contents are not what the format requires.
     #[error("{path}: {message}")]
-    Invalid { path: PathBuf, message: String },
+    Invalid {
+        /// The file the error is about.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// Two columns of the file hold different numbers of values.
     #[error(
         "{path}: column {column:?} holds {found} values, but column {first:?} holds {expected}"
     )]
     UnequalColumns {
+        /// The file the error is about.
         path: PathBuf,
+        /// The first column, whose length the others must have.
         first: String,
+        /// Values in the first column (rows).
         expected: usize,
+        /// The column that differs.
         column: String,
+        /// Values in that column (rows).
         found: usize,
     },
+    /// The file is not a tolles model file.
     #[error("{path}: not a tolles model file: {message}")]
-    Model { path: PathBuf, message: String },
+    Model {
+        /// The file the error is about.
+        path: PathBuf,
+        /// Why the file is not a model file.
+        message: String,
+    },
 }

@@ -41,31 +41,44 @@ pub enum SelectError {
     Parse {
         /// `line` or `time`.
         by: &'static str,
+        /// The value as given.
         text: String,
+        /// Why it does not parse.
         why: String,
     },
     /// Selecting by `line` or `time` needs a column the file lacks.
     #[error("{path}: selecting by {by} needs a column {column:?}{hint}")]
     NoColumn {
+        /// The file the error is about.
         path: PathBuf,
         /// `line` or `time`.
         by: &'static str,
+        /// The column needed.
         column: &'static str,
+        /// A suggestion appended to the message (a close column name); may be empty.
         hint: String,
     },
     /// A line id no row is on.
     #[error("{path}: line {line}: no row is on that line; the file's lines are {present}")]
     UnknownLine {
+        /// The file the error is about.
         path: PathBuf,
+        /// The line id asked for, as given.
         line: String,
+        /// The file's distinct line ids in file order: the first 10, then how many more.
         present: String,
     },
+    /// No row meets the selection.
     #[error("{path}: no row is {criteria}; {span}")]
     NothingSelected {
+        /// The file the error is about.
         path: PathBuf,
+        /// The selection, in words.
         criteria: String,
+        /// What the rows considered span in time (s), or that they have no time.
         span: String,
     },
+    /// The file could not be read.
     #[error(transparent)]
     Io(#[from] IoError),
 }

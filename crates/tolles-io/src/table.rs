@@ -356,6 +356,8 @@ impl Table {
         self.format_name
     }
 
+    /// The table, with notes about what the reader left out of it (e.g. a 2-D dataset), so the
+    /// caller can tell the user.
     pub fn with_notes(mut self, notes: Vec<String>) -> Self {
         self.notes = notes;
         self

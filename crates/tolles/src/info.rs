@@ -41,18 +41,23 @@ pub struct ColumnInfo {
 /// One flight line: its id as written and how many rows are on it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LineInfo {
+    /// The line id as written.
     pub id: String,
+    /// Rows on the line (rows).
     pub rows: usize,
 }
 
 /// What [`info`] found.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FlightInfo {
+    /// The file read.
     pub path: PathBuf,
     /// The format: the one the extension names (`csv`, `xyz`, `gdf`, `hdf5`, `parquet`), `mat`
     /// for a MAT-file, and the one its content shows for standard input.
     pub format: String,
+    /// Data rows read, after any selection (rows).
     pub rows: usize,
+    /// Each column, in file order.
     pub columns: Vec<ColumnInfo>,
     /// 1 / the median step of `tt`, else 1 / the file's `dt`; `None` when neither gives one.
     pub sample_rate_hz: Option<f64>,

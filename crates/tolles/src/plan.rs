@@ -66,7 +66,9 @@ pub enum BuiltinPlan {
 pub enum Maneuvers {
     /// A built-in plan, the maneuvers about the `without` axes left out.
     Builtin {
+        /// Which built-in plan.
         plan: BuiltinPlan,
+        /// Axes whose maneuvers are left out.
         without: Vec<Axis>,
     },
     /// A list `roll@0,pitch@90,wingup@270` ([`Plan::from_maneuver_list`]).
@@ -76,9 +78,13 @@ pub enum Maneuvers {
     /// Only the rows `selection` keeps are used (all when empty), after the columns are renamed
     /// `(old, new)` (see [`crate::read::rename`]).
     Flown {
+        /// The flight file.
         path: PathBuf,
+        /// Prefix of the fluxgate columns `<vector>_x/_y/_z` (nT, body frame).
         vector: String,
+        /// Which rows to use; all when empty.
         selection: RowSelection,
+        /// Column renames `(old, new)` applied when reading.
         renames: Vec<(String, String)>,
     },
 }
@@ -86,6 +92,7 @@ pub enum Maneuvers {
 /// What to evaluate.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlanRequest {
+    /// The maneuvers to evaluate.
     pub maneuvers: Maneuvers,
     /// The terms of the model.
     pub terms: TermSet,

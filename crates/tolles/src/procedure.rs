@@ -37,9 +37,15 @@ use tolles_io::table::Table;
 #[derive(Debug, Clone, PartialEq)]
 pub enum Direction {
     /// A fluxgate: columns `vector_x/_y/_z` (nT, body frame); it also gives the magnitude H.
-    Fluxgate { vector: String },
+    Fluxgate {
+        /// Prefix of the fluxgate columns `<vector>_x/_y/_z` (nT, body frame).
+        vector: String,
+    },
     /// The attitude and the field's dip (degrees, down positive); H is the scalar's median.
-    Attitude { dip_deg: f64 },
+    Attitude {
+        /// The field's dip (degrees, down positive).
+        dip_deg: f64,
+    },
 }
 
 /// What to run the procedure on.
@@ -81,6 +87,7 @@ pub struct ProcedureOutcome {
 /// One term by both methods.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Comparison {
+    /// The patent term compared.
     pub term: Term,
     /// By the procedure (nT perm, dimensionless induced, s eddy); `None` undetermined.
     pub procedure: Option<f64>,

@@ -588,7 +588,12 @@ pub enum Event {
     AcceptFailed(std::io::Error),
     /// A client's stream ended: `Ok` at the end of its input, else why
     /// ([`Error::is_disconnect`] when the client went away).
-    Ended { peer: String, result: Result<()> },
+    Ended {
+        /// The client's address (`?` when unknown).
+        peer: String,
+        /// `Ok` at the end of its input, else why the stream ended.
+        result: Result<()>,
+    },
 }
 
 /// Serves every client of `listener`, each on its own thread, until accepting ends (in

@@ -9,7 +9,12 @@ use tolles_io::schema::TIME_COLUMN;
 #[derive(Debug, Clone, PartialEq)]
 pub enum Warning {
     /// What a reader left out of a table (e.g. a 2-D HDF5 dataset).
-    ReaderNote { path: PathBuf, note: String },
+    ReaderNote {
+        /// The file read.
+        path: PathBuf,
+        /// What was left out, as a sentence.
+        note: String,
+    },
     /// A sample rate was given that differs by more than 1 % from the time column's; the given
     /// one is used.
     SampleRateDiffers {
@@ -20,62 +25,100 @@ pub enum Warning {
     },
     /// The time column gives a sample rate no magnetometer samples at.
     UnlikelySampleRate {
+        /// The flight file.
         path: PathBuf,
         /// 1 / the median step of the time column (Hz).
         hz: f64,
     },
     /// Rows of a compensated column left empty because a value they need is missing.
     Uncomputable {
+        /// The flight file.
         path: PathBuf,
+        /// Rows left empty (rows).
         rows: usize,
+        /// Rows in the file (rows).
         of: usize,
+        /// The compensated column.
         column: String,
     },
     /// The input already has the compensated column's name, so ours is written as `renamed`.
     OutputRenamed {
+        /// The input file.
         path: PathBuf,
+        /// The compensated column's name, which the input already has.
         wanted: String,
+        /// The name it is written under instead.
         renamed: String,
     },
     /// Rows of a flight the FOM's compensation could not compute.
     NotCompensated {
+        /// The flight file.
         path: PathBuf,
+        /// Rows not compensated (rows).
         rows: usize,
+        /// Rows in the flight (rows).
         of: usize,
     },
     /// No maneuvers were found in the attitude.
-    NoManeuvers { path: PathBuf, columns: String },
+    NoManeuvers {
+        /// The flight file.
+        path: PathBuf,
+        /// The attitude columns searched, listed.
+        columns: String,
+    },
     /// The time column steps back or repeats at `places` places (the first at `place`): each
     /// stretch between them is taken on its own, as after a gap. With `run_on`, the times
     /// used after the first are moved on so they increase (reports, FOM, the procedure).
     TimeStepsBack {
+        /// The flight file.
         path: PathBuf,
+        /// Where the first step back is: "line N" or "row N" (1-based).
         place: String,
+        /// Number of places the time steps back or repeats.
         places: usize,
+        /// Whether the times after the first such place are moved on so they increase.
         run_on: bool,
     },
     /// The flight has no attitude columns, so no maneuvers and no heading levels.
-    NoAttitude { path: PathBuf, columns: String },
+    NoAttitude {
+        /// The flight file.
+        path: PathBuf,
+        /// The attitude columns missing, listed.
+        columns: String,
+    },
     /// A maneuver window with samples that have no band-passed value.
     ManeuverGap {
+        /// The flight file.
         path: PathBuf,
+        /// The maneuver's kind (`roll`, `pitch` or `yaw`).
         kind: String,
+        /// The maneuver's heading (degrees clockwise from north), as written in the message.
         heading: String,
         /// Window start and end (s).
         start_tt: f64,
+        /// Window end (s).
         end_tt: f64,
+        /// Samples of the window without a band-passed value (samples).
         samples: usize,
     },
     /// The least-squares fit the patent's procedure is compared with failed.
-    NoLeastSquares { path: PathBuf, reason: String },
+    NoLeastSquares {
+        /// The flight file.
+        path: PathBuf,
+        /// Why the fit failed.
+        reason: String,
+    },
     /// Not a problem: which rows a selection kept, so the caller can say what it works on.
     RowsSelected {
+        /// The file read.
         path: PathBuf,
+        /// The selection and what it kept.
         selection: crate::read::Selection,
     },
     /// A fit that barely improved on the data, or needed the strongest ridge tried: the model
     /// explains little, often because an interference source is not among the regressors.
     PoorFit {
+        /// The scalar of the fit.
         scalar: String,
         /// Filtered scalar std / residual std.
         improvement: f64,
@@ -85,47 +128,66 @@ pub enum Warning {
     /// Not a problem: raw channels (SGL's `AZIMUTH`, …) a table also answers to under tolles'
     /// names, as `(raw, tolles)`, because it has no columns of those names.
     ColumnsAliased {
+        /// The file read.
         path: PathBuf,
+        /// The aliases used, as `(raw, tolles)` column names.
         aliases: Vec<(String, String)>,
     },
     /// 1-D arrays of a MATLAB or HDF5 file whose length is not the table's `rows`, as
     /// `(name, length)`: kept beside the table ([`tolles_io::table::Table::side_columns`]) but
     /// not used, except by `convert`.
     SideColumns {
+        /// The file read.
         path: PathBuf,
+        /// Rows of the table (rows).
         rows: usize,
+        /// The arrays kept beside the table, as `(name, length in samples)`.
         columns: Vec<(String, usize)>,
     },
     /// Columns of a written file shorter than its `rows`, padded with missing cells (a MATLAB
     /// or HDF5 array of another length converted to CSV or Parquet), as `(name, own length)`.
     Padded {
+        /// The file written.
         path: PathBuf,
+        /// Rows of the file written (rows).
         rows: usize,
+        /// The columns padded, as `(name, own length in rows)`.
         columns: Vec<(String, usize)>,
     },
     /// A time column the input declared in a unit other than seconds, written as read to CSV,
     /// which cannot declare units: read back, its times are taken as seconds.
     TimeUnitNotWritten {
+        /// The file written.
         path: PathBuf,
+        /// The time column.
         column: String,
+        /// The unit the input declared for it.
         unit: String,
     },
     /// A model whose verdict is not `good` (see `tolles_core::fit::verdict`).
     Verdict {
+        /// The scalar of the model.
         scalar: String,
+        /// The verdict: its grade and reasons.
         verdict: tolles_core::fit::verdict::Verdict,
     },
     /// Rows whose fluxgate direction, its rate of change or an extra channel's value lies
     /// outside what the calibration flew: the model extrapolates there.
     Extrapolated {
+        /// The flight file.
         path: PathBuf,
+        /// Rows outside what the calibration flew (rows).
         rows: usize,
+        /// Rows in the file (rows).
         of: usize,
+        /// The compensated column.
         column: String,
     },
     /// A warning about one scalar of a report of several.
     ForScalar {
+        /// The scalar the warning is about.
         scalar: String,
+        /// The warning.
         warning: Box<Warning>,
     },
     /// Anything else, as a sentence that names the file.

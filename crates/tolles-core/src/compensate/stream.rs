@@ -330,6 +330,8 @@ pub struct Output<'a, T> {
     /// error (nT, NaN where not computable) and whether the sample lies outside the span its
     /// calibration flew; NaN and `false` for the others.
     pub sigma: &'a [f64],
+    /// Per scalar: whether the sample lies outside the span its calibration flew (`false` for
+    /// scalars without trust).
     pub extrapolated: &'a [bool],
 }
 

@@ -50,6 +50,7 @@ pub enum Fault {
     },
     /// An induced coefficient beyond [`MAX_INDUCED`].
     Induced {
+        /// Fluxgate block (0-based).
         fluxgate: usize,
         /// The entry (`xy`, …) or patent term (`VV−LL`, …).
         term: String,
@@ -58,7 +59,9 @@ pub enum Fault {
     },
     /// An eddy-current coefficient beyond [`MAX_EDDY_S`].
     Eddy {
+        /// Fluxgate block (0-based).
         fluxgate: usize,
+        /// The entry (`xy`, …) or patent term, as for [`Fault::Induced`].
         term: String,
         /// The fitted value (s).
         value_s: f64,

@@ -108,9 +108,13 @@ impl Prior {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Group {
+    /// The permanent-field terms (nT).
     Permanent,
+    /// The induced-field terms (dimensionless).
     Induced,
+    /// The eddy-current terms (s).
     Eddy,
+    /// The extra channels' terms (nT per unit of the channel).
     Extra,
 }
 

@@ -26,8 +26,12 @@ const BLOCK_ROWS: usize = 4096;
 /// A least-squares problem that cannot be solved.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum RidgeError {
+    /// The design matrix is singular: one column is a combination of others.
     #[error("the design matrix is singular (column {column} is a combination of others); use a ridge strength λ > 0 or fewer terms")]
-    Singular { column: String },
+    Singular {
+        /// Name of the design column that is a combination of others.
+        column: String,
+    },
 }
 
 /// Incremental least squares: the triangular factor of `[A | y]` for the rows pushed so far.

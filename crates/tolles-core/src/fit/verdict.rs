@@ -106,9 +106,15 @@ pub enum Reason {
         terms: Vec<String>,
     },
     /// The fit found an implausible field and its terms were restrained.
-    Restrained { fault: Fault },
+    Restrained {
+        /// What was implausible before restraint.
+        fault: Fault,
+    },
     /// A field beyond the bounds, left as found (a fixed λ: MagNav's procedure exactly).
-    Implausible { fault: Fault },
+    Implausible {
+        /// What is implausible.
+        fault: Fault,
+    },
     /// Held-out data fits much worse than the data fitted.
     HeldOutWorse {
         /// Held-out RMS (nT).
@@ -191,7 +197,9 @@ impl fmt::Display for Reason {
 /// A grade and its reasons.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Verdict {
+    /// How far the fit can be trusted.
     pub grade: Grade,
+    /// Why the grade is not good; empty when it is.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub reasons: Vec<Reason>,
 }
@@ -238,14 +246,17 @@ pub struct Evidence {
     pub excitation_deg: f64,
     /// RMS uncertainty and standard deviation of the correction over the calibration (nT).
     pub uncertainty_nt: f64,
+    /// Standard deviation of the correction over the calibration (nT).
     pub correction_nt: f64,
     /// Terms whose standard error exceeds their value and matters.
     pub uncertain_terms: Vec<String>,
     /// The fault restrained, or found and left (fixed λ).
     pub restrained: Option<Fault>,
+    /// The fault found and left as it was (fixed λ); `None` when there is none.
     pub implausible: Option<Fault>,
     /// Held-out RMS and in-sample residual (nT); NaN without cross-validation.
     pub heldout_nt: f64,
+    /// In-sample residual (nT).
     pub insample_nt: f64,
     /// Band-passed std before over after.
     pub improvement: f64,

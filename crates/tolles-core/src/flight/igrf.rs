@@ -73,7 +73,14 @@ pub enum IgrfError {
     InvalidAltitude(f64),
     /// The calendar date does not exist.
     #[error("{year}-{month:02}-{day:02} is not a calendar date")]
-    InvalidDate { year: i32, month: u32, day: u32 },
+    InvalidDate {
+        /// The year given.
+        year: i32,
+        /// The month given (1–12 if valid).
+        month: u32,
+        /// The day of the month given (1-based).
+        day: u32,
+    },
 }
 
 /// The geomagnetic field at one point, in the local geodetic north-east-down frame.

@@ -21,7 +21,9 @@ pub const HARMONIC_S: f64 = 18.0;
 pub const PERIOD_S: f64 = 6.0;
 /// Amplitudes of a roll, pitch and yaw (degrees), as in the compensation box.
 pub const ROLL_DEG: f64 = 10.0;
+/// Amplitude of a pitch (degrees).
 pub const PITCH_DEG: f64 = 5.0;
+/// Amplitude of a yaw (degrees).
 pub const YAW_DEG: f64 = 5.0;
 /// Duration of a wing-up, entry and exit included (s).
 pub const WING_UP_S: f64 = 20.0;
@@ -33,13 +35,24 @@ pub const WING_UP_BANK_DEG: f64 = 40.0;
 pub enum ManeuverListError {
     /// An item without `@`.
     #[error("{item:?} is not KIND@HEADING (e.g. roll@90)")]
-    NotKindAtHeading { item: String },
+    NotKindAtHeading {
+        /// The item as written.
+        item: String,
+    },
     /// A heading that is not a number.
     #[error("{heading:?} is not a heading in degrees: {reason}")]
-    BadHeading { heading: String, reason: String },
+    BadHeading {
+        /// The heading as written.
+        heading: String,
+        /// Why it does not parse as a number.
+        reason: String,
+    },
     /// A kind other than roll, pitch, yaw or wingup.
     #[error("unknown kind {kind:?}; use roll, pitch, yaw or wingup")]
-    UnknownKind { kind: String },
+    UnknownKind {
+        /// The kind as written.
+        kind: String,
+    },
     /// No maneuver at all.
     #[error("the list is empty")]
     Empty,

@@ -22,8 +22,11 @@ pub use crate::maneuvers::ManeuverKind as Axis;
 /// A sinusoid `amplitude·sin(2π·frequency·t + phase)` (degrees, Hz, radians).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Wave {
+    /// Amplitude (degrees).
     pub amplitude_deg: f64,
+    /// Frequency (Hz).
     pub frequency_hz: f64,
+    /// Phase at `t = 0` (rad).
     pub phase_rad: f64,
 }
 
@@ -40,20 +43,34 @@ pub enum Motion {
     /// Straight and level.
     Straight,
     /// A coordinated turn by `change_deg` (positive clockwise) banked at most `bank_deg`.
-    Turn { change_deg: f64, bank_deg: f64 },
+    Turn {
+        /// Heading change (degrees, positive clockwise).
+        change_deg: f64,
+        /// Largest bank angle (degrees).
+        bank_deg: f64,
+    },
     /// `amplitude·sin(2π t / period)` about one axis, whole cycles.
     Harmonic {
+        /// The axis turned about.
         axis: Axis,
+        /// Amplitude (degrees).
         amplitude_deg: f64,
+        /// Period (s).
         period_s: f64,
     },
     /// A constant roll (positive right wing down) entered and left smoothly: the patent's
     /// wing-up (a left wing-up is a positive roll).
-    Hold { roll_deg: f64 },
+    Hold {
+        /// The roll held (degrees, positive right wing down).
+        roll_deg: f64,
+    },
     /// Straight flight disturbed by turbulence: a sum of waves on each axis.
     Turbulent {
+        /// Waves summed on the roll (degrees).
         roll: Vec<Wave>,
+        /// Waves summed on the pitch (degrees).
         pitch: Vec<Wave>,
+        /// Waves summed on the yaw (degrees).
         yaw: Vec<Wave>,
     },
 }

@@ -221,12 +221,16 @@ impl Scenario {
 /// Why a flight could not be simulated.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum SimError {
+    /// The sample rate (Hz) is not positive and finite.
     #[error("sample rate must be positive and finite, got {0} Hz")]
     SampleRate(f64),
+    /// A noise level is negative or not finite.
     #[error("noise levels must be finite and ≥ 0")]
     Noise,
+    /// The flight plan has no segment.
     #[error("the flight plan is empty")]
     EmptyPlan,
+    /// The earth's field could not be computed.
     #[error("earth field: {0}")]
     Earth(#[from] IgrfError),
 }

@@ -148,8 +148,11 @@ pub enum FomError {
     /// A maneuver's window lies outside the signal.
     #[error("maneuver at samples {start}..{end} is outside the {len} samples of the signal")]
     OutOfRange {
+        /// First sample of the window (0-based).
         start: usize,
+        /// One past the last sample of the window (0-based, exclusive).
         end: usize,
+        /// Length of the signal (samples).
         len: usize,
     },
 }

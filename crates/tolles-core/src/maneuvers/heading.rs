@@ -163,20 +163,31 @@ pub enum HeadingError {
     /// The input series differ in length.
     #[error("heading levels: {what} has {len} samples, the time column {expected}")]
     Length {
+        /// The input that differs.
         what: &'static str,
+        /// Its length (samples).
         len: usize,
+        /// Length of the time column (samples).
         expected: usize,
     },
     /// A setting is not finite, or (all but the headings) negative.
     #[error(
         "heading levels: setting {name} must be finite (and ≥ 0 unless a heading), got {value}"
     )]
-    Setting { name: &'static str, value: f64 },
+    Setting {
+        /// The setting's name.
+        name: &'static str,
+        /// The value given (in the setting's unit).
+        value: f64,
+    },
     /// A maneuver's window lies outside the series.
     #[error("maneuver at samples {start}..{end} is outside the {len} samples of the flight")]
     OutOfRange {
+        /// First sample of the window (0-based).
         start: usize,
+        /// One past the last sample of the window (0-based, exclusive).
         end: usize,
+        /// Length of the flight (samples).
         len: usize,
     },
 }

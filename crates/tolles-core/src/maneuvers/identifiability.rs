@@ -274,8 +274,10 @@ pub fn planned_blocks(
 /// Why a planned flight could not be evaluated.
 #[derive(Debug, thiserror::Error)]
 pub enum PlanningError {
+    /// The planned flight could not be simulated.
     #[error(transparent)]
     Sim(#[from] SimError),
+    /// The band-pass filter could not be designed or applied.
     #[error(transparent)]
     Filter(#[from] FilterError),
 }

@@ -36,8 +36,11 @@ use std::fmt;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum ManeuverKind {
+    /// About the longitudinal (x, forward) axis: right wing down positive.
     Roll,
+    /// About the lateral (y, right) axis: nose up positive.
     Pitch,
+    /// About the vertical (z, down) axis: nose right (clockwise) positive.
     Yaw,
 }
 

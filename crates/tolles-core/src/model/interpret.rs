@@ -138,10 +138,13 @@ fn set_traceless_diagonal(m: &mut [[f64; 3]; 3], [zx, zy]: [f64; 2]) {
 /// The patent's perm terms (nT): T along y (right), L along x (forward), V along z (down).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct PermTerms {
+    /// T: permanent field along y, right (nT).
     #[serde(rename = "T")]
     pub t: f64,
+    /// L: permanent field along x, forward (nT).
     #[serde(rename = "L")]
     pub l: f64,
+    /// V: permanent field along z, down (nT).
     #[serde(rename = "V")]
     pub v: f64,
 }
@@ -149,14 +152,19 @@ pub struct PermTerms {
 /// The patent's five observable induced terms (dimensionless).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct InducedPatentTerms {
+    /// VV−TT: `I[z][z] − I[y][y]` (dimensionless).
     #[serde(rename = "VV-TT")]
     pub vv_tt: f64,
+    /// VV−LL: `I[z][z] − I[x][x]` (dimensionless).
     #[serde(rename = "VV-LL")]
     pub vv_ll: f64,
+    /// TL+LT: `I[x][y] + I[y][x]` (dimensionless).
     #[serde(rename = "TL+LT")]
     pub tl_lt: f64,
+    /// TV+VT: `I[y][z] + I[z][y]` (dimensionless).
     #[serde(rename = "TV+VT")]
     pub tv_vt: f64,
+    /// LV+VL: `I[x][z] + I[z][x]` (dimensionless).
     #[serde(rename = "LV+VL")]
     pub lv_vl: f64,
 }
@@ -164,24 +172,35 @@ pub struct InducedPatentTerms {
 /// The patent's eight observable eddy-current terms (seconds).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct EddyPatentTerms {
+    /// vv−tt: `E[z][z] − E[y][y]` (s).
     #[serde(rename = "vv-tt")]
     pub vv_tt: f64,
+    /// vv−ll: `E[z][z] − E[x][x]` (s).
     #[serde(rename = "vv-ll")]
     pub vv_ll: f64,
+    /// tl: `E[x][y]`, field along x (L) from a change along y (T) (s).
     pub tl: f64,
+    /// tv: `E[z][y]`, field along z (V) from a change along y (T) (s).
     pub tv: f64,
+    /// lt: `E[y][x]`, field along y (T) from a change along x (L) (s).
     pub lt: f64,
+    /// lv: `E[z][x]`, field along z (V) from a change along x (L) (s).
     pub lv: f64,
+    /// vl: `E[x][z]`, field along x (L) from a change along z (V) (s).
     pub vl: f64,
+    /// vt: `E[y][z]`, field along y (T) from a change along z (V) (s).
     pub vt: f64,
 }
 
 /// The 16 patent terms: 3 perm (nT), 5 induced (dimensionless), 8 eddy (s).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct PatentTerms {
+    /// The 3 permanent terms (nT).
     #[serde(rename = "perm_nT")]
     pub perm_nt: PermTerms,
+    /// The 5 induced terms (dimensionless).
     pub induced: InducedPatentTerms,
+    /// The 8 eddy-current terms (s).
     pub eddy_s: EddyPatentTerms,
 }
 

@@ -19,8 +19,11 @@ use thiserror::Error;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Axis {
+    /// Forward (patent L).
     X,
+    /// Right (patent T).
     Y,
+    /// Down (patent V).
     Z,
 }
 
@@ -90,7 +93,12 @@ pub enum Column {
     /// `B̂a·c` for the extra channel `channel` (e.g. a current, A): the projection of a field
     /// of fixed direction in the body frame proportional to the channel; coefficient in nT per
     /// unit of the channel along axis a.
-    Extra { channel: usize, axis: Axis },
+    Extra {
+        /// The extra channel (0-based).
+        channel: usize,
+        /// The body axis a of the field's direction.
+        axis: Axis,
+    },
     /// A column of ones (coefficient in nT).
     Bias,
 }
@@ -150,10 +158,13 @@ pub struct TermSet {
 /// A term list that cannot be understood.
 #[derive(Debug, Clone, Error, PartialEq, Eq)]
 pub enum TermsError {
+    /// A term name that is not known.
     #[error("unknown term {0:?}; use patent, permanent|p, induced|i, it, i5, i3, trace, eddy|e, et, e8, e3, bias|b")]
     Unknown(String),
+    /// A term given twice, or with another set of its kind (the term, and the kind).
     #[error("term {0:?} given twice or together with another {1} set; choose one")]
     Repeated(String, &'static str),
+    /// No term at all.
     #[error("no terms given; use e.g. permanent,induced,eddy")]
     Empty,
 }

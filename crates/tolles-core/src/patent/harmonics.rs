@@ -96,8 +96,14 @@ impl HarmonicManeuver {
 /// Why a table cannot be computed.
 #[derive(Debug, Error, PartialEq)]
 pub enum TableError {
+    /// A parameter lies outside its range.
     #[error("{what} out of range: {value}")]
-    OutOfRange { what: &'static str, value: f64 },
+    OutOfRange {
+        /// The parameter, with its unit and range.
+        what: &'static str,
+        /// The value given (in the unit `what` names).
+        value: f64,
+    },
 }
 
 /// Fundamental and second-harmonic coefficients of every term's generating function for ω = 1,

@@ -132,8 +132,11 @@ pub fn direction_rate(maneuver: Maneuver, c: [f64; 3], rate_rad_s: f64) -> [f64;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Section {
+    /// Permanent-field terms (nT).
     Perm,
+    /// Induced terms (dimensionless).
     Induced,
+    /// Eddy-current terms (s).
     Eddy,
 }
 
@@ -155,24 +158,43 @@ impl Section {
 /// I[x][y] + I[y][x]`, `VV−TT = I[z][z] − I[y][y]`, … (dimensionless); eddy `ab = E[b][a]` (s).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum Term {
+    /// T: permanent field along y (nT).
     PermT,
+    /// L: permanent field along x (nT).
     PermL,
+    /// V: permanent field along z (nT).
     PermV,
+    /// TT: `I[y][y]` (dimensionless; not observable alone).
     InducedTT,
+    /// LL: `I[x][x]` (dimensionless; not observable alone).
     InducedLL,
+    /// VV: `I[z][z]` (dimensionless; not observable alone).
     InducedVV,
+    /// TL+LT: `I[x][y] + I[y][x]` (dimensionless).
     InducedTLLT,
+    /// TV+VT: `I[y][z] + I[z][y]` (dimensionless).
     InducedTVVT,
+    /// LV+VL: `I[x][z] + I[z][x]` (dimensionless).
     InducedLVVL,
+    /// VV−TT: `I[z][z] − I[y][y]` (dimensionless).
     InducedVVTT,
+    /// VV−LL: `I[z][z] − I[x][x]` (dimensionless).
     InducedVVLL,
+    /// vv−tt: `E[z][z] − E[y][y]` (s).
     EddyVVTT,
+    /// vv−ll: `E[z][z] − E[x][x]` (s).
     EddyVVLL,
+    /// tl: `E[x][y]` (s).
     EddyTL,
+    /// tv: `E[z][y]` (s).
     EddyTV,
+    /// lt: `E[y][x]` (s).
     EddyLT,
+    /// lv: `E[z][x]` (s).
     EddyLV,
+    /// vl: `E[x][z]` (s).
     EddyVL,
+    /// vt: `E[y][z]` (s).
     EddyVT,
 }
 

@@ -80,8 +80,11 @@ const CONVERGED: f64 = 1e-3;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum ManeuverKind {
+    /// Oscillation in roll (about x, right wing down positive).
     Roll,
+    /// Oscillation in pitch (about y, nose up positive).
     Pitch,
+    /// Oscillation in yaw (about z, nose right positive).
     Yaw,
     /// A large bank held steady (the patent's wing-up, 35–45°).
     WingUp,
@@ -852,10 +855,14 @@ struct Row<'a> {
 /// Why the procedure cannot run.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum ProcedureError {
+    /// An input channel differs in length from the time column.
     #[error("{what} has {got} samples but the time column has {expected}")]
     LengthMismatch {
+        /// The input channel that differs.
         what: &'static str,
+        /// Its length (samples).
         got: usize,
+        /// Length of the time column (samples).
         expected: usize,
     },
 }

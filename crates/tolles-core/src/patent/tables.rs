@@ -338,11 +338,22 @@ pub fn printed_table(maneuver: Maneuver) -> &'static [PrintedRow] {
 #[serde(tag = "status", rename_all = "snake_case")]
 pub enum Provenance {
     /// A printed row, correct as printed.
-    Printed { printed_name: String },
+    Printed {
+        /// The row's name as printed.
+        printed_name: String,
+    },
     /// A printed row with a misprint; the closed form follows the mathematics.
-    Misprint { printed_name: String, note: String },
+    Misprint {
+        /// The row's name as printed.
+        printed_name: String,
+        /// What is misprinted.
+        note: String,
+    },
     /// Not printed; derived from the mathematics.
-    NotPrinted { note: String },
+    NotPrinted {
+        /// How the closed form is derived, or why it is constant.
+        note: String,
+    },
 }
 
 /// A term's closed-form harmonics in our conventions.

@@ -40,10 +40,23 @@ pub const PERIOD_RANGE_S: (f64, f64) = (2.0, 20.0);
 /// Why a window cannot be analysed.
 #[derive(Debug, Error, PartialEq)]
 pub enum DemodulateError {
+    /// Too few finite samples in the window.
     #[error("a window needs at least {needed} finite samples, got {got}")]
-    TooShort { needed: usize, got: usize },
+    TooShort {
+        /// Finite samples needed (samples).
+        needed: usize,
+        /// Finite samples in the window (samples).
+        got: usize,
+    },
+    /// The window is shorter than one period of the maneuver.
     #[error("the window spans {span_s:.1} s, less than one period of {period_s:.1} s")]
-    ShorterThanAPeriod { span_s: f64, period_s: f64 },
+    ShorterThanAPeriod {
+        /// Time the window spans (s).
+        span_s: f64,
+        /// The maneuver's period (s).
+        period_s: f64,
+    },
+    /// The attitude channel does not oscillate.
     #[error("the attitude channel does not oscillate")]
     NoOscillation,
 }
@@ -189,11 +202,17 @@ pub struct Basis {
 /// of the demodulated series (c1 per second).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct Harmonics {
+    /// Level `c0` (units of the series).
     pub c0: f64,
+    /// Slope `c1` (units of the series per s).
     pub c1: f64,
+    /// Fundamental sine coefficient `s1` (units of the series).
     pub sin1: f64,
+    /// Fundamental cosine coefficient `k1` (units of the series).
     pub cos1: f64,
+    /// Second-harmonic sine coefficient `s2` (units of the series).
     pub sin2: f64,
+    /// Second-harmonic cosine coefficient `k2` (units of the series).
     pub cos2: f64,
 }
 

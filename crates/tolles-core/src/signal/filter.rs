@@ -59,7 +59,9 @@ pub use together::filtfilt_sampled_then_in_place;
 /// Windows overlapping by that much on each side give the whole signal's values to rounding.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Ends {
+    /// The start of the samples given.
     pub start: End,
+    /// The end of the samples given.
     pub end: End,
 }
 
@@ -125,11 +127,22 @@ impl Band {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Response {
     /// Keep frequencies below `cutoff_hz`.
-    LowPass { cutoff_hz: f64 },
+    LowPass {
+        /// Cutoff frequency (Hz).
+        cutoff_hz: f64,
+    },
     /// Keep frequencies above `cutoff_hz`.
-    HighPass { cutoff_hz: f64 },
+    HighPass {
+        /// Cutoff frequency (Hz).
+        cutoff_hz: f64,
+    },
     /// Keep frequencies between `low_hz` and `high_hz`.
-    BandPass { low_hz: f64, high_hz: f64 },
+    BandPass {
+        /// Lower band edge (Hz).
+        low_hz: f64,
+        /// Upper band edge (Hz).
+        high_hz: f64,
+    },
 }
 
 /// Errors from filter design or application.
@@ -143,13 +156,28 @@ pub enum FilterError {
     InvalidSampleRate(f64),
     /// A cutoff or band edge (Hz) was not strictly inside (0, Nyquist).
     #[error("cutoff {cutoff_hz} Hz must lie strictly between 0 and the Nyquist frequency {nyquist_hz} Hz")]
-    InvalidCutoff { cutoff_hz: f64, nyquist_hz: f64 },
+    InvalidCutoff {
+        /// The cutoff or band edge given (Hz).
+        cutoff_hz: f64,
+        /// The Nyquist frequency, half the sample rate (Hz).
+        nyquist_hz: f64,
+    },
     /// Band edges (Hz) were not ordered low < high.
     #[error("band edges must satisfy low < high, got {low_hz} Hz and {high_hz} Hz")]
-    InvalidBand { low_hz: f64, high_hz: f64 },
+    InvalidBand {
+        /// The lower band edge given (Hz).
+        low_hz: f64,
+        /// The upper band edge given (Hz).
+        high_hz: f64,
+    },
     /// The signal had `len <= padlen` samples, too few for edge padding.
     #[error("signal of {len} samples is too short for this filter: forward-backward filtering needs more than {padlen} samples")]
-    TooShort { len: usize, padlen: usize },
+    TooShort {
+        /// Length of the signal (samples).
+        len: usize,
+        /// Edge padding the filter needs (samples); the signal must be longer.
+        padlen: usize,
+    },
 }
 
 /// A digital Butterworth filter as cascaded second-order sections.
