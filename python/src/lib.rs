@@ -182,65 +182,85 @@ fn read<'py>(
     ))
 }
 
-/// Fits a model; returns (model JSON, warnings).
+/// What `tolles.fit` asks for: a dict of its arguments, each checked in Python first.
+#[derive(FromPyObject)]
+#[pyo3(from_item_all)]
+struct FitSettings {
+    scalars: Vec<String>,
+    vectors: Vec<String>,
+    terms: String,
+    lambda_: Option<f64>,
+    /// Band-pass edges (Hz).
+    band: (f64, f64),
+    order: usize,
+    trim: usize,
+    /// Sample rate (Hz).
+    fs: Option<f64>,
+    magnitude: Option<String>,
+    levels: Option<bool>,
+    extras: Vec<String>,
+    lag: Option<String>,
+    reference: Option<String>,
+}
+
+impl FitSettings {
+    /// The facade's request, or an error naming the argument that cannot be one.
+    fn request(self) -> PyResult<FitRequest> {
+        let lag: Lag = self
+            .lag
+            .as_deref()
+            .unwrap_or("none")
+            .parse()
+            .map_err(|e| failed(format!("lag: {e}")))?;
+        let terms: Terms = self.terms.parse().map_err(failed)?;
+        let magnitude = self
+            .magnitude
+            .as_deref()
+            .map(str::parse::<MagnitudeChoice>)
+            .transpose()
+            .map_err(|e| failed(format!("magnitude: {e}")))?;
+        let lambda = match self.lambda_ {
+            None => Lambda::auto(),
+            Some(x) if x.is_finite() && x >= 0.0 => Lambda::Fixed(x),
+            Some(x) => {
+                return Err(failed(format!(
+                    "lambda_ must be \"auto\" or a number ≥ 0, got {x}"
+                )))
+            }
+        };
+        let extras =
+            tolles::fit::parse_extras(&self.extras).map_err(|e| failed(format!("extras: {e}")))?;
+        Ok(FitRequest {
+            terms,
+            lambda,
+            band: Band {
+                pass1_hz: self.band.0,
+                pass2_hz: self.band.1,
+            },
+            order: self.order,
+            trim: self.trim,
+            fs_hz: self.fs,
+            magnitude,
+            levels: self.levels,
+            extras,
+            lag,
+            reference: self.reference,
+            ..FitRequest::new(self.scalars, self.vectors)
+        })
+    }
+}
+
+/// Fits a model with `settings` (a dict, see [`FitSettings`]); returns (model JSON, warnings).
 #[pyfunction]
-#[pyo3(signature = (source, names, get, dt, scalars, vectors, terms, lambda_, band, order, trim, fs, magnitude=None, levels=None, extras=Vec::new(), lag=None, reference=None))]
-#[allow(clippy::too_many_arguments)]
 fn fit(
     py: Python<'_>,
     source: PathBuf,
     names: Vec<String>,
     get: Bound<'_, PyAny>,
     dt: Option<f64>,
-    scalars: Vec<String>,
-    vectors: Vec<String>,
-    terms: &str,
-    lambda_: Option<f64>,
-    band: (f64, f64),
-    order: usize,
-    trim: usize,
-    fs: Option<f64>,
-    magnitude: Option<&str>,
-    levels: Option<bool>,
-    extras: Vec<String>,
-    lag: Option<&str>,
-    reference: Option<String>,
+    settings: FitSettings,
 ) -> PyResult<(String, Vec<String>)> {
-    let lag: Lag = lag
-        .unwrap_or("none")
-        .parse()
-        .map_err(|e| failed(format!("lag: {e}")))?;
-    let terms: Terms = terms.parse().map_err(failed)?;
-    let magnitude = magnitude
-        .map(str::parse::<MagnitudeChoice>)
-        .transpose()
-        .map_err(|e| failed(format!("magnitude: {e}")))?;
-    let lambda = match lambda_ {
-        None => Lambda::auto(),
-        Some(x) if x.is_finite() && x >= 0.0 => Lambda::Fixed(x),
-        Some(x) => {
-            return Err(failed(format!(
-                "lambda_ must be \"auto\" or a number ≥ 0, got {x}"
-            )))
-        }
-    };
-    let request = FitRequest {
-        terms,
-        lambda,
-        band: Band {
-            pass1_hz: band.0,
-            pass2_hz: band.1,
-        },
-        order,
-        trim,
-        fs_hz: fs,
-        magnitude,
-        levels,
-        extras: tolles::fit::parse_extras(&extras).map_err(|e| failed(format!("extras: {e}")))?,
-        lag,
-        reference,
-        ..FitRequest::new(scalars, vectors)
-    };
+    let request = settings.request()?;
     let mut wanted = request.scalars.clone();
     wanted.extend(request.reference.iter().cloned());
     wanted.extend(request.vectors.iter().flat_map(|v| vector_columns(v)));

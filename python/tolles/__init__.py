@@ -486,22 +486,22 @@ def fit(
     """
     columns = _Columns(df)
     lam = None if isinstance(lambda_, str) and lambda_.strip().lower() == "auto" else float(lambda_)
-    text, notes = _tolles.fit(
-        *columns.args(),
-        _names(scalar, "scalar"),
-        _names(vector, "vector"),
-        _terms(terms),
-        lam,
-        _band(band),
-        _count(order, "order", 1),
-        _count(trim, "trim", 0),
-        None if fs is None else float(fs),
-        magnitude,
-        None if levels is None else bool(levels),
-        [] if not extra else _names(extra, "extra"),
-        None if lag is None else str(lag),
-        reference,
-    )
+    settings = {
+        "scalars": _names(scalar, "scalar"),
+        "vectors": _names(vector, "vector"),
+        "terms": _terms(terms),
+        "lambda_": lam,
+        "band": _band(band),
+        "order": _count(order, "order", 1),
+        "trim": _count(trim, "trim", 0),
+        "fs": None if fs is None else float(fs),
+        "magnitude": magnitude,
+        "levels": None if levels is None else bool(levels),
+        "extras": [] if not extra else _names(extra, "extra"),
+        "lag": None if lag is None else str(lag),
+        "reference": reference,
+    }
+    text, notes = _tolles.fit(*columns.args(), settings)
     _warn(notes)
     return Model(text)
 

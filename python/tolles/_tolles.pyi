@@ -1,6 +1,6 @@
 """Type stubs of the native module; use the functions of ``tolles`` instead."""
 
-from typing import Any, Callable, List, Optional, Sequence, Tuple
+from typing import Any, Callable, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 import numpy.typing as npt
@@ -25,19 +25,7 @@ def fit(
     names: Sequence[str],
     get: Getter,
     dt: Optional[float],
-    scalars: Sequence[str],
-    vectors: Sequence[str],
-    terms: str,
-    lambda_: Optional[float],
-    band: Tuple[float, float],
-    order: int,
-    trim: int,
-    fs: Optional[float],
-    magnitude: Optional[str] = ...,
-    levels: Optional[bool] = ...,
-    extras: Sequence[str] = ...,
-    lag: Optional[str] = ...,
-    reference: Optional[str] = ...,
+    settings: Mapping[str, Any],
 ) -> Tuple[str, List[str]]: ...
 def compensate(
     source: str,
