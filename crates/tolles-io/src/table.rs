@@ -20,7 +20,6 @@ pub(crate) use crate::csv_reader::{bounded_header, csv_error, read_located, Boun
 pub use crate::csv_reader::{CsvReader, MAX_HEADER_BYTES};
 use crate::error::IoError;
 use crate::rawcsv::RawRows;
-use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
