@@ -342,8 +342,6 @@ impl Table {
         self
     }
 
-    /// Adds notes about what the reader left out of the table (e.g. a 2-D dataset), so the
-    /// caller can tell the user: data is never dropped silently.
     /// The table, its format named (`"mat"`, `"xyz"`, …) where the file's name does not say.
     pub fn with_format_name(mut self, name: &'static str) -> Self {
         self.format_name = Some(name);

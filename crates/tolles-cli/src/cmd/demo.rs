@@ -17,7 +17,7 @@ use tolles_io::simulation::{SCALAR, VECTOR};
 ///
 /// Example: `tolles demo --out /tmp/tolles-demo`
 ///
-/// The aircraft is a cabin installation (a strong field of tens of nT); everything is written
+/// The aircraft is a cabin installation (a strong field of hundreds of nT); everything is written
 /// to --out so each step can be repeated by hand with `tolles fit` and `tolles compensate`,
 /// with two reports: --out/report (the calibration box) and --out/survey-report (the survey
 /// compensated with the box's model, against the simulator's truth).
