@@ -3,6 +3,7 @@
 //! - [`atomic`]: every file written whole or not at all (a temporary file renamed over it);
 //! - [`table`]: flight data as a table of named columns;
 //! - [`csv_reader`]: CSV text with a header row read into a table, from a file, bytes or a reader;
+//! - [`csv_writer`]: tables written as CSV, cells as read and added numbers round-tripping;
 //! - [`format`](mod@format): which format a flight file is in, [`table::Table::read`] for any of them;
 //! - [`xyz`], [`gdf`], [`hdf5`], [`mat`], [`parquet`]: Geosoft XYZ, ASEG-GDF2, HDF5, MATLAB v5
 //!   MAT-file and Parquet tables;
@@ -21,6 +22,7 @@ pub mod atomic;
 mod bytemask;
 pub mod chunks;
 pub mod csv_reader;
+pub mod csv_writer;
 mod decimal;
 pub mod error;
 pub mod format;
