@@ -59,7 +59,9 @@
 mod basis;
 mod choice;
 pub mod crossval;
+mod diagnostics;
 mod exact;
+mod inputs;
 pub mod lag;
 mod level_setup;
 pub mod levels;
@@ -86,6 +88,11 @@ use crate::model::terms::{Column, TermSet};
 use crate::model::vector::{Fluxgates, VectorSeries};
 use crate::signal::filter::{magnav_bandpass, Butterworth, FilterError};
 use crate::signal::segment::contiguous_runs;
+pub(crate) use diagnostics::{band_residual_std, RunningStd};
+use diagnostics::{diagnostics, passband_fraction, score_block, DiagnosticCounts};
+pub use inputs::check_flux_magnitude;
+use inputs::check_inputs;
+pub(crate) use inputs::check_not_constant;
 use serde::{Deserialize, Serialize};
 use std::ops::Range;
 use thiserror::Error;
@@ -959,130 +966,6 @@ fn check_finite(
     Ok(())
 }
 
-fn check_inputs(
-    scalar: &[f64],
-    flux: &Fluxgates,
-    fs_hz: f64,
-    settings: &FitSettings,
-) -> Result<(), FitError> {
-    if flux.count() != settings.design.fluxgates {
-        return Err(FitError::FluxgateCount {
-            design: settings.design.fluxgates,
-            given: flux.count(),
-        });
-    }
-    if flux.extras().len() != settings.design.extras.len() {
-        return Err(FitError::ExtraCount {
-            design: settings.design.extras.len(),
-            given: flux.extras().len(),
-        });
-    }
-    if let Some(channel) = (0..flux.extras().len()).find(|&c| flux.extras()[c].len() != flux.len())
-    {
-        return Err(FitError::ExtraLength {
-            channel,
-            samples: flux.extras()[channel].len(),
-            first: flux.len(),
-        });
-    }
-    if let Some(fluxgate) = (0..flux.count()).find(|&f| flux.series()[f].len() != flux.len()) {
-        return Err(FitError::FluxgateLength {
-            fluxgate,
-            samples: flux.series()[fluxgate].len(),
-            first: flux.len(),
-        });
-    }
-    if scalar.len() != flux.len() {
-        return Err(FitError::LengthMismatch {
-            scalar: scalar.len(),
-            flux: flux.len(),
-        });
-    }
-    if !(fs_hz.is_finite() && fs_hz > 0.0) {
-        return Err(FitError::SampleRate(fs_hz));
-    }
-    match settings.lambda {
-        Lambda::Fixed(l) if !(l.is_finite() && l >= 0.0) => return Err(FitError::Lambda(l)),
-        Lambda::CrossValidated { folds } if folds < 2 => return Err(FitError::Folds(folds)),
-        _ => {}
-    }
-    check_flux_magnitude(flux.clone())
-}
-
-/// Rejects fluxgates whose samples have a magnitude outside [`FLUX_MAGNITUDE_RANGE_NT`];
-/// reports the first such sample. NaN (a missing component) is not checked here: such samples
-/// are skipped as uncomputable. An infinite component is rejected like any other absurd value,
-/// so a corrupt cell can never reach the arithmetic.
-pub fn check_flux_magnitude<'a>(flux: impl Into<Fluxgates<'a>>) -> Result<(), FitError> {
-    let (lo, hi) = FLUX_MAGNITUDE_RANGE_NT;
-    for (fluxgate, series) in flux.into().series().iter().enumerate() {
-        // A block whose every sum of squares lies strictly between lo² and hi² (both exact)
-        // has every magnitude in range, because a rounded square root keeps the order; only
-        // a block with any other sample (NaN included) is looked at sample by sample.
-        let inside = |k: usize| {
-            let squares =
-                series.x[k] * series.x[k] + series.y[k] * series.y[k] + series.z[k] * series.z[k];
-            squares > lo * lo && squares < hi * hi
-        };
-        let first_outside = |part: Range<usize>| {
-            crate::parallel::blocks(part, MAGNITUDE_BLOCK)
-                .filter(|block| !block.clone().fold(true, |all, k| all & inside(k)))
-                .flat_map(|block| block.map(|k| (k, series.magnitude(k))))
-                .find(|(_, m)| !m.is_nan() && !(lo..=hi).contains(m))
-        };
-        // A part per core; the first sample outside is the first part's that has one.
-        let found = crate::parallel::map_parts(series.len(), MAGNITUDE_BLOCK, first_outside);
-        if let Some((index, magnitude)) = found.into_iter().flatten().next() {
-            return Err(FitError::FluxMagnitude {
-                fluxgate,
-                index,
-                magnitude,
-            });
-        }
-    }
-    Ok(())
-}
-
-/// Samples [`check_flux_magnitude`] checks at once.
-const MAGNITUDE_BLOCK: usize = 1024;
-
-pub(super) fn check_not_constant(
-    scalar: &[f64],
-    flux: &VectorSeries,
-    usable: &[bool],
-) -> Result<(), FitError> {
-    let varies = |x: &[f64]| {
-        let mut values = x.iter().zip(usable).filter(|(_, u)| **u).map(|(v, _)| *v);
-        let first = values.next();
-        first.is_some_and(|f| values.any(|v| v != f))
-    };
-    if !usable.iter().any(|u| *u) {
-        return Err(FitError::NothingUsable(never_usable(scalar, flux)));
-    }
-    if !varies(scalar) {
-        return Err(FitError::ConstantScalar);
-    }
-    if !(varies(&flux.x) || varies(&flux.y) || varies(&flux.z)) {
-        return Err(FitError::ConstantFlux);
-    }
-    Ok(())
-}
-
-/// Which input (scalar, or the first fluxgate's x/y/z component) has no usable value at all,
-/// so a file with one empty column is not reported as "constant".
-fn never_usable(scalar: &[f64], flux: &VectorSeries) -> String {
-    if !scalar.iter().any(|v| scalar_usable(*v)) {
-        return "the scalar".to_string();
-    }
-    let empty = |c: &[f64]| !c.iter().any(|v| v.is_finite());
-    for (axis, c) in [("x", &flux.x), ("y", &flux.y), ("z", &flux.z)] {
-        if empty(c) {
-            return format!("fluxgate component {axis}");
-        }
-    }
-    "one input or another".to_string()
-}
-
 /// Mean of the unfiltered correction over the samples of `runs` (nT).
 fn mean_correction(flux: &Fluxgates, runs: &[Range<usize>], model: Model, spare: &Spare) -> f64 {
     let mut field = spare.take(flux.len());
@@ -1099,159 +982,6 @@ fn mean_correction(flux: &Fluxgates, runs: &[Range<usize>], model: Model, spare:
         0.0
     } else {
         sum / count as f64
-    }
-}
-
-/// Fraction of the band 0…fs/2 that the filter passes (1 when it does not filter).
-fn passband_fraction(band: Band, fs_hz: f64) -> f64 {
-    let nyquist = fs_hz / 2.0;
-    let valid = |f: f64| f > 0.0 && f < nyquist;
-    let lo = if valid(band.pass1_hz) {
-        band.pass1_hz
-    } else {
-        0.0
-    };
-    let hi = if valid(band.pass2_hz) {
-        band.pass2_hz
-    } else {
-        nyquist
-    };
-    ((hi - lo) / nyquist).clamp(f64::EPSILON, 1.0)
-}
-
-/// Rows of a block of the score covariance ([`problem::Prepared::score_covariance`]): two
-/// periods of the band's low edge, over which a band-passed residual is correlated; twenty
-/// seconds for an unfiltered target.
-fn score_block(settings: &FitSettings, fs_hz: f64) -> usize {
-    let low = settings.band.pass1_hz;
-    let seconds = match settings.target {
-        Target::Band if low > 0.0 && low < fs_hz / 2.0 => 2.0 / low,
-        _ => 20.0,
-    };
-    (seconds * fs_hz).ceil().max(1.0) as usize
-}
-
-/// Population standard deviation accumulated block by block: each block's mean and squared
-/// deviations by two passes over it, merged into the running ones by Chan, Golub and
-/// LeVeque's pairwise update. One value at a time (Welford) is a chain of divisions, 0.06 s
-/// for 10⁷ values; this agrees with it to rounding.
-#[derive(Debug, Default, Clone, Copy)]
-struct RunningStd {
-    n: usize,
-    mean: f64,
-    m2: f64,
-}
-
-/// Values [`RunningStd::push_all`] takes at once: a block stays in the L1 cache between its
-/// two passes.
-const STD_BLOCK: usize = 2048;
-
-impl RunningStd {
-    fn push_all(&mut self, values: &[f64]) {
-        for block in Self::blocks(values) {
-            self.merge(block);
-        }
-    }
-
-    /// The blocks [`RunningStd::push_all`] merges, each on its own.
-    fn blocks(values: &[f64]) -> impl Iterator<Item = Self> + '_ {
-        values.chunks(STD_BLOCK).map(Self::of_block)
-    }
-
-    /// Count, mean and squared deviations of `x` (not empty); [`sum4`] lets the additions
-    /// overlap.
-    fn of_block(x: &[f64]) -> Self {
-        let n = x.len();
-        let mean = sum4(x, |v| v) / n as f64;
-        let m2 = sum4(x, |v| (v - mean) * (v - mean));
-        Self { n, mean, m2 }
-    }
-
-    fn merge(&mut self, other: Self) {
-        if other.n == 0 {
-            return;
-        }
-        let n = self.n + other.n;
-        let delta = other.mean - self.mean;
-        let share = other.n as f64 / n as f64;
-        self.mean += delta * share;
-        self.m2 += other.m2 + delta * delta * self.n as f64 * share;
-        self.n = n;
-    }
-
-    fn std(&self) -> f64 {
-        if self.n == 0 {
-            return f64::NAN;
-        }
-        (self.m2 / self.n as f64).sqrt()
-    }
-}
-
-/// `Σ f(v)` over `x`, as four interleaved partial sums.
-fn sum4(x: &[f64], f: impl Fn(f64) -> f64) -> f64 {
-    let mut acc = [0.0; 4];
-    let mut quads = x.chunks_exact(4);
-    for q in quads.by_ref() {
-        for (a, v) in acc.iter_mut().zip(q) {
-            *a += f(*v);
-        }
-    }
-    let tail: f64 = quads.remainder().iter().map(|v| f(*v)).sum();
-    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
-}
-
-struct DiagnosticCounts {
-    /// Level rows in the solution, and their weighted residual sum of squares (nT²).
-    level_rows: usize,
-    level_rss: f64,
-    /// Rows above the band (extra channels): a second row of samples already counted.
-    above_rows: usize,
-    total: usize,
-    nonfinite: usize,
-    short: usize,
-    runs_used: usize,
-    before_std: f64,
-    fraction: f64,
-}
-
-/// The residual's standard deviation over the band-passed rows of `solution` (nT): without its
-/// `level_rows` level rows, whose weighted residual sum of squares is `level_rss` (nT²).
-fn band_residual_std(solution: &RidgeSolution, level_rows: usize, level_rss: f64) -> f64 {
-    let band_rows = solution.rows - level_rows;
-    ((solution.rss - level_rss).max(0.0) / band_rows.max(1) as f64).sqrt()
-}
-
-fn diagnostics(
-    solution: &RidgeSolution,
-    c: DiagnosticCounts,
-    cross_validation: Option<CrossValidation>,
-    term_choice: Vec<TermScore>,
-) -> Diagnostics {
-    let p = solution.coefficients.len();
-    let dof = solution.rows.saturating_sub(p).max(1) as f64;
-    // The samples and residual of the band-passed rows alone, without the level rows.
-    let band_rows = solution.rows - c.level_rows;
-    let residual_std = band_residual_std(solution, c.level_rows, c.level_rss);
-    let sigma2 = solution.rss / dof / c.fraction;
-    Diagnostics {
-        samples_total: c.total,
-        samples_nonfinite: c.nonfinite,
-        samples_in_short_runs: c.short,
-        samples_used: band_rows.saturating_sub(c.above_rows),
-        runs_used: c.runs_used,
-        filtered_std_before_nt: c.before_std,
-        residual_std_nt: residual_std,
-        improvement_ratio: c.before_std / residual_std,
-        condition_number: solution.condition_number(),
-        effective_sample_fraction: c.fraction,
-        penalty: solution.penalty().to_vec(),
-        cross_validation,
-        term_choice,
-        std_errors: solution.std_errors(sigma2),
-        levels: None,
-        exact_iterations: 0,
-        excitation_deg: None,
-        restrained: None,
     }
 }
 

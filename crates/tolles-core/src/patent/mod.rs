@@ -38,6 +38,7 @@
 //! signs; [`printed_table`] keeps them as printed, with the misprints listed in
 //! [`PrintedRow::misprint`].
 
+mod analysis;
 pub mod detect;
 pub mod harmonics;
 pub mod procedure;
