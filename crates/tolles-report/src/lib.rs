@@ -40,6 +40,7 @@ pub mod flight;
 pub mod html;
 pub mod live;
 pub mod map;
+pub mod numbers;
 mod part;
 pub mod plot;
 

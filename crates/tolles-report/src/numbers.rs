@@ -1,0 +1,90 @@
+//! Numbers as a report shows them: tick labels (plain decimals, or powers of ten with
+//! superscripts), values with their significant digits, and counts grouped by thousands.
+
+/// A tick label: plain decimals for everyday magnitudes, powers of ten otherwise.
+pub fn format_tick(v: f64) -> String {
+    if v == 0.0 {
+        return "0".to_string();
+    }
+    let a = v.abs();
+    if (1e-3..1e6).contains(&a) {
+        let s = format!("{v:.6}");
+        let s = s.trim_end_matches('0').trim_end_matches('.');
+        return s.to_string();
+    }
+    let exponent = a.log10().floor() as i32;
+    let mantissa = v / 10f64.powi(exponent);
+    if (mantissa.abs() - 1.0).abs() < 1e-9 {
+        format!(
+            "{}10{}",
+            if v < 0.0 { "−" } else { "" },
+            superscript(exponent)
+        )
+    } else {
+        format!("{}×10{}", format_value(mantissa), superscript(exponent))
+    }
+}
+
+/// A tick label on a logarithmic axis: decades as powers of ten (`10⁻³`), others as
+/// [`format_tick`].
+pub fn format_log_tick(v: f64) -> String {
+    let exponent = v.abs().log10().round();
+    if v > 0.0 && (v / 10f64.powf(exponent) - 1.0).abs() < 1e-9 {
+        format!("10{}", superscript(exponent as i32))
+    } else {
+        format_tick(v)
+    }
+}
+
+/// A value with three significant digits, without trailing zeros (`0.0123`, `45.6`, `1.23e5`).
+pub fn format_value(v: f64) -> String {
+    if !v.is_finite() {
+        return v.to_string();
+    }
+    if v == 0.0 {
+        return "0".to_string();
+    }
+    let a = v.abs();
+    if !(1e-4..1e6).contains(&a) {
+        return format!("{v:.2e}");
+    }
+    let decimals = (2 - a.log10().floor() as i32).max(0) as usize;
+    let s = format!("{v:.decimals$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
+}
+
+fn superscript(n: i32) -> String {
+    n.to_string()
+        .chars()
+        .map(|c| match c {
+            '-' => '⁻',
+            '0' => '⁰',
+            '1' => '¹',
+            '2' => '²',
+            '3' => '³',
+            '4' => '⁴',
+            '5' => '⁵',
+            '6' => '⁶',
+            '7' => '⁷',
+            '8' => '⁸',
+            _ => '⁹',
+        })
+        .collect()
+}
+
+/// `1234567` → `1 234 567` (thin spaces), for counts in prose.
+pub fn group_thousands(n: usize) -> String {
+    let digits = n.to_string();
+    let mut out = String::new();
+    for (k, c) in digits.chars().enumerate() {
+        if k > 0 && (digits.len() - k).is_multiple_of(3) {
+            out.push('\u{2009}');
+        }
+        out.push(c);
+    }
+    out
+}
