@@ -21,8 +21,8 @@ pub mod align;
 pub mod stream;
 pub mod trust;
 
-use crate::fit::scalar_usable;
 use crate::model::design::Design;
+use crate::model::limits::scalar_usable;
 use crate::model::magnitude::{correction, Magnitude};
 use crate::model::terms::Column;
 use crate::model::vector::Fluxgates;

@@ -45,12 +45,12 @@
 
 use crate::compensate::adapt::{AdaptSettings, Adapter};
 use crate::compensate::rescale_eddy;
-use crate::fit::trust::Uncertainty;
-use crate::fit::{scalar_usable, show_nt, FLUX_MAGNITUDE_RANGE_NT};
 use crate::model::coverage::Coverage;
 use crate::model::design::Design;
+use crate::model::limits::{scalar_usable, show_nt, FLUX_MAGNITUDE_RANGE_NT};
 use crate::model::magnitude::{exact_at, field_per_unit, Magnitude};
 use crate::model::terms::Column;
+use crate::model::uncertainty::Uncertainty;
 use crate::model::vector::norm3;
 use crate::signal::filter::FilterError;
 pub use crate::signal::segment::GAP_FACTOR;
@@ -77,7 +77,7 @@ pub enum Flag {
     },
     /// A finite value outside the physical range: a fluxgate magnitude outside
     /// [`FLUX_MAGNITUDE_RANGE_NT`] or a scalar beyond
-    /// [`SCALAR_LIMIT_NT`](crate::fit::SCALAR_LIMIT_NT). The sample is
+    /// [`SCALAR_LIMIT_NT`](crate::model::limits::SCALAR_LIMIT_NT). The sample is
     /// uncomputable and kept out of the compensator's state.
     OutOfRange {
         /// Column name (a fluxgate's prefix for its magnitude).

@@ -25,15 +25,15 @@
 //!
 //! The standard error is `√((a − ā)ᵀ Σ (a − ā))` for the unfiltered design row `a` (the
 //! linear model's: for an exact model, its first-order part), the calibration's mean row `ā`
-//! and the coefficients' posterior covariance `Σ` ([`crate::fit::trust::Uncertainty`]): the
+//! and the coefficients' posterior covariance `Σ` ([`crate::model::uncertainty::Uncertainty`]): the
 //! error of the correction relative to the calibration's mean level, which is what remains once
 //! a level is subtracted. It does not include the scalar's own noise, nor fields outside the
 //! model (an unmodelled current, the earth's anomalies scaled by an isotropic induced term).
 
-use crate::fit::trust::Uncertainty;
 use crate::model::coverage::Coverage;
 use crate::model::design::{central_difference, Design};
 use crate::model::terms::Column;
+use crate::model::uncertainty::Uncertainty;
 use crate::model::vector::Fluxgates;
 use crate::parallel::split_rows;
 use std::ops::Range;

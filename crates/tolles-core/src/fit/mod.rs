@@ -97,28 +97,7 @@ use serde::{Deserialize, Serialize};
 use std::ops::Range;
 use thiserror::Error;
 
-/// Fluxgate magnitudes outside this range (nT) mean the data is not in nT or not a fluxgate.
-pub const FLUX_MAGNITUDE_RANGE_NT: (f64, f64) = (1_000.0, 100_000.0);
-
-/// Largest believable |scalar| (nT), twenty times the strongest geomagnetic field: a larger
-/// reading is a corrupt cell, and its sample is treated as missing rather than let its square
-/// overflow every sum it enters.
-pub const SCALAR_LIMIT_NT: f64 = 2_000_000.0;
-
-/// A field value (nT) for a message: one decimal when it is of a believable size, else in
-/// scientific notation, so a corrupt 1e155 does not print as 156 digits.
-pub fn show_nt(v: f64) -> String {
-    if v.abs() < 1e9 {
-        format!("{v:.1}")
-    } else {
-        format!("{v:.3e}")
-    }
-}
-
-/// True when a scalar reading (nT) is finite and within [`SCALAR_LIMIT_NT`].
-pub fn scalar_usable(v: f64) -> bool {
-    v.abs() <= SCALAR_LIMIT_NT
-}
+pub use crate::model::limits::{scalar_usable, show_nt, FLUX_MAGNITUDE_RANGE_NT, SCALAR_LIMIT_NT};
 
 /// A fixed λ larger than this times the largest `diag(AᵀA)` shrinks every coefficient at least
 /// this many-fold towards zero: the fit would be meaningless, so it is refused.

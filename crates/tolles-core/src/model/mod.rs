@@ -6,6 +6,8 @@ pub mod coverage;
 pub mod design;
 pub mod extra;
 pub mod interpret;
+pub mod limits;
 pub mod magnitude;
 pub mod terms;
+pub mod uncertainty;
 pub mod vector;
