@@ -557,10 +557,8 @@ fn report(
     pdf: Option<PathBuf>,
     legs: Legs,
 ) -> PyResult<(PathBuf, Vec<String>)> {
-    let legs = with_legs(FomRequest::new(""), legs);
+    let (headings, heading, level, cardinal) = legs;
     let request = tolles::report::ReportRequest {
-        headings: legs.headings,
-        cardinal_tolerance_deg: legs.cardinal_tolerance_deg,
         scalar: None,
         model,
         band: Band {
@@ -572,7 +570,8 @@ fn report(
         selection: selection(lines, time)?,
         renames: renames.unwrap_or_default(),
         ..tolles::report::ReportRequest::new(flight, "")
-    };
+    }
+    .with_legs(headings, heading, level, cardinal);
     let mut warnings = Vec::new();
     let index = py.detach(|| -> Result<PathBuf, String> {
         let data = tolles::report::build_each(&request, &scalars, &Silent, &mut warnings)

@@ -33,6 +33,10 @@ def test_a_report_takes_a_data_frame(flights, tmp_path):
     index = tolles.report(survey, tmp_path / "r", model=flights / "model.json")
     assert index.exists()
     assert "survey" in index.read_text()
+    with pytest.raises(tolles.TollesError, match="heading_tolerance"):
+        tolles.report(
+            survey, tmp_path / "r2", model=flights / "model.json", heading_tolerance=95
+        )
 
 
 def test_convert_and_read_name_the_lines_alike(flights, tmp_path):

@@ -87,4 +87,17 @@ impl Legs {
             self.cardinal_tolerance,
         )
     }
+
+    /// The report `request` with these legs.
+    pub fn apply_to_report(
+        &self,
+        request: tolles::report::ReportRequest,
+    ) -> tolles::report::ReportRequest {
+        request.with_legs(
+            self.headings.clone(),
+            self.heading_tolerance,
+            self.level_tolerance,
+            self.cardinal_tolerance,
+        )
+    }
 }

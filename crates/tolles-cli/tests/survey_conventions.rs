@@ -72,15 +72,9 @@ fn a_time_column_declared_in_hours_or_milliseconds_is_read_in_seconds() {
     for (unit, per_second) in [("hours", 1.0 / 3600.0), ("msec", 1000.0)] {
         let dir = TempDir::new().unwrap();
         let gdf = box_as_gdf(dir.path(), unit, per_second);
-        let (info, _) = run(dir.path(), &["info", &gdf]);
-        let rate: f64 = info
-            .split("sample rate: ")
-            .nth(1)
-            .and_then(|r| r.split(' ').next())
-            .and_then(|r| r.parse().ok())
-            .unwrap();
+        let rate = info_rate(dir.path(), &gdf);
         // Nine decimals of an hour are 3.6 µs.
-        assert!((rate - 10.0).abs() < 1e-3, "{unit}: {info}");
+        assert!((rate - 10.0).abs() < 1e-3, "{unit}: {rate} Hz");
         let fit = [
             "fit",
             &gdf,

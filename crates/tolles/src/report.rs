@@ -67,6 +67,28 @@ impl ReportRequest {
             cardinal_tolerance_deg: fom.cardinal_tolerance_deg,
         }
     }
+
+    /// The request with the heading error's legs and the box's headings as
+    /// [`FomRequest::with_legs`] sets them (degrees).
+    pub fn with_legs(
+        self,
+        headings_deg: Option<Vec<f64>>,
+        heading_tolerance_deg: f64,
+        level_tolerance_deg: f64,
+        cardinal_tolerance_deg: f64,
+    ) -> Self {
+        let legs = FomRequest::new("").with_legs(
+            headings_deg,
+            heading_tolerance_deg,
+            level_tolerance_deg,
+            cardinal_tolerance_deg,
+        );
+        Self {
+            headings: legs.headings,
+            cardinal_tolerance_deg: legs.cardinal_tolerance_deg,
+            ..self
+        }
+    }
 }
 
 /// Everything a report shows.
@@ -453,6 +475,16 @@ fn heading_rows(outcome: &FomOutcome) -> Vec<HeadingRow> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_report_takes_the_legs_a_fom_would() {
+        let request =
+            ReportRequest::new("f.csv", "mag_1_uc").with_legs(Some(vec![45.0]), 5.0, 1.0, 30.0);
+        let fom = FomRequest::new("mag_1_uc").with_legs(Some(vec![45.0]), 5.0, 1.0, 30.0);
+        assert_eq!(request.headings, fom.headings);
+        assert_eq!(request.cardinal_tolerance_deg, 30.0);
+        assert_eq!(request.headings.max_pitch_deg, 1.0);
+    }
     use crate::progress::Silent;
     use crate::simulate::{simulate, write, SimulateRequest};
 

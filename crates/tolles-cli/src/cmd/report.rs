@@ -55,10 +55,7 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<()> {
     let (pass1_hz, pass2_hz) = parse_band(&args.band)?;
-    let legs = args.legs.apply(tolles::fom::FomRequest::new(""));
-    let request = ReportRequest {
-        headings: legs.headings,
-        cardinal_tolerance_deg: legs.cardinal_tolerance_deg,
+    let request = args.legs.apply_to_report(ReportRequest {
         model: args.model,
         band: Band { pass1_hz, pass2_hz },
         fs_hz: args.fs,
@@ -66,7 +63,7 @@ pub fn run(args: Args) -> Result<()> {
         selection: args.select.rows(),
         renames: args.select.renames.clone(),
         ..ReportRequest::new(args.flight, "")
-    };
+    });
     let index = render::report(&request, &args.scalar, &args.out)?;
     note!("report written to {}", index.display());
     if let Some(pdf) = &args.pdf {
