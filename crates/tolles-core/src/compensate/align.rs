@@ -48,33 +48,54 @@ impl Channel {
     }
 }
 
-/// Holds samples until every channel's value is known; `T` is carried with each sample.
-pub struct Aligner<T> {
+/// Conditions channels a chunk of samples at a time: each chunk's source values go in, and out
+/// come the channel values of every sample now complete, in order. One row at a time this is
+/// the stream's [`Aligner`]; one chunk holding every sample, the whole series; in between,
+/// bounded-memory compensation. The numbers are the same in all three.
+#[derive(Debug, Clone)]
+pub struct Conditioner {
     channels: Vec<Channel>,
     /// Low-passed source values of each channel, for samples `first..received`.
-    window: VecDeque<Vec<f64>>,
+    window: Vec<Vec<f64>>,
     first: usize,
     received: usize,
-    /// Payloads of samples `next..received`, not yet emitted.
-    pending: VecDeque<T>,
+    /// The first sample not yet given out.
     next: usize,
     ahead: i64,
     behind: i64,
-    values: Vec<f64>,
 }
 
-impl<T> Aligner<T> {
-    /// An aligner producing `channels`, in order.
+/// Channel values of consecutive samples, one column per channel.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Conditioned {
+    /// Index of the first sample (counted from the start of the stream).
+    pub start: usize,
+    /// One column per channel, all of the same length.
+    pub columns: Vec<Vec<f64>>,
+}
+
+impl Conditioned {
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.columns.first().map_or(0, Vec::len)
+    }
+
+    /// True when it holds no sample.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+impl Conditioner {
+    /// A conditioner producing `channels`, in order.
     pub fn new(channels: Vec<Channel>) -> Self {
         let ahead = channels.iter().map(|c| c.shift.ahead()).max().unwrap_or(0);
         let behind = channels.iter().map(|c| c.shift.behind()).max().unwrap_or(0);
         Self {
-            values: vec![f64::NAN; channels.len()],
+            window: vec![Vec::new(); channels.len()],
             channels,
-            window: VecDeque::new(),
             first: 0,
             received: 0,
-            pending: VecDeque::new(),
             next: 0,
             ahead,
             behind,
@@ -86,47 +107,106 @@ impl<T> Aligner<T> {
         self.ahead.max(0) as usize
     }
 
+    /// True when every channel is its source as it is (no low-pass, no shift): the output is
+    /// the input, given out at once.
+    pub fn is_identity(&self) -> bool {
+        let plain = |c: &Channel| c.lowpass.is_none() && c.shift == Shift::new(0.0);
+        self.channels.iter().all(plain)
+    }
+
+    /// Takes the next `rows` samples' source columns (`sources[j]` the source `j` of every
+    /// sample; a source missing or shorter is NaN); gives the samples now complete.
+    pub fn push(&mut self, sources: &[&[f64]], rows: usize) -> Conditioned {
+        for (channel, window) in self.channels.iter_mut().zip(&mut self.window) {
+            let source = sources.get(channel.source).copied().unwrap_or(&[]);
+            let value = |k: usize| source.get(k).copied().unwrap_or(f64::NAN);
+            match channel.lowpass.as_mut() {
+                Some(filter) => window.extend((0..rows).map(|k| filter.next(value(k)))),
+                None => window.extend((0..rows).map(value)),
+            }
+        }
+        self.received += rows;
+        let complete = (self.received as i64 - self.ahead.max(0)).max(0) as usize;
+        self.give_out(complete)
+    }
+
+    /// Ends the stream: gives every sample still held, finished as the end of a series is.
+    pub fn finish(&mut self) -> Conditioned {
+        self.give_out(self.received)
+    }
+
+    /// The samples `next..until`, then forgets the values no later sample reads.
+    fn give_out(&mut self, until: usize) -> Conditioned {
+        let rows = self.next..until.max(self.next);
+        let (first, received) = (self.first, self.received);
+        let columns = self.channels.iter().zip(&self.window);
+        let columns = columns.map(|(channel, window)| {
+            let at = |i: usize| window[i - first];
+            let shift = channel.shift;
+            rows.clone().map(|k| shift.value(at, received, k)).collect()
+        });
+        let out = Conditioned {
+            start: rows.start,
+            columns: columns.collect(),
+        };
+        self.next = rows.end;
+        let keep_from = ((self.next as i64 - self.behind).max(0) as usize).min(self.received);
+        if keep_from > self.first {
+            for window in &mut self.window {
+                window.drain(..keep_from - self.first);
+            }
+            self.first = keep_from;
+        }
+        out
+    }
+}
+
+/// Holds samples until every channel's value is known; `T` is carried with each sample. The
+/// [`Conditioner`] fed one sample at a time.
+pub struct Aligner<T> {
+    conditioner: Conditioner,
+    /// Payloads of the samples not yet emitted.
+    pending: VecDeque<T>,
+    values: Vec<f64>,
+}
+
+impl<T> Aligner<T> {
+    /// An aligner producing `channels`, in order.
+    pub fn new(channels: Vec<Channel>) -> Self {
+        Self {
+            values: vec![f64::NAN; channels.len()],
+            conditioner: Conditioner::new(channels),
+            pending: VecDeque::new(),
+        }
+    }
+
+    /// How many samples a sample is held back at most.
+    pub fn delay(&self) -> usize {
+        self.conditioner.delay()
+    }
+
     /// Takes one sample's source values (NaN where unknown) and `payload`; calls `emit` with
     /// the payload and channel values of every sample now complete, in order.
-    pub fn push(&mut self, payload: T, sources: &[f64], mut emit: impl FnMut(T, &[f64])) {
-        let row = self
-            .channels
-            .iter_mut()
-            .map(|c| {
-                let v = sources.get(c.source).copied().unwrap_or(f64::NAN);
-                c.lowpass.as_mut().map_or(v, |filter| filter.next(v))
-            })
-            .collect();
-        self.window.push_back(row);
-        self.received += 1;
+    pub fn push(&mut self, payload: T, sources: &[f64], emit: impl FnMut(T, &[f64])) {
         self.pending.push_back(payload);
-        while self.next < self.received && self.next as i64 + self.ahead < self.received as i64 {
-            self.emit_next(&mut emit);
-        }
+        let columns: Vec<&[f64]> = sources.iter().map(std::slice::from_ref).collect();
+        let out = self.conditioner.push(&columns, 1);
+        self.emit(out, emit);
     }
 
     /// Ends the stream: emits every held sample, as the end of a series.
-    pub fn finish(&mut self, mut emit: impl FnMut(T, &[f64])) {
-        while self.next < self.received {
-            self.emit_next(&mut emit);
-        }
+    pub fn finish(&mut self, emit: impl FnMut(T, &[f64])) {
+        let out = self.conditioner.finish();
+        self.emit(out, emit);
     }
 
-    fn emit_next(&mut self, emit: &mut impl FnMut(T, &[f64])) {
-        let k = self.next;
-        for (c, channel) in self.channels.iter().enumerate() {
-            let (window, first) = (&self.window, self.first);
-            self.values[c] = channel
-                .shift
-                .value(|i| window[i - first][c], self.received, k);
-        }
-        let payload = self.pending.pop_front().expect("a sample is pending");
-        self.next += 1;
-        emit(payload, &self.values);
-        let keep_from = (self.next as i64 - self.behind).max(0) as usize;
-        while self.first < keep_from.min(self.received) {
-            self.window.pop_front();
-            self.first += 1;
+    fn emit(&mut self, out: Conditioned, mut emit: impl FnMut(T, &[f64])) {
+        for k in 0..out.len() {
+            for (value, column) in self.values.iter_mut().zip(&out.columns) {
+                *value = column[k];
+            }
+            let payload = self.pending.pop_front().expect("a sample is pending");
+            emit(payload, &self.values);
         }
     }
 }
@@ -170,8 +250,9 @@ mod tests {
                 whole.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
                 "{text}"
             );
+            let kept = &aligner.conditioner;
             assert!(
-                aligner.window.len() <= aligner.behind.max(0) as usize + 1,
+                kept.window[0].len() <= kept.behind.max(0) as usize + 1,
                 "{text}"
             );
         }

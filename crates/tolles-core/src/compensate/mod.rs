@@ -18,6 +18,7 @@
 
 pub mod adapt;
 pub mod align;
+pub mod chunk;
 pub mod stream;
 pub mod trust;
 
@@ -106,7 +107,13 @@ pub fn compensate_model<'a>(
     fs_ratio: f64,
     level: Level,
 ) -> Compensation {
-    let mut correction = model_field(flux, tt, model, fs_ratio);
+    let correction = model_field(flux, tt, model, fs_ratio);
+    with_level(scalar, correction, level)
+}
+
+/// `scalar` (nT) less its `correction` `A·β` (nT) with `level` subtracted from it, on all
+/// cores.
+pub fn with_level(scalar: &[f64], mut correction: Vec<f64>, level: Level) -> Compensation {
     let level_nt = match level {
         Level::Fixed(v) => v,
         Level::FileMean | Level::FileLinearTrend => finite_mean(&correction),

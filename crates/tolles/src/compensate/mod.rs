@@ -13,8 +13,10 @@ use rayon::prelude::*;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
-use tolles_core::compensate::{compensate_model, Compensation, Level, Model};
+use tolles_core::compensate::chunk::{ChunkCompensator, ChunkField, Setup};
+use tolles_core::compensate::{with_level, Compensation, Level};
 use tolles_core::fit::check_flux_magnitude;
+use tolles_core::signal::segment::median_step;
 use tolles_io::format::{write_table, Format};
 use tolles_io::schema::output_names;
 use tolles_io::select::RowSelection;
@@ -103,8 +105,10 @@ pub fn compensate(
             let flight = Flight::from_table(table, &fit.scalar, &fit.vectors)?
                 .with_extras(&fit.fit.settings.design.extras)?;
             let mut noticed = Vec::new();
-            let result = compensate_flight(&flight, fit, request, &mut noticed)?;
-            let trust = row_trust(&flight, fit, request, &mut Vec::new())?;
+            let mut computed = flight_field(&flight, fit, request, &mut noticed)?;
+            let field = std::mem::take(&mut computed.field);
+            let result = with_level(&flight.scalar, field, level(fit, request.level));
+            let trust = row_trust(computed, request);
             Ok((result, trust, noticed, flight.time_steps_back))
         })
         .collect();
@@ -154,24 +158,41 @@ pub fn compensate_flight(
     request: &CompensateRequest,
     warnings: &mut Vec<Warning>,
 ) -> Result<Compensation> {
+    let computed = flight_field(flight, fit, request, warnings)?;
+    Ok(with_level(
+        &flight.scalar,
+        computed.field,
+        level(fit, request.level),
+    ))
+}
+
+/// `fit`'s correction `A·β` (nT) of every row of `flight`, by the one compensator given the
+/// flight as one chunk (`tolles_core::compensate::chunk`): the fluxgate read as late as the
+/// fit found it lags, the extra channels conditioned as the model says, the eddy terms
+/// rescaled to the flight's sample rate. With `request.uncertainty`, each row's standard error
+/// too (NaN for a model file without an uncertainty).
+pub fn flight_field(
+    flight: &Flight,
+    fit: &ScalarModel,
+    request: &CompensateRequest,
+    warnings: &mut Vec<Warning>,
+) -> Result<ChunkField> {
     check_flux_magnitude(&flight.flux).map_err(|e| flight.explain(e, &fit.scalar))?;
     let fs_hz = survey_rate(flight, fit, request, warnings)?;
-    let model = Model {
-        design: &fit.fit.settings.design,
-        coefficients: &fit.fit.coefficients,
-        magnitude: fit.fit.magnitude,
+    let tt = flight.tt.as_deref();
+    let setup = Setup {
+        lag_s: fit.fit.lag_s,
+        median_step_s: tt.and_then(median_step),
+        coverage: fit.fit.coverage.as_ref(),
+        uncertainty: fit.fit.uncertainty.as_ref().filter(|_| request.uncertainty),
+        ..Setup::new(fit.applied(), fs_hz, fs_hz / fit.fit.fs_hz)
     };
-    // A fluxgate that samples late is read that much later, as the fit did.
-    Ok(flight.with_inputs(fit.fit.lag_s, fs_hz, |inputs| {
-        compensate_model(
-            &flight.scalar,
-            inputs,
-            flight.tt.as_deref(),
-            model,
-            fs_hz / fit.fit.fs_hz,
-            level(fit, request.level),
-        )
-    }))
+    let extras: Vec<&[f64]> = flight.extras.iter().map(Vec::as_slice).collect();
+    let mut computed = ChunkCompensator::new(setup).whole_series(&flight.flux, &extras, tt);
+    if request.uncertainty && computed.sigma.is_none() {
+        computed.sigma = Some(vec![f64::NAN; computed.field.len()]);
+    }
+    Ok(computed)
 }
 
 /// The survey's sample rate (Hz): the request's if given, else from its time column, else the
@@ -192,41 +213,16 @@ fn survey_rate(
     })
 }
 
-/// How far to trust each row of `fit` applied to `flight`: the count of rows outside what the
+/// How far to trust each row, from its computed `field`: the count of rows outside what the
 /// calibration flew, and with `request.uncertainty` each row's standard error and flag (see
 /// `tolles_core::compensate::trust`). A model file before version 3 has neither coverage nor
 /// uncertainty: nothing is counted and the standard errors are NaN.
-pub fn row_trust(
-    flight: &Flight,
-    fit: &ScalarModel,
-    request: &CompensateRequest,
-    warnings: &mut Vec<Warning>,
-) -> Result<RowTrust> {
-    use tolles_core::compensate::trust::{outside_over_runs, sigma_over_runs};
-    let fs_hz = survey_rate(flight, fit, request, warnings)?;
-    let n = flight.scalar.len();
-    Ok(flight.with_inputs(fit.fit.lag_s, fs_hz, |inputs| {
-        let runs = tolles_core::signal::segment::contiguous_runs(
-            &inputs.finite_mask(),
-            flight.tt.as_deref(),
-        );
-        let flags = match &fit.fit.coverage {
-            Some(coverage) => outside_over_runs(inputs.clone(), &runs, coverage, fs_hz),
-            None => vec![false; n],
-        };
-        let sigma = request.uncertainty.then(|| match &fit.fit.uncertainty {
-            Some(u) => {
-                let design = &fit.fit.settings.design;
-                sigma_over_runs(inputs.clone(), &runs, design, u, fs_hz / fit.fit.fs_hz)
-            }
-            None => vec![f64::NAN; n],
-        });
-        RowTrust {
-            sigma,
-            outside: flags.iter().filter(|f| **f).count(),
-            extrapolated: request.uncertainty.then_some(flags),
-        }
-    }))
+fn row_trust(field: ChunkField, request: &CompensateRequest) -> RowTrust {
+    RowTrust {
+        outside: field.outside.iter().filter(|f| **f).count(),
+        extrapolated: request.uncertainty.then_some(field.outside),
+        sigma: field.sigma,
+    }
 }
 
 /// The core's level for a choice.

@@ -111,6 +111,16 @@ impl ScalarModel {
         self
     }
 
+    /// The fitted model to apply: its design, coefficients (for the calibration's sample rate)
+    /// and magnitude model.
+    pub fn applied(&self) -> tolles_core::compensate::Model<'_> {
+        tolles_core::compensate::Model {
+            design: &self.fit.settings.design,
+            coefficients: &self.fit.coefficients,
+            magnitude: self.fit.magnitude,
+        }
+    }
+
     /// Records the calibration flight's file.
     pub fn with_calibration_flight(mut self, path: &Path) -> Self {
         self.calibration_flight = Some(path.display().to_string());

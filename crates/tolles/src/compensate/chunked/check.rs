@@ -17,8 +17,6 @@ use tolles_io::IoError;
 pub(super) struct ReadyFit {
     /// The compensated column the model names (before any renaming).
     pub output: String,
-    /// Index into [`Plan::fluxgates`].
-    pub fluxgate: usize,
     design: Design,
     coefficients: Vec<f64>,
     /// Linear or exact (see `tolles_core::model::magnitude`).
@@ -35,6 +33,8 @@ pub(super) struct ReadyFit {
     pub coverage: Option<Coverage>,
     /// The survey's sample rate (Hz).
     pub fs_hz: f64,
+    /// The fluxgate's lag (s).
+    pub lag_s: f64,
 }
 
 impl ReadyFit {
@@ -49,7 +49,7 @@ impl ReadyFit {
 }
 
 /// Checks the fits of `model` in order: per fit its scalar, its fluxgate's x, y, z, the time
-/// column, the fluxgate's magnitude, then the sample rate (`fs_hz` if given, Hz). Returns the
+/// column, its extra channels, the fluxgate's magnitude, then the sample rate (`fs_hz` if given, Hz). Returns the
 /// fits before the first that fails, and its error.
 pub(super) fn check_in_order(
     survey: &Path,
@@ -89,6 +89,7 @@ fn check_fit(
     if let Some(p) = plan.tt {
         column(&Ok(p))?;
     }
+    columns.extras.iter().try_for_each(column)?;
     if let Some((place, magnitude)) = &scan.bad_magnitude[columns.fluxgate] {
         return Err(Error::FluxMagnitude {
             path: survey.to_path_buf(),
@@ -104,7 +105,6 @@ fn check_fit(
     };
     Ok(ReadyFit {
         output: fit.output_column.clone(),
-        fluxgate: columns.fluxgate,
         design: fit.fit.settings.design.clone(),
         coefficients: fit.fit.coefficients.clone(),
         model_magnitude: fit.fit.magnitude,
@@ -114,5 +114,6 @@ fn check_fit(
         verdict: crate::fit::verdict_warning(&fit.scalar, &fit.fit),
         coverage: fit.fit.coverage.clone(),
         fs_hz,
+        lag_s: fit.fit.lag_s,
     })
 }

@@ -1,31 +1,25 @@
-//! Each fit's correction `A·β` (nT) a chunk at a time, computed as the whole-file path
-//! computes it (`tolles_core::compensate::model_field`), for passes 2 and 3.
+//! Each fit's correction `A·β` (nT) a chunk at a time, for passes 2 and 3, by the compensator
+//! the whole-file path also uses (`tolles_core::compensate::chunk`), fed one chunk after
+//! another: every row gets the bits reading the file whole gives it.
 //!
-//! A chunk waits for the first row of the next one: it is computed with one row of its
-//! neighbours on each side, so the central differences at its edges see what they see in the
-//! whole flight, and its runs are split where the whole flight's are (an unusable fluxgate, or
-//! a time step beyond the whole file's median step times the gap factor). Every row is then the
-//! same sum as in the whole flight.
+//! A chunk is given back once every fit has computed it: each waits for the rows after it
+//! that its central differences, its fluxgate's lag and its extra channels' shifts read.
 
 use super::check::ReadyFit;
 use super::scan::{FitColumns, Plan, Scan};
-use std::ops::Range;
-use tolles_core::compensate::model_field_over_runs;
-use tolles_core::compensate::trust::outside_over_runs;
-use tolles_core::model::vector::{Fluxgates, VectorSeries};
-use tolles_core::signal::segment::contiguous_runs_with_step;
+use std::collections::VecDeque;
+use tolles_core::compensate::chunk::{ChunkCompensator, ChunkField, RawRows, Setup};
 use tolles_io::IoError;
 
 /// The corrections of a survey's fits, fed a chunk at a time.
 pub(super) struct Fields<'a> {
     plan: &'a Plan,
-    fits: &'a [ReadyFit],
-    median_step_s: Option<f64>,
-    /// The chunk waiting for the next one's first row: the columns of [`Plan::read`].
-    held: Option<Vec<Vec<f64>>>,
-    /// The last row of the chunk before the held one, per column of [`Plan::read`].
-    before: Option<Vec<f64>>,
-    /// Per fit, the rows computed so far that lie outside what its calibration flew.
+    engines: Vec<ChunkCompensator<'a>>,
+    /// Chunks pushed and not yet given back: the columns of [`Plan::read`].
+    pending: VecDeque<Vec<Vec<f64>>>,
+    /// Per fit, the chunks it has computed that not every fit has.
+    computed: Vec<VecDeque<ChunkField>>,
+    /// Per fit, the rows given back so far that lie outside what its calibration flew.
     outside: Vec<usize>,
 }
 
@@ -47,27 +41,35 @@ impl Computed {
 
 impl<'a> Fields<'a> {
     pub fn new(plan: &'a Plan, scan: &Scan, fits: &'a [ReadyFit]) -> Self {
+        let engines = fits.iter().map(|fit| {
+            ChunkCompensator::new(Setup {
+                lag_s: fit.lag_s,
+                median_step_s: scan.median_step,
+                coverage: fit.coverage.as_ref(),
+                ..Setup::new(fit.model(), fit.fs_hz, fit.fs_ratio)
+            })
+        });
         Self {
             plan,
-            fits,
-            median_step_s: scan.median_step,
-            held: None,
-            before: None,
+            engines: engines.collect(),
+            pending: VecDeque::new(),
+            computed: vec![VecDeque::new(); fits.len()],
             outside: vec![0; fits.len()],
         }
     }
 
-    /// Per fit, the rows computed so far that lie outside what its calibration flew, counted
+    /// Per fit, the rows given back so far that lie outside what its calibration flew, counted
     /// as the whole-file path counts them.
     pub fn outside(&self) -> &[usize] {
         &self.outside
     }
 
     /// Takes the next chunk's columns (of [`Plan::read`]; a column no fit uses may be empty,
-    /// and is dropped); gives back the chunk before it, computed.
-    pub fn push(&mut self, mut values: Vec<Vec<f64>>) -> Option<Computed> {
-        if rows_of(&values) == 0 {
-            return None;
+    /// and is dropped); gives back the chunks before it every fit has now computed, in order.
+    pub fn push(&mut self, mut values: Vec<Vec<f64>>) -> Vec<Computed> {
+        let rows = values.iter().map(Vec::len).max().unwrap_or(0);
+        if rows == 0 {
+            return Vec::new();
         }
         let used = self.plan.used();
         for (p, column) in values.iter_mut().enumerate() {
@@ -75,99 +77,63 @@ impl<'a> Fields<'a> {
                 *column = Vec::new();
             }
         }
-        let after = row(&values, 0);
-        let held = self.held.replace(values)?;
-        Some(self.compute(held, Some(after)))
-    }
-
-    /// The last chunk, computed.
-    pub fn finish(&mut self) -> Option<Computed> {
-        let held = self.held.take()?;
-        Some(self.compute(held, None))
-    }
-
-    fn compute(&mut self, values: Vec<Vec<f64>>, after: Option<Vec<f64>>) -> Computed {
-        let window = Window {
-            before: self.before.as_deref(),
-            values: &values,
-            n: rows_of(&values),
-            after: after.as_deref(),
-        };
-        let tt = self.plan.tt.map(|p| window.column(&Ok(p)));
-        let fluxgates: Vec<(VectorSeries, Vec<Range<usize>>)> = (self.plan.fluxgates.iter())
-            .map(|(_, axes)| {
-                let [x, y, z] = axes.each_ref().map(|a| window.column(a));
-                let flux = VectorSeries::new(x, y, z);
-                let runs = contiguous_runs_with_step(
-                    &Fluxgates::from(&flux).finite_mask(),
-                    tt.as_deref(),
-                    self.median_step_s,
-                );
-                (flux, runs)
-            })
-            .collect();
-        let rows = window.rows();
-        let fields = self
-            .fits
-            .iter()
-            .map(|fit| {
-                let (flux, runs) = &fluxgates[fit.fluxgate];
-                let field = model_field_over_runs(flux.into(), runs, fit.model(), fit.fs_ratio);
-                field[rows.clone()].to_vec()
-            })
-            .collect();
-        for (count, fit) in self.outside.iter_mut().zip(self.fits) {
-            let (flux, runs) = &fluxgates[fit.fluxgate];
-            if let Some(coverage) = &fit.coverage {
-                let flags = outside_over_runs(flux.into(), runs, coverage, fit.fs_hz);
-                *count += flags[rows.clone()].iter().filter(|f| **f).count();
-            }
+        let missing = vec![f64::NAN; rows];
+        for ((engine, columns), done) in (self.engines.iter_mut())
+            .zip(&self.plan.fits)
+            .zip(&mut self.computed)
+        {
+            let raw = raw_rows(self.plan, columns, &values, &missing);
+            done.extend(engine.push(raw));
         }
-        self.before = Some(row(&values, window.n - 1));
-        Computed { values, fields }
+        self.pending.push_back(values);
+        self.give_back()
     }
-}
 
-/// The rows of a chunk's columns (some may be empty).
-fn rows_of(values: &[Vec<f64>]) -> usize {
-    values.iter().map(Vec::len).max().unwrap_or(0)
-}
-
-/// Row `k` of `values`, NaN in a column that is empty.
-fn row(values: &[Vec<f64>], k: usize) -> Vec<f64> {
-    let cell = |column: &Vec<f64>| column.get(k).copied().unwrap_or(f64::NAN);
-    values.iter().map(cell).collect()
-}
-
-/// A chunk with the row before it and the row after it, where there are such rows.
-struct Window<'w> {
-    before: Option<&'w [f64]>,
-    values: &'w [Vec<f64>],
-    /// Rows of the chunk.
-    n: usize,
-    after: Option<&'w [f64]>,
-}
-
-impl Window<'_> {
-    /// The column at `position` of [`Plan::read`] over the window (NaN where it is missing).
-    fn column(&self, position: &Result<usize, IoError>) -> Vec<f64> {
-        let n = self.n;
-        let Ok(&p) = position.as_ref() else {
-            return vec![f64::NAN; self.rows().end + usize::from(self.after.is_some())];
-        };
-        let mut out = Vec::with_capacity(n + 2);
-        out.extend(self.before.map(|r| r[p]));
-        match self.values[p].len() {
-            0 => out.extend(std::iter::repeat_n(f64::NAN, n)),
-            _ => out.extend_from_slice(&self.values[p]),
+    /// The chunks still held, computed.
+    pub fn finish(&mut self) -> Vec<Computed> {
+        for (engine, done) in self.engines.iter_mut().zip(&mut self.computed) {
+            done.extend(engine.finish());
         }
-        out.extend(self.after.map(|r| r[p]));
+        self.give_back()
+    }
+
+    /// The pending chunks every fit has computed.
+    fn give_back(&mut self) -> Vec<Computed> {
+        let mut out = Vec::new();
+        while !self.pending.is_empty() && self.computed.iter().all(|c| !c.is_empty()) {
+            let values = self.pending.pop_front().expect("a chunk is pending");
+            let fields = (self.computed.iter_mut())
+                .zip(&mut self.outside)
+                .map(|(done, outside)| {
+                    let chunk = done.pop_front().expect("every fit computed it");
+                    *outside += chunk.outside.iter().filter(|f| **f).count();
+                    chunk.field
+                })
+                .collect();
+            out.push(Computed { values, fields });
+        }
         out
     }
+}
 
-    /// The chunk's rows in the window.
-    fn rows(&self) -> Range<usize> {
-        let first = usize::from(self.before.is_some());
-        first..first + self.n
+/// The raw channels of the fit whose columns are `fit` in a chunk's `values` (`missing`, all
+/// NaN, where the survey has no such column or no fit reads it).
+fn raw_rows<'v>(
+    plan: &Plan,
+    fit: &FitColumns,
+    values: &'v [Vec<f64>],
+    missing: &'v [f64],
+) -> RawRows<'v> {
+    let column = |position: &Result<usize, IoError>| -> &'v [f64] {
+        match position {
+            Ok(p) if !values[*p].is_empty() => &values[*p],
+            _ => missing,
+        }
+    };
+    let (_, axes) = &plan.fluxgates[fit.fluxgate];
+    RawRows {
+        flux: vec![axes.each_ref().map(column)],
+        extras: fit.extras.iter().map(column).collect(),
+        tt: plan.tt.map(|p| column(&Ok(p))),
     }
 }

@@ -7,6 +7,7 @@ use super::scan::{numbers, temporary, Plan, Scan};
 use crate::error::{Error, Result};
 use crate::progress::Progress;
 use std::path::{Path, PathBuf};
+use tolles_core::compensate::chunk::LevelSum;
 use tolles_core::fit::scalar_usable;
 use tolles_io::chunks::{ChunkReader, SpillReader};
 use tolles_io::IoError;
@@ -81,7 +82,7 @@ pub(super) fn level(
     progress: &dyn Progress,
 ) -> Result<Vec<Level>> {
     let mut fields = Fields::new(plan, scan, fits);
-    let mut sums = vec![Mean::default(); fits.len()];
+    let mut sums = vec![LevelSum::default(); fits.len()];
     let mut add = |computed: super::field::Computed| {
         for ((mean, field), columns) in sums.iter_mut().zip(&computed.fields).zip(&plan.fits) {
             let scalar = computed.scalar(columns);
@@ -94,50 +95,18 @@ pub(super) fn level(
     while let Some(values) = numbers.next_chunk(plan)? {
         let len = values.iter().map(Vec::len).max().unwrap_or(0);
         progress.advance(len as u64);
-        fields.push(values).map(&mut add);
+        fields.push(values).into_iter().for_each(&mut add);
         rows += len;
     }
-    fields.finish().map(&mut add);
+    fields.finish().into_iter().for_each(&mut add);
     same_rows(&numbers.path(), rows, scan.rows)?;
     let levels = sums
         .into_iter()
         .zip(fields.outside())
-        .map(|(mean, &outside)| Level {
+        .map(|(sum, &outside)| Level {
+            level_nt: sum.mean(),
+            uncomputable: sum.uncomputable,
             outside,
-            ..mean.level()
         });
     Ok(levels.collect())
-}
-
-/// The running mean of one fit's `A·β` (nT) and its count of rows without a result.
-#[derive(Clone, Default)]
-struct Mean {
-    sum: f64,
-    n: usize,
-    empty: usize,
-}
-
-impl Mean {
-    /// Adds a row's `A·β` (nT), whose scalar is finite or not.
-    fn add(&mut self, field: f64, scalar_finite: bool) {
-        if field.is_finite() {
-            self.sum += field;
-            self.n += 1;
-        }
-        if !(field.is_finite() && scalar_finite) {
-            self.empty += 1;
-        }
-    }
-
-    fn level(self) -> Level {
-        Level {
-            level_nt: if self.n == 0 {
-                f64::NAN
-            } else {
-                self.sum / self.n as f64
-            },
-            uncomputable: self.empty,
-            outside: 0,
-        }
-    }
 }

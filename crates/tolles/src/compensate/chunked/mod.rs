@@ -8,8 +8,8 @@
 //!    median time step (sample rate and gap threshold). [`check`] reports them in the order the
 //!    whole-file path meets them.
 //! 2. **Level** ([`level`]): each fit's correction `A·β`, computed a chunk at a time by the
-//!    whole-file path's own code with one row of each neighbouring chunk and the whole file's
-//!    runs ([`field`]), and its mean over the file: the level the batch computation keeps.
+//!    compensator the whole-file path calls with one chunk
+//!    (`tolles_core::compensate::chunk`; [`field`]), and its mean over the file: the level the batch computation keeps.
 //!    For text files pass 1 keeps the numbers it read in an anonymous temporary file (8 bytes a
 //!    value), so the text is parsed twice, not three times. With the model's level
 //!    ([`LevelChoice::Model`]) this pass is skipped, unless an error is coming: the whole-file
@@ -17,8 +17,8 @@
 //! 3. **Write** ([`write`](mod@write)) every row with the compensated columns, `scalar − (A·β − level)`.
 //!
 //! Memory holds two chunks (rows per chunk as requested, default
-//! [`tolles_io::chunks::DEFAULT_CHUNK_ROWS`]; a CSV chunk at most 1 MiB of lines) whatever the
-//! length of the file.
+//! [`tolles_io::chunks::DEFAULT_CHUNK_ROWS`]; a CSV chunk at most 1 MiB of lines) and the few
+//! rows a fluxgate lag or an extra channel's shift reads ahead, whatever the length of the file.
 
 mod check;
 mod field;
@@ -41,7 +41,8 @@ use tolles_io::schema::output_names;
 
 /// True when [`super::compensate_file`] reads the survey of `request` in chunks: CSV, XYZ or
 /// Parquet input that is a regular file (it is read several times), CSV or Parquet output that
-/// is not the input itself, one fluxgate per fit, no row selection, and the memory policy asks
+/// is not the input itself, one fluxgate per fit (extra channels and a lag included), no row
+/// selection, and the memory policy asks
 /// for it: [`Memory::Bounded`], rows per chunk given (unless [`Memory::Whole`]), or with
 /// [`Memory::Auto`] a file too large to read whole comfortably ([`needs_bounded_memory`]).
 pub fn reads_in_chunks(model: &ModelFile, request: &FileRequest) -> bool {
@@ -64,13 +65,8 @@ pub fn reads_in_chunks(model: &ModelFile, request: &FileRequest) -> bool {
         && ChunkReader::reads(format)
         && size.is_some()
         && output_streams
-        // Several fluxgates, extra channels and a lag are read whole.
-        && model
-            .fits
-            .iter()
-            .all(|f| f.vectors.len() == 1
-                && f.fit.settings.design.extras.is_empty()
-                && f.fit.lag_s == 0.0)
+        // Several fluxgates per fit are read whole.
+        && model.fits.iter().all(|f| f.vectors.len() == 1)
         && request.selection.is_empty()
         // Each row's standard error and flag are computed from the whole flight.
         && !request.compensate.uncertainty

@@ -30,6 +30,8 @@ pub(super) struct FitColumns {
     pub scalar: Result<usize, IoError>,
     /// Index into [`Plan::fluxgates`].
     pub fluxgate: usize,
+    /// The design's extra channels, in its order.
+    pub extras: Vec<Result<usize, IoError>>,
 }
 
 impl Plan {
@@ -72,7 +74,13 @@ impl Plan {
                     fluxgates.len() - 1
                 }
             };
-            fits.push(FitColumns { scalar, fluxgate });
+            let extras = fit.fit.settings.design.extras.iter();
+            let extras = extras.map(|spec| position(&spec.name)).collect();
+            fits.push(FitColumns {
+                scalar,
+                fluxgate,
+                extras,
+            });
         }
         let tt = position(TIME_COLUMN).ok();
         Self {
@@ -94,11 +102,14 @@ impl Plan {
     }
 
     /// Positions (in a chunk of the columns read) of the columns the computation uses: the
-    /// scalars, fluxgates and time; the others are read only to be checked.
+    /// scalars, fluxgates, extra channels and time; the others are read only to be checked.
     pub fn used(&self) -> Vec<usize> {
         let scalars = self.fits.iter().filter_map(|f| f.scalar.as_ref().ok());
+        let extras = self.fits.iter().flat_map(|f| f.extras.iter().flatten());
         let axes = self.fluxgates.iter().flat_map(|(_, a)| a.iter().flatten());
-        let mut used: Vec<usize> = scalars.chain(axes).chain(&self.tt).copied().collect();
+        let mut used: Vec<usize> = (scalars.chain(axes).chain(extras).chain(&self.tt))
+            .copied()
+            .collect();
         used.sort_unstable();
         used.dedup();
         used

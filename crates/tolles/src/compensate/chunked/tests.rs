@@ -275,3 +275,76 @@ fn runs_end_where_reading_whole_ends_them_at_every_chunk_edge() {
         assert_eq!(chunked.1, whole.1, "{rows} rows");
     }
 }
+
+/// The model of [`survey_and_model`] with its fluxgate read 0.37 s late and an extra channel
+/// (the roll, low-passed and lagged) whose three coefficients are made up.
+fn with_extra_and_lag(mut model: ModelFile, extra: &str) -> ModelFile {
+    for fit in &mut model.fits {
+        fit.fit.lag_s = 0.37;
+        let spec = format!("{extra}:lowpass=0.5:lag=0.23").parse().unwrap();
+        fit.fit.settings.design.extras.push(spec);
+        fit.fit.coefficients.extend([0.5, -0.3, 0.2]);
+    }
+    model
+}
+
+#[test]
+fn extra_channels_and_a_lag_are_read_in_chunks_with_the_same_bytes() {
+    let dir = TempDir::new().unwrap();
+    let (survey, model) = survey_and_model(dir.path());
+    let model = with_extra_and_lag(model, "ins_roll");
+    let bounded = FileRequest {
+        survey: survey.clone(),
+        memory: Memory::Bounded,
+        ..FileRequest::default()
+    };
+    assert!(reads_in_chunks(&model, &bounded));
+    for level in [LevelChoice::FileMean, LevelChoice::Model] {
+        let request = CompensateRequest {
+            fs_hz: None,
+            level,
+            uncertainty: false,
+        };
+        let whole = run(&survey, &model, request, None);
+        let finite = |csv: &[u8]| {
+            let text = String::from_utf8(csv.to_vec()).unwrap();
+            let last = |l: &str| l.rsplit(',').next().unwrap().parse::<f64>().is_ok();
+            text.lines().skip(1).filter(|l| last(l)).count()
+        };
+        // The lag and the extra channel's shift leave the last rows without a value.
+        assert!(finite(&whole.0) > 1000, "{:?}", whole.1);
+        // Chunks shorter than the shifts' reach, and longer.
+        for rows in [1, 3, 7, 1000] {
+            let chunked = run(&survey, &model, request, Some(rows));
+            assert!(chunked.0 == whole.0, "{level:?}, {rows} rows");
+            assert_eq!(chunked.1, whole.1, "{level:?}, {rows} rows");
+        }
+    }
+}
+
+#[test]
+fn a_missing_extra_channel_is_the_same_error_in_chunks() {
+    let dir = TempDir::new().unwrap();
+    let (survey, model) = survey_and_model(dir.path());
+    let model = with_extra_and_lag(model, "cur_none");
+    let message = |rows: Option<usize>| {
+        let request = FileRequest {
+            survey: survey.clone(),
+            memory: rows.map_or(Memory::Whole, |_| Memory::Bounded),
+            chunk_rows: rows,
+            ..FileRequest::default()
+        };
+        let mut warnings = Vec::new();
+        let result = super::super::compensate_file(
+            &model,
+            &request,
+            &mut Vec::new(),
+            &Silent,
+            &mut warnings,
+        );
+        (result.unwrap_err().to_string(), warnings)
+    };
+    let whole = message(None);
+    assert!(whole.0.contains("cur_none"), "{}", whole.0);
+    assert_eq!(message(Some(5)), whole);
+}

@@ -6,6 +6,7 @@ use super::level::same_rows;
 use super::scan::{Plan, Scan};
 use crate::error::{Error, Result};
 use crate::progress::Progress;
+use std::collections::VecDeque;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use tolles_core::compensate::compensated_value;
@@ -41,8 +42,8 @@ pub(super) fn write(
         sink: sink.as_mut(),
         empty: &mut empty,
     };
-    // A chunk waits for the first row of the next one (see `field`).
-    let mut waiting: Option<Table> = None;
+    // A chunk waits for the rows after it that its computation reads (see `field`).
+    let mut waiting: VecDeque<Table> = VecDeque::new();
     let mut rows = 0;
     while let Some(chunk) = reader.next_chunk()? {
         if chunk.is_empty() {
@@ -51,14 +52,10 @@ pub(super) fn write(
         progress.advance(chunk.len() as u64);
         rows += chunk.len();
         let computed = fields.push(numbers_of(&chunk, &plan.read)?);
-        if let (Some(computed), Some(before)) = (computed, waiting.take()) {
-            out.write(&before, computed)?;
-        }
-        waiting = Some(chunk);
+        waiting.push_back(chunk);
+        out.write_computed(&mut waiting, computed)?;
     }
-    if let (Some(computed), Some(last)) = (fields.finish(), waiting.take()) {
-        out.write(&last, computed)?;
-    }
+    out.write_computed(&mut waiting, fields.finish())?;
     same_rows(reader.path(), rows, scan.rows)?;
     sink.finish()?;
     Ok((empty, fields.outside().to_vec()))
@@ -74,6 +71,19 @@ struct Out<'p, 's> {
 }
 
 impl Out<'_, '_> {
+    /// Writes the chunks `computed`, the first ones `waiting`.
+    fn write_computed(
+        &mut self,
+        waiting: &mut VecDeque<Table>,
+        computed: Vec<Computed>,
+    ) -> Result<()> {
+        for computed in computed {
+            let chunk = waiting.pop_front().expect("a computed chunk was read");
+            self.write(&chunk, computed)?;
+        }
+        Ok(())
+    }
+
     /// Writes `chunk` with each fit's `scalar − (A·β − level)` (nT), empty where it cannot be
     /// computed, as the whole-file path computes it.
     fn write(&mut self, chunk: &Table, computed: Computed) -> Result<()> {
