@@ -115,6 +115,7 @@ fn model_columns(model: &ModelFile) -> Vec<String> {
                 .iter()
                 .map(|e| e.name.clone()),
         );
+        wanted.extend(tolles::compensate::network_channels(fit).iter().cloned());
     }
     wanted
 }
@@ -201,6 +202,14 @@ struct FitSettings {
     extras: Vec<String>,
     lag: Option<String>,
     reference: Option<String>,
+    /// Train a network on what the linear model leaves (`fit --network`).
+    network: bool,
+    /// The network's own input columns.
+    inputs: Vec<String>,
+    /// Units per hidden layer.
+    network_layers: Vec<usize>,
+    network_activation: String,
+    network_seed: u64,
 }
 
 impl FitSettings {
@@ -230,7 +239,21 @@ impl FitSettings {
         };
         let extras =
             tolles::fit::parse_extras(&self.extras).map_err(|e| failed(format!("extras: {e}")))?;
+        let network = match self.network {
+            false => None,
+            true => Some(tolles::fit::NetworkRequest {
+                settings: tolles_core::fit::network::NetworkSettings {
+                    hidden: self.network_layers,
+                    activation: (self.network_activation.parse())
+                        .map_err(|e| failed(format!("network_activation: {e}")))?,
+                    seed: self.network_seed,
+                    ..Default::default()
+                },
+                channels: self.inputs,
+            }),
+        };
         Ok(FitRequest {
+            network,
             terms,
             lambda,
             band: Band {
@@ -265,6 +288,12 @@ fn fit(
     wanted.extend(request.reference.iter().cloned());
     wanted.extend(request.vectors.iter().flat_map(|v| vector_columns(v)));
     wanted.extend(request.extras.iter().map(|e| e.name.clone()));
+    wanted.extend(
+        request
+            .network
+            .iter()
+            .flat_map(|n| n.channels.iter().cloned()),
+    );
     let table = Frame::new(source, names, get, dt).table(&wanted)?;
     let mut warnings = Vec::new();
     let model = py

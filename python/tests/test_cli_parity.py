@@ -278,3 +278,29 @@ def test_uncertainty_columns_and_the_verdict_match_the_cli(flights, cli, tmp_pat
     assert set(np.unique(ours["mag_1_c_extrapolated"].dropna())) <= {0.0, 1.0}
     fom = tolles.fom(tolles.read(flights / "cal.csv"), scalar="mag_1_uc", model=model)
     assert fom["verdict"]["grade"] == stored["grade"]
+
+
+def test_a_network_fits_and_compensates_as_the_cli_does(cli, tmp_path):
+    """``fit(..., network=True)`` writes the CLI's model bytes; both directions of the model
+    file compensate alike; ``Model.network`` exposes what was kept."""
+    cli("simulate", "--plan", "box", "--preset", "tail-stinger", "--seed", "3", "--out", tmp_path / "raw.csv")
+    box = pd.read_csv(tmp_path / "raw.csv")
+    cos_x = box["flux_a_x"] / np.sqrt(box["flux_a_x"] ** 2 + box["flux_a_y"] ** 2 + box["flux_a_z"] ** 2)
+    box["mag_1_uc"] = box["mag_1_uc"] + 3.0 * np.tanh(4.0 * cos_x)
+    box["mag_ref"] = box["truth_earth"] + box["truth_anomaly"] + box["truth_diurnal"]
+    box.to_csv(tmp_path / "box.csv", index=False, float_format="%.17g")
+    cli("fit", tmp_path / "box.csv", "--scalar", "mag_1_uc", "--vector", "flux_a", "--reference", "mag_ref",
+        "--network", "--inputs", "ins_roll", "--network-seed", "5", "--out", tmp_path / "cli.json")
+    box = tolles.read(tmp_path / "box.csv")
+    model = tolles.fit(box, reference="mag_ref", network=True, inputs="ins_roll", network_seed=5)
+    model.save(tmp_path / "py.json")
+    assert (tmp_path / "py.json").read_bytes() == (tmp_path / "cli.json").read_bytes()
+    kept = model.network
+    assert kept is not None and kept["channels"] == ["ins_roll"]
+    assert kept["judged_network_rms_nt"] < 0.95 * kept["judged_linear_rms_nt"]
+    cli("compensate", tmp_path / "box.csv", "--model", tmp_path / "py.json", "--out", tmp_path / "out.csv")
+    by_cli = read_csv_columns(tmp_path / "out.csv")["mag_1_c"]
+    by_python = tolles.compensate(box, tolles.load_model(tmp_path / "cli.json"))["mag_1_c"]
+    assert max_diff(by_python.to_numpy(), np.array(by_cli)) < 1e-9
+    with pytest.raises(tolles.TollesError, match="network layers"):
+        tolles.fit(box, reference="mag_ref", network=True, network_layers=(300,))

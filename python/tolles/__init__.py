@@ -373,6 +373,12 @@ class Model:
         return float(self._only()["level_nt"])
 
     @property
+    def network(self) -> Optional[dict]:
+        """The network ``fit(..., network=True)`` kept (its ``channels``, ``network`` weights,
+        input names and normalisation, and the judged RMS values in nT), or ``None``."""
+        return self._only().get("network")
+
+    @property
     def magnitude(self) -> str:
         return str(self._only().get("magnitude", "linear"))
 
@@ -431,6 +437,11 @@ def fit(
     extra: Names = (),
     lag: Union[str, float, None] = None,
     reference: Optional[str] = None,
+    network: bool = False,
+    inputs: Names = (),
+    network_layers: Sequence[int] = (8,),
+    network_activation: str = "swish",
+    network_seed: int = 0,
 ) -> Model:
     """Learn the aircraft's field from a calibration flight, as ``tolles fit`` does.
 
@@ -483,6 +494,20 @@ def fit(
         stinger's ``mag_1_c`` for a cabin sensor: the scalar minus it is the aircraft's field
         itself, fitted in the full band (``band``, ``order``, ``trim`` and ``levels`` do not
         apply).
+    network : bool
+        Also train a small network on what the linear model leaves of the scalar minus
+        ``reference`` (MagNav's model 2b), as ``tolles fit --network``; kept only if it leaves
+        at least 5 % less on held-out stretches of the flight. Its inputs: the fluxgate's
+        direction cosines and magnitude (nT), the ``extra`` channels and ``inputs``.
+    inputs : str or list of str
+        Columns the network reads besides the fluxgate and the extra channels (their units).
+    network_layers : sequence of int
+        Units per hidden layer (1 to 4 layers of 1 to 256 units).
+    network_activation : {"swish", "tanh", "relu"}
+        The hidden layers' activation.
+    network_seed : int
+        Seed of the initial weights and the order of the rows: the same data and seed give
+        the same model.
     """
     columns = _Columns(df)
     lam = None if isinstance(lambda_, str) and lambda_.strip().lower() == "auto" else float(lambda_)
@@ -500,6 +525,11 @@ def fit(
         "extras": [] if not extra else _names(extra, "extra"),
         "lag": None if lag is None else str(lag),
         "reference": reference,
+        "network": bool(network),
+        "inputs": [] if not inputs else _names(inputs, "inputs"),
+        "network_layers": [_count(n, "network_layers", 1) for n in network_layers],
+        "network_activation": str(network_activation),
+        "network_seed": _count(network_seed, "network_seed", 0),
     }
     text, notes = _tolles.fit(*columns.args(), settings)
     _warn(notes)

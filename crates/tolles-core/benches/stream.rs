@@ -116,6 +116,7 @@ fn throughput(c: &mut Criterion) {
                     let rows = RawRows {
                         flux: vec![[&x, &y, &z]],
                         extras: Vec::new(),
+                        inputs: Vec::new(),
                         tt: Some(&t),
                     };
                     for chunk in engine.push(rows) {

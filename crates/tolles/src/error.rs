@@ -354,6 +354,14 @@ pub enum Error {
         /// The period asked for (s).
         period_s: f64,
     },
+    /// A fit a live stream cannot apply yet: it holds a network (`fit --network`).
+    #[error("{}: the fit of {scalar} holds a network, which `stream` does not apply yet; compensate the file with `tolles compensate`, or fit without --network for streaming", path.display())]
+    StreamNetwork {
+        /// The model file.
+        path: PathBuf,
+        /// The scalar of the fit.
+        scalar: String,
+    },
     /// A fit a live stream cannot apply: it uses several fluxgates.
     #[error("{}: the fit of {scalar} uses {} fluxgates ({}); a stream handles one fluxgate per scalar", path.display(), vectors.len(), vectors.join(","))]
     StreamFluxgates {

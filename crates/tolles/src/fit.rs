@@ -1,5 +1,9 @@
 //! Learning a model from a calibration flight: one fit per scalar, in parallel.
 
+pub mod network;
+
+pub use network::NetworkRequest;
+
 use crate::error::{Error, Result};
 use crate::model::{ModelFile, ScalarModel};
 use crate::progress::{Progress, Stage};
@@ -75,6 +79,8 @@ pub struct FitRequest {
     /// in the full band ([`Target::Interference`]: `band`, `order`, `trim` and heading levels
     /// do not apply).
     pub reference: Option<String>,
+    /// A network trained on what the linear model leaves (`--network`; needs `reference`).
+    pub network: Option<NetworkRequest>,
 }
 
 /// How to line the fluxgate(s) up with the scalar.
@@ -135,6 +141,7 @@ impl FitRequest {
             extras: Vec::new(),
             lag: Lag::None,
             reference: None,
+            network: None,
         }
     }
 
@@ -249,6 +256,7 @@ impl FitRequest {
             .flat_map(|s| crate::read::flight_columns(s, &self.vectors, &self.extras))
             .collect();
         names.extend(self.reference.clone());
+        names.extend(self.network.iter().flat_map(|n| n.channels.iter().cloned()));
         names
     }
 }
@@ -310,6 +318,16 @@ pub fn fit(
     checked_names(&request.vectors, "fluxgate")?;
     check_band(request.band)?;
     check_extras(table, request)?;
+    if let Some(network) = &request.network {
+        network::check(network)?;
+    }
+    if request.network.is_some() && request.reference.is_none() {
+        return Err(Error::Invalid(
+            "--network learns what the linear model leaves of the scalar minus a reference: \
+             give --reference COL (a compensated magnetometer on the same flight)"
+                .into(),
+        ));
+    }
     let mut flight = Flight::from_table(table, &request.scalars[0], &request.vectors)?
         .with_extras(&request.extras)?;
     let (fs_hz, warning) = flight.sample_rate(request.fs_hz)?;
@@ -324,7 +342,7 @@ pub fn fit(
         .map(|scalar| fit_lagged(scalar, &flight, fs_hz, &settings, request.lag))
         .collect();
     progress.finish();
-    let models = request
+    let mut models = request
         .scalars
         .iter()
         .zip(fitted)
@@ -337,6 +355,12 @@ pub fn fit(
                 .with_calibration_flight(table.path()))
         })
         .collect::<Result<Vec<_>>>()?;
+    if let Some(network) = &request.network {
+        for (model, target) in models.iter_mut().zip(&columns) {
+            let residual = linear_residual(&flight, model, target, fs_hz)?;
+            network::learn(model, &flight, &residual, fs_hz, network, warnings)?;
+        }
+    }
     // What `compensate`, `fom` and Python would refuse to read is refused here, unwritten.
     (ModelFile::new(models).validated("model")).map_err(|e| Error::UnwritableModel {
         path: table.path().to_path_buf(),
@@ -345,6 +369,21 @@ pub fn fit(
             other => other.to_string(),
         },
     })
+}
+
+/// What `model`'s linear correction leaves of its `target` (nT) on the calibration `flight`.
+fn linear_residual(
+    flight: &Flight,
+    model: &ScalarModel,
+    target: &[f64],
+    fs_hz: f64,
+) -> Result<Vec<f64>> {
+    let request = crate::compensate::CompensateRequest {
+        fs_hz: Some(fs_hz),
+        ..Default::default()
+    };
+    let field = crate::compensate::flight_field(flight, model, &request, &mut Vec::new())?.field;
+    Ok(target.iter().zip(field).map(|(t, f)| t - f).collect())
 }
 
 /// Band edges a model can store and a filter can take: finite (0 or ≥ Nyquist turn one off).

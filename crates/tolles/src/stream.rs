@@ -143,6 +143,12 @@ impl Setup {
         let mut extras: Vec<ExtraChannel> = Vec::new();
         let mut specs = Vec::new();
         for m in &model.fits {
+            if m.network.is_some() {
+                return Err(Error::StreamNetwork {
+                    path: path.to_path_buf(),
+                    scalar: m.scalar.clone(),
+                });
+            }
             let [vector] = &m.vectors[..] else {
                 return Err(Error::StreamFluxgates {
                     path: path.to_path_buf(),

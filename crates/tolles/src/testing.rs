@@ -7,10 +7,16 @@ use tolles_io::table::{Column, Table};
 
 /// A cabin installation flying `plan`, as a table of number columns named like the CLI's CSV.
 pub fn flight(plan: PlanKind, seed: u64) -> Table {
+    flight_of(plan, seed, SimulateRequest::default().preset)
+}
+
+/// [`flight`] of the installation `preset`.
+pub fn flight_of(plan: PlanKind, seed: u64, preset: crate::simulate::Preset) -> Table {
     let request = SimulateRequest {
         plan,
         seed,
         lines: 2,
+        preset,
         ..SimulateRequest::default()
     };
     let simulated = simulate(&request, &Silent).expect("a valid simulation");

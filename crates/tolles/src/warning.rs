@@ -125,6 +125,16 @@ pub enum Warning {
         /// The chosen relative ridge strength, when it is the largest tried.
         top_lambda: Option<f64>,
     },
+    /// `fit --network` trained a network that did not leave clearly less than the linear model
+    /// on the rows kept for judging it; the model holds the linear fit alone.
+    NetworkNotKept {
+        /// The scalar of the fit.
+        scalar: String,
+        /// RMS (nT) the linear model leaves on the judging rows.
+        linear_rms_nt: f64,
+        /// RMS (nT) the linear model and the network leave there.
+        network_rms_nt: f64,
+    },
     /// Not a problem: raw channels (SGL's `AZIMUTH`, …) a table also answers to under tolles'
     /// names, as `(raw, tolles)`, because it has no columns of those names.
     ColumnsAliased {
@@ -233,6 +243,15 @@ impl fmt::Display for Warning {
                 }
                 write!(f, ": an interference source may be missing from the regressors (a current? try --extra)")
             }
+            Warning::NetworkNotKept {
+                scalar,
+                linear_rms_nt,
+                network_rms_nt,
+            } => write!(
+                f,
+                "the network for {scalar} was not kept: on held-out stretches it leaves {network_rms_nt:.4} nT against the linear model's {linear_rms_nt:.4} nT (it must leave at least {:.0} % less)",
+                100.0 * crate::fit::network::KEEP_MARGIN
+            ),
             Warning::UnlikelySampleRate { path, hz } => write!(
                 f,
                 "{}: column {TIME_COLUMN:?} gives a sample rate of {hz:.6} Hz, which no magnetometer samples at: is time in seconds? Give its unit in the file, or the rate with --fs",

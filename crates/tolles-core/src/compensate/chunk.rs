@@ -20,6 +20,7 @@
 //! let rows = |r: std::ops::Range<usize>| RawRows {
 //!     flux: vec![[&x[r.clone()], &y[r.clone()], &z[r.clone()]]],
 //!     extras: Vec::new(),
+//!     inputs: Vec::new(),
 //!     tt: None,
 //! };
 //! let whole = ChunkCompensator::new(Setup::new(model, 10.0, 1.0)).whole(rows(0..7));
@@ -44,6 +45,7 @@ use super::trust::{outside_over_runs, sigma_over_runs};
 use super::{model_field_over_runs, Model};
 use crate::model::coverage::Coverage;
 use crate::model::extra::LowPass;
+use crate::model::network::{features, Network};
 use crate::model::uncertainty::Uncertainty;
 use crate::model::vector::{Fluxgates, VectorSeries};
 use crate::signal::segment::contiguous_runs_with_step;
@@ -69,6 +71,11 @@ pub struct Setup<'m> {
     pub coverage: Option<&'m Coverage>,
     /// The model's uncertainty: each row's standard error (nT) is computed when given.
     pub uncertainty: Option<&'m Uncertainty>,
+    /// A network added to the linear model's correction (see [`crate::model::network`]).
+    pub network: Option<&'m Network>,
+    /// The raw channels the network reads besides the fluxgate and the extra channels
+    /// ([`RawRows::inputs`]).
+    pub network_channels: usize,
 }
 
 impl<'m> Setup<'m> {
@@ -83,6 +90,8 @@ impl<'m> Setup<'m> {
             median_step_s: None,
             coverage: None,
             uncertainty: None,
+            network: None,
+            network_channels: 0,
         }
     }
 }
@@ -94,6 +103,8 @@ pub struct RawRows<'a> {
     pub flux: Vec<[&'a [f64]; 3]>,
     /// Per extra channel of the design, in its order, as recorded (its own unit).
     pub extras: Vec<&'a [f64]>,
+    /// The network's own input channels, in its order ([`Setup::network_channels`]).
+    pub inputs: Vec<&'a [f64]>,
     /// Time (s), if the flight has it.
     pub tt: Option<&'a [f64]>,
 }
@@ -160,6 +171,7 @@ impl<'m> ChunkCompensator<'m> {
         let n = rows.len();
         let mut sources: Vec<&[f64]> = rows.flux.iter().flat_map(|axes| *axes).collect();
         sources.extend(&rows.extras);
+        sources.extend(&rows.inputs);
         // A channel at a time: besides the flight and its conditioned channels, only one
         // channel's low-passed values are held.
         let columns = self.channels(false).into_iter().map(|channel| {
@@ -181,17 +193,19 @@ impl<'m> ChunkCompensator<'m> {
         self,
         flux: &[VectorSeries],
         extras: &[&[f64]],
+        inputs: &[&[f64]],
         tt: Option<&[f64]>,
     ) -> ChunkField {
         let plain = Conditioner::new(self.channels(tt.is_some())).is_identity();
         if plain {
             let n = flux.first().map_or(0, VectorSeries::len);
-            return self.compute_inputs(flux, extras, tt, 0..n);
+            return self.compute_inputs(flux, (extras, inputs), tt, 0..n);
         }
         let axes = flux.iter().map(|f| [&f.x[..], &f.y[..], &f.z[..]]);
         let rows = RawRows {
             flux: axes.collect(),
             extras: extras.to_vec(),
+            inputs: inputs.to_vec(),
             tt,
         };
         self.whole(rows)
@@ -210,6 +224,7 @@ impl<'m> ChunkCompensator<'m> {
             .get_or_insert_with(|| Conditioner::new(channels));
         let mut sources: Vec<&[f64]> = rows.flux.iter().flat_map(|axes| *axes).collect();
         sources.extend(&rows.extras);
+        sources.extend(&rows.inputs);
         sources.extend(rows.tt.filter(|_| has_time));
         let conditioned = conditioner.push(&sources, n);
         self.append(conditioned);
@@ -239,8 +254,12 @@ impl<'m> ChunkCompensator<'m> {
             lowpass: spec.lowpass_hz.map(|hz| LowPass::new(hz, fs_hz)),
             shift: spec.shift(fs_hz),
         });
-        let time = has_time.then(|| Channel::shifted(3 * self.fluxgates + self.extras, lag0()));
-        flux.chain(extras).chain(time).collect()
+        let first_input = 3 * self.fluxgates + self.extras;
+        let inputs = first_input..first_input + self.setup.network_channels;
+        let inputs = inputs.map(|s| Channel::shifted(s, lag0()));
+        let time_source = first_input + self.setup.network_channels;
+        let time = has_time.then(|| Channel::shifted(time_source, lag0()));
+        flux.chain(extras).chain(inputs).chain(time).collect()
     }
 
     fn append(&mut self, conditioned: Conditioned) {
@@ -307,7 +326,8 @@ impl<'m> ChunkCompensator<'m> {
         tt: Option<&[f64]>,
         rows: Range<usize>,
     ) -> ChunkField {
-        let extras = columns.split_off(3 * self.fluxgates);
+        let mut extras = columns.split_off(3 * self.fluxgates);
+        let inputs = extras.split_off(self.extras);
         let mut axes = columns.into_iter();
         let flux: Vec<VectorSeries> = (0..self.fluxgates)
             .map(|_| {
@@ -317,14 +337,16 @@ impl<'m> ChunkCompensator<'m> {
             })
             .collect();
         let extras: Vec<&[f64]> = extras.iter().map(Vec::as_slice).collect();
-        self.compute_inputs(&flux, &extras, tt, rows)
+        let inputs: Vec<&[f64]> = inputs.iter().map(Vec::as_slice).collect();
+        self.compute_inputs(&flux, (&extras, &inputs), tt, rows)
     }
 
-    /// The correction and trust of `rows` of conditioned inputs.
+    /// The correction and trust of `rows` of conditioned fluxgates, extra channels and the
+    /// network's channels.
     fn compute_inputs(
         &self,
         flux: &[VectorSeries],
-        extras: &[&[f64]],
+        (extras, channels): (&[&[f64]], &[&[f64]]),
         tt: Option<&[f64]>,
         rows: Range<usize>,
     ) -> ChunkField {
@@ -332,7 +354,13 @@ impl<'m> ChunkCompensator<'m> {
         let inputs = Fluxgates::from(flux).with_extras(extras.to_vec());
         let usable = inputs.finite_mask();
         let runs = contiguous_runs_with_step(&usable, tt, setup.median_step_s);
-        let field = model_field_over_runs(inputs.clone(), &runs, setup.model, setup.fs_ratio);
+        let mut field = model_field_over_runs(inputs.clone(), &runs, setup.model, setup.fs_ratio);
+        if let (Some(network), Some(first)) = (setup.network, flux.first()) {
+            let features = features(first, extras, channels);
+            let columns: Vec<&[f64]> = features.iter().map(Vec::as_slice).collect();
+            let learned = network.evaluate_rows(&columns);
+            field.iter_mut().zip(learned).for_each(|(f, n)| *f += n);
+        }
         let outside = match setup.coverage {
             Some(coverage) => outside_over_runs(inputs.clone(), &runs, coverage, setup.fs_hz),
             None => vec![false; usable.len()],
@@ -433,6 +461,7 @@ mod tests {
             } else {
                 vec![]
             },
+            inputs: Vec::new(),
             tt: Some(&f.tt[r]),
         }
     }

@@ -65,6 +65,7 @@ mod inputs;
 pub mod lag;
 mod level_setup;
 pub mod levels;
+pub mod network;
 pub mod plausible;
 pub mod prior;
 mod problem;

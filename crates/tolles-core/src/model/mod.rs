@@ -8,6 +8,7 @@ pub mod extra;
 pub mod interpret;
 pub mod limits;
 pub mod magnitude;
+pub mod network;
 pub mod terms;
 pub mod uncertainty;
 pub mod vector;

@@ -185,10 +185,17 @@ pub fn flight_field(
         median_step_s: tt.and_then(median_step),
         coverage: fit.fit.coverage.as_ref(),
         uncertainty: fit.fit.uncertainty.as_ref().filter(|_| request.uncertainty),
+        network: fit.network.as_ref().map(|learned| &learned.network),
+        network_channels: network_channels(fit).len(),
         ..Setup::new(fit.applied(), fs_hz, fs_hz / fit.fit.fs_hz)
     };
     let extras: Vec<&[f64]> = flight.extras.iter().map(Vec::as_slice).collect();
-    let mut computed = ChunkCompensator::new(setup).whole_series(&flight.flux, &extras, tt);
+    let channels = (network_channels(fit).iter())
+        .map(|name| flight.table.numeric(name))
+        .collect::<std::result::Result<Vec<_>, _>>()?;
+    let channels: Vec<&[f64]> = channels.iter().map(Vec::as_slice).collect();
+    let engine = ChunkCompensator::new(setup);
+    let mut computed = engine.whole_series(&flight.flux, &extras, &channels, tt);
     if request.uncertainty && computed.sigma.is_none() {
         computed.sigma = Some(vec![f64::NAN; computed.field.len()]);
     }
@@ -428,9 +435,20 @@ pub fn columns_read(model: &ModelFile) -> Vec<String> {
         .fits
         .iter()
         .flat_map(|f| {
-            crate::read::flight_columns(&f.scalar, &f.vectors, &f.fit.settings.design.extras)
+            let extras = &f.fit.settings.design.extras;
+            let mut names = crate::read::flight_columns(&f.scalar, &f.vectors, extras);
+            names.extend(network_channels(f).iter().cloned());
+            names
         })
         .collect()
+}
+
+/// The columns `fit`'s network reads besides the fluxgate and the extra channels (none
+/// without a network).
+pub fn network_channels(fit: &ScalarModel) -> &[String] {
+    fit.network
+        .as_ref()
+        .map_or(&[], |learned| &learned.channels)
 }
 
 #[cfg(test)]

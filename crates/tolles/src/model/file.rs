@@ -36,6 +36,7 @@ use std::path::Path;
 use tolles_core::fit::Fit;
 use tolles_core::model::extra::{MAX_LAG_S, MAX_LOWPASS_HZ, MIN_LOWPASS_HZ};
 use tolles_core::model::interpret::{AircraftField, PatentTerms};
+use tolles_core::model::network::{feature_names, Network};
 use tolles_io::IoError;
 
 /// The `format` tag of a model file.
@@ -82,6 +83,30 @@ pub struct ScalarModel {
     pub physical: AircraftField,
     /// The 16 terms in the patent's nomenclature (of the first fluxgate's block).
     pub patent: PatentTerms,
+    /// A network added to the linear correction (`fit --network`), when the fit kept one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub network: Option<LearnedCorrection>,
+}
+
+/// A network added to the linear model's correction, MagNav's "model 2b": trained on what the
+/// linear model leaves of `scalar − reference`, kept only when it does better on held-out rows.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LearnedCorrection {
+    /// The columns it reads besides the fluxgate and the extra channels (`fit --inputs`), in
+    /// order, as recorded (their units).
+    pub channels: Vec<String>,
+    /// Weights, input names and normalisation (see `tolles_core::model::network`).
+    pub network: Network,
+    /// RMS (nT) on the judging rows of what the linear model leaves.
+    pub judged_linear_rms_nt: f64,
+    /// RMS (nT) on the judging rows of what the linear model and the network leave.
+    pub judged_network_rms_nt: f64,
+    /// Passes over the training rows, and the one whose weights were kept.
+    pub epochs: usize,
+    /// The pass whose weights were kept.
+    pub best_epoch: usize,
+    /// The seed of the initial weights and the order of the rows.
+    pub seed: u64,
 }
 
 impl ScalarModel {
@@ -100,6 +125,7 @@ impl ScalarModel {
             patent: physical.patent_terms(),
             physical,
             fit,
+            network: None,
         }
     }
 }
@@ -270,7 +296,31 @@ fn check_numbers(fit: &ScalarModel) -> Result<(), String> {
             ));
         }
     }
-    check_trust(fit)
+    check_trust(fit)?;
+    check_network(fit)
+}
+
+/// A stored network's shapes and numbers, and its inputs' names: what the fit that made it
+/// would have named them.
+fn check_network(fit: &ScalarModel) -> Result<(), String> {
+    let Some(learned) = &fit.network else {
+        return Ok(());
+    };
+    let scalar = &fit.scalar;
+    learned
+        .network
+        .validate()
+        .map_err(|e| format!("fit of {scalar}: {e}"))?;
+    let vector = fit.vectors.first().map_or("", String::as_str);
+    let extras = &fit.fit.settings.design.extras;
+    let expected = feature_names(vector, extras, &learned.channels);
+    if learned.network.inputs != expected {
+        return Err(format!(
+            "fit of {scalar}: network: inputs {:?} are not those of its fluxgate, extra channels and channels {:?}",
+            learned.network.inputs, expected
+        ));
+    }
+    Ok(())
 }
 
 /// The fluxgate's lag and each extra channel's lag and low-pass, as `fit` accepts them: lags

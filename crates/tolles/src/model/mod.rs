@@ -2,7 +2,9 @@
 
 mod file;
 
-pub use file::{compensated_name, ModelFile, ScalarModel, FORMAT, FS_RANGE_HZ, VERSION};
+pub use file::{
+    compensated_name, LearnedCorrection, ModelFile, ScalarModel, FORMAT, FS_RANGE_HZ, VERSION,
+};
 
 use crate::error::Result;
 use std::path::Path;

@@ -35,6 +35,8 @@ pub(super) struct ReadyFit {
     pub fs_hz: f64,
     /// The fluxgate's lag (s).
     pub lag_s: f64,
+    /// The network added to the linear correction, if any.
+    pub network: Option<tolles_core::model::network::Network>,
 }
 
 impl ReadyFit {
@@ -90,6 +92,7 @@ fn check_fit(
         column(&Ok(p))?;
     }
     columns.extras.iter().try_for_each(column)?;
+    columns.network.iter().try_for_each(column)?;
     if let Some((place, magnitude)) = &scan.bad_magnitude[columns.fluxgate] {
         return Err(Error::FluxMagnitude {
             path: survey.to_path_buf(),
@@ -115,5 +118,6 @@ fn check_fit(
         coverage: fit.fit.coverage.clone(),
         fs_hz,
         lag_s: fit.fit.lag_s,
+        network: fit.network.as_ref().map(|learned| learned.network.clone()),
     })
 }

@@ -41,11 +41,13 @@ impl Computed {
 
 impl<'a> Fields<'a> {
     pub fn new(plan: &'a Plan, scan: &Scan, fits: &'a [ReadyFit]) -> Self {
-        let engines = fits.iter().map(|fit| {
+        let engines = fits.iter().zip(&plan.fits).map(|(fit, columns)| {
             ChunkCompensator::new(Setup {
                 lag_s: fit.lag_s,
                 median_step_s: scan.median_step,
                 coverage: fit.coverage.as_ref(),
+                network: fit.network.as_ref(),
+                network_channels: columns.network.len(),
                 ..Setup::new(fit.model(), fit.fs_hz, fit.fs_ratio)
             })
         });
@@ -134,6 +136,7 @@ fn raw_rows<'v>(
     RawRows {
         flux: vec![axes.each_ref().map(column)],
         extras: fit.extras.iter().map(column).collect(),
+        inputs: fit.network.iter().map(column).collect(),
         tt: plan.tt.map(|p| column(&Ok(p))),
     }
 }

@@ -32,6 +32,8 @@ pub(super) struct FitColumns {
     pub fluxgate: usize,
     /// The design's extra channels, in its order.
     pub extras: Vec<Result<usize, IoError>>,
+    /// The network's own channels, in its order.
+    pub network: Vec<Result<usize, IoError>>,
 }
 
 impl Plan {
@@ -76,10 +78,13 @@ impl Plan {
             };
             let extras = fit.fit.settings.design.extras.iter();
             let extras = extras.map(|spec| position(&spec.name)).collect();
+            let network = crate::compensate::network_channels(fit).iter();
+            let network = network.map(|name| position(name)).collect();
             fits.push(FitColumns {
                 scalar,
                 fluxgate,
                 extras,
+                network,
             });
         }
         let tt = position(TIME_COLUMN).ok();
@@ -105,7 +110,10 @@ impl Plan {
     /// scalars, fluxgates, extra channels and time; the others are read only to be checked.
     pub fn used(&self) -> Vec<usize> {
         let scalars = self.fits.iter().filter_map(|f| f.scalar.as_ref().ok());
-        let extras = self.fits.iter().flat_map(|f| f.extras.iter().flatten());
+        let extras = self
+            .fits
+            .iter()
+            .flat_map(|f| f.extras.iter().chain(&f.network).flatten());
         let axes = self.fluxgates.iter().flat_map(|(_, a)| a.iter().flatten());
         let mut used: Vec<usize> = (scalars.chain(axes).chain(extras).chain(&self.tt))
             .copied()

@@ -1,0 +1,159 @@
+//! `fit --network` through the binary (issue 48): a network kept for a field no linear term
+//! holds, applied by `compensate` whole and in bounded memory with the same bytes, refused by
+//! `stream` (which cannot apply it yet), and a hand-damaged network a one-line error.
+
+mod common;
+
+use common::{run_in, tolles};
+use std::path::Path;
+use tempfile::TempDir;
+
+/// `name.csv` simulated as `args`, with `3 nT · tanh(4 B̂x)` added to `mag_1_uc` (a saturating
+/// field no Tolles-Lawson term holds) and a reference `mag_ref`: the field without the
+/// aircraft.
+fn flight_with_effect(dir: &Path, name: &str, args: &[&str]) {
+    let out = format!("{name}.csv");
+    run_in(dir, &[&["simulate"][..], args, &["--out", &out]].concat());
+    let text = std::fs::read_to_string(dir.join(&out)).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let at = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (scalar, x, y, z) = (
+        at("mag_1_uc"),
+        at("flux_a_x"),
+        at("flux_a_y"),
+        at("flux_a_z"),
+    );
+    let truth = [at("truth_earth"), at("truth_anomaly"), at("truth_diurnal")];
+    let mut written = format!("{},mag_ref\n", header.join(","));
+    for line in lines {
+        let mut cells: Vec<String> = line.split(',').map(str::to_string).collect();
+        let value = |k: usize| cells[k].parse::<f64>().unwrap();
+        let b = [value(x), value(y), value(z)];
+        let cos_x = b[0] / (b[0] * b[0] + b[1] * b[1] + b[2] * b[2]).sqrt();
+        let reference: f64 = truth.iter().map(|&k| value(k)).sum();
+        cells[scalar] = format!("{}", value(scalar) + 3.0 * (4.0 * cos_x).tanh());
+        written += &format!("{},{reference}\n", cells.join(","));
+    }
+    std::fs::write(dir.join(&out), written).unwrap();
+}
+
+#[test]
+fn a_kept_network_is_applied_whole_and_in_chunks_and_refused_where_it_cannot_be() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    flight_with_effect(
+        d,
+        "cal",
+        &["--plan", "box", "--preset", "tail-stinger", "--seed", "3"],
+    );
+    flight_with_effect(
+        d,
+        "survey",
+        &[
+            "--plan",
+            "survey",
+            "--preset",
+            "tail-stinger",
+            "--seed",
+            "3",
+            "--lines",
+            "2",
+        ],
+    );
+    let fit = [
+        "fit",
+        "cal.csv",
+        "--scalar",
+        "mag_1_uc",
+        "--vector",
+        "flux_a",
+        "--reference",
+        "mag_ref",
+    ];
+    let (_, said) = run_in(
+        d,
+        &[
+            &fit[..],
+            &["--network", "--network-seed", "7", "--out", "net.json"],
+        ]
+        .concat(),
+    );
+    assert!(
+        said.contains("network (4 inputs, layers 8, swish, seed 7)"),
+        "{said}"
+    );
+    assert!(said.contains("kept"), "{said}");
+    let model = std::fs::read_to_string(d.join("net.json")).unwrap();
+    assert!(
+        model.contains("\"flux_a:cos_x\""),
+        "the network's inputs are named"
+    );
+
+    let compensate = ["compensate", "survey.csv", "--model", "net.json", "--out"];
+    run_in(d, &[&compensate[..], &["whole.csv"]].concat());
+    let chunked = tolles()
+        .current_dir(d)
+        .env("TOLLES_MEMORY", "bounded")
+        .env("TOLLES_CHUNK_ROWS", "333")
+        .args([&compensate[..], &["chunked.csv"]].concat())
+        .output()
+        .unwrap();
+    assert!(chunked.status.success());
+    let (whole, chunked) = (
+        std::fs::read(d.join("whole.csv")).unwrap(),
+        std::fs::read(d.join("chunked.csv")).unwrap(),
+    );
+    assert!(whole == chunked, "whole and bounded compensation differ");
+
+    let said = one_line_failure(d, &["stream", "--model", "net.json"]);
+    assert!(said.contains("holds a network"), "{said}");
+    let damaged = model.replacen("\"inputs\": 4", "\"inputs\": 5", 1);
+    assert_ne!(damaged, model);
+    std::fs::write(d.join("damaged.json"), damaged).unwrap();
+    let compensate = [
+        "compensate",
+        "survey.csv",
+        "--model",
+        "damaged.json",
+        "--out",
+        "x.csv",
+    ];
+    let said = one_line_failure(d, &compensate);
+    assert!(said.contains("network"), "{said}");
+    assert!(!d.join("x.csv").exists());
+}
+
+/// The one line `tolles ARGS` fails with in `dir` (a header on standard input).
+fn one_line_failure(dir: &Path, args: &[&str]) -> String {
+    let out = tolles()
+        .current_dir(dir)
+        .args(args)
+        .write_stdin("tt,mag_1_uc,flux_a_x,flux_a_y,flux_a_z\n")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr).trim().to_string();
+    assert!(!out.status.success(), "{args:?} succeeded");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    err
+}
+
+#[test]
+fn network_flags_need_a_reference() {
+    let dir = TempDir::new().unwrap();
+    let fit = [
+        "fit",
+        "cal.csv",
+        "--scalar",
+        "mag_1_uc",
+        "--vector",
+        "flux_a",
+        "--network",
+    ];
+    let out = tolles().current_dir(dir.path()).args(fit).output().unwrap();
+    let said = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && said.contains("--reference"),
+        "{said}"
+    );
+}
