@@ -720,6 +720,13 @@ fn simulate_request(options: &str) -> PyResult<tolles::simulate::SimulateRequest
             "scalar_noise" => r.scalar_noise_nt = number()?,
             "flux_noise" => r.flux_noise_nt = number()?,
             "flux_lag" => r.flux_lag_s = number()?,
+            "effects" => r.effects = text()?.parse().map_err(failed)?,
+            "reference" => {
+                r.reference = v
+                    .as_bool()
+                    .ok_or_else(|| failed(format!("reference must be True or False, got {v}")))?
+            }
+            "reference_noise" => r.reference_noise_nt = number()?,
             other => return Err(failed(format!("simulate has no option {other:?}"))),
         }
     }

@@ -196,6 +196,19 @@ def test_simulate_equals_the_cli_flight(flights):
     assert df.attrs["truth"]["plan_name"] == "box"
 
 
+def test_simulate_effects_equal_the_cli_flight(cli, tmp_path):
+    cli("simulate", "--plan", "box", "--cycles", "1", "--effects", "load,temp", "--out", tmp_path / "e.csv")
+    df = tolles.simulate(plan="box", cycles=1, effects=["temp", "load"])
+    raw = pd.read_csv(tmp_path / "e.csv")
+    assert list(df.columns) == list(raw.columns)
+    assert list(raw.columns[-4:]) == ["mag_ref", "cur_load", "temp", "truth_effects"]
+    for c in raw.columns:
+        assert max_diff(df[c], raw[c]) == 0.0, c
+    assert df.attrs["truth"] == json.loads((tmp_path / "e.json").read_text())
+    with pytest.raises(tolles.TollesError, match="load, flap, temp"):
+        tolles.simulate(effects="wind")
+
+
 def test_an_exact_magnitude_model_passes_both_ways_and_compensates_alike(flights, cli, tmp_path):
     cal = tolles.read(flights / "cal.csv")
     model = tolles.fit(cal, magnitude="exact", levels=False)

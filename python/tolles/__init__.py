@@ -730,12 +730,18 @@ def simulate(plan: str = "box", preset: str = "cabin", seed: int = 1, **options:
     ``uniform`` ((inclination_deg, declination_deg, intensity_nT) instead of IGRF),
     ``period`` (s), ``cycles``, ``roll``/``pitch``/``yaw`` (deg), ``lines``,
     ``line_duration`` (s), ``turbulence`` (deg), ``geology`` (nT), ``diurnal`` (nT),
-    ``scalar_noise`` (nT), ``flux_noise`` (nT), ``flux_lag`` (s).
+    ``scalar_noise`` (nT), ``flux_noise`` (nT), ``flux_lag`` (s), ``effects`` (cabin effects
+    Tolles-Lawson cannot represent: ``"load"``, ``"flap"``, ``"temp"``, a list or
+    comma-separated text of them, or ``"all"``; columns ``cur_load`` (A), ``pos_flap`` (deg),
+    ``temp`` (°C), ``truth_effects`` (nT) and a reference ``mag_ref`` (nT)), ``reference``
+    (``True``: ``mag_ref`` without effects), ``reference_noise`` (nT).
 
     The result's ``attrs["truth"]`` holds the JSON sidecar: every parameter and the true
     terms (physical and patent).
     """
     request = dict(options, plan=plan, preset=preset, seed=seed)
+    if isinstance(request.get("effects"), (list, tuple)):
+        request["effects"] = ",".join(str(e) for e in request["effects"])
     if "uniform" in request and request["uniform"] is not None:
         request["uniform"] = [float(v) for v in request["uniform"]]
     names, columns, sidecar = _tolles.simulate(_json.dumps(request))

@@ -27,6 +27,17 @@ pub const LONGITUDE: &str = "lon";
 pub const NORTH: &str = "north_m";
 /// Distance east of a local origin (m), as the simulator writes it.
 pub const EAST: &str = "east_m";
+/// A reference magnetometer free of the aircraft's field (nT), such as a tail stinger's, as the
+/// simulator writes it (`tolles fit --reference mag_ref`).
+pub const REFERENCE_MAGNETOMETER: &str = "mag_ref";
+/// Current of a saturating electrical load (A), as the simulator writes it.
+pub const LOAD_CURRENT: &str = "cur_load";
+/// Angle of a control surface (deg), trailing edge down positive, as the simulator writes it.
+pub const FLAP_ANGLE: &str = "pos_flap";
+/// Temperature of the aircraft's magnetised structure (°C), as the simulator writes it.
+pub const TEMPERATURE: &str = "temp";
+/// Truth: what the simulated cabin effects add to the scalar (nT).
+pub const TRUTH_EFFECTS: &str = "truth_effects";
 /// Diurnal variation (nT), as a base station measured it.
 pub const DIURNAL: &str = "diurnal";
 /// The core field of the IGRF model at the aircraft (nT).

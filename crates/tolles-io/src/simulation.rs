@@ -47,6 +47,31 @@ pub const COLUMNS: [(&str, &str); 18] = [
     ("truth_diurnal", "truth: diurnal variation (nT)"),
 ];
 
+/// The columns a simulated flight adds after [`COLUMNS`] when it has a reference magnetometer
+/// or cabin effects (each only when it has it), with their meanings.
+pub const EFFECT_COLUMNS: [(&str, &str); 5] = [
+    (
+        schema::REFERENCE_MAGNETOMETER,
+        "reference magnetometer free of the aircraft's field: earth field plus its own noise (nT)",
+    ),
+    (
+        schema::LOAD_CURRENT,
+        "current of the saturating load (A), when the flight has it",
+    ),
+    (
+        schema::FLAP_ANGLE,
+        "control-surface angle, trailing edge down positive (degrees), when the flight has it",
+    ),
+    (
+        schema::TEMPERATURE,
+        "temperature of the magnetised structure (degrees C), when the flight has it",
+    ),
+    (
+        schema::TRUTH_EFFECTS,
+        "truth: what the cabin effects add to the scalar (nT), when the flight has any",
+    ),
+];
+
 /// Writes named numeric `columns` of equal length in the format `path`'s extension names (CSV,
 /// HDF5 or Parquet; any other extension is an error, see [`Format::for_output`]), whole or not
 /// at all.

@@ -5,7 +5,7 @@ use crate::render;
 use anyhow::{anyhow, Result};
 use clap::ValueEnum;
 use std::path::PathBuf;
-use tolles::simulate::{self, PlanKind, SimulateRequest, UniformField};
+use tolles::simulate::{self, CabinEffects, PlanKind, SimulateRequest, UniformField};
 use tolles::Error;
 
 const EXAMPLES: &str = "\
@@ -13,7 +13,9 @@ Examples:
   tolles simulate --plan box --seed 1 --out box.csv
   tolles simulate --plan survey --preset tail-stinger --lines 6 --geology 50 --out survey.csv
   tolles simulate --plan patent --inclination 60 --declination 0 --intensity 50000 --out patent.csv
-  tolles simulate --plan box --period 4 --cycles 4 --fs 160 --flux-lag 0.05 --out fast.csv";
+  tolles simulate --plan box --period 4 --cycles 4 --fs 160 --flux-lag 0.05 --out fast.csv
+  tolles simulate --plan box --effects all --out cabin.csv
+  tolles fit cabin.csv --scalar mag_1_uc --vector flux_a --reference mag_ref --extra cur_load,pos_flap,temp";
 
 /// A flight plan.
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -125,6 +127,19 @@ pub struct Args {
     /// How late the fluxgate samples relative to the scalar (s; negative: early)
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub flux_lag: f64,
+    /// Cabin effects Tolles-Lawson cannot represent, comma-separated: load (a saturating load
+    /// current, column cur_load in A), flap (a control surface turning a magnetised part,
+    /// pos_flap in degrees), temp (temperature-dependent magnetisation, temp in °C); or all.
+    /// Adds their truth (truth_effects, nT) and a reference magnetometer (mag_ref, nT)
+    #[arg(long, value_name = "LIST")]
+    pub effects: Option<CabinEffects>,
+    /// Also write a reference magnetometer free of the aircraft's field (column mag_ref, nT),
+    /// as a tail stinger would read it; implied by --effects
+    #[arg(long)]
+    pub reference: bool,
+    /// The reference magnetometer's white noise (nT)
+    #[arg(long, default_value_t = 0.01, allow_negative_numbers = true)]
+    pub reference_noise: f64,
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -185,6 +200,9 @@ fn request(args: &Args) -> SimulateRequest {
         scalar_noise_nt: args.scalar_noise,
         flux_noise_nt: args.flux_noise,
         flux_lag_s: args.flux_lag,
+        effects: args.effects.unwrap_or_default(),
+        reference: args.reference,
+        reference_noise_nt: args.reference_noise,
     }
 }
 

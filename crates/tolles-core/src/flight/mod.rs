@@ -2,6 +2,7 @@
 //! simulated flights with known truth.
 
 pub mod attitude;
+pub mod effects;
 pub mod environment;
 pub mod field_estimate;
 pub mod igrf;

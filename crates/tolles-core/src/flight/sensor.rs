@@ -51,15 +51,22 @@ pub struct Sensors {
     pub flux_noise_nt: f64,
     /// The fluxgate's other errors (its `noise_nt` is ignored in favour of `flux_noise_nt`).
     pub fluxgate: Fluxgate,
+    /// Standard deviation of the white noise (nT) of a reference magnetometer that reads the
+    /// earth's field without the aircraft's, as a tail stinger far from the airframe does;
+    /// `None`: the flight has no reference magnetometer.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reference_noise_nt: Option<f64>,
 }
 
 impl Default for Sensors {
-    /// A caesium magnetometer (0.01 nT) and a survey fluxgate (0.5 nT), otherwise ideal.
+    /// A caesium magnetometer (0.01 nT) and a survey fluxgate (0.5 nT), otherwise ideal; no
+    /// reference magnetometer.
     fn default() -> Self {
         Self {
             scalar_noise_nt: 0.01,
             flux_noise_nt: 0.5,
             fluxgate: Fluxgate::default(),
+            reference_noise_nt: None,
         }
     }
 }

@@ -18,12 +18,17 @@
 //! the body frame. The aircraft adds `H = P + I·B + E·dB/dt` (see [`AircraftField`]), with
 //! `dB/dt` the exact rate of change of the body-frame earth field as the aircraft rotates, plus
 //! the optional [`Extras`]: a second-order induced field and a field proportional to an
-//! electrical current. The scalar magnetometer reads `|B + H|` without linearisation, plus white
-//! noise; the fluxgate reads `B` through its [`Fluxgate`] errors, `lag_s` late.
+//! electrical current, and the optional cabin [`Effects`] that the Tolles-Lawson model cannot
+//! represent (a saturating load, a control surface, temperature-dependent magnetisation; see
+//! [`crate::flight::effects`]). The scalar magnetometer reads `|B + H|` without linearisation,
+//! plus white noise; the fluxgate reads `B` through its [`Fluxgate`] errors, `lag_s` late; a
+//! reference magnetometer, if the [`Sensors`] have one, reads `|B|` plus its own noise.
 //!
 //! The aircraft flies at `speed_mps` along its heading; the track's position only matters for
 //! the main field's gradient and for geology.
 
+pub use crate::flight::effects::Effects;
+use crate::flight::effects::EffectsTrack;
 use crate::flight::environment::{Environment, Location};
 use crate::flight::igrf::IgrfError;
 use crate::flight::plan::Plan;
@@ -197,6 +202,10 @@ pub struct Scenario {
     pub aircraft: AircraftField,
     /// Effects beyond the Tolles-Lawson model.
     pub extras: Extras,
+    /// Cabin effects the Tolles-Lawson model cannot represent, with their channels; none by
+    /// default.
+    #[serde(default, skip_serializing_if = "Effects::is_empty")]
+    pub effects: Effects,
     /// Sensor errors.
     pub sensors: Sensors,
     /// Seed of the noise.
@@ -204,7 +213,7 @@ pub struct Scenario {
 }
 
 impl Scenario {
-    /// 10 Hz, 60 m/s, the default uniform earth field, default sensors, no extras.
+    /// 10 Hz, 60 m/s, the default uniform earth field, default sensors, no extras, no effects.
     pub fn new(aircraft: AircraftField, seed: u64) -> Self {
         Self {
             fs_hz: 10.0,
@@ -212,6 +221,7 @@ impl Scenario {
             environment: Environment::uniform(EarthField::default()),
             aircraft,
             extras: Extras::default(),
+            effects: Effects::default(),
             sensors: Sensors::default(),
             seed,
         }
@@ -227,6 +237,9 @@ pub enum SimError {
     /// A noise level is negative or not finite.
     #[error("noise levels must be finite and ≥ 0")]
     Noise,
+    /// A parameter of the cabin effects is out of range.
+    #[error("cabin effects: {0}")]
+    Effects(&'static str),
     /// The flight plan has no segment.
     #[error("the flight plan is empty")]
     EmptyPlan,
@@ -262,6 +275,14 @@ pub struct SimulatedFlight {
     pub flux: VectorSeries,
     /// Current of the [`CurrentSource`] (A); empty without one.
     pub current_a: Vec<f64>,
+    /// The reference magnetometer's reading (nT); empty without one.
+    pub reference_nt: Vec<f64>,
+    /// Current of the effects' saturating load (A); empty without one.
+    pub load_a: Vec<f64>,
+    /// Angle of the effects' control surface (degrees); empty without one.
+    pub flap_deg: Vec<f64>,
+    /// Temperature of the effects' magnetised structure (°C); empty without it.
+    pub temperature_c: Vec<f64>,
     /// Truth: the earth's field magnitude without the aircraft (nT), geology and diurnal
     /// variation included.
     pub earth_nt: Vec<f64>,
@@ -271,7 +292,15 @@ pub struct SimulatedFlight {
     pub anomaly_nt: Vec<f64>,
     /// Truth: the diurnal variation (nT).
     pub diurnal_nt: Vec<f64>,
+    /// Truth: what the cabin effects add to the scalar, `|B + H| − |B + H − H_effects|` (nT);
+    /// empty without effects.
+    pub effects_nt: Vec<f64>,
 }
+
+/// The random stream (of the scenario's seed) of the reference magnetometer's noise; the
+/// sensor noise uses stream 0, the effects' schedules
+/// [`crate::flight::effects::SCHEDULE_STREAM`].
+const REFERENCE_STREAM: u64 = 1;
 
 /// Step (s) of the central difference that gives `dB/dt` from the plan's continuous attitude.
 const DERIVATIVE_STEP_S: f64 = 1e-4;
@@ -296,6 +325,14 @@ pub fn simulate_with_progress(
     let mut rng = ChaCha8Rng::seed_from_u64(scenario.seed);
     let scalar_noise = normal(scenario.sensors.scalar_noise_nt);
     let flux_noise = normal(scenario.sensors.flux_noise_nt);
+    // The reference's noise and the effects' schedules come from streams of their own, so a
+    // flight with them has the sensor noise of the same flight without them.
+    let mut reference_rng = ChaCha8Rng::seed_from_u64(scenario.seed);
+    reference_rng.set_stream(REFERENCE_STREAM);
+    let reference_noise = scenario.sensors.reference_noise_nt.map(normal);
+    let effects = &scenario.effects;
+    let track =
+        (!effects.is_empty()).then(|| EffectsTrack::new(effects, scenario.seed, plan.duration_s()));
     let env = &scenario.environment;
     let (mut north, mut east) = (0.0, 0.0);
     let mut out = SimulatedFlight::default();
@@ -308,10 +345,19 @@ pub fn simulate_with_progress(
         let ned = env.field_ned(north, east, t)?;
         let b = attitude.to_body(ned);
         let current = scenario.extras.current.map(|c| c.at(t));
-        let h = add(
+        let mut h = add(
             interference(&scenario.aircraft, b, body_rate(plan, ned, t)),
             extra_field(&scenario.extras, b, current),
         );
+        if let Some(track) = &track {
+            let now = track.at(t);
+            let without = norm(add(b, h));
+            h = add(h, effects.field(&now, b, &scenario.aircraft));
+            out.effects_nt.push(norm(add(b, h)) - without);
+            out.load_a.extend(now.load_a);
+            out.flap_deg.extend(now.flap_deg);
+            out.temperature_c.extend(now.temperature_c);
+        }
         let total = add(b, h);
         let lagged = plan
             .attitude((t - scenario.sensors.fluxgate.lag_s).max(0.0))
@@ -340,6 +386,10 @@ pub fn simulate_with_progress(
         out.flux.y.push(flux[1]);
         out.flux.z.push(flux[2]);
         out.current_a.extend(current);
+        if let Some(noise) = &reference_noise {
+            out.reference_nt
+                .push(norm(b) + noise.sample(&mut reference_rng));
+        }
         north += scenario.speed_mps * dt * attitude.yaw.cos();
         east += scenario.speed_mps * dt * attitude.yaw.sin();
     }
@@ -354,10 +404,12 @@ fn check(plan: &Plan, scenario: &Scenario) -> Result<(), SimError> {
     let s = &scenario.sensors;
     if ![s.scalar_noise_nt, s.flux_noise_nt]
         .iter()
+        .chain(&s.reference_noise_nt)
         .all(|v| v.is_finite() && *v >= 0.0)
     {
         return Err(SimError::Noise);
     }
+    scenario.effects.check().map_err(SimError::Effects)?;
     if plan.segments().is_empty() {
         return Err(SimError::EmptyPlan);
     }
@@ -480,6 +532,61 @@ mod tests {
     }
 
     #[test]
+    fn effects_add_their_truth_and_channels_and_keep_the_noise() {
+        let plan = BoxPlan::default().build();
+        let plain = Installation::Cabin.scenario(8);
+        let with = Scenario {
+            effects: Effects::typical(),
+            ..plain.clone()
+        };
+        let (a, b) = (
+            simulate(&plan, &plain).unwrap(),
+            simulate(&plan, &with).unwrap(),
+        );
+        assert!(a.effects_nt.is_empty() && a.load_a.is_empty() && a.reference_nt.is_empty());
+        let n = b.tt.len();
+        for column in [&b.effects_nt, &b.load_a, &b.flap_deg, &b.temperature_c] {
+            assert_eq!(column.len(), n);
+        }
+        // The same noise: the scalars differ by the effects' truth alone.
+        assert_eq!(a.flux, b.flux);
+        for k in 0..n {
+            let added = b.scalar[k] - a.scalar[k];
+            assert!((added - b.effects_nt[k]).abs() < 1e-6, "{k}: {added}");
+            let aircraft = b.interference_nt[k] - a.interference_nt[k];
+            assert!((aircraft - b.effects_nt[k]).abs() < 1e-6);
+        }
+        let spread = b.effects_nt.iter().fold(f64::MIN, |m, v| m.max(*v))
+            - b.effects_nt.iter().fold(f64::MAX, |m, v| m.min(*v));
+        assert!((5.0..80.0).contains(&spread), "{spread} nT");
+    }
+
+    #[test]
+    fn the_reference_reads_the_earth_field_with_noise_of_its_own() {
+        let plan = BoxPlan::default().build();
+        let plain = Installation::Cabin.scenario(9);
+        let mut with = plain.clone();
+        with.sensors.reference_noise_nt = Some(0.02);
+        let (a, b) = (
+            simulate(&plan, &plain).unwrap(),
+            simulate(&plan, &with).unwrap(),
+        );
+        assert_eq!(a.scalar, b.scalar);
+        let noise: Vec<f64> = (0..b.tt.len())
+            .map(|k| b.reference_nt[k] - b.earth_nt[k])
+            .collect();
+        let rms = (noise.iter().map(|v| v * v).sum::<f64>() / noise.len() as f64).sqrt();
+        assert!((0.015..0.025).contains(&rms), "{rms}");
+        // Independent of the scalar's noise.
+        let scalar_noise: Vec<f64> = (0..b.tt.len())
+            .map(|k| b.scalar[k] - b.earth_nt[k] - b.interference_nt[k])
+            .collect();
+        let dot: f64 = noise.iter().zip(&scalar_noise).map(|(x, y)| x * y).sum();
+        let correlation = dot / (noise.len() as f64 * rms * 0.01);
+        assert!(correlation.abs() < 0.1, "{correlation}");
+    }
+
+    #[test]
     fn bad_scenarios_are_errors() {
         let mut s = Scenario::new(AircraftField::default(), 1);
         s.fs_hz = 0.0;
@@ -489,5 +596,18 @@ mod tests {
         );
         let s = Scenario::new(AircraftField::default(), 1);
         assert_eq!(simulate(&Plan::default(), &s), Err(SimError::EmptyPlan));
+        let mut s = Scenario::new(AircraftField::default(), 1);
+        s.sensors.reference_noise_nt = Some(-1.0);
+        assert_eq!(
+            simulate(&BoxPlan::default().build(), &s),
+            Err(SimError::Noise)
+        );
+        s.sensors.reference_noise_nt = None;
+        s.effects = Effects::typical();
+        s.effects.load.as_mut().unwrap().saturation_a = -1.0;
+        assert!(matches!(
+            simulate(&BoxPlan::default().build(), &s),
+            Err(SimError::Effects(_))
+        ));
     }
 }

@@ -8,6 +8,7 @@ use crate::progress::{Progress, Stage};
 use output::{write_flight, Sidecar};
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
+use tolles_core::flight::effects::{ControlSurface, Effects, SaturatingLoad, Temperature};
 use tolles_core::flight::environment::{Diurnal, Environment, Geology, Location};
 use tolles_core::flight::igrf::decimal_year;
 use tolles_core::flight::plan::{BoxPlan, PatentPlan, Plan, SurveyPlan};
@@ -74,6 +75,92 @@ impl FromStr for Preset {
     }
 }
 
+/// Which cabin effects the Tolles-Lawson model cannot represent a flight has (see
+/// [`tolles_core::flight::effects`]): read from `load,flap,temp`, `all` or `none`.
+///
+/// ```
+/// use tolles::simulate::CabinEffects;
+/// let some: CabinEffects = "temp,load".parse().unwrap();
+/// assert_eq!(some.to_string(), "load,temp");
+/// assert_eq!("all".parse::<CabinEffects>().unwrap(), CabinEffects::ALL);
+/// assert!("none".parse::<CabinEffects>().unwrap().is_empty());
+/// assert!("wind".parse::<CabinEffects>().is_err());
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct CabinEffects {
+    /// A saturating load current, column `cur_load` (A).
+    pub load: bool,
+    /// A control surface turning a magnetised part, column `pos_flap` (degrees).
+    pub flap: bool,
+    /// Temperature-dependent magnetisation, column `temp` (°C).
+    pub temp: bool,
+}
+
+impl CabinEffects {
+    /// All three effects.
+    pub const ALL: CabinEffects = CabinEffects {
+        load: true,
+        flap: true,
+        temp: true,
+    };
+
+    /// True when no effect is asked for.
+    pub fn is_empty(self) -> bool {
+        !(self.load || self.flap || self.temp)
+    }
+
+    /// The core's effects: the typical load, control surface and temperature drift of each
+    /// effect asked for.
+    pub fn effects(self) -> Effects {
+        Effects {
+            load: self.load.then(SaturatingLoad::typical),
+            surface: self.flap.then(ControlSurface::typical),
+            temperature: self.temp.then(Temperature::typical),
+        }
+    }
+
+    fn names(self) -> impl Iterator<Item = &'static str> {
+        [
+            (self.load, "load"),
+            (self.flap, "flap"),
+            (self.temp, "temp"),
+        ]
+        .into_iter()
+        .filter_map(|(on, name)| on.then_some(name))
+    }
+}
+
+impl std::fmt::Display for CabinEffects {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.is_empty() {
+            return f.write_str("none");
+        }
+        f.write_str(&self.names().collect::<Vec<_>>().join(","))
+    }
+}
+
+impl FromStr for CabinEffects {
+    type Err = String;
+    fn from_str(text: &str) -> Result<Self, String> {
+        let mut effects = CabinEffects::default();
+        for name in text.split(',').map(|n| n.trim().to_ascii_lowercase()) {
+            match name.as_str() {
+                "load" => effects.load = true,
+                "flap" => effects.flap = true,
+                "temp" => effects.temp = true,
+                "all" => effects = CabinEffects::ALL,
+                "none" => {}
+                _ => {
+                    return Err(format!(
+                        "expected load, flap, temp (comma-separated), all or none, got {name:?}"
+                    ))
+                }
+            }
+        }
+        Ok(effects)
+    }
+}
+
 /// A uniform earth field instead of IGRF.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct UniformField {
@@ -134,6 +221,14 @@ pub struct SimulateRequest {
     pub flux_noise_nt: f64,
     /// How late the fluxgate samples relative to the scalar (s).
     pub flux_lag_s: f64,
+    /// Cabin effects the Tolles-Lawson model cannot represent, each with its channel; none by
+    /// default.
+    pub effects: CabinEffects,
+    /// Whether to write a reference magnetometer free of the aircraft's field (`mag_ref`, nT);
+    /// a flight with any `effects` always has one.
+    pub reference: bool,
+    /// The reference magnetometer's white noise (nT).
+    pub reference_noise_nt: f64,
 }
 
 impl Default for SimulateRequest {
@@ -162,6 +257,9 @@ impl Default for SimulateRequest {
             scalar_noise_nt: 0.01,
             flux_noise_nt: 0.5,
             flux_lag_s: 0.0,
+            effects: CabinEffects::default(),
+            reference: false,
+            reference_noise_nt: 0.01,
         }
     }
 }
@@ -284,6 +382,12 @@ fn scenario(r: &SimulateRequest) -> Result<Scenario> {
     scenario.sensors.scalar_noise_nt = r.scalar_noise_nt;
     scenario.sensors.flux_noise_nt = r.flux_noise_nt;
     scenario.sensors.fluxgate.lag_s = r.flux_lag_s;
+    // The effects are for fits against a reference (`fit --reference mag_ref`), so a flight
+    // with them has one.
+    if r.reference || !r.effects.is_empty() {
+        scenario.sensors.reference_noise_nt = Some(r.reference_noise_nt);
+    }
+    scenario.effects = r.effects.effects();
     Ok(scenario)
 }
 
@@ -368,6 +472,40 @@ mod tests {
             "date 2025-02-30: 2025-02-30 is not a calendar date"
         );
         assert!((parse_date("2025-07-01").unwrap() - 2025.4959).abs() < 1e-4);
+    }
+
+    #[test]
+    fn effects_bring_their_columns_and_a_reference() {
+        let request = SimulateRequest {
+            cycles: 1,
+            effects: "flap,temp".parse().unwrap(),
+            ..SimulateRequest::default()
+        };
+        let simulated = simulate(&request, &Silent).unwrap();
+        let names: Vec<&str> = output::flight_columns(&simulated.flight)
+            .iter()
+            .map(|(name, _)| *name)
+            .collect();
+        let added = &names[names.len() - 4..];
+        assert_eq!(added, ["mag_ref", "pos_flap", "temp", "truth_effects"]);
+        let plain = simulate(
+            &SimulateRequest {
+                cycles: 1,
+                ..SimulateRequest::default()
+            },
+            &Silent,
+        )
+        .unwrap();
+        assert_eq!(names.len(), output::flight_columns(&plain.flight).len() + 4);
+        let reference_only = SimulateRequest {
+            cycles: 1,
+            reference: true,
+            ..SimulateRequest::default()
+        };
+        let flight = simulate(&reference_only, &Silent).unwrap().flight;
+        assert_eq!(flight.reference_nt.len(), flight.tt.len());
+        assert_eq!(flight.scalar, plain.flight.scalar);
+        assert!(flight.effects_nt.is_empty());
     }
 
     #[test]

@@ -1,6 +1,7 @@
 //! Writing simulated flights: a table in the layout `tolles fit` reads
-//! ([`tolles_io::simulation::COLUMNS`]), and a JSON sidecar with every parameter and the true
-//! aircraft terms.
+//! ([`tolles_io::simulation::COLUMNS`], then those of
+//! [`tolles_io::simulation::EFFECT_COLUMNS`] the flight has), and a JSON sidecar with every
+//! parameter and the true aircraft terms.
 //!
 //! ```no_run
 //! use tolles::simulate::output::{write_flight, Sidecar};
@@ -18,16 +19,17 @@ use std::path::Path;
 use tolles_core::flight::plan::Plan;
 use tolles_core::flight::sim::{Scenario, SimulatedFlight};
 use tolles_core::model::interpret::{AircraftField, PatentTerms};
-use tolles_io::simulation::{write_named_columns, COLUMNS};
+use tolles_io::simulation::{write_named_columns, COLUMNS, EFFECT_COLUMNS};
 use tolles_io::IoError;
 
-/// Writes `flight` with the columns of [`COLUMNS`] that it has, in the format `path`'s
-/// extension names (CSV, HDF5 or Parquet; any other extension is an error).
+/// Writes `flight` with the columns of [`COLUMNS`] and [`EFFECT_COLUMNS`] that it has, in the
+/// format `path`'s extension names (CSV, HDF5 or Parquet; any other extension is an error).
 pub fn write_flight(path: &Path, flight: &SimulatedFlight) -> Result<(), IoError> {
     write_named_columns(path, &flight_columns(flight))
 }
 
-/// The columns of [`COLUMNS`] that `flight` has, named, in that order.
+/// The columns of [`COLUMNS`], then of [`EFFECT_COLUMNS`], that `flight` has, named, in that
+/// order.
 pub fn flight_columns(flight: &SimulatedFlight) -> Vec<(&'static str, &[f64])> {
     let all: [&[f64]; 18] = [
         &flight.tt,
@@ -49,12 +51,38 @@ pub fn flight_columns(flight: &SimulatedFlight) -> Vec<(&'static str, &[f64])> {
         &flight.anomaly_nt,
         &flight.diurnal_nt,
     ];
+    let effects: [&[f64]; 5] = [
+        &flight.reference_nt,
+        &flight.load_a,
+        &flight.flap_deg,
+        &flight.temperature_c,
+        &flight.effects_nt,
+    ];
     COLUMNS
         .iter()
         .zip(all)
+        .chain(EFFECT_COLUMNS.iter().zip(effects))
         .filter(|(_, values)| values.len() == flight.tt.len())
         .map(|((name, _), values)| (*name, values))
         .collect()
+}
+
+/// The entries of [`EFFECT_COLUMNS`] a flight through `scenario` writes.
+fn effect_columns(
+    scenario: &Scenario,
+) -> impl Iterator<Item = &'static (&'static str, &'static str)> {
+    let effects = &scenario.effects;
+    let has = [
+        scenario.sensors.reference_noise_nt.is_some(),
+        effects.load.is_some(),
+        effects.surface.is_some(),
+        effects.temperature.is_some(),
+        !effects.is_empty(),
+    ];
+    EFFECT_COLUMNS
+        .iter()
+        .zip(has)
+        .filter_map(|(column, has)| has.then_some(column))
 }
 
 /// The true aircraft terms.
@@ -83,7 +111,8 @@ pub struct Sidecar<'a> {
     pub scenario: &'a Scenario,
     /// The true aircraft terms.
     pub truth: Truth,
-    /// What each CSV column means.
+    /// What each CSV column means: every column a flight can have, then those of a reference
+    /// magnetometer and cabin effects this flight has.
     pub columns: Vec<(&'static str, &'static str)>,
 }
 
@@ -101,7 +130,11 @@ impl<'a> Sidecar<'a> {
                 physical: scenario.aircraft,
                 patent: scenario.aircraft.patent_terms(),
             },
-            columns: COLUMNS.to_vec(),
+            columns: COLUMNS
+                .iter()
+                .chain(effect_columns(scenario))
+                .copied()
+                .collect(),
         }
     }
 
