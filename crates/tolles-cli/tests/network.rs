@@ -157,3 +157,78 @@ fn network_flags_need_a_reference() {
         "{said}"
     );
 }
+
+/// Standard deviation (nT) of `mag_1_c − truth_earth` in the compensated `csv`.
+fn error_vs_earth(csv: &str) -> f64 {
+    let values = common::column(csv, "mag_1_c").into_iter();
+    let pairs = values.zip(common::column(csv, "truth_earth"));
+    let e: Vec<f64> = pairs.filter_map(|(c, t)| Some(c? - t?)).collect();
+    common::std(&e)
+}
+
+/// Issue 48's protocol: fitted on a cabin box, compensating another flight (a survey with
+/// another seed), the network's error against the linear model's, with the simulated effects
+/// (`cur_load`, `pos_flap`, `temp`) and without them.
+#[test]
+fn on_a_held_out_flight_the_network_beats_the_linear_model_only_where_there_is_something_to_learn()
+{
+    for effects in [true, false] {
+        let dir = TempDir::new().unwrap();
+        let d = dir.path();
+        let kind: &[&str] = if effects {
+            &["--effects", "all"]
+        } else {
+            &["--reference"]
+        };
+        let simulate = |plan: &[&str], seed: &str, out: &str| {
+            let args = [
+                &["simulate", "--preset", "cabin"][..],
+                plan,
+                kind,
+                &["--seed", seed, "--out", out],
+            ];
+            run_in(d, &args.concat());
+        };
+        simulate(&["--plan", "box"], "1", "box.csv");
+        simulate(&["--plan", "survey", "--lines", "3"], "2", "survey.csv");
+        let mut fit = vec![
+            "fit",
+            "box.csv",
+            "--scalar",
+            "mag_1_uc",
+            "--vector",
+            "flux_a",
+            "--reference",
+            "mag_ref",
+        ];
+        if effects {
+            fit.extend(["--extra", "cur_load,pos_flap,temp"]);
+        }
+        run_in(d, &[&fit[..], &["--out", "linear.json"]].concat());
+        run_in(
+            d,
+            &[&fit[..], &["--network", "--out", "network.json"]].concat(),
+        );
+        let error = |model: &str| {
+            let out = format!("{model}.csv");
+            run_in(
+                d,
+                &[
+                    "compensate",
+                    "survey.csv",
+                    "--model",
+                    &format!("{model}.json"),
+                    "--out",
+                    &out,
+                ],
+            );
+            error_vs_earth(&std::fs::read_to_string(d.join(out)).unwrap())
+        };
+        let (linear, learned) = (error("linear"), error("network"));
+        println!("effects {effects}: held-out flight error linear {linear:.4} nT, with the network {learned:.4} nT");
+        match effects {
+            true => assert!(learned <= 0.5 * linear, "{learned} vs {linear}"),
+            false => assert!(learned <= 1.05 * linear, "{learned} vs {linear}"),
+        }
+    }
+}
