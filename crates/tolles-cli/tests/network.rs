@@ -75,12 +75,20 @@ fn a_kept_network_is_applied_whole_and_in_chunks_and_refused_where_it_cannot_be(
         d,
         &[
             &fit[..],
-            &["--network", "--network-seed", "7", "--out", "net.json"],
+            &[
+                "--network",
+                "--inputs",
+                "ins_roll",
+                "--network-seed",
+                "7",
+                "--out",
+                "net.json",
+            ],
         ]
         .concat(),
     );
     assert!(
-        said.contains("network (4 inputs, layers 8, swish, seed 7)"),
+        said.contains("network (5 inputs, layers 8, swish, seed 7)"),
         "{said}"
     );
     assert!(said.contains("kept"), "{said}");
@@ -106,9 +114,10 @@ fn a_kept_network_is_applied_whole_and_in_chunks_and_refused_where_it_cannot_be(
     );
     assert!(whole == chunked, "whole and bounded compensation differ");
 
-    let said = one_line_failure(d, &["stream", "--model", "net.json"]);
+    stream_equals_batch(d, "survey.csv", "net.json");
+    let said = one_line_failure(d, &["stream", "--model", "net.json", "--adapt"]);
     assert!(said.contains("holds a network"), "{said}");
-    let damaged = model.replacen("\"inputs\": 4", "\"inputs\": 5", 1);
+    let damaged = model.replacen("\"inputs\": 5", "\"inputs\": 6", 1);
     assert_ne!(damaged, model);
     std::fs::write(d.join("damaged.json"), damaged).unwrap();
     let compensate = [
@@ -122,6 +131,53 @@ fn a_kept_network_is_applied_whole_and_in_chunks_and_refused_where_it_cannot_be(
     let said = one_line_failure(d, &compensate);
     assert!(said.contains("network"), "{said}");
     assert!(!d.join("x.csv").exists());
+}
+
+/// `stream` of `survey` with `model` gives, line by line, what `compensate --level model`
+/// gives (to 1e-9 nT): the network included, in both.
+fn stream_equals_batch(dir: &Path, survey: &str, model: &str) {
+    let batch = [
+        "compensate",
+        survey,
+        "--model",
+        model,
+        "--level",
+        "model",
+        "--out",
+        "batch.csv",
+    ];
+    run_in(dir, &batch);
+    let batch = std::fs::read_to_string(dir.join("batch.csv")).unwrap();
+    let input = std::fs::read_to_string(dir.join(survey)).unwrap();
+    let out = tolles()
+        .current_dir(dir)
+        .args(["stream", "--model", model])
+        .write_stdin(input)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let streamed = String::from_utf8(out.stdout).unwrap();
+    let (batch, streamed) = (
+        common::column(&batch, "mag_1_c"),
+        common::column(&streamed, "mag_1_c"),
+    );
+    assert_eq!(batch.len(), streamed.len());
+    let mut compared = 0;
+    for (row, (b, s)) in batch.iter().zip(&streamed).enumerate() {
+        match (b, s) {
+            (Some(b), Some(s)) => {
+                assert!((b - s).abs() < 1e-9, "row {row}: batch {b}, stream {s}");
+                compared += 1;
+            }
+            (None, None) => {}
+            other => panic!("row {row}: {other:?}"),
+        }
+    }
+    assert!(compared > batch.len() / 2, "{compared} rows compared");
 }
 
 /// The one line `tolles ARGS` fails with in `dir` (a header on standard input).

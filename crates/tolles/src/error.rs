@@ -354,8 +354,8 @@ pub enum Error {
         /// The period asked for (s).
         period_s: f64,
     },
-    /// A fit a live stream cannot apply yet: it holds a network (`fit --network`).
-    #[error("{}: the fit of {scalar} holds a network, which `stream` does not apply yet; compensate the file with `tolles compensate`, or fit without --network for streaming", path.display())]
+    /// A fit whose network `stream --adapt` cannot adapt (`fit --network`).
+    #[error("{}: the fit of {scalar} holds a network, which --adapt cannot adapt; stream without --adapt, or fit without --network", path.display())]
     StreamNetwork {
         /// The model file.
         path: PathBuf,

@@ -143,7 +143,7 @@ impl Setup {
         let mut extras: Vec<ExtraChannel> = Vec::new();
         let mut specs = Vec::new();
         for m in &model.fits {
-            if m.network.is_some() {
+            if m.network.is_some() && request.adapt {
                 return Err(Error::StreamNetwork {
                     path: path.to_path_buf(),
                     scalar: m.scalar.clone(),
@@ -170,6 +170,16 @@ impl Setup {
             let spec =
                 ScalarSpec::new(&m.scalar, j, design, &fit.coefficients, fit.level_nt, ratio)
                     .with_magnitude(fit.magnitude);
+            // The network's own channels are read and passed like extra channels, unfiltered.
+            let spec = match &m.network {
+                Some(learned) => {
+                    let channels = (learned.channels.iter())
+                        .map(|name| index_of(&mut extras, ExtraChannel::plain(name)))
+                        .collect();
+                    spec.with_network(learned.network.clone(), channels)
+                }
+                None => spec,
+            };
             specs.push(match request.uncertainty {
                 true => spec.with_trust(Trust {
                     uncertainty: fit.uncertainty.clone(),

@@ -49,6 +49,7 @@ use crate::model::coverage::Coverage;
 use crate::model::design::Design;
 use crate::model::limits::{scalar_usable, show_nt, FLUX_MAGNITUDE_RANGE_NT};
 use crate::model::magnitude::{exact_at, field_per_unit, Magnitude};
+use crate::model::network::Network;
 use crate::model::terms::Column;
 use crate::model::uncertainty::Uncertainty;
 use crate::model::vector::norm3;
@@ -167,6 +168,9 @@ pub struct ScalarSpec {
     magnitude: Magnitude,
     /// What each sample's standard error and extrapolation flag come from, when asked for.
     trust: Option<Trust>,
+    /// A network added to the correction, and the stream's extra channels (indices) it reads
+    /// after the fluxgate and the design's extra channels.
+    network: Option<(Network, Vec<usize>)>,
 }
 
 /// A scalar's uncertainty and the span its calibration flew, for each sample's standard error
@@ -208,7 +212,37 @@ impl ScalarSpec {
             level_nt,
             magnitude: Magnitude::Linear,
             trust: None,
+            network: None,
         }
+    }
+
+    /// The same model with `network` added to its correction (see
+    /// [`crate::model::network::features`]); `channels` are the stream's extra channels
+    /// (indices into its list) the network reads after the fluxgate and the design's extra
+    /// channels.
+    pub fn with_network(self, network: Network, channels: Vec<usize>) -> Self {
+        Self {
+            network: Some((network, channels)),
+            ..self
+        }
+    }
+
+    /// The network's correction (nT) for field `b` (nT), the design's extra channels `extras`
+    /// and the sample's stream extra channels `all_extras`; 0 without a network.
+    fn learned(&self, b: [f64; 3], extras: &[f64], all_extras: &[f64]) -> f64 {
+        let Some((network, channels)) = &self.network else {
+            return 0.0;
+        };
+        let magnitude = norm3(b);
+        let mut x: Vec<f64> = b.iter().map(|v| v / magnitude).collect();
+        x.push(magnitude);
+        x.extend_from_slice(extras);
+        x.extend(
+            channels
+                .iter()
+                .map(|&c| all_extras.get(c).copied().unwrap_or(f64::NAN)),
+        );
+        network.evaluate(&x)
     }
 
     /// The same model giving each sample's standard error and extrapolation flag.
@@ -662,7 +696,8 @@ impl<T> StreamCompensator<T> {
             let used = self.fluxgate_extras[j].iter().map(|e| held.extras[*e]);
             self.extra_values.extend(used);
             let field = spec.field(b, d, &self.extra_values, row);
-            self.values[i] = scalar - (field - spec.level_nt);
+            let learned = spec.learned(b, &self.extra_values, &held.extras);
+            self.values[i] = scalar - (field + learned - spec.level_nt);
             let trust_row = &mut self.trust_row[..spec.columns.len()];
             let (sigma, outside) = spec
                 .trust_at(b, d, &self.extra_values, trust_row)
