@@ -324,12 +324,16 @@ impl<'t> Flight<'t> {
     /// The same flight with the extra channels `specs` read from its table (conditioned later,
     /// by [`Flight::lagged_inputs`], which knows the sample rate).
     pub fn with_extras(mut self, specs: &[ExtraChannel]) -> Result<Self> {
-        self.extras = specs
-            .iter()
-            .map(|spec| self.table.numeric(&spec.name))
-            .collect::<std::result::Result<Vec<_>, _>>()?;
+        self.extras = self.columns(specs.iter().map(|spec| spec.name.as_str()))?;
         self.extra_specs = specs.to_vec();
         Ok(self)
+    }
+
+    /// The columns `names` of the flight's table, as numbers (their units); the first that
+    /// is missing or not numeric is the error.
+    pub fn columns<'n>(&self, names: impl IntoIterator<Item = &'n str>) -> Result<Vec<Vec<f64>>> {
+        let columns = names.into_iter().map(|name| self.table.numeric(name));
+        Ok(columns.collect::<std::result::Result<_, _>>()?)
     }
 
     /// The fluxgates as they read `lag_s` seconds later (see `tolles_core::fit::lag::shifted`),

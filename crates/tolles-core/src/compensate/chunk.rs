@@ -160,12 +160,6 @@ impl<'m> ChunkCompensator<'m> {
         }
     }
 
-    /// Rows a chunk waits for after its last: the conditioning's delay and the central
-    /// difference's one row.
-    pub fn delay(&self) -> usize {
-        Conditioner::new(self.channels(false)).delay() + 1
-    }
-
     /// The whole flight as one chunk.
     pub fn whole(self, rows: RawRows<'_>) -> ChunkField {
         let n = rows.len();

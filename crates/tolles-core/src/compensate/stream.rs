@@ -49,7 +49,7 @@ use crate::model::coverage::Coverage;
 use crate::model::design::Design;
 use crate::model::limits::{scalar_usable, show_nt, FLUX_MAGNITUDE_RANGE_NT};
 use crate::model::magnitude::{exact_at, field_per_unit, Magnitude};
-use crate::model::network::Network;
+use crate::model::network::{Network, Scratch};
 use crate::model::terms::Column;
 use crate::model::uncertainty::Uncertainty;
 use crate::model::vector::norm3;
@@ -228,21 +228,24 @@ impl ScalarSpec {
     }
 
     /// The network's correction (nT) for field `b` (nT), the design's extra channels `extras`
-    /// and the sample's stream extra channels `all_extras`; 0 without a network.
-    fn learned(&self, b: [f64; 3], extras: &[f64], all_extras: &[f64]) -> f64 {
+    /// and the sample's stream extra channels `all_extras`, in `room`; 0 without a network.
+    fn learned(
+        &self,
+        b: [f64; 3],
+        (extras, all_extras): (&[f64], &[f64]),
+        (x, scratch): &mut (Vec<f64>, Scratch),
+    ) -> f64 {
         let Some((network, channels)) = &self.network else {
             return 0.0;
         };
         let magnitude = norm3(b);
-        let mut x: Vec<f64> = b.iter().map(|v| v / magnitude).collect();
+        x.clear();
+        x.extend(b.iter().map(|v| v / magnitude));
         x.push(magnitude);
         x.extend_from_slice(extras);
-        x.extend(
-            channels
-                .iter()
-                .map(|&c| all_extras.get(c).copied().unwrap_or(f64::NAN)),
-        );
-        network.evaluate(&x)
+        let channel = |c: &usize| all_extras.get(*c).copied().unwrap_or(f64::NAN);
+        x.extend(channels.iter().map(channel));
+        network.evaluate_with(x, scratch)
     }
 
     /// The same model giving each sample's standard error and extrapolation flag.
@@ -420,6 +423,8 @@ pub struct StreamCompensator<T> {
     /// design order: a sample of the fluxgate is usable only with all of them finite.
     fluxgate_extras: Vec<Vec<usize>>,
     extra_values: Vec<f64>,
+    /// Room for a network's inputs and layers, so a sample allocates nothing.
+    network_room: (Vec<f64>, Scratch),
 }
 
 impl<T> StreamCompensator<T> {
@@ -451,6 +456,7 @@ impl<T> StreamCompensator<T> {
             fluxgate_extras: vec![Vec::new(); fluxgates_len],
             extras: Vec::new(),
             extra_values: Vec::new(),
+            network_room: (Vec::new(), Scratch::default()),
         }
     }
 
@@ -696,7 +702,8 @@ impl<T> StreamCompensator<T> {
             let used = self.fluxgate_extras[j].iter().map(|e| held.extras[*e]);
             self.extra_values.extend(used);
             let field = spec.field(b, d, &self.extra_values, row);
-            let learned = spec.learned(b, &self.extra_values, &held.extras);
+            let room = &mut self.network_room;
+            let learned = spec.learned(b, (&self.extra_values, &held.extras), room);
             self.values[i] = scalar - (field + learned - spec.level_nt);
             let trust_row = &mut self.trust_row[..spec.columns.len()];
             let (sigma, outside) = spec

@@ -31,6 +31,7 @@
 //! ([`EffectsTrack`]), on a random stream of its own: the sensor noise of a flight with effects
 //! is the noise of the same flight without them.
 
+use super::sim::{add, norm};
 use crate::model::interpret::AircraftField;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -417,14 +418,6 @@ fn dipole(m: [f64; 3], r: [f64; 3]) -> [f64; 3] {
     let along = m[0] * u[0] + m[1] * u[1] + m[2] * u[2];
     let scale = MU0_OVER_4PI_NT_M_PER_A / distance.powi(3);
     [0, 1, 2].map(|i| scale * (3.0 * along * u[i] - m[i]))
-}
-
-fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-}
-
-fn norm(v: [f64; 3]) -> f64 {
-    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
 }
 
 #[cfg(test)]

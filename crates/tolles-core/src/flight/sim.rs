@@ -454,11 +454,11 @@ fn normal(sigma: f64) -> Normal<f64> {
     Normal::new(0.0, sigma).expect("checked: finite and non-negative")
 }
 
-fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+pub(super) fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
 }
 
-fn norm(v: [f64; 3]) -> f64 {
+pub(super) fn norm(v: [f64; 3]) -> f64 {
     (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
 }
 

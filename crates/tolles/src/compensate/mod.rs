@@ -190,9 +190,7 @@ pub fn flight_field(
         ..Setup::new(fit.applied(), fs_hz, fs_hz / fit.fit.fs_hz)
     };
     let extras: Vec<&[f64]> = flight.extras.iter().map(Vec::as_slice).collect();
-    let channels = (network_channels(fit).iter())
-        .map(|name| flight.table.numeric(name))
-        .collect::<std::result::Result<Vec<_>, _>>()?;
+    let channels = flight.columns(network_channels(fit).iter().map(String::as_str))?;
     let channels: Vec<&[f64]> = channels.iter().map(Vec::as_slice).collect();
     let engine = ChunkCompensator::new(setup);
     let mut computed = engine.whole_series(&flight.flux, &extras, &channels, tt);

@@ -63,9 +63,7 @@ pub fn learn(
 ) -> Result<()> {
     let design = &model.fit.settings.design;
     let inputs = flight.lagged_inputs(model.fit.lag_s, fs_hz);
-    let channels = (request.channels.iter())
-        .map(|name| flight.table.numeric(name))
-        .collect::<std::result::Result<Vec<_>, _>>()?;
+    let channels = flight.columns(request.channels.iter().map(String::as_str))?;
     let channel_slices: Vec<&[f64]> = channels.iter().map(Vec::as_slice).collect();
     let extras: Vec<&[f64]> = inputs.extras.iter().map(Vec::as_slice).collect();
     let columns = features(&inputs.series[0], &extras, &channel_slices);
@@ -97,7 +95,7 @@ pub fn learn(
         return Ok(());
     }
     // The model's level is the calibration's mean correction, the network's share included.
-    model.fit.level_nt += finite_mean(&learned);
+    model.fit.level_nt += tolles_core::compensate::finite_mean(&learned);
     model.network = Some(LearnedCorrection {
         channels: request.channels.clone(),
         network: trained.network,
@@ -116,10 +114,6 @@ fn rms(values: impl Iterator<Item = f64>) -> f64 {
         .filter(|v| v.is_finite())
         .fold((0.0, 0usize), |(s, n), v| (s + v * v, n + 1));
     (sum / n as f64).sqrt()
-}
-
-fn finite_mean(values: &[f64]) -> f64 {
-    tolles_core::compensate::finite_mean(values)
 }
 
 #[cfg(test)]
