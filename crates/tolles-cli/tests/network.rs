@@ -222,8 +222,8 @@ fn error_vs_earth(csv: &str) -> f64 {
     common::std(&e)
 }
 
-/// Issue 48's protocol: fitted on a cabin box, compensating another flight (a survey with
-/// another seed), the network's error against the linear model's, with the simulated effects
+/// Issue 48's protocol: fitted on two cabin boxes given as two files, compensating another
+/// flight (a survey with another seed), the network's error against the linear model's, with the simulated effects
 /// (`cur_load`, `pos_flap`, `temp`) and without them.
 #[test]
 fn on_a_held_out_flight_the_network_beats_the_linear_model_only_where_there_is_something_to_learn()
@@ -246,10 +246,13 @@ fn on_a_held_out_flight_the_network_beats_the_linear_model_only_where_there_is_s
             run_in(d, &args.concat());
         };
         simulate(&["--plan", "box"], "1", "box.csv");
+        simulate(&["--plan", "box", "--roll", "15"], "3", "box_15.csv");
         simulate(&["--plan", "survey", "--lines", "3"], "2", "survey.csv");
+        // Two calibration flights, fitted together.
         let mut fit = vec![
             "fit",
             "box.csv",
+            "box_15.csv",
             "--scalar",
             "mag_1_uc",
             "--vector",

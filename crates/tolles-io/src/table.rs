@@ -644,6 +644,27 @@ impl Table {
         }
     }
 
+    /// The columns `names` (as numbers; missing values NaN) of every table in `parts`, one
+    /// table's rows after another's, with one row of NaN between two tables: a missing sample
+    /// ends every run, so no filter or difference reaches from one flight into the next, and
+    /// time may start again in the next. A name that some part lacks is an error naming that
+    /// part's file. The result is named `path`; messages name its rows by number.
+    pub fn stacked(path: &Path, parts: &[Table], names: &[String]) -> Result<Table, IoError> {
+        let mut columns: Vec<Vec<f64>> = vec![Vec::new(); names.len()];
+        for (k, part) in parts.iter().enumerate() {
+            let indices =
+                (names.iter().map(|name| part.index_of(name))).collect::<Result<Vec<_>, _>>()?;
+            for (column, values) in columns.iter_mut().zip(part.numeric_many(&indices)) {
+                if k > 0 {
+                    column.push(f64::NAN);
+                }
+                column.extend(values?);
+            }
+        }
+        let columns = columns.into_iter().map(Column::Numbers).collect();
+        Table::from_columns(path, names.to_vec(), columns, None)
+    }
+
     /// True when the table has a column named `name` (see [`Table::index_of`] on case).
     pub fn has(&self, name: &str) -> bool {
         self.index_of(name).is_ok()
@@ -1009,6 +1030,34 @@ mod tests {
 
     fn read(text: &str) -> Result<Table, IoError> {
         Table::csv().reader(text.as_bytes(), "t.csv")
+    }
+
+    #[test]
+    fn stacked_tables_keep_every_row_apart_by_one_missing_row_and_name_a_lacking_file() {
+        let first = read("tt,a,b\n0,1,x\n1,2,y\n").unwrap();
+        let second = Table::csv()
+            .reader("b,a,tt\n,3,0\n".as_bytes(), "second.csv")
+            .unwrap();
+        let names = ["tt".to_string(), "a".to_string()];
+        let stacked = Table::stacked(Path::new("both"), &[first, second], &names).unwrap();
+        assert_eq!(stacked.headers(), names);
+        assert_eq!(stacked.numeric("a").unwrap()[..2], [1.0, 2.0]);
+        let tt = stacked.numeric("tt").unwrap();
+        assert!(tt[2].is_nan() && tt.len() == 4 && tt[3] == 0.0, "{tt:?}");
+        let lacking = Table::csv()
+            .reader("a\n1\n".as_bytes(), "third.csv")
+            .unwrap();
+        let error = Table::stacked(
+            Path::new("x"),
+            &[read("tt,a\n0,1\n").unwrap(), lacking],
+            &names,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            error.contains("third.csv") && error.contains("tt"),
+            "{error}"
+        );
     }
 
     #[test]

@@ -10,6 +10,7 @@ use crate::progress::{Progress, Stage};
 use crate::read::{checked_names, Flight};
 use crate::warning::Warning;
 use rayon::prelude::*;
+use std::path::Path;
 use std::str::FromStr;
 use tolles_core::fit::{
     fit as fit_scalar, lag, Band, FitSettings, Lambda, MagnitudeChoice, Target,
@@ -17,6 +18,7 @@ use tolles_core::fit::{
 use tolles_core::model::design::Design;
 pub use tolles_core::model::extra::ExtraChannel;
 use tolles_core::model::terms::TermSet;
+use tolles_io::schema::{LINE_COLUMN, TIME_COLUMN};
 use tolles_io::table::Table;
 
 /// Which terms to fit: a fixed set, or a choice by cross-validation.
@@ -371,6 +373,85 @@ pub fn fit(
     })
 }
 
+/// Fits every scalar of `request` on several calibration flights at once, each its own runs:
+/// the flights' rows are stacked with a missing row between two flights (see
+/// [`Table::stacked`]), so no filter, difference or lag reaches from one into the next and time
+/// may start again in each. The flights must share a sample rate (within 1 %); with one
+/// flight this is [`fit`].
+pub fn fit_flights(
+    flights: &[Table],
+    request: &FitRequest,
+    progress: &dyn Progress,
+    warnings: &mut Vec<Warning>,
+) -> Result<ModelFile> {
+    let [first, rest @ ..] = flights else {
+        return Err(Error::Invalid(
+            "fit needs at least one calibration flight".into(),
+        ));
+    };
+    if rest.is_empty() {
+        return fit(first, request, progress, warnings);
+    }
+    let fs_hz = common_sample_rate(flights, request.fs_hz, warnings)?;
+    // Time and lines are kept when every flight has them (lines as numbers); the rest is
+    // needed.
+    let optional = [TIME_COLUMN, LINE_COLUMN];
+    let usable =
+        |f: &Table, name: &str| f.has(name) && (name != LINE_COLUMN || f.numeric(name).is_ok());
+    let mut names = request.columns();
+    names.retain(|name| !optional.contains(&name.as_str()));
+    names.sort();
+    names.dedup();
+    let shared = optional
+        .iter()
+        .filter(|name| flights.iter().all(|f| usable(f, name)));
+    names.extend(shared.map(|name| name.to_string()));
+    let label: Vec<String> = flights
+        .iter()
+        .map(|f| f.path().display().to_string())
+        .collect();
+    let stacked = Table::stacked(Path::new(&label.join(" + ")), flights, &names)?;
+    let request = FitRequest {
+        fs_hz: Some(fs_hz),
+        ..request.clone()
+    };
+    fit(&stacked, &request, progress, warnings)
+}
+
+/// The sample rate (Hz) every one of `flights` has, within 1 % of the first's (`fs_hz` when
+/// given); an error naming the first flight that differs.
+fn common_sample_rate(
+    flights: &[Table],
+    fs_hz: Option<f64>,
+    warnings: &mut Vec<Warning>,
+) -> Result<f64> {
+    let mut rates = Vec::with_capacity(flights.len());
+    for flight in flights {
+        let tt = match flight.has(TIME_COLUMN) {
+            true => Some(flight.numeric(TIME_COLUMN)?),
+            false => None,
+        };
+        let (rate, warning) = crate::read::sample_rate(flight, tt.as_deref(), fs_hz)?;
+        warnings.extend(warning);
+        rates.push(rate);
+    }
+    let first = rates[0];
+    match rates
+        .iter()
+        .position(|r| ((r - first) / first).abs() > 0.01)
+    {
+        None => Ok(first),
+        Some(k) => Err(Error::Invalid(format!(
+            "{}: sampled at {:.4} Hz, but {} at {:.4} Hz; calibration flights fitted together \
+             must share a sample rate (resample one, or fit them apart)",
+            flights[k].path().display(),
+            rates[k],
+            flights[0].path().display(),
+            first
+        ))),
+    }
+}
+
 /// What `model`'s linear correction leaves of its `target` (nT) on the calibration `flight`.
 fn linear_residual(
     flight: &Flight,
@@ -506,6 +587,94 @@ mod tests {
         let request = FitRequest::new(names(&["mag_1_uc", "mag_1_uc"]), names(&["flux_a"]));
         let e = fit(&table, &request, &crate::Silent, &mut warnings).unwrap_err();
         assert!(matches!(e, crate::Error::RepeatedColumn { .. }), "{e}");
+    }
+
+    /// `table`'s fit columns (and time, when `with_time`) over `rows`, with the rows in
+    /// `blank` missing in every column.
+    fn part(
+        table: &Table,
+        rows: std::ops::Range<usize>,
+        blank: &[usize],
+        with_time: bool,
+    ) -> Table {
+        let mut names = names(&["mag_1_uc", "flux_a_x", "flux_a_y", "flux_a_z"]);
+        if with_time {
+            names.push(TIME_COLUMN.into());
+        }
+        let columns = (names.iter())
+            .map(|name| {
+                let values = table.numeric(name).unwrap()[rows.clone()].to_vec();
+                let values = (values.iter().enumerate()).map(|(k, v)| {
+                    if blank.contains(&(rows.start + k)) {
+                        f64::NAN
+                    } else {
+                        *v
+                    }
+                });
+                tolles_io::table::Column::Numbers(values.collect())
+            })
+            .collect();
+        Table::from_columns(
+            format!("{}-{}.csv", rows.start, rows.end),
+            names,
+            columns,
+            None,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn flights_fitted_together_are_never_differenced_across() {
+        let table = flight(PlanKind::Box, 1);
+        let (n, k) = (table.len(), table.len() / 2);
+        let request = FitRequest {
+            fs_hz: Some(10.0),
+            ..FitRequest::magnav(names(&["mag_1_uc"]), names(&["flux_a"]))
+        };
+        let coefficients = |flights: &[Table]| {
+            let model = fit_flights(flights, &request, &crate::Silent, &mut Vec::new()).unwrap();
+            model.fits[0].fit.coefficients.clone()
+        };
+        // Without a time column only the row between the files keeps them apart.
+        let whole = coefficients(&[part(&table, 0..n, &[k], false)]);
+        let apart = coefficients(&[
+            part(&table, 0..k, &[], false),
+            part(&table, k + 1..n, &[], false),
+        ]);
+        let joined = coefficients(&[part(&table, 0..n, &[], false)]);
+        let differ = |a: &[f64], b: &[f64]| {
+            a.iter()
+                .zip(b)
+                .map(|(x, y)| (x - y).abs() / x.abs().max(1e-12))
+                .fold(0.0, f64::max)
+        };
+        println!(
+            "stacked vs split: {:.1e}; vs joined: {:.1e}",
+            differ(&whole, &apart),
+            differ(&joined, &apart)
+        );
+        assert!(differ(&whole, &apart) < 1e-9);
+        assert!(differ(&joined, &apart) > 1e-6);
+    }
+
+    #[test]
+    fn flights_at_different_sample_rates_are_refused_naming_one() {
+        let table = flight(PlanKind::Box, 1);
+        let first = part(&table, 0..2000, &[], true);
+        let mut second = part(&table, 2000..4000, &[], true);
+        let tt = second.numeric(TIME_COLUMN).unwrap();
+        second
+            .set_numeric(TIME_COLUMN, tt.iter().map(|t| t / 2.0).collect())
+            .unwrap();
+        let request = FitRequest::new(names(&["mag_1_uc"]), names(&["flux_a"]));
+        let error = fit_flights(&[first, second], &request, &crate::Silent, &mut Vec::new())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            error.contains("2000-4000.csv") && error.contains("sample rate"),
+            "{error}"
+        );
+        assert!(!error.contains('\n'), "{error}");
     }
 
     #[test]

@@ -36,8 +36,13 @@ Examples:
 #[derive(clap::Args)]
 #[command(after_help = EXAMPLES)]
 pub struct Args {
-    #[arg(help = flight_help!("Calibration flight; time column `tt` (s) if present"))]
-    pub cal: PathBuf,
+    #[arg(
+        required = true,
+        help = flight_help!("Calibration flight; time column `tt` (s) if present. Several \
+            flights (at one sample rate) are fitted together, each its own runs: nothing is \
+            filtered or differenced across two files")
+    )]
+    pub cal: Vec<PathBuf>,
     /// Uncompensated scalar magnetometer column (nT), e.g. mag_1_uc; several, separated by
     /// commas (mag_3_uc,mag_4_uc,mag_5_uc) or by repeating the flag, give one model holding a
     /// fit per scalar
@@ -156,16 +161,16 @@ fn parse_on_off(text: &str) -> Result<bool, String> {
 
 pub fn run(args: Args) -> Result<()> {
     let request = request(&args)?;
-    let table = args
-        .select
-        .read_parsing(&args.cal, Use::Fit, &request.columns())?;
+    let flights = (args.cal.iter())
+        .map(|path| (args.select).read_parsing(path, Use::Fit, &request.columns()))
+        .collect::<Result<Vec<Table>>>()?;
     let out = crate::input::out_path(args.out);
-    fit_and_save(&table, &request, out.as_deref())
+    fit_and_save(&flights, &request, out.as_deref())
 }
 
-fn fit_and_save(table: &Table, request: &FitRequest, out: Option<&Path>) -> Result<()> {
+fn fit_and_save(flights: &[Table], request: &FitRequest, out: Option<&Path>) -> Result<()> {
     let mut warnings = Vec::new();
-    let fitted = tolles::fit::fit(table, request, &Terminal::default(), &mut warnings);
+    let fitted = tolles::fit::fit_flights(flights, request, &Terminal::default(), &mut warnings);
     // The summary ends with each verdict.
     warnings.retain(|w| !matches!(w, tolles::Warning::Verdict { .. }));
     render::warnings(&mut warnings, Use::Fit);
@@ -183,8 +188,12 @@ fn fit_and_save(table: &Table, request: &FitRequest, out: Option<&Path>) -> Resu
         Some(path) => tolles::model::save_model(&model, path).or_render()?,
         None => writeln!(std::io::stdout(), "{}", model.to_json()).context("writing the model")?,
     }
+    let path = model
+        .fits
+        .first()
+        .and_then(|f| f.calibration_flight.clone());
     for fit in &model.fits {
-        let _ = render::fit_summary(fit, table.path());
+        let _ = render::fit_summary(fit, path.as_deref().map_or(flights[0].path(), Path::new));
     }
     Ok(())
 }
