@@ -113,6 +113,7 @@ fn a_kept_network_is_applied_whole_and_in_chunks_and_refused_where_it_cannot_be(
         std::fs::read(d.join("chunked.csv")).unwrap(),
     );
     assert!(whole == chunked, "whole and bounded compensation differ");
+    the_report_shows_the_network_s_share(d);
 
     stream_equals_batch(d, "survey.csv", "net.json");
     let said = one_line_failure(d, &["stream", "--model", "net.json", "--adapt"]);
@@ -131,6 +132,40 @@ fn a_kept_network_is_applied_whole_and_in_chunks_and_refused_where_it_cannot_be(
     let said = one_line_failure(d, &compensate);
     assert!(said.contains("network"), "{said}");
     assert!(!d.join("x.csv").exists());
+}
+
+/// The report of the survey with `net.json` says how much the network corrects, and that is
+/// about the `3 nT · tanh(4 B̂x)` the survey holds beyond the linear model.
+fn the_report_shows_the_network_s_share(d: &Path) {
+    run_in(
+        d,
+        &[
+            "report",
+            "survey.csv",
+            "--model",
+            "net.json",
+            "--out",
+            "rep",
+        ],
+    );
+    let html = std::fs::read_to_string(d.join("rep/index.html")).unwrap();
+    assert!(html.contains("A network (8 hidden units, swish, 5 inputs)"));
+    let said = html
+        .split("part varies by ")
+        .nth(1)
+        .expect("the network's share");
+    let network_std: f64 = said.split(' ').next().unwrap().parse().unwrap();
+    let csv = std::fs::read_to_string(d.join("survey.csv")).unwrap();
+    let flux = ["flux_a_x", "flux_a_y", "flux_a_z"].map(|c| common::column(&csv, c));
+    let effect: Vec<f64> = (0..flux[0].len())
+        .map(|k| {
+            let b = flux.each_ref().map(|c| c[k].unwrap());
+            3.0 * (4.0 * b[0] / b.iter().map(|v| v * v).sum::<f64>().sqrt()).tanh()
+        })
+        .collect();
+    let effect_std = common::std(&effect);
+    println!("the network's part: {network_std} nT; the effect: {effect_std:.4} nT");
+    assert!((network_std / effect_std - 1.0).abs() < 0.3);
 }
 
 /// `stream` of `survey` with `model` gives, line by line, what `compensate --level model`

@@ -130,6 +130,22 @@ pub struct ReportData {
     pub heading_vs_truth: Option<HeadingLevels>,
     /// The aircraft's attitude row by row, as far as the flight records it.
     pub attitude: Attitude,
+    /// The linear model's and the network's parts of the correction, when the model has a
+    /// network.
+    pub network: Option<NetworkShare>,
+}
+
+/// How much of a correction a model's network makes, on the flight reported.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NetworkShare {
+    /// The linear model's correction minus its mean (nT).
+    pub linear_nt: Vec<f64>,
+    /// The network's correction minus its mean (nT).
+    pub network_nt: Vec<f64>,
+    /// Standard deviation of the linear correction (nT).
+    pub linear_std_nt: f64,
+    /// Standard deviation of the network's correction (nT).
+    pub network_std_nt: f64,
 }
 
 /// The attitude of the rows reported (deg), each angle `None` when the flight lacks its
@@ -367,7 +383,12 @@ fn build_scalar(
         }
         _ => None,
     };
+    let network = match &fit {
+        Some(fit) => network_share(table, fit, request.fs_hz)?,
+        None => None,
+    };
     Ok(ReportData {
+        network,
         lines,
         heading_vs_truth,
         track: track(table),
@@ -415,6 +436,31 @@ fn centred(x: &[f64]) -> Vec<f64> {
     let finite: Vec<f64> = x.iter().copied().filter(|v| v.is_finite()).collect();
     let mean = finite.iter().sum::<f64>() / finite.len().max(1) as f64;
     x.iter().map(|v| v - mean).collect()
+}
+
+/// The network's share of `fit`'s correction of `table`, when `fit` has a network.
+fn network_share(
+    table: &Table,
+    fit: &ScalarModel,
+    fs_hz: Option<f64>,
+) -> Result<Option<NetworkShare>> {
+    if fit.network.is_none() {
+        return Ok(None);
+    }
+    let flight = crate::read::Flight::from_table(table, &fit.scalar, &fit.vectors)?
+        .with_extras(&fit.fit.settings.design.extras)?;
+    let request = crate::compensate::CompensateRequest {
+        fs_hz,
+        ..Default::default()
+    };
+    // The warnings were given when the compensated scalar was computed.
+    let parts = crate::compensate::correction_parts(&flight, fit, &request, &mut Vec::new())?;
+    Ok(parts.map(|parts| NetworkShare {
+        linear_std_nt: std_dev(&parts.linear_nt),
+        network_std_nt: std_dev(&parts.network_nt),
+        linear_nt: centred(&parts.linear_nt),
+        network_nt: centred(&parts.network_nt),
+    }))
 }
 
 fn truth_error(compensated: &[f64], truth: &[f64]) -> TruthError {

@@ -303,7 +303,26 @@ fn model_banner(report: Report, fit: &ScalarModel, path: Option<&std::path::Path
             format!(" Verdict: {}: {}.", v.grade, reasons.join("; "))
         }
     };
+    text += &fit.network.as_ref().map_or(String::new(), network_sentence);
     report.paragraph(text)
+}
+
+/// What the model's network is and what it earned on the calibration flight.
+fn network_sentence(learned: &tolles::model::LearnedCorrection) -> String {
+    let network = &learned.network;
+    let hidden: Vec<String> = (network.layers.iter().rev().skip(1).rev())
+        .map(|layer| layer.outputs.to_string())
+        .collect();
+    format!(
+        " A network ({} hidden units, {}, {} inputs) adds a learned correction to the linear \
+         one: on the calibration's held-out stretches it left {:.4} nT (rms) where the linear \
+         model left {:.4} nT.",
+        hidden.join(" + "),
+        network.activation,
+        network.inputs.len(),
+        learned.judged_network_rms_nt,
+        learned.judged_linear_rms_nt
+    )
 }
 
 fn summary(report: Report, data: &ReportData) -> Report {
@@ -633,6 +652,17 @@ fn signals(mut report: Report, data: &ReportData) -> Report {
             )),
         ));
     }
+    if let Some(share) = &data.network {
+        report = report.line_plot(over_time(
+            "The correction's parts, mean removed".into(),
+            "correction − mean (nT)",
+            vec![
+                series("linear model", &share.linear_nt, Colour::UNCOMPENSATED),
+                series("network", &share.network_nt, Colour::COMPENSATED),
+            ],
+            Some(network_caption(share)),
+        ));
+    }
     let attitude: Vec<Series> = [
         ("roll", data.attitude.roll_deg.as_deref(), Colour::CYCLE[3]),
         (
@@ -653,6 +683,17 @@ fn signals(mut report: Report, data: &ReportData) -> Report {
         ));
     }
     report
+}
+
+/// The network's share of the correction, in words.
+fn network_caption(share: &tolles::report::NetworkShare) -> String {
+    format!(
+        "What compensation subtracts is the sum of the two. The network's part varies by {:.4} nT \
+         (standard deviation), {:.1} % of the linear part's {:.4} nT.",
+        share.network_std_nt,
+        100.0 * share.network_std_nt / share.linear_std_nt,
+        share.linear_std_nt
+    )
 }
 
 /// Says what the shaded windows of the time series are, when there are any.

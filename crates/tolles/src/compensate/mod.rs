@@ -166,6 +166,42 @@ pub fn compensate_flight(
     ))
 }
 
+/// The two parts of a correction with a learned network, row by row (nT).
+#[derive(Debug, Clone, PartialEq)]
+pub struct CorrectionParts {
+    /// The linear model's correction `A·β` (nT, the level not subtracted); NaN where it cannot
+    /// be computed.
+    pub linear_nt: Vec<f64>,
+    /// What the network adds to it (nT); their sum is what `compensate` subtracts before the
+    /// level.
+    pub network_nt: Vec<f64>,
+}
+
+/// [`flight_field`]'s correction split into the linear model's part and its network's, when
+/// `fit` has a network (`None` otherwise): the network's part is the correction with it less
+/// the correction without it, each computed as `compensate` computes it.
+pub fn correction_parts(
+    flight: &Flight,
+    fit: &ScalarModel,
+    request: &CompensateRequest,
+    warnings: &mut Vec<Warning>,
+) -> Result<Option<CorrectionParts>> {
+    if fit.network.is_none() {
+        return Ok(None);
+    }
+    let whole = flight_field(flight, fit, request, warnings)?.field;
+    let linear_only = ScalarModel {
+        network: None,
+        ..fit.clone()
+    };
+    let linear_nt = flight_field(flight, &linear_only, request, &mut Vec::new())?.field;
+    let network_nt = whole.iter().zip(&linear_nt).map(|(w, l)| w - l).collect();
+    Ok(Some(CorrectionParts {
+        linear_nt,
+        network_nt,
+    }))
+}
+
 /// `fit`'s correction `A·β` (nT) of every row of `flight`, by the one compensator given the
 /// flight as one chunk (`tolles_core::compensate::chunk`): the fluxgate read as late as the
 /// fit found it lags, the extra channels conditioned as the model says, the eddy terms
