@@ -210,6 +210,8 @@ struct FitSettings {
     network_layers: Vec<usize>,
     network_activation: String,
     network_seed: u64,
+    /// `stretches` or `lines`.
+    network_held_out: String,
 }
 
 impl FitSettings {
@@ -250,6 +252,8 @@ impl FitSettings {
                     ..Default::default()
                 },
                 channels: self.inputs,
+                held_out: (self.network_held_out.parse())
+                    .map_err(|e| failed(format!("network_held_out: {e}")))?,
             }),
         };
         Ok(FitRequest {

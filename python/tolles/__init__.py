@@ -442,6 +442,7 @@ def fit(
     network_layers: Sequence[int] = (8,),
     network_activation: str = "swish",
     network_seed: int = 0,
+    network_held_out: str = "stretches",
 ) -> Model:
     """Learn the aircraft's field from a calibration flight, as ``tolles fit`` does.
 
@@ -508,6 +509,11 @@ def fit(
     network_seed : int
         Seed of the initial weights and the order of the rows: the same data and seed give
         the same model.
+    network_held_out : {"stretches", "lines"}
+        What training holds out to stop and to judge the network: 50 equal stretches of time
+        (the default, the better model on the flights measured) or whole flight lines of the
+        ``line`` column (the harder judge; stretches when there are fewer than 10 lines or one
+        holds over a tenth of the rows), as ``tolles fit --network-held-out``.
     """
     columns = _Columns(df)
     lam = None if isinstance(lambda_, str) and lambda_.strip().lower() == "auto" else float(lambda_)
@@ -530,6 +536,7 @@ def fit(
         "network_layers": [_count(n, "network_layers", 1) for n in network_layers],
         "network_activation": str(network_activation),
         "network_seed": _count(network_seed, "network_seed", 0),
+        "network_held_out": str(network_held_out),
     }
     text, notes = _tolles.fit(*columns.args(), settings)
     _warn(notes)

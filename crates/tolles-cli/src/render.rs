@@ -198,11 +198,12 @@ pub fn fit_summary(model: &ScalarModel, cal: &Path) -> std::io::Result<()> {
             .collect();
         writeln!(
             err,
-            "  network ({} inputs, layers {}, {}, seed {}): on held-out stretches it leaves {:.4} nT where the linear model leaves {:.4} nT; kept (epoch {} of {})",
+            "  network ({} inputs, layers {}, {}, seed {}): on held-out {} it leaves {:.4} nT where the linear model leaves {:.4} nT; kept (epoch {} of {})",
             learned.network.inputs.len(),
             layers.join(","),
             learned.network.activation,
             learned.seed,
+            learned.held_out,
             learned.judged_network_rms_nt,
             learned.judged_linear_rms_nt,
             learned.best_epoch,

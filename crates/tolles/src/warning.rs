@@ -134,6 +134,8 @@ pub enum Warning {
         linear_rms_nt: f64,
         /// RMS (nT) the linear model and the network leave there.
         network_rms_nt: f64,
+        /// What was held out to judge.
+        held_out: crate::model::HeldOut,
     },
     /// Not a problem: raw channels (SGL's `AZIMUTH`, …) a table also answers to under tolles'
     /// names, as `(raw, tolles)`, because it has no columns of those names.
@@ -247,9 +249,10 @@ impl fmt::Display for Warning {
                 scalar,
                 linear_rms_nt,
                 network_rms_nt,
+                held_out,
             } => write!(
                 f,
-                "the network for {scalar} was not kept: on held-out stretches it leaves {network_rms_nt:.4} nT against the linear model's {linear_rms_nt:.4} nT (it must leave at least {:.0} % less)",
+                "the network for {scalar} was not kept: on held-out {held_out} it leaves {network_rms_nt:.4} nT against the linear model's {linear_rms_nt:.4} nT (it must leave at least {:.0} % less)",
                 100.0 * crate::fit::network::KEEP_MARGIN
             ),
             Warning::UnlikelySampleRate { path, hz } => write!(

@@ -137,6 +137,17 @@ pub struct Args {
     /// same data and seed give the same model bytes
     #[arg(long, value_name = "N", default_value_t = 0, requires = "network")]
     pub network_seed: u64,
+    /// What the network's training holds out to stop and to judge it: `stretches` (50 equal
+    /// stretches of time, the default: the better model on flights measured) or `lines`
+    /// (whole flight lines of the `line` column: the harder judge, when there are 10 or more
+    /// lines, none over a tenth of the rows; else stretches)
+    #[arg(
+        long,
+        value_name = "WHAT",
+        default_value = "stretches",
+        requires = "network"
+    )]
+    pub network_held_out: tolles::model::HeldOut,
     #[command(flatten)]
     pub select: crate::select::Selection,
 }
@@ -224,6 +235,7 @@ fn network_request(args: &Args) -> Result<Option<NetworkRequest>> {
             ..NetworkSettings::default()
         },
         channels,
+        held_out: args.network_held_out,
     }))
 }
 

@@ -315,11 +315,12 @@ fn network_sentence(learned: &tolles::model::LearnedCorrection) -> String {
         .collect();
     format!(
         " A network ({} hidden units, {}, {} inputs) adds a learned correction to the linear \
-         one: on the calibration's held-out stretches it left {:.4} nT (rms) where the linear \
-         model left {:.4} nT.",
+         one: on the calibration's held-out {} it left {:.4} nT (rms) where the linear model \
+         left {:.4} nT.",
         hidden.join(" + "),
         network.activation,
         network.inputs.len(),
+        learned.held_out,
         learned.judged_network_rms_nt,
         learned.judged_linear_rms_nt
     )

@@ -107,6 +107,44 @@ pub struct LearnedCorrection {
     pub best_epoch: usize,
     /// The seed of the initial weights and the order of the rows.
     pub seed: u64,
+    /// What was held out from training to stop and to judge: whole lines or stretches of time
+    /// (absent before: stretches).
+    #[serde(default)]
+    pub held_out: HeldOut,
+}
+
+/// The pieces of a calibration flight that `fit --network` deals to training, stopping and
+/// judging.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum HeldOut {
+    /// Equal stretches of time, none across two flights.
+    #[default]
+    Stretches,
+    /// Whole flight lines (contiguous rows of one value of the `line` column, in one flight).
+    Lines,
+}
+
+impl std::str::FromStr for HeldOut {
+    type Err = String;
+
+    /// `stretches` or `lines`.
+    fn from_str(text: &str) -> Result<Self, String> {
+        match text.trim().to_ascii_lowercase().as_str() {
+            "stretches" => Ok(HeldOut::Stretches),
+            "lines" => Ok(HeldOut::Lines),
+            _ => Err(format!("expected stretches or lines, got {text:?}")),
+        }
+    }
+}
+
+impl std::fmt::Display for HeldOut {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            HeldOut::Stretches => "stretches",
+            HeldOut::Lines => "lines",
+        })
+    }
 }
 
 impl ScalarModel {

@@ -3,7 +3,8 @@
 mod file;
 
 pub use file::{
-    compensated_name, LearnedCorrection, ModelFile, ScalarModel, FORMAT, FS_RANGE_HZ, VERSION,
+    compensated_name, HeldOut, LearnedCorrection, ModelFile, ScalarModel, FORMAT, FS_RANGE_HZ,
+    VERSION,
 };
 
 use crate::error::Result;
