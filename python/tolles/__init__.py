@@ -52,7 +52,7 @@ if TYPE_CHECKING:
 else:
     _pd = _OnFirstUse("pandas")
 
-from . import _tolles
+from . import _tolles, network
 from ._tolles import TollesError, __version__
 
 __all__ = [
@@ -65,6 +65,7 @@ __all__ = [
     "fit",
     "fom",
     "load_model",
+    "network",
     "plan",
     "procedure",
     "read",
@@ -375,7 +376,8 @@ class Model:
     @property
     def network(self) -> Optional[dict]:
         """The network ``fit(..., network=True)`` kept (its ``channels``, ``network`` weights,
-        input names and normalisation, and the judged RMS values in nT), or ``None``."""
+        input names and normalisation, and the judged RMS values in nT), or ``None``.
+        :mod:`tolles.network` evaluates it with NumPy alone."""
         return self._only().get("network")
 
     @property
