@@ -21,6 +21,12 @@ def _binary() -> Path:
 
 
 @pytest.fixture(scope="session")
+def tolles_bin():
+    """The path of the `tolles` command the tests compare with (TOLLES_BIN, else release)."""
+    return _binary()
+
+
+@pytest.fixture(scope="session")
 def cli():
     """Runs `tolles ARGS…` and returns its standard output; fails on a non-zero exit."""
     binary = _binary()
