@@ -18,11 +18,10 @@ flight, `Flt1003_train.h5` … `Flt1006_train.h5`, 10 Hz, one 1-D dataset a chan
 past midnight, `line`, `flight`, `mag_1_c`, `mag_4_uc`, `flux_d_x`, `ins_roll`, `cur_strb`, …).
 It is not shipped here: give the directory that holds the files.
 
-**Several flights in one fit.** `tolles fit` reads one file, so the training flights are
-converted (`tolles convert`) and joined into one CSV of the columns the fits need, without the
-test line's rows. Every flight keeps its own time span: its `tt` is moved on by a day (86 400 s)
-for each flight before it, and the test line leaves a gap in flight 1006, so no run is filtered
-or differentiated across two flights or across the test line (tolles cuts runs at time gaps).
+**Several flights in one fit.** Each training flight is converted (`tolles convert`) to a CSV
+of the columns the fits need, without the test line's rows, and `tolles fit` is given all of
+them: it keeps each file its own runs, and the test line leaves a time gap in flight 1006, so
+no run is filtered or differentiated across two flights or across the test line.
 
 **Error.** MagNav's `err_segs`: the error `compensated − mag_1_c` (nT) with its mean removed
 per segment, a segment being one flight line, and its standard deviation (n − 1, as Julia's
@@ -54,7 +53,6 @@ from pathlib import Path
 
 TRAIN_FLIGHTS = ("1003", "1004", "1005", "1006")
 TEST_LINE = "1006.08"
-DAY_S = 86400.0
 # Channels MagNav's own examples feed its networks (currents and attitude), taken as --inputs
 # when every flight has them. ins_yaw is left out: a heading jumps 360° at north.
 DEFAULT_INPUTS = ("ins_roll", "ins_pitch", "cur_strb", "cur_outpwr", "cur_ac_hi", "cur_ac_lo",
@@ -118,34 +116,33 @@ def check_columns(headers, needed):
             sys.exit(f"error: Flt{flight}_train.h5 has no column {', '.join(missing)}")
 
 
-def join_training_flights(csvs, columns, test_line, out):
-    """Writes `columns` of every flight but the test line's rows into `out`, each flight's tt
-    moved on by a day per flight before it. Returns (training rows, test rows left out)."""
+def training_flights(csvs, columns, test_line, work):
+    """Writes `columns` of each flight in `csvs` ({flight: path}) but the test line's rows into
+    its own `work/train_FLIGHT.csv`. Returns (the paths, training rows, test rows left out)."""
     kept = left_out = 0
-    with open(out, "w", newline="") as o:
-        writer = csv.writer(o)
-        writer.writerow(columns)
-        for k, path in enumerate(csvs):
-            with open(path, newline="") as f:
-                reader = csv.reader(f)
-                names = next(reader)
-                at = [names.index(c) for c in columns]
-                tt, line = names.index("tt"), names.index("line")
-                for row in reader:
-                    if len(row) <= max(at) or row[tt] == "":
-                        continue  # a padded row of a shorter side array (dt, N)
-                    if same_line(row[line], test_line):
-                        left_out += 1
-                        continue
-                    cells = [row[i] for i in at]
-                    cells[0] = repr(float(row[tt]) + k * DAY_S)
-                    writer.writerow(cells)
-                    kept += 1
-    return kept, left_out
+    paths = []
+    for flight, path in csvs.items():
+        out = work / f"train_{flight}.csv"
+        with open(path, newline="") as f, open(out, "w", newline="") as o:
+            reader, writer = csv.reader(f), csv.writer(o)
+            names = next(reader)
+            at = [names.index(c) for c in columns]
+            tt, line = names.index("tt"), names.index("line")
+            writer.writerow(columns)
+            for row in reader:
+                if len(row) <= max(at) or row[tt] == "":
+                    continue  # a padded row of a shorter side array (dt, N)
+                if same_line(row[line], test_line):
+                    left_out += 1
+                    continue
+                writer.writerow([row[i] for i in at])
+                kept += 1
+        paths.append(out)
+    return paths, kept, left_out
 
 
 def fit(args, train, out, network, extras, inputs):
-    cli = ["fit", train, "--scalar", args.scalar, "--vector", args.vector,
+    cli = ["fit", *train, "--scalar", args.scalar, "--vector", args.vector,
            "--reference", args.reference, "--out", out]
     if extras:
         cli += ["--extra", args.extra]
@@ -184,7 +181,8 @@ def line_error(args, model, out):
 
 
 def training_set(args, work):
-    """The joined training CSV, its row counts and the --extra and --inputs channels."""
+    """The training CSVs (one a flight), their row counts and the --extra and --inputs
+    channels."""
     csvs = flights_as_csv(args, work)
     headers = {f: header(p) for f, p in csvs.items()}
     extras = base_channels(args.extra)
@@ -193,9 +191,8 @@ def training_set(args, work):
                args.reference, *extras, *inputs]
     columns = list(dict.fromkeys(columns))
     check_columns(headers, columns)
-    train = work / "train.csv"
-    kept, left_out = join_training_flights([csvs[f] for f in args.flights], columns,
-                                           args.test_line, train)
+    chosen = {f: csvs[f] for f in args.flights}
+    train, kept, left_out = training_flights(chosen, columns, args.test_line, work)
     if left_out == 0:
         sys.exit(f"error: no rows of line {args.test_line} in the training flights")
     return train, (kept, left_out), extras, inputs
@@ -290,7 +287,7 @@ def simulate_flight(args, flight, out_dir):
     tt, line, scalar = names.index("tt"), names.index("line"), names.index("mag_1_uc")
     ids = segment_ids([r[line] for r in body], flight, 8 if flight == "1006" else 0)
     # Seconds past midnight, as SGL's tt: every flight starts in the same hour of its day, so
-    # the flights' times overlap and only the protocol's day offsets keep them apart.
+    # the flights' times overlap, as they do in the real files.
     start_s = 46100.0 + 10.0 * int(flight[-1])
     named = out_dir / f"sgl_{flight}.csv"
     with open(named, "w", newline="") as f:
