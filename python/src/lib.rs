@@ -212,6 +212,8 @@ struct FitSettings {
     network_seed: u64,
     /// `stretches` or `lines`.
     network_held_out: String,
+    /// The linear model refitted with the network (model 2c).
+    network_joint: bool,
 }
 
 impl FitSettings {
@@ -254,6 +256,7 @@ impl FitSettings {
                 channels: self.inputs,
                 held_out: (self.network_held_out.parse())
                     .map_err(|e| failed(format!("network_held_out: {e}")))?,
+                joint: self.network_joint,
             }),
         };
         Ok(FitRequest {

@@ -445,6 +445,7 @@ def fit(
     network_activation: str = "swish",
     network_seed: int = 0,
     network_held_out: str = "stretches",
+    network_joint: bool = False,
 ) -> Model:
     """Learn the aircraft's field from a calibration flight, as ``tolles fit`` does.
 
@@ -516,6 +517,10 @@ def fit(
         (the default, the better model on the flights measured) or whole flight lines of the
         ``line`` column (the harder judge; stretches when there are fewer than 10 lines or one
         holds over a tenth of the rows), as ``tolles fit --network-held-out``.
+    network_joint : bool
+        Fit the linear model and the network in turn, each on what the other leaves (two
+        rounds; MagNav's model 2c), instead of the network on the fixed linear model (2b), as
+        ``tolles fit --network-joint``; kept only if the pair beats the linear model alone.
     """
     columns = _Columns(df)
     lam = None if isinstance(lambda_, str) and lambda_.strip().lower() == "auto" else float(lambda_)
@@ -539,6 +544,7 @@ def fit(
         "network_activation": str(network_activation),
         "network_seed": _count(network_seed, "network_seed", 0),
         "network_held_out": str(network_held_out),
+        "network_joint": bool(network_joint),
     }
     text, notes = _tolles.fit(*columns.args(), settings)
     _warn(notes)

@@ -318,8 +318,20 @@ fn on_a_held_out_flight_the_network_beats_the_linear_model_only_where_there_is_s
             );
             error_vs_earth(&std::fs::read_to_string(d.join(out)).unwrap())
         };
-        let (linear, learned) = (error("linear"), error("network"));
-        println!("effects {effects}: held-out flight error linear {linear:.4} nT, with the network {learned:.4} nT");
+        run_in(
+            d,
+            &[
+                &fit[..],
+                &["--network", "--network-joint", "--out", "joint.json"],
+            ]
+            .concat(),
+        );
+        let (linear, learned, joint) = (error("linear"), error("network"), error("joint"));
+        println!("effects {effects}: held-out flight error linear {linear:.4} nT, with the network {learned:.4} nT (2b), {joint:.4} nT (2c)");
+        match effects {
+            true => assert!(joint <= 0.5 * linear, "{joint} vs {linear}"),
+            false => assert!(joint <= 1.05 * linear, "{joint} vs {linear}"),
+        }
         match effects {
             true => assert!(learned <= 0.5 * linear, "{learned} vs {linear}"),
             false => assert!(learned <= 1.05 * linear, "{learned} vs {linear}"),

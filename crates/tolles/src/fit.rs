@@ -359,8 +359,16 @@ pub fn fit(
         .collect::<Result<Vec<_>>>()?;
     if let Some(network) = &request.network {
         for (model, target) in models.iter_mut().zip(&columns) {
-            let residual = linear_residual(&flight, model, target, fs_hz)?;
-            network::learn(model, &flight, &residual, fs_hz, network, warnings)?;
+            let (scalar, lag_s) = (model.scalar.clone(), model.fit.lag_s);
+            let refit = |target: &[f64]| {
+                let lag = Lag::Seconds(lag_s);
+                let fitted = fit_lagged(target, &flight, fs_hz, &settings, lag)
+                    .map_err(|e| flight.explain(e, &scalar))?;
+                Ok(ScalarModel::new(&scalar, &request.vectors, fitted)
+                    .with_reference(request.reference.as_deref())
+                    .with_calibration_flight(table.path()))
+            };
+            network::learn(model, &flight, target, fs_hz, network, &refit, warnings)?;
         }
     }
     // What `compensate`, `fom` and Python would refuse to read is refused here, unwritten.
@@ -450,21 +458,6 @@ fn common_sample_rate(
             first
         ))),
     }
-}
-
-/// What `model`'s linear correction leaves of its `target` (nT) on the calibration `flight`.
-fn linear_residual(
-    flight: &Flight,
-    model: &ScalarModel,
-    target: &[f64],
-    fs_hz: f64,
-) -> Result<Vec<f64>> {
-    let request = crate::compensate::CompensateRequest {
-        fs_hz: Some(fs_hz),
-        ..Default::default()
-    };
-    let field = crate::compensate::flight_field(flight, model, &request, &mut Vec::new())?.field;
-    Ok(target.iter().zip(field).map(|(t, f)| t - f).collect())
 }
 
 /// Band edges a model can store and a filter can take: finite (0 or ≥ Nyquist turn one off).

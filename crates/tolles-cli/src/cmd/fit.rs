@@ -148,6 +148,11 @@ pub struct Args {
         requires = "network"
     )]
     pub network_held_out: tolles::model::HeldOut,
+    /// Fit the linear model and the network in turn, each on what the other leaves (two
+    /// rounds; MagNav's model 2c trains them together), instead of the network on the fixed
+    /// linear model (model 2b, the default). Kept only if the pair beats the linear model alone
+    #[arg(long, requires = "network")]
+    pub network_joint: bool,
     #[command(flatten)]
     pub select: crate::select::Selection,
 }
@@ -236,6 +241,7 @@ fn network_request(args: &Args) -> Result<Option<NetworkRequest>> {
         },
         channels,
         held_out: args.network_held_out,
+        joint: args.network_joint,
     }))
 }
 

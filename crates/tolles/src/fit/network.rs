@@ -22,7 +22,7 @@ use crate::model::{HeldOut, LearnedCorrection};
 use crate::read::Flight;
 use crate::warning::Warning;
 use std::ops::Range;
-use tolles_core::fit::network::{train, NetworkSettings};
+use tolles_core::fit::network::{train, NetworkSettings, Trained};
 use tolles_core::model::network::{feature_names, features};
 use tolles_io::schema::LINE_COLUMN;
 
@@ -48,7 +48,14 @@ pub struct NetworkRequest {
     pub channels: Vec<String>,
     /// What to hold out from training to stop and to judge.
     pub held_out: HeldOut,
+    /// Fit the linear model and the network in turn, each on what the other leaves (MagNav's
+    /// model 2c trains them together), instead of the network on a fixed linear model (2b).
+    pub joint: bool,
 }
+
+/// Rounds of refitting the linear model and retraining the network, with
+/// [`NetworkRequest::joint`].
+pub const JOINT_ROUNDS: usize = 2;
 
 /// The most units a hidden layer may have.
 pub const MAX_UNITS: usize = 256;
@@ -68,43 +75,46 @@ pub fn check(request: &NetworkRequest) -> Result<()> {
     Ok(())
 }
 
-/// Trains a network on `residual` (nT: the fit's target less its linear correction) of
-/// `model`'s scalar on `flight` at `fs_hz` (Hz); puts it in `model` when it earns its place,
-/// else says why in `warnings`.
+/// Trains a network on what `model`'s linear correction leaves of its `target` (nT: the
+/// scalar less the reference) on `flight` at `fs_hz` (Hz); puts it in `model` when it earns
+/// its place, else says why in `warnings`. With [`NetworkRequest::joint`], the linear model
+/// and the network are then fitted in turn, each on what the other leaves ([`JOINT_ROUNDS`]
+/// times; `refit` fits the linear model to a target on every row, as the linear model alone
+/// was), and `model` becomes the pair when it earns its place against the linear model alone.
 pub fn learn(
     model: &mut ScalarModel,
     flight: &Flight,
-    residual: &[f64],
+    target: &[f64],
     fs_hz: f64,
     request: &NetworkRequest,
+    refit: &dyn Fn(&[f64]) -> Result<ScalarModel>,
     warnings: &mut Vec<Warning>,
 ) -> Result<()> {
-    let design = &model.fit.settings.design;
-    let inputs = flight.lagged_inputs(model.fit.lag_s, fs_hz);
-    let channels = flight.columns(request.channels.iter().map(String::as_str))?;
-    let channel_slices: Vec<&[f64]> = channels.iter().map(Vec::as_slice).collect();
-    let extras: Vec<&[f64]> = inputs.extras.iter().map(Vec::as_slice).collect();
-    let columns = features(&inputs.series[0], &extras, &channel_slices);
-    let columns: Vec<&[f64]> = columns.iter().map(Vec::as_slice).collect();
-    let names = feature_names(&model.vectors[0], &design.extras, &request.channels);
+    let residual = linear_residual(flight, model, target, fs_hz)?;
+    let inputs = Inputs::of(model, flight, fs_hz, request)?;
     let lines = flight.table.numeric(LINE_COLUMN).ok();
-    let (pieces, held_out) = pieces(residual, lines.as_deref(), request.held_out);
+    let (pieces, held_out) = pieces(&residual, lines.as_deref(), request.held_out);
     let roles = deal(&pieces);
-    let role = |row: usize| roles[row];
-    // The judging rows are kept from training as unusable rows are: a NaN target.
-    let target: Vec<f64> = (residual.iter().enumerate())
-        .map(|(r, v)| if role(r) == Role::Judge { f64::NAN } else { *v })
+    let judging: Vec<usize> = (0..residual.len())
+        .filter(|&r| roles[r] == Role::Judge)
         .collect();
-    let stopping: Vec<bool> = (0..residual.len()).map(|r| role(r) == Role::Stop).collect();
-    let trained = train(&names, &columns, &target, &stopping, &request.settings)
-        .map_err(|e| Error::Invalid(format!("fit of {} --network: {e}", model.scalar)))?;
-    let learned = trained.network.evaluate_rows(&columns);
-    let judging = (0..residual.len()).filter(|&r| role(r) == Role::Judge);
-    let judged = |correction: &dyn Fn(usize) -> f64| {
-        rms(judging.clone().map(|r| residual[r] - correction(r)))
-    };
-    let linear_rms_nt = judged(&|_| trained.network.output_mean_nt);
-    let network_rms_nt = judged(&|r| learned[r]);
+    let train_on = |residual: &[f64]| inputs.train(residual, &roles, &model.scalar, request);
+    let mut trained = train_on(&residual)?;
+    let linear_rms_nt = rms(judging
+        .iter()
+        .map(|&r| residual[r] - trained.network.output_mean_nt));
+    let (mut paired, mut residual) = (None, residual);
+    for _ in 0..if request.joint { JOINT_ROUNDS } else { 0 } {
+        let learned = trained.network.evaluate_rows(&inputs.slices());
+        // Every row, as the linear model alone was fitted on every row.
+        let less: Vec<f64> = target.iter().zip(&learned).map(|(t, n)| t - n).collect();
+        let linear = refit(&less)?;
+        residual = linear_residual(flight, &linear, target, fs_hz)?;
+        trained = train_on(&residual)?;
+        paired = Some(linear);
+    }
+    let learned = trained.network.evaluate_rows(&inputs.slices());
+    let network_rms_nt = rms(judging.iter().map(|&r| residual[r] - learned[r]));
     // NaN (no judging row) is not an improvement either.
     let better = network_rms_nt <= (1.0 - KEEP_MARGIN) * linear_rms_nt;
     if !better {
@@ -115,6 +125,9 @@ pub fn learn(
             held_out,
         });
         return Ok(());
+    }
+    if let Some(linear) = paired {
+        *model = linear;
     }
     // The model's level is the calibration's mean correction, the network's share included.
     model.fit.level_nt += tolles_core::compensate::finite_mean(&learned);
@@ -127,8 +140,73 @@ pub fn learn(
         best_epoch: trained.best_epoch,
         seed: request.settings.seed,
         held_out,
+        joint: request.joint,
     });
     Ok(())
+}
+
+/// The network's input columns on the calibration, and their names.
+struct Inputs {
+    names: Vec<String>,
+    columns: Vec<Vec<f64>>,
+}
+
+impl Inputs {
+    /// `model`'s network inputs on `flight` at `fs_hz` (Hz): the fluxgate read as late as the
+    /// fit's lag, the extra channels conditioned, and the request's channels.
+    fn of(
+        model: &ScalarModel,
+        flight: &Flight,
+        fs_hz: f64,
+        request: &NetworkRequest,
+    ) -> Result<Self> {
+        let inputs = flight.lagged_inputs(model.fit.lag_s, fs_hz);
+        let channels = flight.columns(request.channels.iter().map(String::as_str))?;
+        let channels: Vec<&[f64]> = channels.iter().map(Vec::as_slice).collect();
+        let extras: Vec<&[f64]> = inputs.extras.iter().map(Vec::as_slice).collect();
+        let design = &model.fit.settings.design;
+        Ok(Self {
+            names: feature_names(&model.vectors[0], &design.extras, &request.channels),
+            columns: features(&inputs.series[0], &extras, &channels),
+        })
+    }
+
+    fn slices(&self) -> Vec<&[f64]> {
+        self.columns.iter().map(Vec::as_slice).collect()
+    }
+
+    /// A network trained on `residual` (nT) of the training rows, stopped on the stopping
+    /// rows; the judging rows are kept from it as unusable rows are, with a NaN target.
+    fn train(
+        &self,
+        residual: &[f64],
+        roles: &[Role],
+        scalar: &str,
+        request: &NetworkRequest,
+    ) -> Result<Trained> {
+        let target: Vec<f64> = (residual.iter().zip(roles))
+            .map(|(v, role)| if *role == Role::Judge { f64::NAN } else { *v })
+            .collect();
+        let stopping: Vec<bool> = roles.iter().map(|role| *role == Role::Stop).collect();
+        let columns = self.slices();
+        train(&self.names, &columns, &target, &stopping, &request.settings)
+            .map_err(|e| Error::Invalid(format!("fit of {scalar} --network: {e}")))
+    }
+}
+
+/// What `model`'s linear correction leaves of its `target` (nT) on the calibration `flight`.
+fn linear_residual(
+    flight: &Flight,
+    model: &ScalarModel,
+    target: &[f64],
+    fs_hz: f64,
+) -> Result<Vec<f64>> {
+    let request = crate::compensate::CompensateRequest {
+        fs_hz: Some(fs_hz),
+        ..Default::default()
+    };
+    let field = crate::compensate::flight_field(flight, model, &request, &mut Vec::new())?.field;
+    Ok(target.iter().zip(field).map(|(t, f)| t - f).collect())
 }
 
 /// What a row of the calibration is used for.
@@ -365,6 +443,32 @@ mod tests {
                 .iter()
                 .all(|&r| r == roles[piece.start]));
         }
+    }
+
+    #[test]
+    fn a_joint_fit_refits_the_linear_model_with_the_network() {
+        let table = box_with(true);
+        let (alone, _) = fitted(&table);
+        let mut request = request();
+        request.network.as_mut().unwrap().joint = true;
+        let joint = fit(&table, &request, &crate::Silent, &mut Vec::new()).unwrap();
+        let (alone, joint) = (&alone.fits[0], &joint.fits[0]);
+        let learned = joint.network.as_ref().expect("a network");
+        println!(
+            "held-out: linear {:.4} nT, 2b {:.4} nT, 2c {:.4} nT",
+            learned.judged_linear_rms_nt,
+            alone.network.as_ref().unwrap().judged_network_rms_nt,
+            learned.judged_network_rms_nt
+        );
+        assert!(learned.joint && !alone.network.as_ref().unwrap().joint);
+        assert!(learned.judged_network_rms_nt < 0.5 * learned.judged_linear_rms_nt);
+        let moved = (joint.fit.coefficients.iter().zip(&alone.fit.coefficients))
+            .any(|(a, b)| (a - b).abs() > 1e-6 * b.abs());
+        assert!(moved, "the linear model was not refitted");
+        assert_eq!(
+            joint.fit.diagnostics.samples_used,
+            alone.fit.diagnostics.samples_used
+        );
     }
 
     #[test]

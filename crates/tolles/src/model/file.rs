@@ -111,6 +111,10 @@ pub struct LearnedCorrection {
     /// (absent before: stretches).
     #[serde(default)]
     pub held_out: HeldOut,
+    /// Whether the linear model was refitted with the network, each on what the other leaves
+    /// (MagNav's model 2c), rather than the network trained on a fixed linear model (2b).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub joint: bool,
 }
 
 /// The pieces of a calibration flight that `fit --network` deals to training, stopping and
