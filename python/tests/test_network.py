@@ -87,6 +87,18 @@ def test_a_damaged_weight_changes_both_evaluations_alike(box, fitted):
     assert np.nanmax(np.abs(after - rust_network_nt(box, damaged))) <= 1e-9
 
 
+def test_inputs_beyond_the_training_range_are_held_at_its_end_alike(box, fitted):
+    model = fitted(*FITS[0])
+    top = model.network["network"]["input_range"][-1][1]  # temp, the last input (°C)
+    hot, at_top = box.copy(), box.copy()
+    hot["temp"] = box["temp"] + 100.0
+    at_top["temp"] = np.where(box["temp"].isna(), np.nan, top)
+    ours = tolles.network.correction(model, hot)
+    assert np.nanmax(np.abs(ours - rust_network_nt(hot, model))) <= 1e-9
+    assert np.allclose(ours, tolles.network.correction(model, at_top), equal_nan=True)
+    assert not np.allclose(ours, tolles.network.correction(model, box), equal_nan=True)
+
+
 def test_a_network_of_one_unit_evaluates_as_written_out_by_hand():
     swish = lambda v: v / (1.0 + np.exp(-v))  # noqa: E731
     network = {

@@ -6,7 +6,8 @@ biases, the hidden layers' activation and the output's mean and scale (nT). This
 reference for reading them elsewhere, and agrees with the Rust evaluation to rounding (within
 1e-9 nT, tested):
 
-1. each input ``x`` becomes ``(x − input_mean) / input_scale``;
+1. each input ``x`` is held within its training range ``input_range`` (``[lowest, highest]``,
+   when the file has it) and becomes ``(x − input_mean) / input_scale``;
 2. each hidden layer computes ``act(W·h + b)`` with ``act`` swish (``x·σ(x)``), tanh or relu;
 3. the last layer is linear with one unit ``y``; the correction is
    ``output_mean_nt + output_scale_nt · y`` (nT);
@@ -79,7 +80,8 @@ def evaluate(network: Mapping[str, Any], x: Any) -> np.ndarray:
     mean, scale, out_mean, out_scale = _normalisation(weights)
     usable = np.isfinite(x).all(axis=1)
     # Unusable rows are zeroed so that their NaN and inf raise no floating-point warnings.
-    normalised = (np.where(usable[:, None], x, 0.0) - mean) / scale
+    held = _within_range(np.where(usable[:, None], x, 0.0), weights)
+    normalised = (held - mean) / scale
     out = out_mean + out_scale * _forward(normalised, _layers(weights), _activation(weights))
     out[~usable] = np.nan
     return out
@@ -169,6 +171,22 @@ def _normalisation(weights: Mapping[str, Any]) -> Tuple[np.ndarray, np.ndarray, 
     if not (np.isfinite(out_mean) and np.isfinite(out_scale) and out_scale > 0):
         raise ValueError("network: the output has no finite mean and positive scale")
     return mean, scale, out_mean, out_scale
+
+
+def _within_range(x: np.ndarray, weights: Mapping[str, Any]) -> np.ndarray:
+    """``x`` with each input held within its training range, when the network has ranges."""
+    ranges = weights.get("input_range")
+    if not ranges:
+        return x
+    ranges = np.asarray(ranges, dtype=np.float64)
+    n = len(weights["inputs"])
+    ordered = np.isfinite(ranges).all() and (ranges[:, 0] <= ranges[:, 1]).all()
+    if ranges.shape != (n, 2) or not ordered:
+        raise ValueError(
+            f"network: {n} inputs but {len(ranges)} ranges, or a range that is not two finite "
+            "numbers in order"
+        )
+    return np.clip(x, ranges[:, 0], ranges[:, 1])
 
 
 def _forward(h: np.ndarray, layers: list, activation) -> np.ndarray:

@@ -351,7 +351,7 @@ impl fmt::Display for Warning {
             }
             Warning::Extrapolated { path, rows, of, column } => write!(
                 f,
-                "{}: {rows} of {of} rows of {column} lie outside what the calibration flew (the field's direction in the aircraft, its rate of change, or an extra channel's value): the model extrapolates there",
+                "{}: {rows} of {of} rows of {column} lie outside what the calibration flew (the field's direction in the aircraft, its rate of change, an extra channel's value, or a network input beyond its training range): the model extrapolates there",
                 path.display()
             ),
             Warning::ForScalar { scalar, warning } => write!(f, "scalar {scalar}: {warning}"),

@@ -349,16 +349,21 @@ impl<'m> ChunkCompensator<'m> {
         let usable = inputs.finite_mask();
         let runs = contiguous_runs_with_step(&usable, tt, setup.median_step_s);
         let mut field = model_field_over_runs(inputs.clone(), &runs, setup.model, setup.fs_ratio);
+        let mut outside = match setup.coverage {
+            Some(coverage) => outside_over_runs(inputs.clone(), &runs, coverage, setup.fs_hz),
+            None => vec![false; usable.len()],
+        };
         if let (Some(network), Some(first)) = (setup.network, flux.first()) {
             let features = features(first, extras, channels);
             let columns: Vec<&[f64]> = features.iter().map(Vec::as_slice).collect();
             let learned = network.evaluate_rows(&columns);
             field.iter_mut().zip(learned).for_each(|(f, n)| *f += n);
+            let mut row = vec![0.0; columns.len()];
+            for (r, out) in outside.iter_mut().enumerate() {
+                row.iter_mut().zip(&columns).for_each(|(v, c)| *v = c[r]);
+                *out |= network.beyond_range(&row);
+            }
         }
-        let outside = match setup.coverage {
-            Some(coverage) => outside_over_runs(inputs.clone(), &runs, coverage, setup.fs_hz),
-            None => vec![false; usable.len()],
-        };
         let sigma = setup.uncertainty.map(|u| {
             let design = setup.model.design;
             sigma_over_runs(inputs, &runs, design, u, setup.fs_ratio)

@@ -714,7 +714,10 @@ impl<T> StreamCompensator<T> {
             } else {
                 f64::NAN
             };
-            self.extrapolated[i] = outside;
+            // The network's inputs are still in its room: beyond its training range, the row
+            // is outside what the calibration flew too.
+            let beyond = (spec.network.as_ref()).is_some_and(|(n, _)| n.beyond_range(&room.0));
+            self.extrapolated[i] = outside || beyond;
             if let Some(adapter) = self.adapters.get_mut(i) {
                 let target = spec.adaptation_target(scalar, field, row);
                 // Adapt after use, so a sample's output never depends on itself.

@@ -151,16 +151,28 @@ pub fn train(
         training_rms_nt,
         validation_rms_nt,
         baseline_rms_nt: baseline * output_scale_nt,
-        network: net.into_network(
-            names,
-            input_mean,
-            input_scale,
-            output_mean_nt,
-            output_scale_nt,
-        ),
+        network: Network {
+            input_range: columns.iter().map(|c| range(c, &fit_rows)).collect(),
+            ..net.into_network(
+                names,
+                input_mean,
+                input_scale,
+                output_mean_nt,
+                output_scale_nt,
+            )
+        },
         epochs,
         best_epoch: best_epoch.max(1),
     })
+}
+
+/// The lowest and highest of `values` at `rows` (not empty).
+fn range(values: &[f64], rows: &[usize]) -> [f64; 2] {
+    let at = rows.iter().map(|&r| values[r]);
+    [
+        at.clone().fold(f64::INFINITY, f64::min),
+        at.fold(f64::NEG_INFINITY, f64::max),
+    ]
 }
 
 /// The mean and standard deviation of `values` at `rows`; a deviation of zero is taken as 1.
@@ -323,6 +335,7 @@ impl Net {
             output_scale_nt,
             activation: self.activation,
             layers,
+            input_range: Vec::new(),
         }
     }
 }

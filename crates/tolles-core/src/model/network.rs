@@ -13,11 +13,15 @@
 //!     output_scale_nt: 2.0,
 //!     activation: Activation::Swish,
 //!     layers: vec![Layer::new(1, 1, vec![1.0], vec![0.0]), Layer::new(1, 1, vec![1.0], vec![0.0])],
+//!     input_range: vec![[0.0, 40.0]], // the training rows' currents (A)
 //! };
 //! network.validate().unwrap();
 //! let swish = |x: f64| x / (1.0 + (-x).exp());
 //! assert!((network.evaluate(&[5.0]) - 2.0 * swish(0.5)).abs() < 1e-12);
 //! assert!(network.evaluate(&[f64::NAN]).is_nan());
+//! // Beyond the range the network holds the range's end, and says the row is outside it.
+//! assert_eq!(network.evaluate(&[90.0]), network.evaluate(&[40.0]));
+//! assert!(network.beyond_range(&[90.0]) && !network.beyond_range(&[41.0]));
 //! ```
 //!
 //! Each input is normalised as `(x − mean) / scale` (the training rows' mean and standard
@@ -149,7 +153,16 @@ pub struct Network {
     pub activation: Activation,
     /// The layers, first to last; the last has one unit and no activation.
     pub layers: Vec<Layer>,
+    /// Per input, the range the training rows spanned (the input's unit), `[lowest, highest]`;
+    /// an input beyond it is taken at its end, so a network never extrapolates past what it
+    /// was trained on. Empty in files written before: no limit.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub input_range: Vec<[f64; 2]>,
 }
+
+/// How far beyond its training range, as a share of the range's width, an input makes a row
+/// outside what the calibration flew ([`Network::beyond_range`]).
+pub const RANGE_MARGIN: f64 = 0.1;
 
 /// Why a network cannot be used.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -186,6 +199,15 @@ impl Network {
             return bad(format!(
                 "input {} has no finite mean and positive scale",
                 self.inputs[k]
+            ));
+        }
+        let range_ok = |[low, high]: [f64; 2]| low.is_finite() && high.is_finite() && low <= high;
+        if !self.input_range.is_empty() && self.input_range.len() != n
+            || !self.input_range.iter().all(|r| range_ok(*r))
+        {
+            return bad(format!(
+                "{n} inputs but {} ranges, or a range that is not two finite numbers in order",
+                self.input_range.len()
             ));
         }
         let (mean, scale) = (self.output_mean_nt, self.output_scale_nt);
@@ -243,8 +265,16 @@ impl Network {
         }
         let input = &mut scratch.a;
         input.clear();
-        let normalised =
-            (x.iter().zip(&self.input_mean).zip(&self.input_scale)).map(|((v, m), s)| (v - m) / s);
+        let within = |k: usize, v: f64| match self.input_range.get(k) {
+            Some([low, high]) => v.clamp(*low, *high),
+            None => v,
+        };
+        let normalised = (x
+            .iter()
+            .enumerate()
+            .zip(&self.input_mean)
+            .zip(&self.input_scale))
+        .map(|(((k, v), m), s)| (within(k, *v) - m) / s);
         input.extend(normalised);
         let last = self.layers.len() - 1;
         for (k, layer) in self.layers.iter().enumerate() {
@@ -272,6 +302,16 @@ impl Network {
                 self.evaluate_with(&x, &mut scratch)
             })
             .collect()
+    }
+
+    /// Whether any input of the row `x` lies beyond its training range by more than
+    /// [`RANGE_MARGIN`] of the range's width: the network holds it at the range's end there,
+    /// and the row is outside what the calibration flew.
+    pub fn beyond_range(&self, x: &[f64]) -> bool {
+        (x.iter().zip(&self.input_range)).any(|(v, [low, high])| {
+            let margin = RANGE_MARGIN * (high - low);
+            *v < low - margin || *v > high + margin
+        })
     }
 
     /// Number of weights and biases.
@@ -349,6 +389,7 @@ mod tests {
                 Layer::new(2, 2, vec![1.0, -1.0, 0.5, 0.25], vec![0.0, 0.1]),
                 Layer::new(2, 1, vec![2.0, -1.0], vec![0.3]),
             ],
+            input_range: Vec::new(),
         }
     }
 
@@ -379,6 +420,11 @@ mod tests {
         cases.push((|n| n.input_mean.push(0.0), "2 inputs but 3 means"));
         cases.push((|n| n.layers.truncate(1), "gives 2 outputs"));
         cases.push((|n| n.output_scale_nt = -1.0, "output"));
+        cases.push((
+            |n| n.input_range = vec![[0.0, 1.0]],
+            "2 inputs but 1 ranges",
+        ));
+        cases.push((|n| n.input_range = vec![[0.0, 1.0], [2.0, 1.0]], "in order"));
         for (damage, said) in cases {
             let mut net = two_inputs();
             damage(&mut net);

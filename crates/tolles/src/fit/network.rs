@@ -472,6 +472,29 @@ mod tests {
     }
 
     #[test]
+    fn rows_whose_network_inputs_leave_the_training_range_are_said_to_be_outside() {
+        let table = box_with(true);
+        let (model, _) = fitted(&table);
+        let outside = |shift_deg: f64| {
+            let mut shifted = table.clone();
+            let roll = table.numeric("ins_roll").unwrap();
+            let moved = roll.iter().map(|r| r + shift_deg).collect();
+            shifted.set_numeric("ins_roll", moved).unwrap();
+            let mut warnings = Vec::new();
+            let request = crate::compensate::CompensateRequest::default();
+            crate::compensate::compensate(&shifted, &model, &request, &mut warnings).unwrap();
+            let said = warnings.iter().find_map(|w| match w {
+                Warning::Extrapolated { rows, .. } => Some(*rows),
+                _ => None,
+            });
+            said.unwrap_or(0)
+        };
+        let (inside, beyond) = (outside(0.0), outside(90.0));
+        println!("rows outside: {inside} as flown, {beyond} with the roll 90° off");
+        assert!(beyond > inside + table.len() / 2, "{inside} {beyond}");
+    }
+
+    #[test]
     fn a_network_needs_a_reference() {
         let request = FitRequest {
             reference: None,
