@@ -17,7 +17,9 @@ use tolles::fom::FomRequest;
 use tolles::model::ModelFile;
 use tolles::{Silent, Warning};
 use tolles_core::fit::{Band, Lambda, MagnitudeChoice};
-use tolles_io::schema::{vector_columns, PITCH, ROLL, SAMPLE_INTERVAL, TIME_COLUMN, YAW};
+use tolles_io::schema::{
+    vector_columns, LINE_COLUMN, PITCH, ROLL, SAMPLE_INTERVAL, TIME_COLUMN, YAW,
+};
 use tolles_io::select::RowSelection;
 use tolles_io::table::{find_column, Column, Table};
 
@@ -68,8 +70,13 @@ impl<'py> Frame<'py> {
     /// The table of the columns `wanted` (each once, in that order) and the time column if the
     /// frame has one. A wanted column the frame lacks is an error that suggests near names.
     fn table(&self, wanted: &[String]) -> PyResult<Table> {
+        self.table_with(wanted, &[TIME_COLUMN])
+    }
+
+    /// [`Frame::table`] with the `optional` columns the frame has, rather than time alone.
+    fn table_with(&self, wanted: &[String], optional: &[&str]) -> PyResult<Table> {
         let mut chosen: Vec<usize> = Vec::new();
-        let optional = [TIME_COLUMN.to_string()];
+        let optional: Vec<String> = optional.iter().map(|o| o.to_string()).collect();
         for (name, required) in wanted
             .iter()
             .map(|w| (w, true))
@@ -280,14 +287,15 @@ impl FitSettings {
     }
 }
 
-/// Fits a model with `settings` (a dict, see [`FitSettings`]); returns (model JSON, warnings).
+/// One frame as Python hands it over: (source, column names, column getter, dt in s).
+type FrameArgs<'py> = (PathBuf, Vec<String>, Bound<'py, PyAny>, Option<f64>);
+
+/// Fits a model with `settings` (a dict, see [`FitSettings`]) on one or several calibration
+/// flights (`tolles::fit::fit_flights`); returns (model JSON, warnings).
 #[pyfunction]
 fn fit(
     py: Python<'_>,
-    source: PathBuf,
-    names: Vec<String>,
-    get: Bound<'_, PyAny>,
-    dt: Option<f64>,
+    flights: Vec<FrameArgs<'_>>,
     settings: FitSettings,
 ) -> PyResult<(String, Vec<String>)> {
     let request = settings.request()?;
@@ -301,10 +309,15 @@ fn fit(
             .iter()
             .flat_map(|n| n.channels.iter().cloned()),
     );
-    let table = Frame::new(source, names, get, dt).table(&wanted)?;
+    // The lines too, for a network that holds out whole lines.
+    let tables = (flights.into_iter())
+        .map(|(source, names, get, dt)| {
+            Frame::new(source, names, get, dt).table_with(&wanted, &[TIME_COLUMN, LINE_COLUMN])
+        })
+        .collect::<PyResult<Vec<Table>>>()?;
     let mut warnings = Vec::new();
     let model = py
-        .detach(|| tolles::fit::fit(&table, &request, &Silent, &mut warnings))
+        .detach(|| tolles::fit::fit_flights(&tables, &request, &Silent, &mut warnings))
         .map_err(failed)?;
     Ok((model.to_json(), texts(&warnings)))
 }

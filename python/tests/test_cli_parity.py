@@ -317,3 +317,19 @@ def test_a_network_fits_and_compensates_as_the_cli_does(cli, tmp_path):
     assert max_diff(by_python.to_numpy(), np.array(by_cli)) < 1e-9
     with pytest.raises(tolles.TollesError, match="network layers"):
         tolles.fit(box, reference="mag_ref", network=True, network_layers=(300,))
+
+
+def test_several_flights_fit_as_the_cli_fits_several_files(cli, tmp_path):
+    for seed in ("1", "2"):
+        cli("simulate", "--plan", "box", "--seed", seed, "--effects", "load", "--out", tmp_path / f"b{seed}.csv")
+    paths = [tmp_path / "b1.csv", tmp_path / "b2.csv"]
+    cli("fit", *paths, "--scalar", "mag_1_uc", "--vector", "flux_a", "--reference", "mag_ref",
+        "--extra", "cur_load", "--network", "--network-held-out", "lines", "--out", tmp_path / "cli.json")
+    model = tolles.fit([tolles.read(p) for p in paths], reference="mag_ref", extra="cur_load",
+                       network=True, network_held_out="lines")
+    model.save(tmp_path / "py.json")
+    assert (tmp_path / "py.json").read_bytes() == (tmp_path / "cli.json").read_bytes()
+    assert model.fits[0]["calibration_flight"] == f"{paths[0]} + {paths[1]}"
+    assert model.network is not None and model.network["held_out"] == "lines"
+    with pytest.raises(tolles.TollesError, match="at least one"):
+        tolles.fit([])

@@ -424,7 +424,7 @@ def _model(model: Union[Model, PathLike]) -> Model:
 
 
 def fit(
-    df: _pd.DataFrame,
+    df: Union[_pd.DataFrame, Sequence[_pd.DataFrame]],
     scalar: Names = "mag_1_uc",
     vector: Names = "flux_a",
     *,
@@ -451,9 +451,11 @@ def fit(
 
     Parameters
     ----------
-    df : pandas.DataFrame
+    df : pandas.DataFrame, or a list of them
         The calibration flight (e.g. from :func:`read`), with the scalar, the fluxgate columns
-        and, for the sample rate, ``tt`` (s) or ``df.attrs["dt"]`` (s) or ``fs``.
+        and, for the sample rate, ``tt`` (s) or ``df.attrs["dt"]`` (s) or ``fs``. Several
+        flights (at one sample rate) are fitted together, each its own runs, as ``tolles fit
+        a.csv b.csv`` does: nothing is filtered or differenced across two of them.
     scalar : str or list of str
         Uncompensated scalar column(s) (nT); several give one model with a fit per scalar.
     vector : str or list of str
@@ -522,7 +524,10 @@ def fit(
         rounds; MagNav's model 2c), instead of the network on the fixed linear model (2b), as
         ``tolles fit --network-joint``; kept only if the pair beats the linear model alone.
     """
-    columns = _Columns(df)
+    flights = [df] if isinstance(df, _pd.DataFrame) else list(df)
+    if not flights:
+        raise TollesError("fit needs at least one calibration flight")
+    columns = [_Columns(flight) for flight in flights]
     lam = None if isinstance(lambda_, str) and lambda_.strip().lower() == "auto" else float(lambda_)
     settings = {
         "scalars": _names(scalar, "scalar"),
@@ -546,7 +551,7 @@ def fit(
         "network_held_out": str(network_held_out),
         "network_joint": bool(network_joint),
     }
-    text, notes = _tolles.fit(*columns.args(), settings)
+    text, notes = _tolles.fit([c.args() for c in columns], settings)
     _warn(notes)
     return Model(text)
 

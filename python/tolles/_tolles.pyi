@@ -21,10 +21,7 @@ def read(
     renames: Optional[Sequence[Tuple[str, str]]] = ...,
 ) -> Tuple[List[str], List[Any], List[Tuple[str, float]], List[str]]: ...
 def fit(
-    source: str,
-    names: Sequence[str],
-    get: Getter,
-    dt: Optional[float],
+    flights: Sequence[Tuple[str, Sequence[str], Getter, Optional[float]]],
     settings: Mapping[str, Any],
 ) -> Tuple[str, List[str]]: ...
 def compensate(
