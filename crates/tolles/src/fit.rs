@@ -423,7 +423,15 @@ pub fn fit_flights(
         fs_hz: Some(fs_hz),
         ..request.clone()
     };
-    fit(&stacked, &request, progress, warnings)
+    let mut noticed = Vec::new();
+    let model = fit(&stacked, &request, progress, &mut noticed);
+    // Time that starts again in the next flight is no step back: each flight says its own.
+    noticed.retain(|w| !matches!(w, Warning::TimeStepsBack { .. }));
+    for flight in flights {
+        warnings.extend(crate::read::time_steps_back(flight)?);
+    }
+    warnings.extend(noticed);
+    model
 }
 
 /// The sample rate (Hz) every one of `flights` has, within 1 % of the first's (`fs_hz` when
@@ -648,6 +656,29 @@ mod tests {
         );
         assert!(differ(&whole, &apart) < 1e-9);
         assert!(differ(&joined, &apart) > 1e-6);
+    }
+
+    #[test]
+    fn time_starting_again_in_the_next_flight_is_no_step_back_but_one_inside_is() {
+        let table = flight(PlanKind::Box, 1);
+        let request = FitRequest::new(names(&["mag_1_uc"]), names(&["flux_a"]));
+        let steps_back = |flights: &[Table]| {
+            let mut warnings = Vec::new();
+            fit_flights(flights, &request, &crate::Silent, &mut warnings).unwrap();
+            let said = warnings.iter().filter_map(|w| match w {
+                Warning::TimeStepsBack { path, .. } => Some(path.display().to_string()),
+                _ => None,
+            });
+            said.collect::<Vec<_>>()
+        };
+        let first = part(&table, 0..2000, &[], true);
+        let again = part(&table, 0..2000, &[], true);
+        assert!(steps_back(&[first.clone(), again]).is_empty());
+        let mut back = part(&table, 2000..4000, &[], true);
+        let mut tt = back.numeric(TIME_COLUMN).unwrap();
+        tt[500] = tt[10];
+        back.set_numeric(TIME_COLUMN, tt).unwrap();
+        assert_eq!(steps_back(&[first, back]), ["2000-4000.csv"]);
     }
 
     #[test]
