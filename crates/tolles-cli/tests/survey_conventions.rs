@@ -591,6 +591,6 @@ fn a_usage_line_shows_what_is_required_not_what_was_given() {
     let usage = err.lines().find(|l| l.starts_with("Usage:")).unwrap();
     assert_eq!(
         usage,
-        "Usage: tolles fit [OPTIONS] --scalar <SCALAR> --vector <VECTOR> <CAL>"
+        "Usage: tolles fit [OPTIONS] --scalar <SCALAR> --vector <VECTOR> <CAL>..."
     );
 }
