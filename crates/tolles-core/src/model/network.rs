@@ -21,7 +21,7 @@
 //! assert!(network.evaluate(&[f64::NAN]).is_nan());
 //! // Beyond the range the network holds the range's end, and says the row is outside it.
 //! assert_eq!(network.evaluate(&[90.0]), network.evaluate(&[40.0]));
-//! assert!(network.beyond_range(&[90.0]) && !network.beyond_range(&[41.0]));
+//! assert!(network.beyond_range(&[90.0]) && !network.beyond_range(&[49.0]));
 //! ```
 //!
 //! Each input is normalised as `(x − mean) / scale` (the training rows' mean and standard
@@ -161,7 +161,8 @@ pub struct Network {
 }
 
 /// How far beyond its training range, as a share of the range's width, an input makes a row
-/// outside what the calibration flew ([`Network::beyond_range`]).
+/// outside what the calibration flew ([`Network::beyond_range`]), unless the input's training
+/// deviation is wider.
 pub const RANGE_MARGIN: f64 = 0.1;
 
 /// Why a network cannot be used.
@@ -305,11 +306,14 @@ impl Network {
     }
 
     /// Whether any input of the row `x` lies beyond its training range by more than
-    /// [`RANGE_MARGIN`] of the range's width: the network holds it at the range's end there,
-    /// and the row is outside what the calibration flew.
+    /// [`RANGE_MARGIN`] of the range's width or one standard deviation of its training values
+    /// ([`Network::input_scale`]), whichever is more: the network holds it at the range's end
+    /// there, and the row is outside what the calibration flew. (The deviation keeps a
+    /// magnitude a few nT past a calibration's narrow span from counting.)
     pub fn beyond_range(&self, x: &[f64]) -> bool {
-        (x.iter().zip(&self.input_range)).any(|(v, [low, high])| {
-            let margin = RANGE_MARGIN * (high - low);
+        let ranges = self.input_range.iter().zip(&self.input_scale);
+        (x.iter().zip(ranges)).any(|(v, ([low, high], scale))| {
+            let margin = (RANGE_MARGIN * (high - low)).max(*scale);
             *v < low - margin || *v > high + margin
         })
     }
