@@ -192,9 +192,8 @@ pub fn fit_summary(model: &ScalarModel, cal: &Path) -> std::io::Result<()> {
         )?;
     }
     if let Some(learned) = &model.network {
-        let layers: Vec<String> = (learned.network.layers.iter())
-            .take(learned.network.layers.len().saturating_sub(1))
-            .map(|l| l.outputs.to_string())
+        let layers: Vec<String> = (learned.network.hidden_units().iter())
+            .map(ToString::to_string)
             .collect();
         writeln!(
             err,

@@ -45,7 +45,7 @@ use super::trust::{outside_over_runs, sigma_over_runs};
 use super::{model_field_over_runs, Model};
 use crate::model::coverage::Coverage;
 use crate::model::extra::LowPass;
-use crate::model::network::{features, Network};
+use crate::model::network::{features, Network, Scratch};
 use crate::model::uncertainty::Uncertainty;
 use crate::model::vector::{Fluxgates, VectorSeries};
 use crate::signal::segment::contiguous_runs_with_step;
@@ -120,8 +120,11 @@ impl RawRows<'_> {
 pub struct ChunkField {
     /// The rows of the flight it holds (counted from the first row pushed).
     pub rows: Range<usize>,
-    /// `A·β` (nT, the level not subtracted); NaN where it cannot be computed.
+    /// `A·β` (nT, the level not subtracted), the network's output included; NaN where it
+    /// cannot be computed.
     pub field: Vec<f64>,
+    /// The network's share of `field` (nT), with [`Setup::network`].
+    pub learned: Option<Vec<f64>>,
     /// Whether each row lies outside what the calibration flew (all `false` without a coverage).
     pub outside: Vec<bool>,
     /// Each row's standard error (nT), with [`Setup::uncertainty`].
@@ -353,17 +356,15 @@ impl<'m> ChunkCompensator<'m> {
             Some(coverage) => outside_over_runs(inputs.clone(), &runs, coverage, setup.fs_hz),
             None => vec![false; usable.len()],
         };
-        if let (Some(network), Some(first)) = (setup.network, flux.first()) {
-            let features = features(first, extras, channels);
-            let columns: Vec<&[f64]> = features.iter().map(Vec::as_slice).collect();
-            let learned = network.evaluate_rows(&columns);
-            field.iter_mut().zip(learned).for_each(|(f, n)| *f += n);
-            let mut row = vec![0.0; columns.len()];
-            for (r, out) in outside.iter_mut().enumerate() {
-                row.iter_mut().zip(&columns).for_each(|(v, c)| *v = c[r]);
-                *out |= network.beyond_range(&row);
+        let learned = match (setup.network, flux.first()) {
+            (Some(network), Some(first)) => {
+                let features = features(first, extras, channels);
+                let learned = learned_over_rows(network, &features, &mut outside);
+                field.iter_mut().zip(&learned).for_each(|(f, n)| *f += n);
+                Some(learned)
             }
-        }
+            _ => None,
+        };
         let sigma = setup.uncertainty.map(|u| {
             let design = setup.model.design;
             sigma_over_runs(inputs, &runs, design, u, setup.fs_ratio)
@@ -374,11 +375,26 @@ impl<'m> ChunkCompensator<'m> {
         };
         ChunkField {
             field: keep(field),
+            learned: learned.map(keep),
             outside: outside[rows.clone()].to_vec(),
             sigma: sigma.map(keep),
             rows,
         }
     }
+}
+
+/// `network`'s output (nT) for each row of its input `columns`, marking in `outside` the rows
+/// with an input beyond its training range.
+fn learned_over_rows(network: &Network, columns: &[Vec<f64>], outside: &mut [bool]) -> Vec<f64> {
+    let mut scratch = Scratch::new(network);
+    let mut row = vec![0.0; columns.len()];
+    (outside.iter_mut().enumerate())
+        .map(|(r, out)| {
+            row.iter_mut().zip(columns).for_each(|(v, c)| *v = c[r]);
+            *out |= network.beyond_range(&row);
+            network.evaluate_with(&row, &mut scratch)
+        })
+        .collect()
 }
 
 /// No shift.

@@ -318,6 +318,12 @@ impl Network {
         })
     }
 
+    /// Units of each hidden layer, first to last (the layers but the one-unit output).
+    pub fn hidden_units(&self) -> Vec<usize> {
+        let hidden = self.layers.len().saturating_sub(1);
+        self.layers[..hidden].iter().map(|l| l.outputs).collect()
+    }
+
     /// Number of weights and biases.
     pub fn parameters(&self) -> usize {
         self.layers
@@ -401,6 +407,7 @@ mod tests {
     fn a_network_evaluates_as_written_out_by_hand() {
         let net = two_inputs();
         net.validate().unwrap();
+        assert_eq!(net.hidden_units(), [2]);
         let (a, b): (f64, f64) = ((3.0 - 1.0) / 2.0, 4.0);
         let h = [(a - b).tanh(), (0.5 * a + 0.25 * b + 0.1).tanh()];
         let expected = 0.5 + 3.0 * (2.0 * h[0] - h[1] + 0.3);

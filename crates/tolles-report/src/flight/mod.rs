@@ -310,8 +310,8 @@ fn model_banner(report: Report, fit: &ScalarModel, path: Option<&std::path::Path
 /// What the model's network is and what it earned on the calibration flight.
 fn network_sentence(learned: &tolles::model::LearnedCorrection) -> String {
     let network = &learned.network;
-    let hidden: Vec<String> = (network.layers.iter().rev().skip(1).rev())
-        .map(|layer| layer.outputs.to_string())
+    let hidden: Vec<String> = (network.hidden_units().iter())
+        .map(ToString::to_string)
         .collect();
     format!(
         " A network ({} hidden units, {}, {} inputs) adds a learned correction to the linear \

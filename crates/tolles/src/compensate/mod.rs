@@ -178,8 +178,7 @@ pub struct CorrectionParts {
 }
 
 /// [`flight_field`]'s correction split into the linear model's part and its network's, when
-/// `fit` has a network (`None` otherwise): the network's part is the correction with it less
-/// the correction without it, each computed as `compensate` computes it.
+/// `fit` has a network (`None` otherwise), as `compensate` computes them.
 pub fn correction_parts(
     flight: &Flight,
     fit: &ScalarModel,
@@ -189,15 +188,11 @@ pub fn correction_parts(
     if fit.network.is_none() {
         return Ok(None);
     }
-    let whole = flight_field(flight, fit, request, warnings)?.field;
-    let linear_only = ScalarModel {
-        network: None,
-        ..fit.clone()
-    };
-    let linear_nt = flight_field(flight, &linear_only, request, &mut Vec::new())?.field;
-    let network_nt = whole.iter().zip(&linear_nt).map(|(w, l)| w - l).collect();
-    Ok(Some(CorrectionParts {
-        linear_nt,
+    let computed = flight_field(flight, fit, request, warnings)?;
+    Ok(computed.learned.map(|network_nt| CorrectionParts {
+        linear_nt: (computed.field.iter().zip(&network_nt))
+            .map(|(f, n)| f - n)
+            .collect(),
         network_nt,
     }))
 }
