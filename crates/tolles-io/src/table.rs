@@ -196,6 +196,18 @@ pub struct SideColumn {
     pub values: Vec<f64>,
 }
 
+/// The `parts` one after another, with a NaN between two.
+fn joined(parts: Vec<Vec<f64>>) -> Vec<f64> {
+    let mut column = Vec::with_capacity(parts.iter().map(|p| p.len() + 1).sum());
+    for (k, part) in parts.into_iter().enumerate() {
+        if k > 0 {
+            column.push(f64::NAN);
+        }
+        column.extend(part);
+    }
+    column
+}
+
 /// The most common of `lengths` (the longer on a tie): how many rows a table read from a file of
 /// 1-D arrays of several lengths has. `None` when there are none.
 pub(crate) fn most_common_length(lengths: impl IntoIterator<Item = usize>) -> Option<usize> {
@@ -644,25 +656,38 @@ impl Table {
         }
     }
 
-    /// The columns `names` (as numbers; missing values NaN) of every table in `parts`, one
+    /// The columns `needed` (as numbers; missing values NaN) of every table in `parts`, one
     /// table's rows after another's, with one row of NaN between two tables: a missing sample
     /// ends every run, so no filter or difference reaches from one flight into the next, and
-    /// time may start again in the next. A name that some part lacks is an error naming that
-    /// part's file. The result is named `path`; messages name its rows by number.
-    pub fn stacked(path: &Path, parts: &[Table], names: &[String]) -> Result<Table, IoError> {
-        let mut columns: Vec<Vec<f64>> = vec![Vec::new(); names.len()];
-        for (k, part) in parts.iter().enumerate() {
+    /// time may start again in the next. A needed name that some part lacks is an error naming
+    /// that part's file; an `optional` one is kept when every part has it as numbers. The
+    /// result is named `path`; messages name its rows by number.
+    pub fn stacked(
+        path: &Path,
+        parts: &[Table],
+        needed: &[String],
+        optional: &[&str],
+    ) -> Result<Table, IoError> {
+        let mut per_part: Vec<Vec<Vec<f64>>> = vec![Vec::new(); needed.len()];
+        for part in parts {
             let indices =
-                (names.iter().map(|name| part.index_of(name))).collect::<Result<Vec<_>, _>>()?;
-            for (column, values) in columns.iter_mut().zip(part.numeric_many(&indices)) {
-                if k > 0 {
-                    column.push(f64::NAN);
-                }
-                column.extend(values?);
+                (needed.iter().map(|name| part.index_of(name))).collect::<Result<Vec<_>, _>>()?;
+            for (column, values) in per_part.iter_mut().zip(part.numeric_many(&indices)) {
+                column.push(values?);
             }
         }
-        let columns = columns.into_iter().map(Column::Numbers).collect();
-        Table::from_columns(path, names.to_vec(), columns, None)
+        let mut headers = needed.to_vec();
+        for name in optional {
+            let values = parts.iter().map(|part| part.numeric(name).ok());
+            if let Some(values) = values.collect::<Option<Vec<_>>>() {
+                headers.push(name.to_string());
+                per_part.push(values);
+            }
+        }
+        let columns = per_part
+            .into_iter()
+            .map(|parts| Column::Numbers(joined(parts)));
+        Table::from_columns(path, headers, columns.collect(), None)
     }
 
     /// True when the table has a column named `name` (see [`Table::index_of`] on case).
@@ -1039,11 +1064,17 @@ mod tests {
             .reader("b,a,tt\n,3,0\n".as_bytes(), "second.csv")
             .unwrap();
         let names = ["tt".to_string(), "a".to_string()];
-        let stacked = Table::stacked(Path::new("both"), &[first, second], &names).unwrap();
+        let stacked = Table::stacked(Path::new("both"), &[first, second], &names, &["b", "c"]);
+        let stacked = stacked.unwrap();
         assert_eq!(stacked.headers(), names);
         assert_eq!(stacked.numeric("a").unwrap()[..2], [1.0, 2.0]);
         let tt = stacked.numeric("tt").unwrap();
         assert!(tt[2].is_nan() && tt.len() == 4 && tt[3] == 0.0, "{tt:?}");
+        // An optional column every part has as numbers is kept; "b" (text) and "c" were not.
+        let parts = [read("tt,a\n0,1\n").unwrap(), read("a,tt\n2,0\n").unwrap()];
+        let kept = Table::stacked(Path::new("k"), &parts, &names[..1], &["a"]).unwrap();
+        assert_eq!(kept.headers(), ["tt", "a"]);
+        assert_eq!(kept.numeric("a").unwrap()[2], 2.0);
         let lacking = Table::csv()
             .reader("a\n1\n".as_bytes(), "third.csv")
             .unwrap();
@@ -1051,6 +1082,7 @@ mod tests {
             Path::new("x"),
             &[read("tt,a\n0,1\n").unwrap(), lacking],
             &names,
+            &[],
         )
         .unwrap_err()
         .to_string();

@@ -400,25 +400,18 @@ pub fn fit_flights(
     if rest.is_empty() {
         return fit(first, request, progress, warnings);
     }
-    let fs_hz = common_sample_rate(flights, request.fs_hz, warnings)?;
-    // Time and lines are kept when every flight has them (lines as numbers); the rest is
-    // needed.
+    let (fs_hz, steps_back) = shared_rate_and_steps_back(flights, request.fs_hz, warnings)?;
+    // Time and lines are kept when every flight has them as numbers; the rest is needed.
     let optional = [TIME_COLUMN, LINE_COLUMN];
-    let usable =
-        |f: &Table, name: &str| f.has(name) && (name != LINE_COLUMN || f.numeric(name).is_ok());
     let mut names = request.columns();
     names.retain(|name| !optional.contains(&name.as_str()));
     names.sort();
     names.dedup();
-    let shared = optional
-        .iter()
-        .filter(|name| flights.iter().all(|f| usable(f, name)));
-    names.extend(shared.map(|name| name.to_string()));
     let label: Vec<String> = flights
         .iter()
         .map(|f| f.path().display().to_string())
         .collect();
-    let stacked = Table::stacked(Path::new(&label.join(" + ")), flights, &names)?;
+    let stacked = Table::stacked(Path::new(&label.join(" + ")), flights, &names, &optional)?;
     let request = FitRequest {
         fs_hz: Some(fs_hz),
         ..request.clone()
@@ -427,21 +420,21 @@ pub fn fit_flights(
     let model = fit(&stacked, &request, progress, &mut noticed);
     // Time that starts again in the next flight is no step back: each flight says its own.
     noticed.retain(|w| !matches!(w, Warning::TimeStepsBack { .. }));
-    for flight in flights {
-        warnings.extend(crate::read::time_steps_back(flight)?);
-    }
+    warnings.extend(steps_back);
     warnings.extend(noticed);
     model
 }
 
 /// The sample rate (Hz) every one of `flights` has, within 1 % of the first's (`fs_hz` when
-/// given); an error naming the first flight that differs.
-fn common_sample_rate(
+/// given), an error naming the first flight that differs; and where each flight's own time
+/// steps back.
+fn shared_rate_and_steps_back(
     flights: &[Table],
     fs_hz: Option<f64>,
     warnings: &mut Vec<Warning>,
-) -> Result<f64> {
+) -> Result<(f64, Vec<Warning>)> {
     let mut rates = Vec::with_capacity(flights.len());
+    let mut steps_back = Vec::new();
     for flight in flights {
         let tt = match flight.has(TIME_COLUMN) {
             true => Some(flight.numeric(TIME_COLUMN)?),
@@ -450,13 +443,14 @@ fn common_sample_rate(
         let (rate, warning) = crate::read::sample_rate(flight, tt.as_deref(), fs_hz)?;
         warnings.extend(warning);
         rates.push(rate);
+        steps_back.extend(tt.and_then(|tt| crate::read::time_steps_back(flight, &tt)));
     }
     let first = rates[0];
     match rates
         .iter()
         .position(|r| ((r - first) / first).abs() > 0.01)
     {
-        None => Ok(first),
+        None => Ok((first, steps_back)),
         Some(k) => Err(Error::Invalid(format!(
             "{}: sampled at {:.4} Hz, but {} at {:.4} Hz; calibration flights fitted together \
              must share a sample rate (resample one, or fit them apart)",

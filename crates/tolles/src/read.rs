@@ -460,13 +460,9 @@ fn steps_back(table: &Table, places: &[usize], run_on: bool) -> Option<Warning> 
     })
 }
 
-/// A warning when the time column of `table`, if any, steps back or repeats.
-pub(crate) fn time_steps_back(table: &Table) -> Result<Option<Warning>> {
-    if !table.has(TIME_COLUMN) {
-        return Ok(None);
-    }
-    let places = non_increasing_places(&table.numeric(TIME_COLUMN)?);
-    Ok(steps_back(table, &places, false))
+/// A warning when `tt` (s), the time column of `table`, steps back or repeats.
+pub(crate) fn time_steps_back(table: &Table, tt: &[f64]) -> Option<Warning> {
+    steps_back(table, &non_increasing_places(tt), false)
 }
 
 /// The samples of `tt` (s) whose time is not after the previous finite one.
