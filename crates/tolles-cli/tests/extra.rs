@@ -233,3 +233,192 @@ fn a_model_with_a_fluxgate_lag_streams_as_compensated() {
         "{first}"
     );
 }
+
+/// A hostile channel's cell at row `k` of `n`.
+type Cell = fn(usize, usize) -> String;
+
+/// A box with the effects' channels (`cur_load`, `pos_flap`, `temp`) but not their field, and
+/// hostile extra channels appended: `(name, value at row k of n)`.
+fn useless_extras_box(dir: &Path) -> usize {
+    tolles()
+        .current_dir(dir)
+        .args([
+            "simulate",
+            "--preset",
+            "cabin",
+            "--plan",
+            "box",
+            "--seed",
+            "1",
+            "--effects",
+            "all",
+            "--out",
+            "effects.csv",
+        ])
+        .assert()
+        .success();
+    let csv = std::fs::read_to_string(dir.join("effects.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let at = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (scalar, effects) = (at("mag_1_uc"), at("truth_effects"));
+    let rows: Vec<Vec<String>> = lines
+        .map(|l| l.split(',').map(str::to_string).collect())
+        .collect();
+    let n = rows.len();
+    let hostile: [(&str, Cell); 7] = [
+        ("x_noise", |k, _| {
+            format!("{}", ((k * 7919) % 1000) as f64 / 1000.0 - 0.5)
+        }),
+        ("x_spike", |k, _| {
+            if k % 1000 == 0 {
+                "1".into()
+            } else {
+                "0".into()
+            }
+        }),
+        (
+            "x_step",
+            |k, n| if k > n / 2 { "5".into() } else { "0".into() },
+        ),
+        ("x_huge", |k, _| {
+            format!("{}", ((k * 104_729) % 997) as f64 * 1e12)
+        }),
+        ("x_tiny", |k, _| {
+            format!("{}", ((k * 104_729) % 997) as f64 * 1e-12)
+        }),
+        ("x_drift", |k, _| format!("{}", k as f64 * 1e-3)),
+        ("x_sparse", |k, _| {
+            if k % 7 == 0 {
+                format!("{}", k % 5)
+            } else {
+                String::new()
+            }
+        }),
+    ];
+    let mut out = header.join(",");
+    for (name, _) in &hostile {
+        out += &format!(",{name}");
+    }
+    out.push('\n');
+    for (k, row) in rows.iter().enumerate() {
+        let mut row = row.clone();
+        // The scalar without the effects' field: the channels then carry nothing of it.
+        let value: f64 = row[scalar].parse::<f64>().unwrap() - row[effects].parse::<f64>().unwrap();
+        row[scalar] = format!("{value}");
+        out += &row.join(",");
+        for (_, value) in &hostile {
+            out += &format!(",{}", value(k, n));
+        }
+        out.push('\n');
+    }
+    std::fs::write(dir.join("box.csv"), out).unwrap();
+    n
+}
+
+/// Fits `box.csv` with `flags`; the exit status and standard error.
+fn fit_box(dir: &Path, flags: &[&str]) -> (bool, String) {
+    let out = tolles()
+        .current_dir(dir)
+        .args([
+            "fit", "box.csv", "--scalar", "mag_1_uc", "--vector", "flux_a", "--out", "m.json",
+        ])
+        .args(flags)
+        .output()
+        .unwrap();
+    (out.status.success(), String::from_utf8(out.stderr).unwrap())
+}
+
+#[test]
+fn extra_channels_that_carry_nothing_are_dropped_by_name_and_the_model_is_written() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    useless_extras_box(d);
+    let (ok, stderr) = fit_box(d, &["--extra", "cur_load,pos_flap,temp"]);
+    assert!(ok, "{stderr}");
+    assert!(
+        stderr.contains("dropped --extra cur_load,pos_flap,temp"),
+        "{stderr}"
+    );
+    let model: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("m.json")).unwrap()).unwrap();
+    let fit = &model["fits"][0];
+    assert!(fit["settings"]["design"].get("extras").is_none(), "{fit}");
+    assert!(
+        fit["coverage"].get("extras").is_none(),
+        "no range of a dropped channel"
+    );
+    tolles()
+        .current_dir(d)
+        .args([
+            "compensate",
+            "box.csv",
+            "--model",
+            "m.json",
+            "--out",
+            "c.csv",
+        ])
+        .assert()
+        .success();
+
+    // The network still trains: the dropped channels become its plain inputs.
+    let (ok, stderr) = fit_box(
+        d,
+        &[
+            "--extra",
+            "cur_load,pos_flap,temp",
+            "--reference",
+            "mag_ref",
+            "--network",
+        ],
+    );
+    assert!(ok, "{stderr}");
+    assert!(!stderr.contains("NaN"), "{stderr}");
+    tolles()
+        .current_dir(d)
+        .args([
+            "compensate",
+            "box.csv",
+            "--model",
+            "m.json",
+            "--out",
+            "n.csv",
+        ])
+        .assert()
+        .success();
+    let linear = error_vs_truth_where_computed(
+        &std::fs::read_to_string(d.join("c.csv")).unwrap(),
+        "mag_1_c",
+    );
+    let network = error_vs_truth_where_computed(
+        &std::fs::read_to_string(d.join("n.csv")).unwrap(),
+        "mag_1_c",
+    );
+    eprintln!("without the effects: linear {linear:.4} nT, with --network {network:.4} nT");
+    assert!(network <= 1.05 * linear, "{network} against {linear}");
+}
+
+#[test]
+fn each_hostile_extra_channel_fits_or_is_refused_by_name() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    useless_extras_box(d);
+    for name in [
+        "x_noise", "x_spike", "x_step", "x_huge", "x_tiny", "x_drift", "x_sparse",
+    ] {
+        let (ok, stderr) = fit_box(d, &["--extra", name]);
+        let named = stderr.contains(name);
+        eprintln!("--extra {name}: {} ", if ok { "fitted" } else { "refused" });
+        assert!(ok || named, "{name}: {stderr}");
+        assert!(!stderr.contains("cannot be written"), "{name}: {stderr}");
+        if ok && stderr.contains("dropped") {
+            assert!(named, "{name}: {stderr}");
+        }
+    }
+    // A channel missing on most rows leaves too few: refused, the channel and the fix named.
+    let (ok, stderr) = fit_box(d, &["--extra", "x_sparse"]);
+    assert!(
+        !ok && stderr.contains("--extra x_sparse has a value in only"),
+        "{stderr}"
+    );
+}

@@ -239,6 +239,23 @@ fn poor_fit(scalar: &str, fit: &tolles_core::fit::Fit) -> Option<Warning> {
     })
 }
 
+/// A warning naming the `--extra` channels the fit of `scalar` chose to leave out.
+fn extras_dropped(
+    scalar: &str,
+    request: &FitRequest,
+    fit: &tolles_core::fit::Fit,
+) -> Option<Warning> {
+    let kept = &fit.settings.design.extras;
+    let channels: Vec<String> = (request.extras.iter())
+        .filter(|e| !kept.iter().any(|k| k.name == e.name))
+        .map(|e| e.name.clone())
+        .collect();
+    (!channels.is_empty()).then(|| Warning::ExtrasDropped {
+        scalar: scalar.to_string(),
+        channels,
+    })
+}
+
 /// A warning when `fit`'s verdict is not `good`.
 pub fn verdict_warning(scalar: &str, fit: &tolles_core::fit::Fit) -> Option<Warning> {
     let verdict = fit.verdict.as_ref()?;
@@ -351,6 +368,7 @@ pub fn fit(
         .map(|(name, fitted)| {
             let fitted = fitted.map_err(|e| flight.explain(e, name))?;
             warnings.extend(poor_fit(name, &fitted));
+            warnings.extend(extras_dropped(name, request, &fitted));
             warnings.extend(verdict_warning(name, &fitted));
             Ok(ScalarModel::new(name, &request.vectors, fitted)
                 .with_reference(request.reference.as_deref())
@@ -368,7 +386,17 @@ pub fn fit(
                     .with_reference(request.reference.as_deref())
                     .with_calibration_flight(table.path()))
             };
-            network::learn(model, &flight, target, fs_hz, network, &refit, warnings)?;
+            // Extras the linear fit dropped may still matter nonlinearly: the network reads them
+            // as plain channels.
+            let mut network = network.clone();
+            let kept = &model.fit.settings.design.extras;
+            for extra in &request.extras {
+                let dropped = !kept.iter().any(|k| k.name == extra.name);
+                if dropped && !network.channels.contains(&extra.name) {
+                    network.channels.push(extra.name.clone());
+                }
+            }
+            network::learn(model, &flight, target, fs_hz, &network, &refit, warnings)?;
         }
     }
     // What `compensate`, `fom` and Python would refuse to read is refused here, unwritten.

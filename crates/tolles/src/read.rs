@@ -329,6 +329,19 @@ impl<'t> Flight<'t> {
         Ok(self)
     }
 
+    /// The flight with only the extra channels named in `kept`: what a fit that dropped some of
+    /// its `--extra` channels reads, so its design and its inputs agree.
+    pub fn keeping_extras(&self, kept: &[ExtraChannel]) -> Self {
+        let mut view = self.clone();
+        let keep = |spec: &ExtraChannel| kept.iter().any(|k| k.name == spec.name);
+        view.extras = (self.extras.iter().zip(&self.extra_specs))
+            .filter(|(_, spec)| keep(spec))
+            .map(|(column, _)| column.clone())
+            .collect();
+        view.extra_specs.retain(keep);
+        view
+    }
+
     /// The columns `names` of the flight's table, as numbers (their units); the first that
     /// is missing or not numeric is the error.
     pub fn columns<'n>(&self, names: impl IntoIterator<Item = &'n str>) -> Result<Vec<Vec<f64>>> {
@@ -421,8 +434,34 @@ impl<'t> Flight<'t> {
                 path,
                 vector: self.vectors[0].clone(),
             },
+            cause @ FitError::TooFewSamples { .. } => match self.sparsest_extra() {
+                Some((name, present)) => Error::Invalid(format!(
+                    "{}: --extra {name} has a value in only {present} of {} rows, and a fit uses only rows where every extra channel has one: {cause}; leave {name} out, or fill its gaps",
+                    path.display(),
+                    self.scalar_len(),
+                )),
+                None => Error::Fit { path, cause },
+            },
             cause => Error::Fit { path, cause },
         }
+    }
+
+    /// The extra channel with the fewest finite values and its count of them, when it is
+    /// missing on at least half of the rows: the likely reason a fit found too few samples.
+    fn sparsest_extra(&self) -> Option<(String, usize)> {
+        let rows = self.scalar_len();
+        (self.extra_specs.iter().zip(&self.extras))
+            .map(|(spec, column)| {
+                let present = column.iter().filter(|v| v.is_finite()).count();
+                (spec.name.clone(), present)
+            })
+            .filter(|(_, present)| 2 * present <= rows)
+            .min_by_key(|(_, present)| *present)
+    }
+
+    /// Rows of the flight (the fluxgate's length: the scalar may have been taken by a fit).
+    fn scalar_len(&self) -> usize {
+        self.flux.first().map_or(self.scalar.len(), |f| f.x.len())
     }
 }
 

@@ -137,6 +137,14 @@ pub enum Warning {
         /// What was held out to judge.
         held_out: crate::model::HeldOut,
     },
+    /// `fit --extra` channels that cross-validation found no better than leaving them out: the
+    /// model holds no terms, and no coverage, for them.
+    ExtrasDropped {
+        /// The scalar of the fit.
+        scalar: String,
+        /// The channels dropped, as given to `--extra`.
+        channels: Vec<String>,
+    },
     /// Not a problem: raw channels (SGL's `AZIMUTH`, …) a table also answers to under tolles'
     /// names, as `(raw, tolles)`, because it has no columns of those names.
     ColumnsAliased {
@@ -254,6 +262,11 @@ impl fmt::Display for Warning {
                 f,
                 "the network for {scalar} was not kept: on held-out {held_out} it leaves {network_rms_nt:.4} nT against the linear model's {linear_rms_nt:.4} nT (it must leave at least {:.0} % less)",
                 100.0 * crate::fit::network::KEEP_MARGIN
+            ),
+            Warning::ExtrasDropped { scalar, channels } => write!(
+                f,
+                "the fit of {scalar} dropped --extra {}: cross-validation found the model no better with them (they carry nothing of {scalar}'s interference, or too little to tell); the model leaves them out",
+                channels.join(",")
             ),
             Warning::UnlikelySampleRate { path, hz } => write!(
                 f,

@@ -136,7 +136,13 @@ pub(super) fn assess(
             l.fluxgate.offset_nt.iter().fold(0.0, |m, o| m.max(o.abs()))
         }),
     };
-    let coverage = Coverage::of(flux.series()[0], runs, fs_hz, flux.extras());
+    // Extra channels that cross-validation dropped are not in the model: nor is their range.
+    let extras: &[&[f64]] = if design.extras.is_empty() {
+        &[]
+    } else {
+        flux.extras()
+    };
+    let coverage = Coverage::of(flux.series()[0], runs, fs_hz, extras);
     // A factor that could not be inverted has no covariance to give: rows get none either.
     let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
     let usable = finite(&uncertainty.covariance) && finite(&uncertainty.mean_row);

@@ -160,6 +160,7 @@ impl Inputs {
         fs_hz: f64,
         request: &NetworkRequest,
     ) -> Result<Self> {
+        let flight = flight.keeping_extras(&model.fit.settings.design.extras);
         let inputs = flight.lagged_inputs(model.fit.lag_s, fs_hz);
         let channels = flight.columns(request.channels.iter().map(String::as_str))?;
         let channels: Vec<&[f64]> = channels.iter().map(Vec::as_slice).collect();
@@ -205,7 +206,8 @@ fn linear_residual(
         fs_hz: Some(fs_hz),
         ..Default::default()
     };
-    let field = crate::compensate::flight_field(flight, model, &request, &mut Vec::new())?.field;
+    let flight = flight.keeping_extras(&model.fit.settings.design.extras);
+    let field = crate::compensate::flight_field(&flight, model, &request, &mut Vec::new())?.field;
     Ok(target.iter().zip(field).map(|(t, f)| t - f).collect())
 }
 
