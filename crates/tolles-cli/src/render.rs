@@ -232,6 +232,12 @@ pub fn fit_summary(model: &ScalarModel, cal: &Path) -> std::io::Result<()> {
             levels.rows, levels.cutoff_hz, o[0], o[1], o[2], levels.residual_rms_nt, levels.level_std_error_nt
         )?;
     }
+    if let Some(misfit) = d.untrusted_levels_nt {
+        writeln!(
+            err,
+            "  heading levels: not used: the calibration's low frequencies miss the band's model by {misfit:.1} nT RMS, more than geology-free levels would (geology under legs far apart, diurnal variation); the fit is the band's alone"
+        )?;
+    }
     if let Some(cv) = &d.cross_validation {
         let ridge = match cv.chosen_prior_multiplier {
             Some(_) => format!("the physical prior ×{}", prior_multipliers(model)),

@@ -352,6 +352,7 @@ pub(super) fn solve(
                 columns,
                 &prior_unit,
                 &prior.groups,
+                prior.parsimonious,
             )
             .ok_or_else(failed)?;
             let mut solution =

@@ -154,6 +154,7 @@ pub(super) fn diagnostics(
         term_choice,
         std_errors: solution.std_errors(sigma2),
         levels: None,
+        untrusted_levels_nt: None,
         exact_iterations: 0,
         excitation_deg: None,
         restrained: None,

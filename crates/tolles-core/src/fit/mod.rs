@@ -81,7 +81,7 @@ use crate::fit::basis::Basis;
 use crate::fit::choice::{choose_design, pick_magnitude, union_of_terms};
 use crate::fit::crossval::{CrossValidation, DEFAULT_FOLDS};
 use crate::fit::levels::LevelDiagnostics;
-use crate::fit::problem::{fold_count, AboveBand, Problem, Spare};
+use crate::fit::problem::{fold_count, AboveBand, LevelChoice, Problem, Spare};
 use crate::fit::ridge::{RidgeError, RidgeSolution};
 use crate::model::design::{Design, Term};
 use crate::model::magnitude::Magnitude;
@@ -96,6 +96,7 @@ use inputs::check_inputs;
 pub(crate) use inputs::check_not_constant;
 use serde::{Deserialize, Serialize};
 use std::ops::Range;
+use std::sync::atomic::Ordering::Relaxed;
 use thiserror::Error;
 
 pub use crate::model::limits::{scalar_usable, show_nt, FLUX_MAGNITUDE_RANGE_NT, SCALAR_LIMIT_NT};
@@ -276,7 +277,10 @@ impl FitSettings {
         // regressor: band-passed, that is the earth's own anomalies inside the band, which it
         // fits (an induced trace of 1.2 on simulated flights over short-wavelength geology, the
         // survey's anomalies then scaled away). Over several fluxgates a second one's magnitude
-        // also measures sources near it (a current loop), which only such a set sees.
+        // also measures sources near it (a current loop), which only such a set sees. Allowed
+        // with one fluxgate too, they won on real cabin pairs only with traces near −1.5 (the
+        // survey's anomalies scaled by 1.5) and cost MagNav's real snippet 0.039 → 0.211 nT
+        // (`bench/real`).
         let isotropic_allowed = self.design.fluxgates > 1;
         let alternatives = self
             .alternative_terms
@@ -330,6 +334,7 @@ impl FitSettings {
             precision: prior.precisions(terms, self.design.bt_scale, fs_hz),
             groups: prior::Prior::groups(terms),
             rows_per_residual: 1.0 / fraction,
+            parsimonious: false,
         })
     }
 
@@ -512,6 +517,11 @@ pub struct Diagnostics {
     /// How the heading levels were fitted, when they were.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub levels: Option<LevelDiagnostics>,
+    /// With levels asked for, the RMS misfit (nT) by which the band-only model missed them when
+    /// that was too large to trust them (see `problem::UNTRUSTED_LEVELS_NT`, 10 nT): the fit
+    /// then left them out.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub untrusted_levels_nt: Option<f64>,
     /// Gauss-Newton iterations of the exact fit (0 for a linear model).
     #[serde(default)]
     pub exact_iterations: usize,
@@ -686,6 +696,7 @@ fn fit_reusing(
         spare,
         fs_hz,
         window_samples: windows::window_samples(),
+        parsimonious: std::sync::atomic::AtomicBool::new(false),
     };
     let prior = settings.prior_weights(&union, fs_hz);
     let above = problem.above.as_ref();
@@ -750,6 +761,15 @@ fn fit_reusing(
         });
     }
     let excitation = excitation_of(&band_folds, stored, prepared.band_row_count());
+    // Without maneuvers the folds cannot separate the terms: among priors they cannot tell
+    // apart, the strongest (MagNav's real snippet, 0.72° RMS: 0.205 → 0.039 nT on its other half).
+    problem
+        .parsimonious
+        .store(excitation < verdict::MIN_EXCITATION_DEG, Relaxed);
+    let prior = prior.map(|p| prior::PriorWeights {
+        parsimonious: problem.parsimonious.load(Relaxed),
+        ..p
+    });
     let band_folds = basis.folds(band_folds);
     let mut chosen = choose_design(
         &band_folds,
@@ -760,13 +780,14 @@ fn fit_reusing(
         prior.as_ref(),
         fs_hz,
     )?;
+    let mut untrusted_levels_nt = None;
     if let (Some(setup), Some(plan)) = (levels.as_mut(), &level_plan) {
         let rows = basis.level_rows(&prepared.levels);
         let candidates = (union.as_slice(), designs.as_slice());
         let terms = designs[chosen.index].design_terms();
         let on_union = problem::on_columns(&union, &terms, &chosen.solution.coefficients);
         let above = prepared.above_residual(&basis.on_stored(&on_union));
-        chosen =
+        let choice =
             problem.choose_with_levels(setup, (&chosen, above), candidates, rows, |setup| {
                 let folds = basis.folds(prepared.fold_factors(plan, setup.weight(), &band));
                 let weight = setup.weight();
@@ -781,6 +802,13 @@ fn fit_reusing(
                     fs_hz,
                 )
             })?;
+        match choice {
+            LevelChoice::Used(with_levels) => chosen = *with_levels,
+            LevelChoice::Untrusted { misfit_nt } => untrusted_levels_nt = Some(misfit_nt),
+        }
+    }
+    if untrusted_levels_nt.is_some() {
+        levels = None;
     }
     let design = designs[chosen.index].clone();
     let before = match wanted {
@@ -848,6 +876,7 @@ fn fit_reusing(
     diagnostics.levels = levels
         .as_ref()
         .map(|l| l.diagnostics(&terms, &chosen.solution.coefficients));
+    diagnostics.untrusted_levels_nt = untrusted_levels_nt;
     diagnostics.exact_iterations = iterations;
     diagnostics.excitation_deg = excitation.is_finite().then_some(excitation);
     diagnostics.restrained = chosen.restrained.clone();

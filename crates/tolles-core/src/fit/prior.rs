@@ -144,6 +144,9 @@ pub struct PriorWeights {
     pub groups: Vec<Option<Group>>,
     /// Rows per independent residual.
     pub rows_per_residual: f64,
+    /// Prefer the strongest prior the held-out folds cannot tell from the best (the calibration
+    /// did not maneuver enough to separate the terms; see `crossval::cross_validate_prior`).
+    pub parsimonious: bool,
 }
 
 impl PriorWeights {
@@ -153,6 +156,7 @@ impl PriorWeights {
             precision: picks.iter().map(|&k| self.precision[k]).collect(),
             groups: picks.iter().map(|&k| self.groups[k]).collect(),
             rows_per_residual: self.rows_per_residual,
+            parsimonious: self.parsimonious,
         }
     }
 

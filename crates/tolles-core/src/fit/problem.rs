@@ -35,6 +35,9 @@ pub(super) struct Problem<'p, 'a> {
     pub(super) fs_hz: f64,
     /// Samples per window of a long run ([`window_samples`]).
     pub(super) window_samples: usize,
+    /// Whether the calibration maneuvered too little for the folds to separate the terms
+    /// ([`super::prior::PriorWeights::parsimonious`]); known once the band rows are.
+    pub(super) parsimonious: std::sync::atomic::AtomicBool,
 }
 
 /// Rows above the fitting band for extra channels. A current may switch or flash faster than
@@ -907,22 +910,46 @@ impl Problem<'_, '_> {
         (union, designs): (&[Term], &[Design]),
         rows: Vec<LevelRows>,
         solve: impl Fn(&LevelSetup) -> Result<Chosen, FitError>,
-    ) -> Result<Chosen, FitError> {
+    ) -> Result<LevelChoice, FitError> {
+        setup.rows = rows;
+        setup.row_terms = union.to_vec();
+        let band_terms = designs[band_only.index].design_terms();
+        let untrusted = setup.misfit(&band_terms, &band_only.solution.coefficients);
+        if untrusted > UNTRUSTED_LEVELS_NT {
+            return Ok(LevelChoice::Untrusted {
+                misfit_nt: untrusted,
+            });
+        }
         let s = &band_only.solution;
         let band_rows = s.rows.saturating_sub(above.1).max(1);
         let band_rss = (s.rss - above.0).max(0.0);
         setup.band_sigma_nt = (band_rss / band_rows as f64).sqrt().max(1e-6);
         let mut chosen = solve(setup)?;
-        setup.rows = rows;
-        setup.row_terms = union.to_vec();
         let terms = designs[chosen.index].design_terms();
         let misfit = setup.misfit(&terms, &chosen.solution.coefficients);
         if misfit > 1.5 * setup.sigma_nt {
             setup.sigma_nt = misfit;
             chosen = solve(setup)?;
         }
-        Ok(chosen)
+        Ok(LevelChoice::Used(Box::new(chosen)))
     }
+}
+
+/// The heading levels' RMS misfit (nT) to the band-only model beyond which the calibration's
+/// low frequencies are not trusted to steer the fit. A box whose model fits its band to tenths
+/// of a nT but misses its levels by tens (real boxes: 38–115 nT) holds below the band what no
+/// term models: geology under legs kilometres apart, diurnal variation, a fluxgate whose
+/// calibration drifts. Simulated boxes, whose low frequencies the model describes, miss by
+/// about 0.1 nT.
+pub(super) const UNTRUSTED_LEVELS_NT: f64 = 10.0;
+
+/// What the heading levels did to a fit's choice.
+pub(super) enum LevelChoice {
+    /// The choice made with the level rows.
+    Used(Box<Chosen>),
+    /// The band-only model misses the level rows by `misfit_nt` (nT RMS), more than
+    /// [`UNTRUSTED_LEVELS_NT`]: the fit keeps the band-only choice.
+    Untrusted { misfit_nt: f64 },
 }
 
 /// One run's long-run score covariance (see [`Prepared::score_covariance`]): with `Bₖ` the
