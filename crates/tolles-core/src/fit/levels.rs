@@ -82,8 +82,11 @@ pub struct LevelDiagnostics {
 }
 
 /// Largest believable fluxgate offset (nT): beyond it the calibration has fitted something else
-/// (too little attitude change to tell the terms apart) and is not used.
-pub const MAX_OFFSET_NT: f64 = 2_000.0;
+/// (too little attitude change to tell the terms apart) and is not used. A fluxgate in a cabin
+/// sees the aircraft's permanent field, thousands of nT on real boxes (deinterf's SGL box: 1100
+/// to 5600 nT), so the bound is the aircraft's own ([`crate::fit::plausible::MAX_PERMANENT_NT`]);
+/// levels the calibration then misses are not trusted (`problem::UNTRUSTED_LEVELS_NT`).
+pub const MAX_OFFSET_NT: f64 = crate::fit::plausible::MAX_PERMANENT_NT;
 
 /// Largest believable distortion (dimensionless), likewise.
 pub const MAX_DISTORTION: f64 = 0.05;

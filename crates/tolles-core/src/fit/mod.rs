@@ -780,7 +780,7 @@ fn fit_reusing(
         prior.as_ref(),
         fs_hz,
     )?;
-    let mut untrusted_levels_nt = None;
+    let (mut untrusted, mut untrusted_levels_nt) = (false, None);
     if let (Some(setup), Some(plan)) = (levels.as_mut(), &level_plan) {
         let rows = basis.level_rows(&prepared.levels);
         let candidates = (union.as_slice(), designs.as_slice());
@@ -804,10 +804,13 @@ fn fit_reusing(
             })?;
         match choice {
             LevelChoice::Used(with_levels) => chosen = *with_levels,
-            LevelChoice::Untrusted { misfit_nt } => untrusted_levels_nt = Some(misfit_nt),
+            LevelChoice::Untrusted { misfit_nt } => {
+                untrusted = true;
+                untrusted_levels_nt = misfit_nt.is_finite().then_some(misfit_nt);
+            }
         }
     }
-    if untrusted_levels_nt.is_some() {
+    if untrusted {
         levels = None;
     }
     let design = designs[chosen.index].clone();

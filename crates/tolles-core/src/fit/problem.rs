@@ -915,7 +915,8 @@ impl Problem<'_, '_> {
         setup.row_terms = union.to_vec();
         let band_terms = designs[band_only.index].design_terms();
         let untrusted = setup.misfit(&band_terms, &band_only.solution.coefficients);
-        if untrusted > UNTRUSTED_LEVELS_NT {
+        // No misfit to measure (no level row) is no level to trust either.
+        if untrusted.is_nan() || untrusted > UNTRUSTED_LEVELS_NT {
             return Ok(LevelChoice::Untrusted {
                 misfit_nt: untrusted,
             });
@@ -948,7 +949,8 @@ pub(super) enum LevelChoice {
     /// The choice made with the level rows.
     Used(Box<Chosen>),
     /// The band-only model misses the level rows by `misfit_nt` (nT RMS), more than
-    /// [`UNTRUSTED_LEVELS_NT`]: the fit keeps the band-only choice.
+    /// [`UNTRUSTED_LEVELS_NT`], or there is no misfit to measure (NaN): the fit keeps the
+    /// band-only choice.
     Untrusted { misfit_nt: f64 },
 }
 
