@@ -745,7 +745,7 @@ def simulate(plan: str = "box", preset: str = "cabin", seed: int = 1, **options:
     """A flight whose truth is known, as ``tolles simulate`` writes it.
 
     ``plan``: ``"box"``, ``"patent"`` or ``"survey"``; ``preset``: ``"tail-stinger"``,
-    ``"cabin"`` or ``"uav"``. Other options, named like the command's flags: ``fs`` (Hz),
+    ``"cabin"``, ``"uav"`` or ``"realistic"``. Other options, named like the command's flags: ``fs`` (Hz),
     ``speed`` (m/s), ``lat``/``lon`` (deg), ``alt`` (m), ``date`` ("YYYY-MM-DD"),
     ``uniform`` ((inclination_deg, declination_deg, intensity_nT) instead of IGRF),
     ``period`` (s), ``cycles``, ``roll``/``pitch``/``yaw`` (deg), ``lines``,

@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{column, error_vs_truth_where_computed, tolles};
+use common::{column, error_vs_truth_where_computed, survey_error, tolles};
 use std::path::Path;
 use tempfile::TempDir;
 
@@ -15,41 +15,6 @@ fn simulate(dir: &Path, plan: &str, seed: &str) {
         .arg(format!("{plan}.csv"))
         .assert()
         .success();
-}
-
-/// Fits the box with `flags`, compensates the survey; returns the error against the truth
-/// (nT) and `fit`'s standard error.
-fn survey_error(dir: &Path, flags: &[&str]) -> (f64, String) {
-    let out = tolles()
-        .current_dir(dir)
-        .args([
-            "fit", "box.csv", "--scalar", "mag_1_uc", "--vector", "flux_a", "--out", "m.json",
-        ])
-        .args(flags)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    tolles()
-        .current_dir(dir)
-        .args([
-            "compensate",
-            "survey.csv",
-            "--model",
-            "m.json",
-            "--out",
-            "c.csv",
-        ])
-        .assert()
-        .success();
-    let csv = std::fs::read_to_string(dir.join("c.csv")).unwrap();
-    (
-        error_vs_truth_where_computed(&csv, "mag_1_c"),
-        String::from_utf8(out.stderr).unwrap(),
-    )
 }
 
 #[test]

@@ -37,6 +37,9 @@ pub enum Preset {
     Cabin,
     /// UAV: moderate airframe field and strong motor currents (column cur_1)
     Uav,
+    /// A cabin as real boxes measure: a thousand nT, a fluxgate that sees the aircraft
+    /// (thousands of nT of offset, drifting), an unmodelled current in the band (column cur_1)
+    Realistic,
 }
 
 /// Simulate a flight of a scalar magnetometer and a fluxgate whose truth is known.
@@ -179,6 +182,7 @@ fn request(args: &Args) -> SimulateRequest {
             Preset::TailStinger => simulate::Preset::TailStinger,
             Preset::Cabin => simulate::Preset::Cabin,
             Preset::Uav => simulate::Preset::Uav,
+            Preset::Realistic => simulate::Preset::Realistic,
         },
         fs_hz: args.fs,
         speed_mps: args.speed,

@@ -17,6 +17,29 @@ pub fn run_in(dir: &Path, args: &[&str]) -> (String, String) {
     (String::from_utf8(out.stdout).unwrap(), stderr)
 }
 
+/// Fits `box.csv` in `dir` with `flags` (`--scalar mag_1_uc --vector flux_a`), compensates
+/// `survey.csv` with the model; the survey's error against the truth where it was computed
+/// (nT) and `fit`'s standard error.
+pub fn survey_error(dir: &Path, flags: &[&str]) -> (f64, String) {
+    let fit = [
+        "fit", "box.csv", "--scalar", "mag_1_uc", "--vector", "flux_a", "--out", "m.json",
+    ];
+    let (_, stderr) = run_in(dir, &[&fit[..], flags].concat());
+    run_in(
+        dir,
+        &[
+            "compensate",
+            "survey.csv",
+            "--model",
+            "m.json",
+            "--out",
+            "c.csv",
+        ],
+    );
+    let csv = std::fs::read_to_string(dir.join("c.csv")).unwrap();
+    (error_vs_truth_where_computed(&csv, "mag_1_c"), stderr)
+}
+
 /// A column of MagNav's golden Tolles-Lawson test data, one value per line.
 pub fn magnav(name: &str) -> Vec<f64> {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))

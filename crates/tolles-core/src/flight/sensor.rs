@@ -25,9 +25,34 @@ pub struct Fluxgate {
     pub nonorthogonality_deg: [f64; 3],
     /// How late the fluxgate samples relative to the scalar magnetometer (s).
     pub lag_s: f64,
+    /// Amplitude of each axis's slow offset drift (nT), as temperature and the aircraft's
+    /// own slowly changing fields move a real fluxgate's zero; none by default.
+    #[serde(default, skip_serializing_if = "is_zero3")]
+    pub drift_nt: [f64; 3],
+    /// Period of that drift (s); each axis a third of a period after the previous.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub drift_period_s: f64,
+}
+
+// Skipped when zero: flights without a drift keep the sidecar they had.
+fn is_zero3(v: &[f64; 3]) -> bool {
+    v.iter().all(|x| *x == 0.0)
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 impl Fluxgate {
+    /// The offset drift (nT) of each axis at time `t` (s): zero without a drift.
+    pub fn drift_at(&self, t: f64) -> [f64; 3] {
+        if self.drift_period_s <= 0.0 || !self.drift_period_s.is_finite() {
+            return [0.0; 3];
+        }
+        let phase = std::f64::consts::TAU * t / self.drift_period_s;
+        [0, 1, 2].map(|i| self.drift_nt[i] * (phase + std::f64::consts::TAU * i as f64 / 3.0).sin())
+    }
+
     /// The reading (nT) of true field `b` (nT) with the noise sample `noise` (nT) added.
     pub fn read(&self, b: [f64; 3], noise: [f64; 3]) -> [f64; 3] {
         let [a, c, d] = self.nonorthogonality_deg.map(f64::to_radians);
@@ -74,6 +99,22 @@ impl Default for Sensors {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_offset_drifts_by_its_amplitude_over_its_period_and_not_without_one() {
+        let f = Fluxgate {
+            drift_nt: [100.0, 50.0, 0.0],
+            drift_period_s: 400.0,
+            ..Fluxgate::default()
+        };
+        assert_eq!(f.drift_at(0.0)[0], 0.0);
+        assert!((f.drift_at(100.0)[0] - 100.0).abs() < 1e-9); // a quarter period
+        let peak = (0..400)
+            .map(|t| f.drift_at(t as f64)[1])
+            .fold(0.0, f64::max);
+        assert!((peak - 50.0).abs() < 0.1, "{peak}");
+        assert_eq!(Fluxgate::default().drift_at(123.0), [0.0; 3]);
+    }
 
     #[test]
     fn scale_error_and_nonorthogonality_distort_as_documented() {
