@@ -239,17 +239,22 @@ fn poor_fit(scalar: &str, fit: &tolles_core::fit::Fit) -> Option<Warning> {
     })
 }
 
+/// The `--extra` channels of `request` that `fit` chose to leave out, by name.
+fn dropped_extras(request: &FitRequest, fit: &tolles_core::fit::Fit) -> Vec<String> {
+    let kept = &fit.settings.design.extras;
+    (request.extras.iter())
+        .filter(|e| !kept.iter().any(|k| k.name == e.name))
+        .map(|e| e.name.clone())
+        .collect()
+}
+
 /// A warning naming the `--extra` channels the fit of `scalar` chose to leave out.
 fn extras_dropped(
     scalar: &str,
     request: &FitRequest,
     fit: &tolles_core::fit::Fit,
 ) -> Option<Warning> {
-    let kept = &fit.settings.design.extras;
-    let channels: Vec<String> = (request.extras.iter())
-        .filter(|e| !kept.iter().any(|k| k.name == e.name))
-        .map(|e| e.name.clone())
-        .collect();
+    let channels = dropped_extras(request, fit);
     (!channels.is_empty()).then(|| Warning::ExtrasDropped {
         scalar: scalar.to_string(),
         channels,
@@ -389,11 +394,9 @@ pub fn fit(
             // Extras the linear fit dropped may still matter nonlinearly: the network reads them
             // as plain channels.
             let mut network = network.clone();
-            let kept = &model.fit.settings.design.extras;
-            for extra in &request.extras {
-                let dropped = !kept.iter().any(|k| k.name == extra.name);
-                if dropped && !network.channels.contains(&extra.name) {
-                    network.channels.push(extra.name.clone());
+            for name in dropped_extras(request, &model.fit) {
+                if !network.channels.contains(&name) {
+                    network.channels.push(name);
                 }
             }
             network::learn(model, &flight, target, fs_hz, &network, &refit, warnings)?;

@@ -330,16 +330,20 @@ impl<'t> Flight<'t> {
     }
 
     /// The flight with only the extra channels named in `kept`: what a fit that dropped some of
-    /// its `--extra` channels reads, so its design and its inputs agree.
-    pub fn keeping_extras(&self, kept: &[ExtraChannel]) -> Self {
-        let mut view = self.clone();
+    /// its `--extra` channels reads, so its design and its inputs agree. The flight itself
+    /// when it keeps them all (no copy of its columns).
+    pub fn keeping_extras(&self, kept: &[ExtraChannel]) -> std::borrow::Cow<'_, Self> {
         let keep = |spec: &ExtraChannel| kept.iter().any(|k| k.name == spec.name);
+        if self.extra_specs.iter().all(keep) {
+            return std::borrow::Cow::Borrowed(self);
+        }
+        let mut view = self.clone();
         view.extras = (self.extras.iter().zip(&self.extra_specs))
             .filter(|(_, spec)| keep(spec))
             .map(|(column, _)| column.clone())
             .collect();
         view.extra_specs.retain(keep);
-        view
+        std::borrow::Cow::Owned(view)
     }
 
     /// The columns `names` of the flight's table, as numbers (their units); the first that

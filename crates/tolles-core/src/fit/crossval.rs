@@ -172,7 +172,8 @@ fn validate(
     prior: &[f64],
     parsimonious: bool,
 ) -> Option<CrossValidation> {
-    let rows: usize = folds.iter().map(Ridge::rows).sum();
+    let sizes: Vec<usize> = folds.iter().map(Ridge::rows).collect();
+    let rows: usize = sizes.iter().sum();
     let mut per_fold = Vec::with_capacity(points.len());
     for p in points.iter_mut() {
         let prior = scaled(prior, p.prior_multiplier);
@@ -187,7 +188,6 @@ fn validate(
         .enumerate()
         .filter_map(|(k, p)| p.heldout_rms_nt.map(|rms| (k, rms)))
         .min_by(|a, b| a.1.total_cmp(&b.1))?;
-    let sizes: Vec<usize> = folds.iter().map(Ridge::rows).collect();
     let chosen = match parsimonious {
         false => best_at,
         true => (best_at..points.len())
@@ -235,8 +235,8 @@ pub fn cross_validate_prior_groups<G: PartialEq + Copy>(
     if distinct.len() < 2 {
         return Some(cv);
     }
-    let rows: usize = folds.iter().map(Ridge::rows).sum();
     let sizes: Vec<usize> = folds.iter().map(Ridge::rows).collect();
+    let rows: usize = sizes.iter().sum();
     let lambda_rel = cv.chosen_lambda_rel;
     let score = |multipliers: &[f64]| {
         let penalty: Vec<f64> = prior.iter().zip(multipliers).map(|(p, m)| p * m).collect();

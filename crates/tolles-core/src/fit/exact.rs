@@ -78,12 +78,7 @@ impl Problem<'_, '_> {
             debug_assert!(prepared.plan(levels.is_some(), count) == plan);
             let band = prepared.band_factors(&[&plan]);
             let folds = prepared.fold_factors(&plan, weight, &band);
-            let prior = (self.settings.prior_weights(&terms, self.fs_hz)).map(|p| {
-                super::prior::PriorWeights {
-                    parsimonious: self.parsimonious.load(std::sync::atomic::Ordering::Relaxed),
-                    ..p
-                }
-            });
+            let prior = self.prior_weights(&terms);
             let lambda = self.settings.lambda;
             let prior = prior.as_ref();
             let chosen =

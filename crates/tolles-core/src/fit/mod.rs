@@ -698,7 +698,6 @@ fn fit_reusing(
         window_samples: windows::window_samples(),
         parsimonious: std::sync::atomic::AtomicBool::new(false),
     };
-    let prior = settings.prior_weights(&union, fs_hz);
     let above = problem.above.as_ref();
     // The linear rows are the largest buffer; a calibration of the fluxgate in a pass of its own
     // uses its first part.
@@ -766,10 +765,7 @@ fn fit_reusing(
     problem
         .parsimonious
         .store(excitation < verdict::MIN_EXCITATION_DEG, Relaxed);
-    let prior = prior.map(|p| prior::PriorWeights {
-        parsimonious: problem.parsimonious.load(Relaxed),
-        ..p
-    });
+    let prior = problem.prior_weights(&union);
     let band_folds = basis.folds(band_folds);
     let mut chosen = choose_design(
         &band_folds,

@@ -135,8 +135,7 @@ pub fn fault(design: &Design, coefficients: &[f64], fs_hz: f64) -> Option<Fault>
     let fields: Vec<AircraftField> = (0..design.fluxgates)
         .map(|fluxgate| AircraftField::from_block(design, coefficients, fs_hz, fluxgate))
         .collect();
-    let blocks = fields.iter().enumerate();
-    if let Some(fault) = blocks.clone().find_map(|(k, f)| field_fault(f, k)) {
+    if let Some(fault) = (fields.iter().enumerate()).find_map(|(k, f)| field_fault(f, k)) {
         return Some(fault);
     }
     let trace: f64 = fields.iter().map(trace_of).sum();

@@ -558,6 +558,14 @@ pub(super) fn fold_count(lambda: Lambda) -> usize {
 }
 
 impl Problem<'_, '_> {
+    /// The settings' prior weights for the columns `terms`, parsimonious when the calibration
+    /// maneuvered too little ([`Problem::parsimonious`]).
+    pub(super) fn prior_weights(&self, terms: &[Term]) -> Option<super::prior::PriorWeights> {
+        let parsimonious = self.parsimonious.load(std::sync::atomic::Ordering::Relaxed);
+        (self.settings.prior_weights(terms, self.fs_hz))
+            .map(|p| super::prior::PriorWeights { parsimonious, ..p })
+    }
+
     /// Filters a run's `signals` (its columns, then its target, then `extra` signals after it)
     /// in place and, with `levels`, gives its level rows of the columns and the target,
     /// low-passed from the unfiltered signals: with a band-pass, the two filters share the
