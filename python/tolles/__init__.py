@@ -436,6 +436,7 @@ def fit(
     fs: Optional[float] = None,
     magnitude: Optional[str] = None,
     levels: Optional[bool] = None,
+    fluxgate_offset: Optional[bool] = None,
     extra: Names = (),
     lag: Union[str, float, None] = None,
     reference: Optional[str] = None,
@@ -483,6 +484,10 @@ def fit(
     levels : bool, optional
         Also fit the heading levels against the calibrated fluxgate's magnitude. Default: with
         ``lambda_="auto"`` and one fluxgate.
+    fluxgate_offset : bool, optional
+        Calibrate a lone fluxgate's offset (the aircraft's field where it sits, nT) against its
+        own magnitude and fit on its readings without it; compensation takes it out too.
+        Default: with ``lambda_="auto"``, one fluxgate and no ``reference``.
     extra : str or list of str
         Extra channels as regressors, e.g. currents (``"cur_strb"``): each adds ``B̂x·c, B̂y·c,
         B̂z·c``; with ``lambda_="auto"`` they are kept only if they predict held-out data 2 %
@@ -540,6 +545,7 @@ def fit(
         "fs": None if fs is None else float(fs),
         "magnitude": magnitude,
         "levels": None if levels is None else bool(levels),
+        "fluxgate_offset": None if fluxgate_offset is None else bool(fluxgate_offset),
         "extras": [] if not extra else _names(extra, "extra"),
         "lag": None if lag is None else str(lag),
         "reference": reference,

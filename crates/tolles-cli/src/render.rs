@@ -217,6 +217,12 @@ pub fn fit_summary(model: &ScalarModel, cal: &Path) -> std::io::Result<()> {
             model.fit.lag_s * model.fit.fs_hz
         )?;
     }
+    if let Some([x, y, z]) = model.fit.flux_offset_nt {
+        writeln!(
+            err,
+            "  fluxgate offset taken out before the design: {x:.1}, {y:.1}, {z:.1} nT (x, y, z); compensation takes it out too"
+        )?;
+    }
     if d.exact_iterations > 0 {
         writeln!(
             err,

@@ -157,6 +157,31 @@ fn an_exact_magnitude_model_streams_as_batch_compensates() {
     check_equivalent(&survey, &batch, &String::from_utf8(out.stdout).unwrap());
 }
 
+/// The realistic preset's fluxgate reads thousands of nT of the aircraft: the model takes its
+/// offset out, and the stream does as batch does.
+#[test]
+fn a_model_without_the_fluxgate_offset_streams_as_batch_compensates() {
+    let dir = TempDir::new().unwrap();
+    let survey = model_and_survey_with(dir.path(), &[], "realistic");
+    let model: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("m.json")).unwrap())
+            .unwrap();
+    let offset = &model["fits"][0]["flux_offset_nt"];
+    assert!(offset[1].as_f64().unwrap().abs() > 1_000.0, "{offset}");
+    let batch = run(
+        dir.path(),
+        &["compensate", "survey.csv", "--model", "m.json"],
+    );
+    let out = tolles()
+        .current_dir(dir.path())
+        .args(["stream", "--model", "m.json"])
+        .write_stdin(survey.clone())
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    check_equivalent(&survey, &batch, &String::from_utf8(out.stdout).unwrap());
+}
+
 #[test]
 fn stream_over_tcp_equals_batch_up_to_a_constant_for_each_client() {
     let dir = TempDir::new().unwrap();

@@ -28,6 +28,7 @@ fn settings(terms: &str, lambda: Lambda) -> FitSettings {
         levels: false,
         target: tolles_core::fit::Target::Band,
         prior: None,
+        fluxgate_offset: false,
     }
 }
 

@@ -70,6 +70,10 @@ pub struct FitRequest {
     /// Fit the heading levels against the calibrated fluxgate; `None`: when λ is
     /// cross-validated and there is one fluxgate.
     pub levels: Option<bool>,
+    /// Calibrate a lone fluxgate's offset and fit on its readings without it (see
+    /// `FitSettings::fluxgate_offset`); `None`: when λ is cross-validated, there is one
+    /// fluxgate and no reference.
+    pub fluxgate_offset: Option<bool>,
     /// Extra channels (e.g. currents, A) that each add `B̂x·c, B̂y·c, B̂z·c`; with a
     /// cross-validated λ they are kept only if they predict held-out data 2 % better. Each may
     /// be low-passed and lagged ([`ExtraChannel`]).
@@ -140,6 +144,7 @@ impl FitRequest {
             fs_hz: None,
             magnitude: None,
             levels: None,
+            fluxgate_offset: None,
             extras: Vec::new(),
             lag: Lag::None,
             reference: None,
@@ -182,6 +187,9 @@ impl FitRequest {
                 None => Target::Band,
             },
             prior: recommended.prior,
+            fluxgate_offset: self.fluxgate_offset.unwrap_or(
+                self.cross_validated() && self.vectors.len() == 1 && self.reference.is_none(),
+            ),
         }
     }
 
@@ -213,11 +221,33 @@ fn fit_lagged(
         Lag::Seconds(s) => s,
         Lag::Auto => lag::estimate(scalar, &flight.flux[0], fs_hz, tt, settings, LAG_SEARCH_S)?,
     };
-    let mut fitted = flight.with_inputs(lag_s, fs_hz, |inputs| {
+    let offset = flux_offset(scalar, flight, fs_hz, settings, lag_s);
+    let mut fitted = flight.with_inputs(lag_s, offset, fs_hz, |inputs| {
         fit_scalar(scalar, inputs, fs_hz, tt, settings)
     })?;
     fitted.lag_s = lag_s;
+    fitted.flux_offset_nt = offset;
     Ok(fitted)
+}
+
+/// The lone fluxgate's offset (nT) to take out before fitting, when `settings` ask for it and
+/// its calibration against its own magnitude succeeds (`levels::reference`): the samples the
+/// scalar has, the fluxgate read `lag_s` later.
+fn flux_offset(
+    scalar: &[f64],
+    flight: &Flight,
+    fs_hz: f64,
+    settings: &FitSettings,
+    lag_s: f64,
+) -> Option<[f64; 3]> {
+    if !settings.fluxgate_offset || flight.flux.len() != 1 {
+        return None;
+    }
+    let flux = tolles_core::fit::lag::shifted(&flight.flux[0], lag_s, fs_hz);
+    let usable: Vec<bool> = scalar.iter().map(|v| v.is_finite()).collect();
+    let tt = flight.tt.as_deref();
+    tolles_core::fit::levels::reference(&flux, &usable, fs_hz, tt, settings)
+        .map(|r| r.calibration.offset_nt)
 }
 
 /// Improvement ratio below which a fit is reported as poor.

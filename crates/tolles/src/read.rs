@@ -354,18 +354,22 @@ impl<'t> Flight<'t> {
     }
 
     /// The fluxgates as they read `lag_s` seconds later (see `tolles_core::fit::lag::shifted`),
-    /// with the extra channels low-passed and lagged as their specs say
-    /// ([`ExtraChannel::condition`]), at sample rate `fs_hz` (Hz): what fit and compensation use.
+    /// the first less `offset` (nT, see `Fit::flux_offset_nt`), with the extra channels
+    /// low-passed and lagged as their specs say ([`ExtraChannel::condition`]), at sample rate
+    /// `fs_hz` (Hz): what fit and compensation use.
     pub fn lagged_inputs(
         &self,
         lag_s: f64,
+        offset: Option<[f64; 3]>,
         fs_hz: f64,
     ) -> tolles_core::model::vector::SlicedInputs {
+        let shifted = |f| tolles_core::fit::lag::shifted(f, lag_s, fs_hz);
         tolles_core::model::vector::SlicedInputs {
-            series: self
-                .flux
-                .iter()
-                .map(|f| tolles_core::fit::lag::shifted(f, lag_s, fs_hz))
+            series: (self.flux.iter().enumerate())
+                .map(|(k, f)| match (k, offset) {
+                    (0, Some(_)) => shifted(f).less_offset(offset).into_owned(),
+                    _ => shifted(f),
+                })
                 .collect(),
             extras: self
                 .extras
@@ -376,18 +380,20 @@ impl<'t> Flight<'t> {
         }
     }
 
-    /// `work` given the inputs of [`Flight::lagged_inputs`]; without a lag or extra channels
-    /// to condition, the flight's own columns (no copy: a 10⁷-sample fluxgate is 240 MB).
+    /// `work` given the inputs of [`Flight::lagged_inputs`]; without a lag, an offset or extra
+    /// channels to condition, the flight's own columns (no copy: a 10⁷-sample fluxgate is
+    /// 240 MB).
     pub fn with_inputs<R>(
         &self,
         lag_s: f64,
+        offset: Option<[f64; 3]>,
         fs_hz: f64,
         work: impl FnOnce(tolles_core::model::vector::Fluxgates) -> R,
     ) -> R {
-        if lag_s == 0.0 && self.extras.is_empty() {
+        if lag_s == 0.0 && offset.is_none() && self.extras.is_empty() {
             work(self.flux.as_slice().into())
         } else {
-            work((&self.lagged_inputs(lag_s, fs_hz)).into())
+            work((&self.lagged_inputs(lag_s, offset, fs_hz)).into())
         }
     }
 

@@ -169,7 +169,8 @@ impl Setup {
             let ratio = fs_hz / fit.fs_hz;
             let spec =
                 ScalarSpec::new(&m.scalar, j, design, &fit.coefficients, fit.level_nt, ratio)
-                    .with_magnitude(fit.magnitude);
+                    .with_magnitude(fit.magnitude)
+                    .with_flux_offset(fit.flux_offset_nt);
             // The network's own channels are read and passed like extra channels, unfiltered.
             let spec = match &m.network {
                 Some(learned) => {

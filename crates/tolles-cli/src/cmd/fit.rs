@@ -91,6 +91,13 @@ pub struct Args {
     /// one fluxgate
     #[arg(long, value_parser = parse_on_off)]
     pub levels: Option<bool>,
+    /// Fluxgate offset: `on` calibrates a lone fluxgate's offset (the aircraft's field where it
+    /// sits, thousands of nT in a cabin) against its own magnitude and fits on its readings
+    /// without it; compensation takes it out too. `off` uses the readings as they are
+    /// (MagNav's procedure). Default: on when λ is cross-validated, there is one fluxgate and
+    /// no --reference
+    #[arg(long, value_parser = parse_on_off)]
+    pub fluxgate_offset: Option<bool>,
     /// Extra channels as regressors, e.g. currents: `--extra cur_strb,cur_1`. Each adds the
     /// columns B̂x·c, B̂y·c, B̂z·c (a field of fixed direction in the aircraft, proportional to
     /// the channel); with λ `auto` the fit keeps them only if they predict held-out data 2 %
@@ -257,6 +264,7 @@ fn request(args: &Args) -> Result<FitRequest> {
         fs_hz: args.fs,
         magnitude: args.magnitude,
         levels: args.levels,
+        fluxgate_offset: args.fluxgate_offset,
         lag: args.lag,
         reference: args.reference.clone(),
         network: network_request(args)?,

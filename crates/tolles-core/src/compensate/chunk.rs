@@ -64,6 +64,9 @@ pub struct Setup<'m> {
     pub fs_ratio: f64,
     /// The fluxgate's lag (s): it is read this much later.
     pub lag_s: f64,
+    /// The first fluxgate's offset (nT; x, y, z), taken out of its readings
+    /// ([`crate::fit::Fit::flux_offset_nt`]).
+    pub flux_offset_nt: Option<[f64; 3]>,
     /// The whole flight's median time step (s), which sets the gap threshold; `None` splits
     /// runs at unusable rows only.
     pub median_step_s: Option<f64>,
@@ -87,6 +90,7 @@ impl<'m> Setup<'m> {
             fs_hz,
             fs_ratio,
             lag_s: 0.0,
+            flux_offset_nt: None,
             median_step_s: None,
             coverage: None,
             uncertainty: None,
@@ -348,6 +352,15 @@ impl<'m> ChunkCompensator<'m> {
         rows: Range<usize>,
     ) -> ChunkField {
         let setup = self.setup;
+        let corrected: Vec<VectorSeries>;
+        let flux = match (setup.flux_offset_nt, flux.split_first()) {
+            (Some(_), Some((first, rest))) => {
+                let first = first.less_offset(setup.flux_offset_nt).into_owned();
+                corrected = std::iter::once(first).chain(rest.iter().cloned()).collect();
+                &corrected[..]
+            }
+            _ => flux,
+        };
         let inputs = Fluxgates::from(flux).with_extras(extras.to_vec());
         let usable = inputs.finite_mask();
         let runs = contiguous_runs_with_step(&usable, tt, setup.median_step_s);
@@ -552,6 +565,71 @@ mod tests {
                     );
                 }
             }
+        }
+    }
+
+    /// The offset is taken out of the first fluxgate's readings however they arrive: whole
+    /// series (no conditioning), whole rows with a lag, or chunk by chunk.
+    #[test]
+    fn a_fluxgate_offset_is_the_same_as_readings_without_it() {
+        let n = 400;
+        let f = flight(n);
+        let offset = [1_500.0, -2_200.0, 900.0];
+        let mut corrected = flight(n);
+        corrected.flux = f.flux.less_offset(Some(offset)).into_owned();
+        let design = Design::new("p,i,e".parse().unwrap());
+        let beta: Vec<f64> = (0..design.width()).map(|k| 1.0 + k as f64).collect();
+        let model = Model {
+            design: &design,
+            coefficients: &beta,
+            magnitude: Magnitude::Linear,
+        };
+        for lag_s in [0.0, 0.37] {
+            let plain = Setup {
+                lag_s,
+                ..Setup::new(model, 10.0, 1.0)
+            };
+            let with_offset = Setup {
+                flux_offset_nt: Some(offset),
+                ..plain
+            };
+            let expected = ChunkCompensator::new(plain).whole_series(
+                std::slice::from_ref(&corrected.flux),
+                &[],
+                &[],
+                Some(&f.tt),
+            );
+            let got = ChunkCompensator::new(with_offset).whole_series(
+                std::slice::from_ref(&f.flux),
+                &[],
+                &[],
+                Some(&f.tt),
+            );
+            // Shifting then subtracting (what fit and compensation do) rounds differently from
+            // the other order, by an ulp.
+            let same = |a: &[f64], b: &[f64]| {
+                a.len() == b.len()
+                    && a.iter().zip(b).all(|(x, y)| {
+                        (x.is_nan() && y.is_nan()) || (x - y).abs() <= 1e-12 * y.abs().max(1.0)
+                    })
+            };
+            assert!(same(&got.field, &expected.field), "lag {lag_s}");
+            let mut engine = ChunkCompensator::new(with_offset);
+            let mut field = Vec::new();
+            for start in (0..n).step_by(64) {
+                let chunks = engine.push(rows(&f, start..(start + 64).min(n), false));
+                field.extend(chunks.into_iter().flat_map(|c| c.field));
+            }
+            field.extend(engine.finish().into_iter().flat_map(|c| c.field));
+            assert!(same(&field, &expected.field), "lag {lag_s}");
+            // And the offset matters: without it the field differs.
+            let raw = ChunkCompensator::new(plain).whole_series(
+                std::slice::from_ref(&f.flux),
+                &[],
+                &[],
+                Some(&f.tt),
+            );
+            assert_ne!(bits(&raw.field), bits(&expected.field));
         }
     }
 

@@ -166,6 +166,8 @@ pub struct ScalarSpec {
     coefficients: Vec<f64>,
     level_nt: f64,
     magnitude: Magnitude,
+    /// The fluxgate's offset (nT), taken out of each reading ([`crate::fit::Fit::flux_offset_nt`]).
+    flux_offset_nt: Option<[f64; 3]>,
     /// What each sample's standard error and extrapolation flag come from, when asked for.
     trust: Option<Trust>,
     /// A network added to the correction, and the stream's extra channels (indices) it reads
@@ -211,6 +213,7 @@ impl ScalarSpec {
             design,
             level_nt,
             magnitude: Magnitude::Linear,
+            flux_offset_nt: None,
             trust: None,
             network: None,
         }
@@ -283,6 +286,20 @@ impl ScalarSpec {
             .as_ref()
             .is_some_and(|c| c.outside(b, rate, extras));
         Some((sigma, outside))
+    }
+
+    /// The same model on the fluxgate's readings less `offset` (nT; none unless set).
+    pub fn with_flux_offset(self, offset: Option<[f64; 3]>) -> Self {
+        Self {
+            flux_offset_nt: offset,
+            ..self
+        }
+    }
+
+    /// A reading `b` (nT) less the fluxgate's offset.
+    fn corrected(&self, b: [f64; 3]) -> [f64; 3] {
+        let o = self.flux_offset_nt.unwrap_or_default();
+        [b[0] - o[0], b[1] - o[1], b[2] - o[2]]
     }
 
     /// The same model applied with `magnitude` (linear unless set).
@@ -696,6 +713,7 @@ impl<T> StreamCompensator<T> {
                 }
                 continue;
             };
+            let b = spec.corrected(b);
             let row = &mut self.row[..spec.columns.len()];
             let scalar = held.scalars[i];
             self.extra_values.clear();

@@ -166,6 +166,12 @@ pub struct FitSettings {
     /// λ: a fixed λ is MagNav's procedure, exactly.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub prior: Option<prior::Prior>,
+    /// Calibrate a lone fluxgate's offset first (see [`levels::reference`]) and fit on its
+    /// readings without it ([`Fit::flux_offset_nt`]). Only with a cross-validated λ and one
+    /// fluxgate: over several, their differences, offsets included, are what sees sources near
+    /// one of them.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub fluxgate_offset: bool,
 }
 
 /// What the scalar given to [`fit`] holds, and so which of its frequencies a fit may use.
@@ -261,6 +267,7 @@ impl FitSettings {
             magnitude: MagnitudeChoice::Auto,
             levels: true,
             prior: Some(prior::Prior::AIRCRAFT),
+            fluxgate_offset: true,
             ..Self::magnav()
         }
     }
@@ -317,6 +324,7 @@ impl FitSettings {
             levels: false,
             target: Target::Band,
             prior: None,
+            fluxgate_offset: false,
         }
     }
 
@@ -572,6 +580,12 @@ pub struct Fit {
     /// this much later (see [`lag::shifted`]). Zero unless a lag was given or estimated.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub lag_s: f64,
+    /// The lone fluxgate's offset (nT; x, y, z) taken out of its readings before the design
+    /// is built, in the fit and in every compensation (see [`FitSettings::fluxgate_offset`]).
+    /// A cabin fluxgate sees the aircraft's own field, thousands of nT that bend every
+    /// direction cosine by a few percent; `None`: the readings as they are.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub flux_offset_nt: Option<[f64; 3]>,
     /// Names of the columns, in order (see [`Design::column_names`]).
     pub columns: Vec<String>,
     /// One coefficient per column (nT per unit of the column).
@@ -920,6 +934,7 @@ fn fit_reusing(
         fs_hz,
         magnitude,
         lag_s: 0.0,
+        flux_offset_nt: None,
         columns: design.column_names(&[]),
         coefficients: chosen.solution.coefficients,
         level_nt,

@@ -47,6 +47,19 @@ impl VectorSeries {
         self.x.is_empty()
     }
 
+    /// The series less a constant `offset` (nT; x, y, z), or itself without one.
+    pub fn less_offset(&self, offset: Option<[f64; 3]>) -> std::borrow::Cow<'_, Self> {
+        let Some([ox, oy, oz]) = offset else {
+            return std::borrow::Cow::Borrowed(self);
+        };
+        let less = |c: &[f64], o: f64| c.iter().map(|v| v - o).collect();
+        std::borrow::Cow::Owned(Self::new(
+            less(&self.x, ox),
+            less(&self.y, oy),
+            less(&self.z, oz),
+        ))
+    }
+
     /// Sample `k` as an array `[x, y, z]` (nT).
     pub fn at(&self, k: usize) -> [f64; 3] {
         [self.x[k], self.y[k], self.z[k]]

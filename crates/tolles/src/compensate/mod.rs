@@ -213,6 +213,7 @@ pub fn flight_field(
     let tt = flight.tt.as_deref();
     let setup = Setup {
         lag_s: fit.fit.lag_s,
+        flux_offset_nt: fit.fit.flux_offset_nt,
         median_step_s: tt.and_then(median_step),
         coverage: fit.fit.coverage.as_ref(),
         uncertainty: fit.fit.uncertainty.as_ref().filter(|_| request.uncertainty),

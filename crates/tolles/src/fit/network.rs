@@ -161,7 +161,7 @@ impl Inputs {
         request: &NetworkRequest,
     ) -> Result<Self> {
         let flight = flight.keeping_extras(&model.fit.settings.design.extras);
-        let inputs = flight.lagged_inputs(model.fit.lag_s, fs_hz);
+        let inputs = flight.lagged_inputs(model.fit.lag_s, model.fit.flux_offset_nt, fs_hz);
         let channels = flight.columns(request.channels.iter().map(String::as_str))?;
         let channels: Vec<&[f64]> = channels.iter().map(Vec::as_slice).collect();
         let extras: Vec<&[f64]> = inputs.extras.iter().map(Vec::as_slice).collect();

@@ -376,6 +376,20 @@ fn check_lags(fit: &ScalarModel) -> Result<(), String> {
             show(fit.fit.lag_s)
         ));
     }
+    if let Some(offset) = fit.fit.flux_offset_nt {
+        let bound = tolles_core::fit::levels::MAX_OFFSET_NT;
+        if !offset.iter().all(|o| o.is_finite() && o.abs() <= bound) {
+            return Err(format!(
+                "fit of {scalar}: flux_offset_nt {offset:?} is not a fluxgate offset within ±{bound} nT"
+            ));
+        }
+        if fit.fit.settings.design.fluxgates != 1 {
+            return Err(format!(
+                "fit of {scalar}: flux_offset_nt is for a lone fluxgate, and the design has {}",
+                fit.fit.settings.design.fluxgates
+            ));
+        }
+    }
     for extra in &fit.fit.settings.design.extras {
         let name = &extra.name;
         if !lag_ok(extra.lag_s) {
@@ -493,6 +507,7 @@ mod tests {
             fs_hz: 10.0,
             magnitude: Default::default(),
             lag_s: 0.0,
+            flux_offset_nt: None,
             columns: vec![],
             coefficients: vec![1.0; FitSettings::magnav().design.width()],
             level_nt: 0.0,
@@ -561,6 +576,15 @@ mod tests {
         for lag in [1e300, -61.0] {
             let err = edited(&|fit| fit["lag_s"] = lag.into()).unwrap_err();
             assert!(err.to_string().contains("lag_s"), "{err}");
+        }
+        let offset = |o: serde_json::Value| edited(&|fit| fit["flux_offset_nt"] = o.clone());
+        assert!(offset(serde_json::json!([1500.0, -2200.0, 900.0])).is_ok());
+        for bad in [
+            serde_json::json!([1e300, 0.0, 0.0]),
+            serde_json::json!([0.0, -3e4, 0.0]),
+        ] {
+            let err = offset(bad).unwrap_err().to_string();
+            assert!(err.contains("flux_offset_nt"), "{err}");
         }
         let with_extra = |lowpass: f64, lag: f64| {
             edited(&|fit| {

@@ -35,6 +35,8 @@ pub(super) struct ReadyFit {
     pub fs_hz: f64,
     /// The fluxgate's lag (s).
     pub lag_s: f64,
+    /// The fluxgate's offset (nT) the model takes out of its readings.
+    pub flux_offset_nt: Option<[f64; 3]>,
     /// The network added to the linear correction, if any.
     pub network: Option<tolles_core::model::network::Network>,
 }
@@ -118,6 +120,7 @@ fn check_fit(
         coverage: fit.fit.coverage.clone(),
         fs_hz,
         lag_s: fit.fit.lag_s,
+        flux_offset_nt: fit.fit.flux_offset_nt,
         network: fit.network.as_ref().map(|learned| learned.network.clone()),
     })
 }

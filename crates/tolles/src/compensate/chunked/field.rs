@@ -44,6 +44,7 @@ impl<'a> Fields<'a> {
         let engines = fits.iter().zip(&plan.fits).map(|(fit, columns)| {
             ChunkCompensator::new(Setup {
                 lag_s: fit.lag_s,
+                flux_offset_nt: fit.flux_offset_nt,
                 median_step_s: scan.median_step,
                 coverage: fit.coverage.as_ref(),
                 network: fit.network.as_ref(),
