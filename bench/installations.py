@@ -285,15 +285,16 @@ def run_tolles(tolles, work, box_csv, survey_csv, fit_args):
     fit = subprocess.run([tolles, "fit", str(box_csv), "--scalar", "mag_1_uc", "--vector",
                           "flux_a", "--out", str(model), *fit_args], capture_output=True, text=True)
     if fit.returncode != 0:
-        return None, "refused: " + (fit.stderr.strip().splitlines() or ["?"])[-1]
+        return None, "refused: " + (fit.stderr.strip().splitlines() or ["?"])[-1], None
     subprocess.run([tolles, "compensate", str(survey_csv), "--model", str(model), "--out",
-                    str(out)], check=True, capture_output=True, text=True)
+                    str(out), "--uncertainty"], check=True, capture_output=True, text=True)
     spec = json.loads(model.read_text())["fits"][0]
     terms = spec["settings"]["design"]["terms"]
     levels = "levels" if spec["diagnostics"].get("levels") else "no levels"
     grade = (spec.get("verdict") or {}).get("grade", "?")
     note = f"{grade}; {terms}, {spec.get('magnitude', 'linear')}, {levels}"
-    return pd.read_csv(out)["mag_1_c"].to_numpy(), note
+    frame = pd.read_csv(out)
+    return frame["mag_1_c"].to_numpy(), note, frame["mag_1_c_sigma"].to_numpy()
 
 
 def one(index, kind, tolles, work, fit_args):
@@ -324,9 +325,13 @@ def one(index, kind, tolles, work, fit_args):
                                         vector(survey) - inst.flux_offset)
     row["fluxgate oracle"] = scores(y - fluxgate_oracle, truth)
 
-    compensated, note = run_tolles(tolles, work, box_csv, survey_csv, fit_args)
+    compensated, note, sigma = run_tolles(tolles, work, box_csv, survey_csv, fit_args)
     if compensated is not None:
         row["tolles"] = scores(compensated, truth)
+        error = compensated - truth
+        error -= np.nanmean(error)
+        row["sigma_coverage"] = float(np.mean(np.abs(error) <= sigma))
+        row["sigma_median_nt"] = float(np.nanmedian(sigma))
     row["note"] = note
     return row
 
@@ -347,9 +352,8 @@ def main():
     rows = []
     print("| # | installation | raw overall | MagNav | oracle | fluxgate oracle | **tolles** | "
           "×oracle | ×fluxgate oracle | band: raw | MagNav | oracle | fluxgate oracle | "
-          "**tolles** | ×oracle | ×fluxgate oracle | "
-          "tolles model |")
-    print("|" + "---|" * 17)
+          "**tolles** | ×oracle | ×fluxgate oracle | σ median | σ coverage | tolles model |")
+    print("|" + "---|" * 19)
     with tempfile.TemporaryDirectory(prefix="tolles-inst-") as tmp:
         for i, kind in enumerate(KINDS, start=1):
             if args.only and i not in args.only:
@@ -363,6 +367,8 @@ def main():
                 floor = row["fluxgate oracle"][k]
                 cells += [row["raw"][k], row["magnav"][k], row["oracle"][k], floor, t[k],
                           t[k] / row["oracle"][k], t[k] / floor]
+            cells += [row.get("sigma_median_nt", float("nan")),
+                      row.get("sigma_coverage", float("nan"))]
             print(f"| {i} | {kind.name} | " + " | ".join(f"{v:.3g}" for v in cells)
                   + f" | {row['note']} |", flush=True)
     print()
@@ -372,6 +378,12 @@ def main():
             if ratios:
                 print(f"{k}: tolles / {other}: geometric mean {geomean(ratios):.3f}, "
                       f"worst {max(ratios):.3f}")
+    covered = [r["sigma_coverage"] for r in rows if "sigma_coverage" in r]
+    if covered:
+        inside = sum(0.45 <= c <= 0.90 for c in covered)
+        print(f"σ coverage (share of survey rows with |error − mean| ≤ σ): median "
+              f"{np.median(covered):.2f}, from {min(covered):.2f} to {max(covered):.2f}; "
+              f"45–90 % on {inside} of {len(covered)}")
     if args.json:
         Path(args.json).write_text(json.dumps(rows, indent=1))
     return 0

@@ -77,3 +77,22 @@ def test_text_in_a_numeric_column_names_the_column_and_row(flights):
     cal.loc[7, "flux_a_y"] = "n/a"
     with pytest.raises(tolles.TollesError, match=r"row 7, column 'flux_a_y': 'n/a' is not a number"):
         tolles.fit(cal, scalar="mag_1_uc", vector="flux_a")
+
+
+def test_the_fluxgate_offset_is_taken_out_unless_turned_off():
+    # The realistic preset's fluxgate reads thousands of nT of the aircraft.
+    cal = tolles.simulate("box", preset="realistic", seed=1)
+    survey = tolles.simulate("survey", preset="realistic", seed=2)
+    on = tolles.fit(cal, extra="cur_1")
+    off = tolles.fit(cal, extra="cur_1", fluxgate_offset=False)
+    offset = on.fits[0]["flux_offset_nt"]
+    assert max(abs(o) for o in offset) > 1000.0
+    assert "flux_offset_nt" not in off.fits[0]
+
+    def error(model):
+        out = tolles.compensate(survey, model)
+        d = out["mag_1_c"] - survey["truth_earth"]
+        return float((d - d.mean()).std())
+
+    print(f"survey error: offset taken out {error(on):.3f} nT, left in {error(off):.3f} nT")
+    assert error(on) < error(off)
