@@ -390,12 +390,14 @@ class Model:
 
     @property
     def verdict(self) -> Optional[dict]:
-        """Whether to trust the model: ``{"grade": "good" | "doubtful", "reasons": [...]}``,
-        each reason a dict with its ``reason`` and numbers; ``None`` for a model file written
-        before verdicts (version 3)."""
+        """Whether to trust the model: ``{"grade": "good" | "doubtful", "reasons": [...],
+        "notes": [...]}``, each reason or note a dict with its ``reason`` and numbers (a note
+        does not lower the grade); ``None`` for a model file written before verdicts
+        (version 3)."""
         verdict = self._only().get("verdict")
         if verdict is not None:
-            verdict = {"grade": verdict["grade"], "reasons": verdict.get("reasons", [])}
+            verdict = {"grade": verdict["grade"], "reasons": verdict.get("reasons", []),
+                       "notes": verdict.get("notes", [])}
         return verdict
 
     def to_json(self) -> str:
@@ -585,9 +587,10 @@ def compensate(
     fs : float, optional
         The survey's sample rate (Hz); default from ``tt``, else the model's.
     uncertainty : bool
-        Also add, after each compensated column ``NAME``, ``NAME_sigma``: the correction's
-        standard error (nT) from the coefficients' covariance, relative to the calibration's
-        mean level; and ``NAME_extrapolated``: 1.0 where the row's field direction in the
+        Also add, after each compensated column ``NAME``, ``NAME_sigma``: the compensated
+        value's standard error up to a constant level (nT): the correction's, from the
+        coefficients' covariance, and what the model leaves of the calibration's scalar, in
+        quadrature; and ``NAME_extrapolated``: 1.0 where the row's field direction in the
         aircraft, its rate of change or an extra channel lies outside what the calibration flew,
         else 0.0 (NaN where the row is not compensated). Rows outside are counted in a warning
         whether asked for or not.

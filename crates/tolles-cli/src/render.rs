@@ -286,7 +286,7 @@ pub fn fit_summary(model: &ScalarModel, cal: &Path) -> std::io::Result<()> {
     Ok(())
 }
 
-/// `verdict: good`, or the grade and one reason per line.
+/// `verdict: good`, or the grade and one reason per line; then one line per note.
 pub fn verdict(
     out: &mut dyn Write,
     scalar: &str,
@@ -295,6 +295,9 @@ pub fn verdict(
     writeln!(out, "verdict for {scalar}: {}", v.grade)?;
     for reason in &v.reasons {
         writeln!(out, "  - {reason}")?;
+    }
+    for note in &v.notes {
+        writeln!(out, "  note: {note}")?;
     }
     Ok(())
 }

@@ -164,8 +164,7 @@ fn a_model_without_the_fluxgate_offset_streams_as_batch_compensates() {
     let dir = TempDir::new().unwrap();
     let survey = model_and_survey_with(dir.path(), &[], "realistic");
     let model: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.path().join("m.json")).unwrap())
-            .unwrap();
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("m.json")).unwrap()).unwrap();
     let offset = &model["fits"][0]["flux_offset_nt"];
     assert!(offset[1].as_f64().unwrap().abs() > 1_000.0, "{offset}");
     let batch = run(

@@ -172,3 +172,79 @@ fn compensate_with_a_doubtful_model_repeats_its_verdict() {
     assert!(warnings.contains("doubtful"), "{warnings}");
     assert!(warnings.contains("no maneuvers"), "{warnings}");
 }
+
+/// A model without the coefficients' covariance (a file before version 3): σ is empty and
+/// `compensate` says why.
+#[test]
+fn sigma_asked_of_a_model_without_a_covariance_is_empty_with_a_warning() {
+    let dir = TempDir::new().unwrap();
+    box_model_and_survey(dir.path());
+    let path = dir.path().join("m.json");
+    let mut model: Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    model["fits"][0]
+        .as_object_mut()
+        .unwrap()
+        .remove("uncertainty");
+    std::fs::write(dir.path().join("old.json"), model.to_string()).unwrap();
+    let args = [
+        "compensate",
+        "survey.csv",
+        "--model",
+        "old.json",
+        "--uncertainty",
+        "--out",
+        "out.csv",
+    ];
+    let (_, warnings) = run(dir.path(), &args);
+    assert!(
+        warnings.contains("holds no covariance") && warnings.contains("mag_1_uc"),
+        "{warnings}"
+    );
+    let out = std::fs::read_to_string(dir.path().join("out.csv")).unwrap();
+    assert!(column(&out, "mag_1_c_sigma").iter().all(|s| s.is_nan()));
+    assert!(column(&out, "mag_1_c").iter().all(|c| c.is_finite()));
+}
+
+/// σ is the compensated value's error up to a level, the scalar's noise included: on simulated
+/// tail stingers and cabins it covers about two rows in three of the survey's true error.
+#[test]
+fn sigma_covers_the_compensated_values_error_at_about_its_stated_rate() {
+    for (preset, seed) in [("tail-stinger", "1"), ("cabin", "2")] {
+        let dir = TempDir::new().unwrap();
+        let simulate = |plan: &str, seed: &str, out: &str| {
+            let args = [
+                "simulate", "--plan", plan, "--preset", preset, "--seed", seed, "--out", out,
+            ];
+            run(dir.path(), &args);
+        };
+        simulate("box", seed, "cal.csv");
+        simulate("survey", "11", "survey.csv");
+        let fit = [
+            "fit", "cal.csv", "--scalar", "mag_1_uc", "--vector", "flux_a", "--out", "m.json",
+        ];
+        run(dir.path(), &fit);
+        let args = [
+            "compensate",
+            "survey.csv",
+            "--model",
+            "m.json",
+            "--uncertainty",
+            "--out",
+            "out.csv",
+        ];
+        run(dir.path(), &args);
+        let out = std::fs::read_to_string(dir.path().join("out.csv")).unwrap();
+        let error: Vec<f64> = (column(&out, "mag_1_c").iter())
+            .zip(column(&out, "truth_earth"))
+            .map(|(c, t)| c - t)
+            .collect();
+        let mean = error.iter().sum::<f64>() / error.len() as f64;
+        let sigma = column(&out, "mag_1_c_sigma");
+        let inside = (error.iter().zip(&sigma))
+            .filter(|(e, s)| (*e - mean).abs() <= **s)
+            .count() as f64
+            / error.len() as f64;
+        eprintln!("{preset}: {:.0} % of survey rows within 1σ", 100.0 * inside);
+        assert!((0.4..=0.9).contains(&inside), "{preset}: {inside}");
+    }
+}

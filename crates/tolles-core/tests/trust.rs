@@ -356,3 +356,25 @@ fn rows_at_attitudes_the_box_never_reached_are_flagged() {
     );
     assert!(along < 0.01 && across > 0.9);
 }
+
+/// One standard error everywhere: the model's `diagnostics.std_errors` (the table, the report)
+/// are the square roots of the covariance each row's σ and the verdict use.
+#[test]
+fn the_standard_errors_are_those_of_the_covariance_sigma_uses() {
+    let cal = simulate(&BoxPlan::default().build(), &cabin(7)).unwrap();
+    let model = fit(
+        &cal.scalar,
+        &cal.flux,
+        10.0,
+        Some(&cal.tt),
+        &FitSettings::recommended(),
+    )
+    .unwrap();
+    let u = model.uncertainty.as_ref().unwrap();
+    let p = u.mean_row.len();
+    assert_eq!(model.diagnostics.std_errors.len(), p);
+    for (j, se) in model.diagnostics.std_errors.iter().enumerate() {
+        assert_eq!(*se, u.covariance[j * p + j].max(0.0).sqrt(), "column {j}");
+    }
+    assert!(u.noise_nt > 0.0 && u.noise_nt.is_finite(), "{}", u.noise_nt);
+}

@@ -71,8 +71,8 @@ pub struct StreamRequest {
     /// How long a TCP client may send nothing before its connection is closed (its thread
     /// freed); `None` waits for ever. Default [`DEFAULT_IDLE_TIMEOUT`].
     pub idle_timeout: Option<Duration>,
-    /// After each compensated column NAME, also NAME_sigma (the correction's standard error,
-    /// nT) and NAME_extrapolated (1 outside what the calibration flew, else 0), as
+    /// After each compensated column NAME, also NAME_sigma (the compensated value's standard
+    /// error up to a constant level, nT) and NAME_extrapolated (1 outside what the calibration flew, else 0), as
     /// `compensate --uncertainty` writes them.
     pub uncertainty: bool,
 }

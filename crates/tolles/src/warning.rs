@@ -145,6 +145,12 @@ pub enum Warning {
         /// The channels dropped, as given to `--extra`.
         channels: Vec<String>,
     },
+    /// `--uncertainty` asked of a model without the coefficients' covariance (a file written
+    /// before version 3): each row's σ is empty.
+    NoUncertainty {
+        /// The scalar of the fit.
+        scalar: String,
+    },
     /// Not a problem: raw channels (SGL's `AZIMUTH`, …) a table also answers to under tolles'
     /// names, as `(raw, tolles)`, because it has no columns of those names.
     ColumnsAliased {
@@ -267,6 +273,10 @@ impl fmt::Display for Warning {
                 f,
                 "the fit of {scalar} dropped --extra {}: cross-validation found the model no better with them (they carry nothing of {scalar}'s interference, or too little to tell); the model leaves them out",
                 channels.join(",")
+            ),
+            Warning::NoUncertainty { scalar } => write!(
+                f,
+                "the model of {scalar} holds no covariance of its coefficients (a file written before version 3): its σ column is empty; fit again to have one"
             ),
             Warning::UnlikelySampleRate { path, hz } => write!(
                 f,

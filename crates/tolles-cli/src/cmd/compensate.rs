@@ -40,8 +40,9 @@ pub struct Args {
     /// in the model, so a row's result does not depend on how the data was split
     #[arg(long, default_value = "mean", value_parser = parse_level)]
     pub level: tolles::compensate::LevelChoice,
-    /// Also write, per compensated column NAME, NAME_sigma: the correction's standard error
-    /// from the coefficients' covariance (nT, relative to the calibration's mean level), and
+    /// Also write, per compensated column NAME, NAME_sigma: the compensated value's standard
+    /// error up to a constant level (nT): the correction's, from the coefficients' covariance,
+    /// and what the model leaves of the calibration's scalar, in quadrature; and
     /// NAME_extrapolated: 1 where the row's field direction, its rate of change or an extra
     /// channel lies outside what the calibration flew, else 0. The survey is then read whole
     #[arg(long)]

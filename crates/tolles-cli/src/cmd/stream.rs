@@ -60,8 +60,8 @@ pub struct Args {
     /// maneuvers); each stream starts from the model's coefficients
     #[arg(long)]
     pub adapt: bool,
-    /// After each compensated column NAME, also NAME_sigma (the correction's standard error,
-    /// nT) and NAME_extrapolated (1 where the sample lies outside what the calibration flew),
+    /// After each compensated column NAME, also NAME_sigma (the compensated value's standard
+    /// error up to a constant level, nT) and NAME_extrapolated (1 where the sample lies outside what the calibration flew),
     /// as `compensate --uncertainty` writes them
     #[arg(long)]
     pub uncertainty: bool,

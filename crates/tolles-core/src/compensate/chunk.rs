@@ -378,9 +378,12 @@ impl<'m> ChunkCompensator<'m> {
             }
             _ => None,
         };
+        // The compensated value's error: the correction's and what the model leaves.
         let sigma = setup.uncertainty.map(|u| {
             let design = setup.model.design;
-            sigma_over_runs(inputs, &runs, design, u, setup.fs_ratio)
+            let mut sigma = sigma_over_runs(inputs, &runs, design, u, setup.fs_ratio);
+            sigma.iter_mut().for_each(|s| *s = s.hypot(u.noise_nt));
+            sigma
         });
         let keep = |v: Vec<f64>| match rows == (0..v.len()) {
             true => v,

@@ -278,7 +278,7 @@ impl ScalarSpec {
                     *a *= trust.fs_ratio;
                 }
             }
-            u.sigma(row)
+            u.value_sigma(row)
         });
         let rate = (db[0] * db[0] + db[1] * db[1] + db[2] * db[2]).sqrt() * trust.fs_hz;
         let outside = trust

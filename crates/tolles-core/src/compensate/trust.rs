@@ -14,6 +14,7 @@
 //! let uncertainty = Uncertainty {
 //!     covariance: vec![4.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
 //!     mean_row: vec![0.0; 3],
+//!     noise_nt: 0.0,
 //! };
 //! let sigma = sigma_over_runs(Fluxgates::from(&flux), &[0..4], &design, &uncertainty, 1.0);
 //! assert!((sigma[0] - 2.0).abs() < 1e-12); // B̂ = x: the x term's error is all of it
@@ -28,7 +29,8 @@
 //! and the coefficients' posterior covariance `Σ` ([`crate::model::uncertainty::Uncertainty`]): the
 //! error of the correction relative to the calibration's mean level, which is what remains once
 //! a level is subtracted. It does not include the scalar's own noise, nor fields outside the
-//! model (an unmodelled current, the earth's anomalies scaled by an isotropic induced term).
+//! model (an unmodelled current, the earth's anomalies scaled by an isotropic induced term):
+//! compensation adds what the fit left ([`Uncertainty::noise_nt`]) for the compensated value's.
 
 use crate::model::coverage::Coverage;
 use crate::model::design::{central_difference, Design};

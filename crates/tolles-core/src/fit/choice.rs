@@ -373,6 +373,15 @@ pub(super) fn solve(
                     0 => vec![common * restraint; prior_unit.len()],
                     _ => cv.prior_multipliers.iter().map(|m| m * restraint).collect(),
                 };
+                // The error to expect is the restrained model's, not the one it replaced.
+                let rows: usize = folds.iter().map(Ridge::rows).sum();
+                let prior = cv.chosen_prior(&prior_unit);
+                let lambda_rel = cv.chosen_lambda_rel;
+                if let Some(sum) =
+                    heldout_sum_of_squares_on(folds, folds, lambda_rel, columns, &prior)
+                {
+                    cv.expected_heldout_rms_nt = (sum / rows.max(1) as f64).sqrt();
+                }
                 solution = believed;
             }
             let prior_penalty = cv.chosen_prior(&prior_unit);
@@ -404,6 +413,62 @@ mod tests {
                     .collect()
             })
             .collect()
+    }
+
+    /// A restrained fit reports the held-out error of the model it writes, not of the one its
+    /// restraint replaced.
+    #[test]
+    fn a_restrained_fit_expects_its_own_held_out_error() {
+        // y = 50·x0 + x1 + noise: a "fault" is any first coefficient above 10.
+        let cols = columns(500, 3, 0.4);
+        let folds: Vec<Ridge> = (0..5)
+            .map(|k| {
+                let rows = k * 100..(k + 1) * 100;
+                let x: Vec<&[f64]> = cols[..2].iter().map(|c| &c[rows.clone()]).collect();
+                let y: Vec<f64> = rows
+                    .clone()
+                    .map(|i| 50.0 * cols[0][i] + cols[1][i] + 0.1 * cols[2][i])
+                    .collect();
+                let mut fold = Ridge::new(2);
+                fold.push_columns(&x, &y);
+                fold
+            })
+            .collect();
+        let names = ["a".to_string(), "b".to_string()];
+        let prior = PriorWeights {
+            precision: vec![1.0, 1.0],
+            groups: vec![None, None],
+            rows_per_residual: 1.0,
+            parsimonious: false,
+        };
+        let fault = |beta: &[f64]| {
+            (beta[0].abs() > 10.0).then(|| Fault::Permanent {
+                fluxgate: 0,
+                axis: "L".into(),
+                value_nt: beta[0],
+            })
+        };
+        let solved = solve(&folds, Lambda::auto(), &names, Some(&prior), &fault).unwrap();
+        assert!(solved.restrained.is_some());
+        assert!(solved.solution.coefficients[0].abs() <= 10.0);
+        let cv = solved.cross_validation.unwrap();
+        let rows: usize = folds.iter().map(Ridge::rows).sum();
+        let own = heldout_sum_of_squares_on(
+            &folds,
+            &folds,
+            cv.chosen_lambda_rel,
+            &names,
+            &solved.prior_penalty,
+        )
+        .unwrap();
+        let expected = (own / rows as f64).sqrt();
+        assert!((cv.expected_heldout_rms_nt - expected).abs() <= 1e-12 * expected);
+        // Restrained to a tenth of the truth, it predicts far worse than the unrestrained 0.1.
+        assert!(
+            cv.expected_heldout_rms_nt > 1.0,
+            "{}",
+            cv.expected_heldout_rms_nt
+        );
     }
 
     proptest! {

@@ -519,8 +519,11 @@ pub struct Diagnostics {
     /// was tried).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub term_choice: Vec<TermScore>,
-    /// Standard error of each coefficient (coefficient units), from the ridge sandwich
-    /// covariance `σ²·G⁻¹AᵀAG⁻¹`, `G = AᵀA + λI`.
+    /// Standard error of each coefficient (coefficient units): the square root of the
+    /// diagonal of the covariance each row's σ and the verdict use ([`Fit::uncertainty`]), the
+    /// sandwich with the rows' long-run score covariance; without one (a fit in windows of a
+    /// long flight), the ridge sandwich `σ²·G⁻¹AᵀAG⁻¹`, `G = AᵀA + λI`, with the residual's
+    /// variance inflated for the band's width.
     pub std_errors: Vec<f64>,
     /// How the heading levels were fitted, when they were.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -861,9 +864,9 @@ fn fit_reusing(
         coefficients: &chosen.solution.coefficients,
         magnitude,
     };
-    let level_nt = match wanted {
-        Wanted::Everything => mean_correction(&flux, &samples.runs, model, spare),
-        Wanted::Coefficients => 0.0,
+    let (level_nt, white_noise_nt) = match wanted {
+        Wanted::Everything => mean_correction(scalar, &flux, &samples.runs, model, spare),
+        Wanted::Coefficients => (0.0, f64::NAN),
     };
     let mut diagnostics = diagnostics(
         &chosen.solution,
@@ -908,6 +911,7 @@ fn fit_reusing(
             fs_hz,
             restrained: chosen.restrained.clone(),
             excitation_deg: excitation,
+            white_noise_nt,
             covariance: match &band_scores {
                 Some(band) => {
                     let level = levels.as_ref().map(|l| {
@@ -926,6 +930,14 @@ fn fit_reusing(
         Some((u, c, v)) => (u, Some(c), Some(v)),
         None => (None, None, None),
     };
+    // One standard error everywhere: the table, the model file and the report show the
+    // covariance the verdict and each row's σ use.
+    if let Some(u) = &uncertainty {
+        let p = u.mean_row.len();
+        diagnostics.std_errors = (0..p)
+            .map(|j| u.covariance[j * p + j].max(0.0).sqrt())
+            .collect();
+    }
     Ok(Fit {
         settings: FitSettings {
             design: design.clone(),
@@ -990,7 +1002,16 @@ fn check_finite(
 }
 
 /// Mean of the unfiltered correction over the samples of `runs` (nT).
-fn mean_correction(flux: &Fluxgates, runs: &[Range<usize>], model: Model, spare: &Spare) -> f64 {
+/// The mean of the model's correction over the calibration's `runs` (nT), and the white noise
+/// of the scalar less it (nT): the standard deviation of its fourth difference over
+/// `√70 / 16`, what that difference keeps of white noise.
+fn mean_correction(
+    scalar: &[f64],
+    flux: &Fluxgates,
+    runs: &[Range<usize>],
+    model: Model,
+    spare: &Spare,
+) -> (f64, f64) {
     let mut field = spare.take(flux.len());
     write_runs(flux.clone(), runs, model, &mut field[..flux.len()]);
     // Run by run, each summed from its first sample: the same additions as ever.
@@ -1000,12 +1021,16 @@ fn mean_correction(flux: &Fluxgates, runs: &[Range<usize>], model: Model, spare:
         sum += field[run.clone()].iter().sum::<f64>();
         count += run.len();
     }
+    // What the model leaves, in place of the correction (no fresh flight-long vector).
+    field[..flux.len()]
+        .iter_mut()
+        .zip(scalar)
+        .for_each(|(f, y)| *f = y - *f);
+    let white = crate::signal::metrics::fourth_difference_noise_over(&field[..flux.len()], runs)
+        / (70f64.sqrt() / 16.0);
     spare.give([field]);
-    if count == 0 {
-        0.0
-    } else {
-        sum / count as f64
-    }
+    let level = if count == 0 { 0.0 } else { sum / count as f64 };
+    (level, white)
 }
 
 #[cfg(test)]

@@ -54,8 +54,33 @@ pub(super) struct Inputs<'a> {
     pub restrained: Option<Fault>,
     /// RMS change of the fluxgate's direction inside the band (degrees).
     pub excitation_deg: f64,
+    /// White noise of the calibration's scalar less the model's correction (nT), from its
+    /// fourth difference.
+    pub white_noise_nt: f64,
     /// The coefficients' covariance (coefficient units squared).
     pub covariance: DMatrix<f64>,
+}
+
+/// What the model leaves of the scalar at every frequency (nT), for each row's σ: the white
+/// noise `white_nt` at every frequency, and what the band's residual holds beyond that noise's
+/// share of it (a field the model does not describe, which only the band shows). Measured
+/// with `bench/installations` (σ's coverage of the survey's error); the band residual taken as
+/// white instead put σ at twice the error of simulated tail stingers, whose fluxgate noise the
+/// eddy columns carry into the band.
+fn left_over_nt(diagnostics: &Diagnostics, white_nt: f64) -> f64 {
+    let band = diagnostics.residual_std_nt;
+    let fraction = diagnostics.effective_sample_fraction;
+    let noise = if white_nt.is_finite() {
+        let beyond = (band * band - white_nt * white_nt * fraction).max(0.0);
+        white_nt.hypot(beyond.sqrt())
+    } else {
+        band / fraction.sqrt()
+    };
+    if noise.is_finite() {
+        noise
+    } else {
+        0.0
+    }
 }
 
 /// The fit's uncertainty (`None` if its covariance is not finite), the span it covered and its
@@ -74,6 +99,7 @@ pub(super) fn assess(
         fs_hz,
         restrained,
         excitation_deg,
+        white_noise_nt,
         covariance,
     } = inputs;
     let p = coefficients.len();
@@ -82,9 +108,11 @@ pub(super) fn assess(
     let mean_row: Vec<f64> = (0..p)
         .map(|j| rows.iter().map(|r| r[j]).sum::<f64>() / count)
         .collect();
+    let noise_nt = left_over_nt(diagnostics, white_noise_nt);
     let uncertainty = Uncertainty {
         covariance: covariance.transpose().as_slice().to_vec(),
         mean_row,
+        noise_nt,
     };
     let beta = DVector::from_column_slice(coefficients);
     let corrections: Vec<f64> = rows

@@ -8,8 +8,8 @@
 //! assert_eq!(
 //!     verdict.to_string(),
 //!     "doubtful: the fluxgate's calibration found an offset of 693 nT (a fluxgate's own offset \
-//!      is tens of nT; beyond 300 nT it sees the aircraft, or the calibration fitted something \
-//!      else)"
+//!      is tens of nT; beyond 300 nT it sees the aircraft: --fluxgate-offset on takes it out \
+//!      before the fit)"
 //! );
 //! assert_eq!(Verdict::of(vec![]).to_string(), "good");
 //! ```
@@ -22,12 +22,16 @@
 //! |---|---|
 //! | no maneuvers | the fluxgate's direction moved less than [`MIN_EXCITATION_DEG`] RMS inside the band |
 //! | uncertain model | the correction's own uncertainty reaches [`MAX_UNCERTAINTY_RATIO`] of the correction |
-//! | coefficients as uncertain as their values | a permanent or induced term's standard error exceeds its value and moves the correction by more than [`MIN_TERM_EFFECT_NT`] |
 //! | implausible, restrained | the fit found a field beyond [`crate::fit::plausible`]'s bounds and its prior was strengthened until it did not |
 //! | held out much worse | held-out RMS more than [`MAX_HELDOUT_RATIO`] × the in-sample residual |
 //! | little explained | the band-passed scalar improved less than [`MIN_IMPROVEMENT`] × |
 //! | heading levels | the low-frequency rows miss the levels by more than [`MAX_LEVEL_MISFIT_NT`] |
 //! | fluxgate offset | the fluxgate's calibrated offset exceeds [`MAX_FLUXGATE_OFFSET_NT`] |
+//!
+//! Each reason's text names its remedy. A *note* does not lower the grade: terms whose standard
+//! error exceeds their value and moves the correction by more than [`MIN_TERM_EFFECT_NT`]
+//! ([`Reason::UncertainTerms`]) are noted, since each row's σ carries their cost and on real
+//! boxes they did not predict a worse held-out residual.
 //!
 //! `refused` is a fit that found an implausible field even with its terms restrained: `tolles
 //! fit` writes no model then.
@@ -145,7 +149,8 @@ impl fmt::Display for Reason {
             Reason::NoManeuvers { excitation_deg } => write!(
                 f,
                 "no maneuvers: the fluxgate's direction moved {excitation_deg:.2}° RMS inside the band \
-                 (below {MIN_EXCITATION_DEG}°; a box's rolls and pitches move it several degrees)"
+                 (below {MIN_EXCITATION_DEG}°; a box's rolls and pitches move it several degrees): \
+                 fit a calibration box (rolls ±10°, pitches ±5°, yaws ±5° on four headings)"
             ),
             Reason::Uncertain {
                 uncertainty_nt,
@@ -153,27 +158,31 @@ impl fmt::Display for Reason {
             } => write!(
                 f,
                 "the correction's own uncertainty is {uncertainty_nt:.3} nT RMS against a correction of \
-                 {correction_nt:.3} nT"
+                 {correction_nt:.3} nT: fly more or larger maneuvers, or fit fewer terms (--terms)"
             ),
             Reason::UncertainTerms { terms } => write!(
                 f,
-                "standard errors as large as the coefficients of {}",
+                "standard errors as large as the coefficients of {} (the maneuvers hardly tell them \
+                 apart from other terms; each row's σ, --uncertainty, carries what that costs)",
                 terms.join(", ")
             ),
             Reason::Restrained { fault } => write!(
                 f,
-                "the fit found {fault}; its terms were held to physical sizes by a stronger prior"
+                "the fit found {fault}; its terms were held to physical sizes by a stronger prior \
+                 (check the scalar and fluxgate columns; a current's field needs --extra)"
             ),
             Reason::Implausible { fault } => write!(
                 f,
-                "the model has {fault}, a field no aircraft has (a fixed λ leaves it as fitted)"
+                "the model has {fault}, a field no aircraft has (a fixed λ leaves it as fitted; \
+                 --lambda auto restrains it)"
             ),
             Reason::HeldOutWorse {
                 heldout_nt,
                 insample_nt,
             } => write!(
                 f,
-                "held-out data fits to {heldout_nt:.3} nT, against {insample_nt:.3} nT in sample"
+                "held-out data fits to {heldout_nt:.3} nT, against {insample_nt:.3} nT in sample: \
+                 fly more maneuvers, or fit fewer terms (--terms patent)"
             ),
             Reason::LittleExplained { improvement } => write!(
                 f,
@@ -182,19 +191,20 @@ impl fmt::Display for Reason {
             ),
             Reason::LevelMisfit { misfit_nt } => write!(
                 f,
-                "the heading levels miss the model by {misfit_nt:.2} nT RMS"
+                "the heading levels miss the model by {misfit_nt:.2} nT RMS (geology or diurnal \
+                 variation under the legs: --levels off fits the band alone)"
             ),
             Reason::FluxgateOffset { offset_nt } => write!(
                 f,
                 "the fluxgate's calibration found an offset of {offset_nt:.0} nT (a fluxgate's own offset \
-                 is tens of nT; beyond {MAX_FLUXGATE_OFFSET_NT:.0} nT it sees the aircraft, or the \
-                 calibration fitted something else)"
+                 is tens of nT; beyond {MAX_FLUXGATE_OFFSET_NT:.0} nT it sees the aircraft: \
+                 --fluxgate-offset on takes it out before the fit)"
             ),
         }
     }
 }
 
-/// A grade and its reasons.
+/// A grade, its reasons and what else the fit noticed.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Verdict {
     /// How far the fit can be trusted.
@@ -202,6 +212,12 @@ pub struct Verdict {
     /// Why the grade is not good; empty when it is.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub reasons: Vec<Reason>,
+    /// What the fit noticed that does not lower the grade, because it does not predict a worse
+    /// compensation: terms the maneuvers hardly tell apart ([`Reason::UncertainTerms`]), whose
+    /// cost each row's σ already carries. On deinterf's real SGL box it named terms of six of
+    /// nine pairs whose held-out residual was as good as the other three's.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub notes: Vec<Reason>,
 }
 
 impl Verdict {
@@ -211,7 +227,16 @@ impl Verdict {
             true => Grade::Good,
             false => Grade::Doubtful,
         };
-        Self { grade, reasons }
+        Self {
+            grade,
+            reasons,
+            notes: Vec::new(),
+        }
+    }
+
+    /// The same verdict with `notes`.
+    pub fn with_notes(self, notes: Vec<Reason>) -> Self {
+        Self { notes, ..self }
     }
 
     /// A refusal for `reasons`.
@@ -219,6 +244,7 @@ impl Verdict {
         Self {
             grade: Grade::Refused,
             reasons,
+            notes: Vec::new(),
         }
     }
 
@@ -280,8 +306,9 @@ pub fn judge(e: &Evidence) -> Verdict {
             correction_nt: e.correction_nt,
         });
     }
+    let mut notes = Vec::new();
     if !e.uncertain_terms.is_empty() {
-        reasons.push(Reason::UncertainTerms {
+        notes.push(Reason::UncertainTerms {
             terms: e.uncertain_terms.clone(),
         });
     }
@@ -316,7 +343,7 @@ pub fn judge(e: &Evidence) -> Verdict {
             offset_nt: e.fluxgate_offset_nt,
         });
     }
-    Verdict::of(reasons)
+    Verdict::of(reasons).with_notes(notes)
 }
 
 #[cfg(test)]
@@ -355,77 +382,88 @@ mod tests {
             axis: "L".into(),
             value_nt: 1e5,
         };
-        let cases: Vec<(Evidence, &str)> = vec![
+        let cases: Vec<(Evidence, (&str, &str))> = vec![
             (
                 Evidence {
                     excitation_deg: 0.3,
                     ..clean()
                 },
-                "no maneuvers",
+                ("no maneuvers", "calibration box"),
             ),
             (
                 Evidence {
                     uncertainty_nt: 40.0,
                     ..clean()
                 },
-                "own uncertainty",
-            ),
-            (
-                Evidence {
-                    uncertain_terms: vec!["perm_x".into()],
-                    ..clean()
-                },
-                "perm_x",
+                ("own uncertainty", "--terms"),
             ),
             (
                 Evidence {
                     restrained: Some(fault.clone()),
                     ..clean()
                 },
-                "held to physical",
+                ("held to physical", "--extra"),
             ),
             (
                 Evidence {
                     implausible: Some(fault),
                     ..clean()
                 },
-                "no aircraft has",
+                ("no aircraft has", "--lambda auto"),
             ),
             (
                 Evidence {
                     heldout_nt: 0.04,
                     ..clean()
                 },
-                "held-out",
+                ("held-out", "--terms patent"),
             ),
             (
                 Evidence {
                     improvement: 1.2,
                     ..clean()
                 },
-                "improved only",
+                ("improved only", "regressors"),
             ),
             (
                 Evidence {
                     level_misfit_nt: 18.8,
                     ..clean()
                 },
-                "heading levels",
+                ("heading levels", "--levels off"),
             ),
             (
                 Evidence {
                     fluxgate_offset_nt: 693.0,
                     ..clean()
                 },
-                "offset of 693",
+                ("offset of 693", "--fluxgate-offset on"),
             ),
         ];
-        for (evidence, words) in cases {
+        for (evidence, (words, remedy)) in cases {
             let v = judge(&evidence);
             assert_eq!(v.grade, Grade::Doubtful, "{words}");
             assert_eq!(v.reasons.len(), 1, "{v}");
             assert!(v.to_string().contains(words), "{v}");
+            assert!(
+                v.to_string().contains(remedy),
+                "{v} names no remedy {remedy}"
+            );
         }
+    }
+
+    /// Terms the maneuvers hardly tell apart are noted, and the grade stays.
+    #[test]
+    fn uncertain_terms_are_a_note_not_a_reason() {
+        let v = judge(&Evidence {
+            uncertain_terms: vec!["perm_x".into()],
+            ..clean()
+        });
+        assert_eq!(v.grade, Grade::Good);
+        assert!(v.reasons.is_empty());
+        assert!(v.notes[0].to_string().contains("perm_x"), "{:?}", v.notes);
+        let back: Verdict = serde_json::from_str(&serde_json::to_string(&v).unwrap()).unwrap();
+        assert_eq!(back, v);
     }
 
     #[test]

@@ -15,6 +15,16 @@ pub struct Uncertainty {
     /// Mean unfiltered design row over the calibration flight: the correction's uncertainty is
     /// that of its difference from the calibration's mean level, which a level removes.
     pub mean_row: Vec<f64>,
+    /// What the model leaves of the scalar at every frequency (nT), taken as white: the band
+    /// rows' residual scatter over the square root of the band's share of the spectrum (the
+    /// scalar's own noise, and any field the model does not describe). Added to the
+    /// correction's error in [`Uncertainty::value_sigma`]; 0 in files before it.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub noise_nt: f64,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 impl Uncertainty {
@@ -22,6 +32,13 @@ impl Uncertainty {
     pub fn matrix(&self) -> DMatrix<f64> {
         let p = self.mean_row.len();
         DMatrix::from_row_slice(p, p, &self.covariance)
+    }
+
+    /// The standard error (nT) of a compensated value whose design row is `row`, up to a
+    /// constant level: the correction's ([`Uncertainty::sigma`]) and what the model leaves
+    /// ([`Uncertainty::noise_nt`]), independent, in quadrature.
+    pub fn value_sigma(&self, row: &[f64]) -> f64 {
+        self.sigma(row).hypot(self.noise_nt)
     }
 
     /// The standard error (nT) of the correction `rowᵀβ` of a design row, less the mean row.

@@ -303,6 +303,10 @@ fn model_banner(report: Report, fit: &ScalarModel, path: Option<&std::path::Path
             format!(" Verdict: {}: {}.", v.grade, reasons.join("; "))
         }
     };
+    if let Some(v) = fit.fit.verdict.as_ref().filter(|v| !v.notes.is_empty()) {
+        let notes: Vec<String> = v.notes.iter().map(ToString::to_string).collect();
+        text += &format!(" Noted: {}.", notes.join("; "));
+    }
     text += &fit.network.as_ref().map_or(String::new(), network_sentence);
     report.paragraph(text)
 }

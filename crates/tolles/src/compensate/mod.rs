@@ -229,6 +229,11 @@ pub fn flight_field(
     if request.uncertainty && computed.sigma.is_none() {
         computed.sigma = Some(vec![f64::NAN; computed.field.len()]);
     }
+    if request.uncertainty && fit.fit.uncertainty.is_none() {
+        warnings.push(Warning::NoUncertainty {
+            scalar: fit.scalar.clone(),
+        });
+    }
     Ok(computed)
 }
 
