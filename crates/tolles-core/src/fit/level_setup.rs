@@ -14,8 +14,12 @@ pub(super) struct LevelSetup {
     /// fluxgate's magnitude.
     pub(super) reference: Option<Reference>,
     pub(super) low: LowFrequency,
-    /// Expected scatter of a level row (nT).
+    /// Expected scatter of a level row (nT): at first the reference's noise through the
+    /// low-pass, then the rows' measured misfit if that is larger.
     pub(super) sigma_nt: f64,
+    /// The reference's noise through the low-pass (nT): what a model that describes the low
+    /// frequencies leaves of the level rows.
+    pub(super) expected_nt: f64,
     /// Scatter of a band row (nT).
     pub(super) band_sigma_nt: f64,
     /// Level rows of the fit kept (centred, unweighted), to measure the misfit.
@@ -37,6 +41,7 @@ impl LevelSetup {
         Self {
             reference: Some(reference),
             sigma_nt,
+            expected_nt: sigma_nt,
             ..self
         }
     }
@@ -107,6 +112,7 @@ impl LevelSetup {
             rows: count,
             cutoff_hz: self.low.cutoff_hz,
             residual_rms_nt: misfit,
+            expected_rms_nt: Some(self.expected_nt).filter(|e| e.is_finite()),
             level_std_error_nt: misfit / (count as f64 / 4.0).max(1.0).sqrt(),
             weight: self.weight(),
         }

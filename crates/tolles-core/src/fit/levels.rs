@@ -74,6 +74,10 @@ pub struct LevelDiagnostics {
     /// RMS misfit of the low-passed `y − R` after the fit (nT): how well one constant and the
     /// model explain the levels the calibration flight flew.
     pub residual_rms_nt: f64,
+    /// What a model that describes the low frequencies would leave of them (nT RMS): the
+    /// reference's own noise through the low-pass (absent in files before it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub expected_rms_nt: Option<f64>,
     /// Standard error of a heading level (nT): the misfit over the square root of the rows per
     /// heading of a four-heading box.
     pub level_std_error_nt: f64,

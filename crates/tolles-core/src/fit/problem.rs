@@ -876,6 +876,7 @@ impl Problem<'_, '_> {
             reference: None,
             low,
             sigma_nt: f64::NAN,
+            expected_nt: f64::NAN,
             band_sigma_nt: f64::NAN,
             rows: Vec::new(),
             row_terms: Vec::new(),

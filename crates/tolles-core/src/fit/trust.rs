@@ -160,6 +160,7 @@ pub(super) fn assess(
         insample_nt: (solution.rss / solution.rows.max(1) as f64).sqrt(),
         improvement: diagnostics.improvement_ratio,
         level_misfit_nt: levels.map_or(f64::NAN, |l| l.residual_rms_nt),
+        level_expected_nt: levels.and_then(|l| l.expected_rms_nt).unwrap_or(f64::NAN),
         fluxgate_offset_nt: levels.map_or(f64::NAN, |l| {
             l.fluxgate.offset_nt.iter().fold(0.0, |m, o| m.max(o.abs()))
         }),
