@@ -137,24 +137,26 @@ fn stream_on_stdin_equals_batch_up_to_a_constant() {
     check_equivalent(&survey, &batch, &String::from_utf8(out.stdout).unwrap());
 }
 
+/// `stream` on standard input against `compensate` of the same survey with m.json in `dir`.
+fn streams_as_batch_compensates(dir: &Path, survey: &str) {
+    let batch = run(dir, &["compensate", "survey.csv", "--model", "m.json"]);
+    let out = tolles()
+        .current_dir(dir)
+        .args(["stream", "--model", "m.json"])
+        .write_stdin(survey.to_string())
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    check_equivalent(survey, &batch, &String::from_utf8(out.stdout).unwrap());
+}
+
 #[test]
 fn an_exact_magnitude_model_streams_as_batch_compensates() {
     let dir = TempDir::new().unwrap();
     let survey = model_and_survey_with(dir.path(), &["--magnitude", "exact"], "cabin");
     let model = std::fs::read_to_string(dir.path().join("m.json")).unwrap();
     assert!(model.contains(r#""magnitude": "exact""#));
-    let batch = run(
-        dir.path(),
-        &["compensate", "survey.csv", "--model", "m.json"],
-    );
-    let out = tolles()
-        .current_dir(dir.path())
-        .args(["stream", "--model", "m.json"])
-        .write_stdin(survey.clone())
-        .output()
-        .unwrap();
-    assert!(out.status.success());
-    check_equivalent(&survey, &batch, &String::from_utf8(out.stdout).unwrap());
+    streams_as_batch_compensates(dir.path(), &survey);
 }
 
 /// The realistic preset's fluxgate reads thousands of nT of the aircraft: the model takes its
@@ -167,18 +169,7 @@ fn a_model_without_the_fluxgate_offset_streams_as_batch_compensates() {
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("m.json")).unwrap()).unwrap();
     let offset = &model["fits"][0]["flux_offset_nt"];
     assert!(offset[1].as_f64().unwrap().abs() > 1_000.0, "{offset}");
-    let batch = run(
-        dir.path(),
-        &["compensate", "survey.csv", "--model", "m.json"],
-    );
-    let out = tolles()
-        .current_dir(dir.path())
-        .args(["stream", "--model", "m.json"])
-        .write_stdin(survey.clone())
-        .output()
-        .unwrap();
-    assert!(out.status.success());
-    check_equivalent(&survey, &batch, &String::from_utf8(out.stdout).unwrap());
+    streams_as_batch_compensates(dir.path(), &survey);
 }
 
 #[test]

@@ -243,10 +243,17 @@ fn flux_offset(
     if !settings.fluxgate_offset || flight.flux.len() != 1 {
         return None;
     }
-    let flux = tolles_core::fit::lag::shifted(&flight.flux[0], lag_s, fs_hz);
+    // A lag of zero reads the fluxgate as it is: no flight-long copy.
+    let shifted;
+    let flux = if lag_s == 0.0 {
+        &flight.flux[0]
+    } else {
+        shifted = tolles_core::fit::lag::shifted(&flight.flux[0], lag_s, fs_hz);
+        &shifted
+    };
     let usable: Vec<bool> = scalar.iter().map(|v| v.is_finite()).collect();
     let tt = flight.tt.as_deref();
-    tolles_core::fit::levels::reference(&flux, &usable, fs_hz, tt, settings)
+    tolles_core::fit::levels::reference(flux, &usable, fs_hz, tt, settings)
         .map(|r| r.calibration.offset_nt)
 }
 

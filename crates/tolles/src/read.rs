@@ -363,14 +363,14 @@ impl<'t> Flight<'t> {
         offset: Option<[f64; 3]>,
         fs_hz: f64,
     ) -> tolles_core::model::vector::SlicedInputs {
-        let shifted = |f| tolles_core::fit::lag::shifted(f, lag_s, fs_hz);
+        let mut series: Vec<_> = (self.flux.iter())
+            .map(|f| tolles_core::fit::lag::shifted(f, lag_s, fs_hz))
+            .collect();
+        if let (Some(offset), Some(first)) = (offset, series.first_mut()) {
+            first.remove_offset(offset);
+        }
         tolles_core::model::vector::SlicedInputs {
-            series: (self.flux.iter().enumerate())
-                .map(|(k, f)| match (k, offset) {
-                    (0, Some(_)) => shifted(f).less_offset(offset).into_owned(),
-                    _ => shifted(f),
-                })
-                .collect(),
+            series,
             extras: self
                 .extras
                 .iter()

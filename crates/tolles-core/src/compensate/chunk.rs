@@ -353,10 +353,11 @@ impl<'m> ChunkCompensator<'m> {
     ) -> ChunkField {
         let setup = self.setup;
         let corrected: Vec<VectorSeries>;
-        let flux = match (setup.flux_offset_nt, flux.split_first()) {
-            (Some(_), Some((first, rest))) => {
-                let first = first.less_offset(setup.flux_offset_nt).into_owned();
-                corrected = std::iter::once(first).chain(rest.iter().cloned()).collect();
+        let flux = match setup.flux_offset_nt {
+            Some(offset) if !flux.is_empty() => {
+                let mut owned = flux.to_vec();
+                owned[0].remove_offset(offset);
+                corrected = owned;
                 &corrected[..]
             }
             _ => flux,
@@ -579,7 +580,7 @@ mod tests {
         let f = flight(n);
         let offset = [1_500.0, -2_200.0, 900.0];
         let mut corrected = flight(n);
-        corrected.flux = f.flux.less_offset(Some(offset)).into_owned();
+        corrected.flux.remove_offset(offset);
         let design = Design::new("p,i,e".parse().unwrap());
         let beta: Vec<f64> = (0..design.width()).map(|k| 1.0 + k as f64).collect();
         let model = Model {

@@ -865,7 +865,7 @@ fn fit_reusing(
         magnitude,
     };
     let (level_nt, white_noise_nt) = match wanted {
-        Wanted::Everything => mean_correction(scalar, &flux, &samples.runs, model, spare),
+        Wanted::Everything => level_and_noise(scalar, &flux, &samples.runs, model, spare),
         Wanted::Coefficients => (0.0, f64::NAN),
     };
     let mut diagnostics = diagnostics(
@@ -1001,11 +1001,10 @@ fn check_finite(
     Ok(())
 }
 
-/// Mean of the unfiltered correction over the samples of `runs` (nT).
-/// The mean of the model's correction over the calibration's `runs` (nT), and the white noise
-/// of the scalar less it (nT): the standard deviation of its fourth difference over
-/// `√70 / 16`, what that difference keeps of white noise.
-fn mean_correction(
+/// The mean of the model's unfiltered correction over the calibration's `runs` (nT), and the
+/// white noise of the scalar less it (nT): the standard deviation of its fourth difference
+/// over `√70 / 16`, what that difference keeps of white noise.
+fn level_and_noise(
     scalar: &[f64],
     flux: &Fluxgates,
     runs: &[Range<usize>],

@@ -47,17 +47,14 @@ impl VectorSeries {
         self.x.is_empty()
     }
 
-    /// The series less a constant `offset` (nT; x, y, z), or itself without one.
-    pub fn less_offset(&self, offset: Option<[f64; 3]>) -> std::borrow::Cow<'_, Self> {
-        let Some([ox, oy, oz]) = offset else {
-            return std::borrow::Cow::Borrowed(self);
-        };
-        let less = |c: &[f64], o: f64| c.iter().map(|v| v - o).collect();
-        std::borrow::Cow::Owned(Self::new(
-            less(&self.x, ox),
-            less(&self.y, oy),
-            less(&self.z, oz),
-        ))
+    /// Takes a constant `offset` (nT; x, y, z) out of every sample, in place.
+    pub fn remove_offset(&mut self, offset: [f64; 3]) {
+        for (c, o) in [&mut self.x, &mut self.y, &mut self.z]
+            .into_iter()
+            .zip(offset)
+        {
+            c.iter_mut().for_each(|v| *v -= o);
+        }
     }
 
     /// Sample `k` as an array `[x, y, z]` (nT).
