@@ -88,6 +88,10 @@ impl Problem<'_, '_> {
                     other => other?,
                 };
             let level_rows = std::mem::take(&mut prepared.levels);
+            // The scores of the exact fit's own residual: the linear fit's, 13× larger on a
+            // heavy cabin, made each row's σ 25× its error (bench/installations 11 and 12).
+            let block = super::diagnostics::score_block(self.settings, self.fs_hz);
+            let band_scores = prepared.score_covariance(&chosen.solution.coefficients, block);
             self.spare.give(prepared.into_buffers());
             let step = relative_change(&beta, &chosen.solution.coefficients);
             if diverges(iteration, step, last_step) {
@@ -99,6 +103,7 @@ impl Problem<'_, '_> {
                 chosen,
                 iterations: iteration,
                 level_rows,
+                band_scores,
             });
             if step < EXACT_TOLERANCE || settled_loser {
                 break;
@@ -155,6 +160,9 @@ pub(super) struct Exact {
     pub(super) chosen: Chosen,
     pub(super) iterations: usize,
     pub(super) level_rows: Vec<LevelRows>,
+    /// The long-run covariance of its band rows' scores (its design's terms), `None` when a
+    /// run was done in windows (see [`Prepared::score_covariance`]).
+    pub(super) band_scores: Option<nalgebra::DMatrix<f64>>,
 }
 
 impl Problem<'_, '_> {

@@ -833,7 +833,7 @@ fn fit_reusing(
     };
     let (short, runs_used) = (prepared.short, prepared.runs_used());
     let above_rows = prepared.above_rows();
-    let band_scores = match wanted {
+    let mut band_scores = match wanted {
         Wanted::Everything => {
             let terms = designs[chosen.index].design_terms();
             let on_union = problem::on_columns(&union, &terms, &chosen.solution.coefficients);
@@ -851,9 +851,12 @@ fn fit_reusing(
         Some(exact) => {
             let picked = pick_magnitude(chosen, exact.chosen, exact.iterations, settings.magnitude);
             // The level rows describe the fit kept: the Gauss-Newton ones only for the exact.
-            if let (Magnitude::Exact, Some(setup)) = (picked.0, levels.as_mut()) {
-                setup.rows = exact.level_rows;
-                setup.row_terms = terms.clone();
+            if picked.0 == Magnitude::Exact {
+                if let Some(setup) = levels.as_mut() {
+                    setup.rows = exact.level_rows;
+                    setup.row_terms = terms.clone();
+                }
+                band_scores = band_scores.and(exact.band_scores);
             }
             picked
         }
