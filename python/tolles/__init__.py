@@ -484,8 +484,8 @@ def fit(
         or the one cross-validation prefers. Default: ``"auto"`` with ``lambda_="auto"``, else
         ``"linear"`` (MagNav's procedure).
     levels : bool, optional
-        Also fit the heading levels against the calibrated fluxgate's magnitude. Default: with
-        ``lambda_="auto"`` and one fluxgate.
+        Also fit the heading levels against the calibrated fluxgate's magnitude (one
+        fluxgate). Default: off (measured in docs/fitting.md, ``--levels``).
     fluxgate_offset : bool, optional
         Calibrate a lone fluxgate's offset (the aircraft's field where it sits, nT) against its
         own magnitude and fit on its readings without it; compensation takes it out too.

@@ -195,7 +195,9 @@ fn the_realistic_preset_is_fitted_as_a_real_cabin_box() {
     );
     let bias = &sidecar["scenario"]["sensors"]["fluxgate"]["bias_nt"];
     assert!(bias[1].as_f64().unwrap().abs() > 1_000.0, "{bias}");
-    let (defaults, stderr) = survey_error(dir.path(), &[]);
+    let (defaults, _) = survey_error(dir.path(), &[]);
+    // Asked for, the heading levels of a real-like box are left out, with the misfit said.
+    let (_, stderr) = survey_error(dir.path(), &["--levels", "on"]);
     assert!(stderr.contains("heading levels: not used"), "{stderr}");
     let (magnav, _) = survey_error(
         dir.path(),

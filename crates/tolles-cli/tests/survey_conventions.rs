@@ -332,7 +332,11 @@ fn the_fit_summary_prints_the_score_it_chose_by_and_small_terms_in_full() {
         .lines()
         .filter(|l| l.trim_start().starts_with("terms "))
         .map(|l| {
-            let score = l.split("score ").nth(1).and_then(|r| r.split(' ').next());
+            // With heading levels a candidate's score follows "score"; without, it is the
+            // band's held-out residual.
+            let after = l.split("score ").nth(1);
+            let after = after.or_else(|| l.split("held-out residual ").nth(1));
+            let score = after.and_then(|r| r.split(' ').next());
             (score.unwrap().parse().unwrap(), l.contains("<- chosen"))
         })
         .collect();

@@ -126,14 +126,16 @@ fn fit_equals_magnav_procedure_with_scipy_filter() {
 
 /// MagNav's real snippet: its low frequencies miss the band's model by tens of nT (the levels
 /// of a real flight hold what no term models), so the recommended fit leaves the heading
-/// levels out and says by how much they missed. A simulated box's, which the model describes
+/// levels (asked for) out and says by how much they missed. A simulated box's, which the model describes
 /// to about 0.1 nT, keep steering its fit (the unit tests of `fit` unwrap their diagnostics).
 #[test]
 fn a_real_flight_whose_levels_the_model_misses_is_fitted_on_its_band_alone() {
     let uc = magnav_vector("mag_1_uc");
     let fs = magnav_vector("fs")[0];
-    let settings = FitSettings::recommended();
-    assert!(settings.levels);
+    let settings = FitSettings {
+        levels: true,
+        ..FitSettings::recommended()
+    };
     let model = fit(&uc, &flux(), fs, None, &settings).unwrap();
     let misfit = model.diagnostics.untrusted_levels_nt;
     eprintln!("MagNav's snippet: heading levels miss the band's model by {misfit:?} nT");

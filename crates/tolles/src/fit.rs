@@ -67,8 +67,8 @@ pub struct FitRequest {
     /// Linear, exact or chosen magnitude model; `None`: chosen by cross-validation when λ is,
     /// else linear (MagNav's procedure stays exactly MagNav's).
     pub magnitude: Option<MagnitudeChoice>,
-    /// Fit the heading levels against the calibrated fluxgate; `None`: when λ is
-    /// cross-validated and there is one fluxgate.
+    /// Fit the heading levels against the calibrated fluxgate (one fluxgate); `None`: off,
+    /// as [`FitSettings::recommended`] says why.
     pub levels: Option<bool>,
     /// Calibrate a lone fluxgate's offset and fit on its readings without it (see
     /// `FitSettings::fluxgate_offset`); `None`: when λ is cross-validated, there is one
@@ -179,9 +179,7 @@ impl FitRequest {
             trim: self.trim,
             alternative_terms,
             magnitude: self.magnitude_choice(),
-            levels: self.levels.unwrap_or(
-                self.cross_validated() && self.vectors.len() == 1 && self.reference.is_none(),
-            ),
+            levels: self.levels.unwrap_or(recommended.levels),
             target: match self.reference {
                 Some(_) => Target::Interference,
                 None => Target::Band,

@@ -87,8 +87,8 @@ pub struct Args {
     #[arg(long, value_parser = str::parse::<MagnitudeChoice>)]
     pub magnitude: Option<MagnitudeChoice>,
     /// Heading levels: `on` also fits the low frequencies against the calibrated fluxgate's
-    /// magnitude, `off` fits the band only. Default: on when λ is cross-validated and there is
-    /// one fluxgate
+    /// magnitude (one fluxgate), `off` fits the band only. Default: off (docs/fitting.md,
+    /// `--levels`, has the measurements)
     #[arg(long, value_parser = parse_on_off)]
     pub levels: Option<bool>,
     /// Fluxgate offset: `on` calibrates a lone fluxgate's offset (the aircraft's field where it
