@@ -71,6 +71,7 @@ class Kind:
     trace: float = 0.0  # the induced matrix's own trace, on top of its random entries
     flux_offset_nt: float = 0.0
     flux_noise_nt: float = 0.5
+    current_nt_per_a: float = 0.0  # a current's field (nT per A, each axis), column cur_1
 
 
 # Fifteen installations, a declarative table: each kind drawn with its own seed.
@@ -186,6 +187,7 @@ class Installation:
     eddy: np.ndarray  # 3 × 3, s
     earth_ned: np.ndarray  # nT
     flux_offset: np.ndarray  # nT: what the fluxgate sees of the aircraft, x, y, z
+    current: np.ndarray  # nT per A, body frame: the field of the current in column cur_1
 
     @staticmethod
     def draw(kind, seed):
@@ -195,9 +197,13 @@ class Installation:
         f = rng.uniform(45000, 58000)
         earth = f * np.array([np.cos(inc) * np.cos(dec), np.cos(inc) * np.sin(dec), np.sin(inc)])
         induced = kind.induced * rng.uniform(-1, 1, (3, 3)) + kind.trace / 3 * np.eye(3)
-        return Installation(kind, kind.permanent_nt * rng.uniform(-1, 1, 3), induced,
-                            kind.eddy_s * rng.uniform(-1, 1, (3, 3)), earth,
-                            kind.flux_offset_nt * rng.uniform(-1, 1, 3))
+        parts = (kind.permanent_nt * rng.uniform(-1, 1, 3), induced,
+                 kind.eddy_s * rng.uniform(-1, 1, (3, 3)), earth,
+                 kind.flux_offset_nt * rng.uniform(-1, 1, 3))
+        # Drawn last, and only when there is one: the table's installations stay as they were.
+        current = (kind.current_nt_per_a * rng.uniform(-1, 1, 3) if kind.current_nt_per_a
+                   else np.zeros(3))
+        return Installation(kind, *parts, current)
 
     def fly(self, attitude, rng, geology_nt=20.0):
         """The flight's columns and the truth: (DataFrame, earth's scalar field in nT)."""
@@ -209,8 +215,12 @@ class Installation:
         rate = np.gradient(earth_body, 1.0 / FS, axis=0)
         aircraft = self.permanent + earth_body @ self.induced.T + rate @ self.eddy.T
         truth = np.linalg.norm(earth_body, axis=1)
-        scalar = np.linalg.norm(earth_body + aircraft, axis=1) + 0.01 * rng.standard_normal(n)
+        scalar_noise = 0.01 * rng.standard_normal(n)
         flux = earth_body + self.flux_offset + self.kind.flux_noise_nt * rng.standard_normal((n, 3))
+        amps = self.current_amps(rng, n) if self.current.any() else None
+        if amps is not None:
+            aircraft = aircraft + amps[:, None] * self.current
+        scalar = np.linalg.norm(earth_body + aircraft, axis=1) + scalar_noise
         frame = pd.DataFrame({
             "tt": np.arange(n) / FS,
             "ins_roll": np.rad2deg(roll), "ins_pitch": np.rad2deg(pitch),
@@ -218,15 +228,24 @@ class Installation:
             "mag_1_uc": scalar,
             "flux_a_x": flux[:, 0], "flux_a_y": flux[:, 1], "flux_a_z": flux[:, 2],
         })
+        if amps is not None:
+            frame["cur_1"] = amps
         return frame, truth, earth_body
 
+    @staticmethod
+    def current_amps(rng, n):
+        """A switched load (A): a few amperes that step at random every 1–4 s, and wander."""
+        steps = np.repeat(rng.uniform(2, 12, n // 10 + 1), rng.integers(10, 40, n // 10 + 1))
+        return steps[:n] + smooth_noise(rng, n, 1.0, 5.0) * 180 / np.pi
+
     def exact_oracle(self, box_scalar, box_earth, survey_earth, box_vector=None,
-                     survey_vector=None):
+                     survey_vector=None, currents=(None, None)):
         """The true model itself, `|B + p + A·B + E·dB/dt| − |B|` with A traceless, fitted by
         nonlinear least squares to the box with the earth's field `box_earth` known (body
         frame, nT); returns the aircraft's field it predicts on `survey_earth` (nT). With
         `box_vector` and `survey_vector` (the fluxgate's readings, nT) B is read from them
-        instead, as any compensation must, and only the earth's magnitude is known."""
+        instead, as any compensation must, and only the earth's magnitude is known. With an
+        installation's current, `currents` holds the box's and the survey's (A)."""
         box_vector = box_earth if box_vector is None else box_vector
         survey_vector = survey_earth if survey_vector is None else survey_vector
         kind = self.kind
@@ -240,20 +259,23 @@ class Installation:
             p = q[0:3] if has[0] else np.zeros(3)
             a = sum(c * m for c, m in zip(q[3:11], traceless)) if has[1] else np.zeros((3, 3))
             e = q[11:20].reshape(3, 3) if has[2] else np.zeros((3, 3))
-            return p, a, e, q[20]
+            return p, a, e, q[20], q[21:24] if len(q) > 21 else np.zeros(3)
 
-        def field(q, earth):
-            p, a, e, c = unpack(q)
+        def field(q, earth, amps):
+            p, a, e, c, k = unpack(q)
             rate = np.gradient(earth, 1.0 / FS, axis=0)
             total = earth + p + earth @ a.T + rate @ e.T
+            if amps is not None:
+                total = total + amps[:, None] * k
             return np.linalg.norm(total, axis=1) - np.linalg.norm(earth, axis=1) + c
 
         from scipy.optimize import least_squares
-        scale = np.r_[np.full(3, 100.0), np.full(8, 1e-3), np.full(9, 1e-4), 1.0]
+        scale = np.r_[np.full(3, 100.0), np.full(8, 1e-3), np.full(9, 1e-4), 1.0, np.ones(3)]
+        scale = scale[:21] if currents[0] is None else scale
         target = box_scalar - np.linalg.norm(box_earth, axis=1)
-        fitted = least_squares(lambda q: field(q * scale, box_vector) - target, np.zeros(21),
-                               x_scale=1.0, method="lm")
-        return field(fitted.x * scale, survey_vector)
+        fitted = least_squares(lambda q: field(q * scale, box_vector, currents[0]) - target,
+                               np.zeros(len(scale)), x_scale=1.0, method="lm")
+        return field(fitted.x * scale, survey_vector, currents[1])
 
     def oracle_design(self, earth_body):
         """The true model's form in the true earth field: permanent, traceless induced, eddy."""
@@ -305,6 +327,7 @@ def one(index, kind, tolles, work, fit_args):
     box_csv, survey_csv = work / "box.csv", work / "survey.csv"
     box.to_csv(box_csv, index=False)
     survey.to_csv(survey_csv, index=False)
+    np.savetxt(work / "truth.txt", truth)
     y = survey["mag_1_uc"].to_numpy()
     row = {"raw": scores(y, truth)}
 
@@ -347,6 +370,7 @@ def main():
     parser.add_argument("--only", type=int, action="append", help="installation number (1–15)")
     parser.add_argument("--fit-args", default="", help="more `tolles fit` flags, one string")
     parser.add_argument("--json", help="write every row to this file")
+    parser.add_argument("--keep", help="keep each installation's box, survey and model in DIR/N")
     args = parser.parse_args()
 
     rows = []
@@ -358,7 +382,9 @@ def main():
         for i, kind in enumerate(KINDS, start=1):
             if args.only and i not in args.only:
                 continue
-            row = one(i, kind, args.tolles, Path(tmp), args.fit_args.split())
+            work = Path(args.keep) / str(i) if args.keep else Path(tmp)
+            work.mkdir(parents=True, exist_ok=True)
+            row = one(i, kind, args.tolles, work, args.fit_args.split())
             row.update(number=i, kind=kind.name)
             rows.append(row)
             t = row.get("tolles", {"overall": float("nan"), "band": float("nan")})
