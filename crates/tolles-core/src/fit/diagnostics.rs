@@ -105,8 +105,10 @@ pub(super) struct DiagnosticCounts {
     /// Level rows in the solution, and their weighted residual sum of squares (nT²).
     pub(super) level_rows: usize,
     pub(super) level_rss: f64,
-    /// Rows above the band (extra channels): a second row of samples already counted.
+    /// Rows above the band (extra channels): a second row of samples already counted; and
+    /// their residual sum of squares (nT²).
     pub(super) above_rows: usize,
+    pub(super) above_rss: f64,
     pub(super) total: usize,
     pub(super) nonfinite: usize,
     pub(super) short: usize,
@@ -134,9 +136,14 @@ pub(super) fn diagnostics(
 ) -> Diagnostics {
     let p = solution.coefficients.len();
     let dof = solution.rows.saturating_sub(p).max(1) as f64;
-    // The samples and residual of the band-passed rows alone, without the level rows.
+    // The samples and residual of the band-passed rows alone, without the level rows and the
+    // rows above the band (an extra channel's fit there leaves the aircraft's other fields).
     let band_rows = solution.rows - c.level_rows;
-    let residual_std = band_residual_std(solution, c.level_rows, c.level_rss);
+    let residual_std = band_residual_std(
+        solution,
+        c.level_rows + c.above_rows,
+        c.level_rss + c.above_rss,
+    );
     let sigma2 = solution.rss / dof / c.fraction;
     Diagnostics {
         samples_total: c.total,

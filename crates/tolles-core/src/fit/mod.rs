@@ -838,13 +838,23 @@ fn fit_reusing(
     };
     let (short, runs_used) = (prepared.short, prepared.runs_used());
     let above_rows = prepared.above_rows();
+    let on_stored = {
+        let terms = designs[chosen.index].design_terms();
+        basis.on_stored(&problem::on_columns(
+            &union,
+            &terms,
+            &chosen.solution.coefficients,
+        ))
+    };
+    // The rows above the band hold what only the extra channels explain there: the aircraft's
+    // other fields above the band are left in them, so they are no part of the band's residual.
+    let mut above_rss = prepared.above_residual(&on_stored).0;
     let mut band_scores = match wanted {
         Wanted::Everything => {
             let terms = designs[chosen.index].design_terms();
-            let on_union = problem::on_columns(&union, &terms, &chosen.solution.coefficients);
             let block = score_block(settings, fs_hz);
             prepared
-                .score_covariance(&basis.on_stored(&on_union), block)
+                .score_covariance(&on_stored, block)
                 .map(|s| problem::on_column_pairs(&union, &terms, &basis.square_on_terms(&s)))
         }
         Wanted::Coefficients => None,
@@ -862,6 +872,7 @@ fn fit_reusing(
                     setup.row_terms = terms.clone();
                 }
                 band_scores = band_scores.and(exact.band_scores);
+                above_rss = exact.above_rss;
             }
             picked
         }
@@ -881,6 +892,7 @@ fn fit_reusing(
         DiagnosticCounts {
             level_rows: levels.as_ref().map_or(0, |l| l.row_count()),
             above_rows,
+            above_rss,
             level_rss: levels.as_ref().map_or(0.0, |l| {
                 l.weighted_rss(&terms, &chosen.solution.coefficients)
             }),
