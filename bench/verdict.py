@@ -23,8 +23,13 @@ flown elsewhere, against the truth:
 The summary is a confusion table of the verdict against fine/poor, the share of `good` that
 is fine, the share of poor that is not `good`, and the spread of σ's coverage.
 
+With `--real` it also fits the real calibrations of `bench/real` (each half of each flight,
+the other half held out) and prints each verdict beside the held-out band residual, MagNav's
+settings' and the oracle's (16 terms, λ chosen in hindsight on the held-out half).
+
     bench/verdict                 # 40 installations (about two minutes)
     bench/verdict --count 100     # a larger population
+    bench/verdict --real          # and the real calibrations (two more minutes)
 """
 
 import argparse
@@ -151,6 +156,31 @@ def summary(rows):
     return "\n".join(out)
 
 
+def real_verdicts(tolles):
+    """`bench/real`'s fits: each verdict beside its held-out band residual (nT)."""
+    import os
+    import real
+    shared = Path(os.environ.get("TOLLES_SHARED", str(ROOT.parent / "shared")))
+    data = Path(os.environ.get("TOLLES_REAL_DATA", str(ROOT / ".data")))
+    print("\n| flight | half fitted | scalar | fluxgates | verdict | reasons | held-out band | "
+          "MagNav's settings | oracle | ×oracle |")
+    print("|" + "---|" * 10)
+    with tempfile.TemporaryDirectory(prefix="tolles-verdict-real-") as tmp:
+        for ds in real.datasets(shared, data):
+            frame = ds.load()
+            if frame is None:
+                print(f"skipping {ds.name}: not found ({ds.source})", file=sys.stderr)
+                continue
+            for row in real.run_dataset(ds, frame, tolles, Path(tmp)):
+                band = {k: v["band"] for k, v in row["figures"].items()}
+                cells = [band.get("tolles", math.nan), band["magnav"], band["floor16"]]
+                cells.append(cells[0] / cells[2])
+                reasons = ", ".join(r.get("reason", "?") for r in row["reasons"])
+                print(f"| {row['dataset']} | {row['fold']} | {row['scalar']} | "
+                      f"{row['fluxgates']} | {row['verdict']} | {reasons} | "
+                      + " | ".join(f"{v:.3f}" for v in cells) + " |", flush=True)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--tolles", default=str(ROOT / "target" / "release" / "tolles"))
@@ -158,6 +188,7 @@ def main():
     parser.add_argument("--json", help="write every row to this file")
     parser.add_argument("--only", type=int, action="append", help="one installation (its #)")
     parser.add_argument("--keep", help="keep each installation's box, survey and model in DIR/#")
+    parser.add_argument("--real", action="store_true", help="also bench/real's calibrations")
     args = parser.parse_args()
     rows = []
     print("| # | installation | verdict | reasons | error | oracle | fluxgate oracle | "
@@ -181,6 +212,8 @@ def main():
     print(summary(rows))
     if args.json:
         Path(args.json).write_text(json.dumps(rows, indent=1, default=float))
+    if args.real:
+        real_verdicts(args.tolles)
     return 0
 
 
