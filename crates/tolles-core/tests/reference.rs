@@ -101,3 +101,61 @@ fn a_reference_fit_is_closer_to_the_truth_than_the_band_pass() {
         floor_sum / 3.0
     );
 }
+
+/// A current the fit is not told of stays in the interference against a reference and bends
+/// the terms it has (the permanent field found was twice the truth): the verdict says so and
+/// names `--extra`; told of it (`cur_1`), the fit is good and finds the permanent field.
+#[test]
+fn a_reference_fit_that_leaves_a_current_out_is_doubtful_and_names_extra() {
+    use common::{inputs_with_current, settings_with_extras};
+    use tolles_core::fit::verdict::Reason;
+    use tolles_core::model::interpret::AircraftField;
+    let mut s = scenario(1);
+    s.extras.current = Installation::Uav.scenario(1).extras.current;
+    let truth = s.aircraft.permanent_nt;
+    let cal = simulate(&BoxPlan::default().build(), &s).unwrap();
+    // A perfect reference: the interference itself and the scalar's noise.
+    let target: Vec<f64> = cal
+        .scalar
+        .iter()
+        .zip(&cal.earth_nt)
+        .map(|(a, e)| a - e)
+        .collect();
+    for extras in [&[][..], &["cur_1"][..]] {
+        let settings = FitSettings {
+            target: Target::Interference,
+            ..settings_with_extras(extras)
+        };
+        let inputs = inputs_with_current(&cal, !extras.is_empty());
+        let model = fit(&target, inputs, 10.0, Some(&cal.tt), &settings).unwrap();
+        let verdict = model.verdict.as_ref().unwrap();
+        let found =
+            AircraftField::from_coefficients(&model.settings.design, &model.coefficients, 10.0);
+        let worst = (0..3)
+            .map(|k| (found.permanent_nt[k] - truth[k]).abs())
+            .fold(0.0, f64::max);
+        eprintln!(
+            "extras {extras:?}: permanent {:?} nT (truth {:?}), improvement ×{:.1}, {verdict}",
+            found.permanent_nt.map(|p| p.round()),
+            truth.map(|p| p.round()),
+            model.diagnostics.improvement_ratio
+        );
+        if extras.is_empty() {
+            assert!(
+                worst > 50.0,
+                "the current bends the permanent field: {worst:.1} nT"
+            );
+            assert!(
+                verdict
+                    .reasons
+                    .iter()
+                    .any(|r| matches!(r, Reason::UnexplainedInterference { .. })),
+                "{verdict}"
+            );
+            assert!(verdict.to_string().contains("--extra"), "{verdict}");
+        } else {
+            assert!(worst < 5.0, "{worst:.1} nT from the true permanent field");
+            assert!(verdict.is_good(), "{verdict}");
+        }
+    }
+}

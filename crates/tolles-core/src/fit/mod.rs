@@ -943,6 +943,7 @@ fn fit_reusing(
                 None => solution
                     .covariance(solution.rss / dof as f64 / diagnostics.effective_sample_fraction),
             },
+            interference: !settings.target.is_band(),
         };
         trust::assess(inputs, &diagnostics, &flux, &samples.runs)
     });

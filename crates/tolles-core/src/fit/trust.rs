@@ -59,6 +59,8 @@ pub(super) struct Inputs<'a> {
     pub white_noise_nt: f64,
     /// The coefficients' covariance (coefficient units squared).
     pub covariance: DMatrix<f64>,
+    /// The target was the interference itself (a fit against a reference).
+    pub interference: bool,
 }
 
 /// What the model leaves of the scalar at every frequency (nT), for each row's σ: the white
@@ -101,6 +103,7 @@ pub(super) fn assess(
         excitation_deg,
         white_noise_nt,
         covariance,
+        interference,
     } = inputs;
     let p = coefficients.len();
     let rows = sampled_rows(design, flux, runs);
@@ -159,6 +162,7 @@ pub(super) fn assess(
         heldout_nt: heldout.map_or(f64::NAN, |cv| cv.expected_heldout_rms_nt),
         insample_nt: (solution.rss / solution.rows.max(1) as f64).sqrt(),
         improvement: diagnostics.improvement_ratio,
+        interference,
         level_misfit_nt: levels.map_or(f64::NAN, |l| l.residual_rms_nt),
         level_expected_nt: levels.and_then(|l| l.expected_rms_nt).unwrap_or(f64::NAN),
         fluxgate_offset_nt: levels.map_or(f64::NAN, |l| {
