@@ -174,7 +174,7 @@ fn compensate_with_a_doubtful_model_repeats_its_verdict() {
 }
 
 /// A model without the coefficients' covariance (a file before version 3): σ is empty and
-/// `compensate` says why.
+/// `compensate` and `stream` say why.
 #[test]
 fn sigma_asked_of_a_model_without_a_covariance_is_empty_with_a_warning() {
     let dir = TempDir::new().unwrap();
@@ -203,6 +203,26 @@ fn sigma_asked_of_a_model_without_a_covariance_is_empty_with_a_warning() {
     let out = std::fs::read_to_string(dir.path().join("out.csv")).unwrap();
     assert!(column(&out, "mag_1_c_sigma").iter().all(|s| s.is_nan()));
     assert!(column(&out, "mag_1_c").iter().all(|c| c.is_finite()));
+    let survey = std::fs::read_to_string(dir.path().join("survey.csv")).unwrap();
+    let lines: String = survey.lines().take(20).map(|l| format!("{l}\n")).collect();
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_tolles"))
+        .current_dir(dir.path())
+        .args(["stream", "--model", "old.json", "--uncertainty", "--quiet"])
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::io::Write::write_all(&mut child.stdin.take().unwrap(), lines.as_bytes()).unwrap();
+    let streamed = child.wait_with_output().unwrap();
+    assert!(streamed.status.success());
+    let warnings = String::from_utf8_lossy(&streamed.stderr);
+    assert!(
+        warnings.contains("holds no covariance") && warnings.contains("mag_1_uc"),
+        "{warnings}"
+    );
+    let out = String::from_utf8_lossy(&streamed.stdout);
+    assert_eq!(out.lines().count(), 20, "{out}");
 }
 
 /// σ is the compensated value's error up to a level, the scalar's noise included: on simulated

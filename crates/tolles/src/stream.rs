@@ -117,6 +117,8 @@ pub struct Setup {
     idle_timeout: Option<Duration>,
     /// Columns of every stream's header renamed `(old, new)` before the model's are looked up.
     renames: Vec<(String, String)>,
+    /// What the caller should be told before the first line (see [`Setup::warnings`]).
+    warnings: Vec<crate::Warning>,
 }
 
 impl Setup {
@@ -142,6 +144,7 @@ impl Setup {
         let mut groups: Vec<Group> = Vec::new();
         let mut extras: Vec<ExtraChannel> = Vec::new();
         let mut specs = Vec::new();
+        let mut warnings = Vec::new();
         for m in &model.fits {
             if m.network.is_some() && request.adapt {
                 return Err(Error::StreamNetwork {
@@ -181,6 +184,11 @@ impl Setup {
                 }
                 None => spec,
             };
+            if request.uncertainty && fit.uncertainty.is_none() {
+                warnings.push(crate::Warning::NoUncertainty {
+                    scalar: m.scalar.clone(),
+                });
+            }
             specs.push(match request.uncertainty {
                 true => spec.with_trust(Trust {
                     uncertainty: fit.uncertainty.clone(),
@@ -214,7 +222,14 @@ impl Setup {
             max_line_bytes: request.max_line_bytes,
             idle_timeout: request.idle_timeout,
             renames: Vec::new(),
+            warnings,
         })
+    }
+
+    /// What the caller should be told before the first line: σ asked of a model that holds
+    /// no covariance (a file written before version 3), whose σ column stays empty.
+    pub fn warnings(&self) -> &[crate::Warning] {
+        &self.warnings
     }
 
     /// The stream's nominal sample rate (Hz).
@@ -784,6 +799,7 @@ mod tests {
             max_line_bytes: DEFAULT_MAX_LINE_BYTES,
             idle_timeout: None,
             renames: Vec::new(),
+            warnings: Vec::new(),
         }
     }
 

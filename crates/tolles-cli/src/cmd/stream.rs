@@ -104,6 +104,7 @@ pub fn run(args: Args) -> Result<()> {
         ..StreamRequest::default()
     };
     let setup = Setup::new(&model, &args.model, &request).map_err(setup_error)?;
+    render::warnings(&mut setup.warnings().to_vec(), render::Use::Other);
     let setup = Arc::new(setup.with_renames(args.renames.clone()));
     let stats = Arc::new(Stats::default());
     if !args.quiet {
