@@ -205,16 +205,12 @@ fn sigma_asked_of_a_model_without_a_covariance_is_empty_with_a_warning() {
     assert!(column(&out, "mag_1_c").iter().all(|c| c.is_finite()));
     let survey = std::fs::read_to_string(dir.path().join("survey.csv")).unwrap();
     let lines: String = survey.lines().take(20).map(|l| format!("{l}\n")).collect();
-    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_tolles"))
+    let streamed = tolles()
         .current_dir(dir.path())
         .args(["stream", "--model", "old.json", "--uncertainty", "--quiet"])
-        .stdin(std::process::Stdio::piped())
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
+        .write_stdin(lines)
+        .output()
         .unwrap();
-    std::io::Write::write_all(&mut child.stdin.take().unwrap(), lines.as_bytes()).unwrap();
-    let streamed = child.wait_with_output().unwrap();
     assert!(streamed.status.success());
     let warnings = String::from_utf8_lossy(&streamed.stderr);
     assert!(

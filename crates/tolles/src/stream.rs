@@ -184,11 +184,7 @@ impl Setup {
                 }
                 None => spec,
             };
-            if request.uncertainty && fit.uncertainty.is_none() {
-                warnings.push(crate::Warning::NoUncertainty {
-                    scalar: m.scalar.clone(),
-                });
-            }
+            warnings.extend(crate::compensate::no_uncertainty(m, request.uncertainty));
             specs.push(match request.uncertainty {
                 true => spec.with_trust(Trust {
                     uncertainty: fit.uncertainty.clone(),

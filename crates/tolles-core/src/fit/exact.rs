@@ -92,18 +92,26 @@ impl Problem<'_, '_> {
                     other => other?,
                 };
             let level_rows = std::mem::take(&mut prepared.levels);
-            // The scores of the exact fit's own residual: the linear fit's, 13× larger on a
-            // heavy cabin, made each row's σ 25× its error (bench/installations 11 and 12).
-            let block = super::diagnostics::score_block(self.settings, self.fs_hz);
-            let band_scores = prepared.score_covariance(&chosen.solution.coefficients, block);
-            let above_rss = prepared.above_residual(&chosen.solution.coefficients).0;
-            self.spare.give(prepared.into_buffers());
             let step = relative_change(&beta, &chosen.solution.coefficients);
+            let settled_loser = self.settles_losing(&chosen, linear, step, last_step);
+            let last = step < EXACT_TOLERANCE || settled_loser || iteration == EXACT_ITERATIONS;
+            // The scores of the exact fit's own residual, of the iteration kept: the linear
+            // fit's, 13× larger on a heavy cabin, made each row's σ 25× its error
+            // (bench/installations 11 and 12).
+            let (band_scores, above_rss) = match last {
+                true => {
+                    let beta = &chosen.solution.coefficients;
+                    let block = super::diagnostics::score_block(self.settings, self.fs_hz);
+                    let scores = prepared.score_covariance(beta, block);
+                    (scores, prepared.above_residual(beta).0)
+                }
+                false => (None, 0.0),
+            };
+            self.spare.give(prepared.into_buffers());
             if diverges(iteration, step, last_step) {
                 return Ok(None);
             }
             beta = damped(&beta, &chosen.solution.coefficients, step);
-            let settled_loser = self.settles_losing(&chosen, linear, step, last_step);
             best = Some(Exact {
                 chosen,
                 iterations: iteration,
@@ -111,7 +119,7 @@ impl Problem<'_, '_> {
                 band_scores,
                 above_rss,
             });
-            if step < EXACT_TOLERANCE || settled_loser {
+            if last {
                 break;
             }
             last_step = step;

@@ -838,24 +838,21 @@ fn fit_reusing(
     };
     let (short, runs_used) = (prepared.short, prepared.runs_used());
     let above_rows = prepared.above_rows();
-    let on_stored = {
-        let terms = designs[chosen.index].design_terms();
-        basis.on_stored(&problem::on_columns(
-            &union,
-            &terms,
-            &chosen.solution.coefficients,
-        ))
-    };
+    let chosen_terms = designs[chosen.index].design_terms();
+    let on_stored = basis.on_stored(&problem::on_columns(
+        &union,
+        &chosen_terms,
+        &chosen.solution.coefficients,
+    ));
     // The rows above the band hold what only the extra channels explain there: the aircraft's
     // other fields above the band are left in them, so they are no part of the band's residual.
     let mut above_rss = prepared.above_residual(&on_stored).0;
     let mut band_scores = match wanted {
         Wanted::Everything => {
-            let terms = designs[chosen.index].design_terms();
             let block = score_block(settings, fs_hz);
-            prepared
-                .score_covariance(&on_stored, block)
-                .map(|s| problem::on_column_pairs(&union, &terms, &basis.square_on_terms(&s)))
+            prepared.score_covariance(&on_stored, block).map(|s| {
+                problem::on_column_pairs(&union, &chosen_terms, &basis.square_on_terms(&s))
+            })
         }
         Wanted::Coefficients => None,
     };

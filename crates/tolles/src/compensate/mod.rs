@@ -229,12 +229,16 @@ pub fn flight_field(
     if request.uncertainty && computed.sigma.is_none() {
         computed.sigma = Some(vec![f64::NAN; computed.field.len()]);
     }
-    if request.uncertainty && fit.fit.uncertainty.is_none() {
-        warnings.push(Warning::NoUncertainty {
-            scalar: fit.scalar.clone(),
-        });
-    }
+    warnings.extend(no_uncertainty(fit, request.uncertainty));
     Ok(computed)
+}
+
+/// [`Warning::NoUncertainty`] when σ is asked (`uncertainty`) of a model of `fit` without the
+/// coefficients' covariance (a file written before version 3): its σ column stays empty.
+pub(crate) fn no_uncertainty(fit: &ScalarModel, uncertainty: bool) -> Option<Warning> {
+    (uncertainty && fit.fit.uncertainty.is_none()).then(|| Warning::NoUncertainty {
+        scalar: fit.scalar.clone(),
+    })
 }
 
 /// The survey's sample rate (Hz): the request's if given, else from its time column, else the
