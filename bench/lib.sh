@@ -1,5 +1,6 @@
-# Shared by the Python benchmarks: build tolles in release, then run bench/SCRIPT with a
-# virtual environment holding PACKAGES (BENCH_VENV=DIR reuses DIR; otherwise a throwaway one).
+# Shared by the Python benchmarks (installations, verdict, real): build tolles in release,
+# then run bench/SCRIPT with a virtual environment holding PACKAGES (BENCH_VENV=DIR reuses
+# DIR; otherwise a throwaway one).
 #
 #   source bench/lib.sh; run_python_bench SCRIPT.py "numpy scipy pandas" "$@"
 run_python_bench() {
