@@ -481,7 +481,7 @@ fn procedure(
 /// How well a plan or a flown flight determines each term; returns (JSON as `tolles plan
 /// --json` prints it, warnings). `maneuvers` is `box`, `patent`, or a list `roll@0,…`.
 #[pyfunction]
-#[pyo3(signature = (maneuvers, without, flight, vector, terms, noise_nt, dip_deg, declination_deg, intensity_nt))]
+#[pyo3(signature = (maneuvers, without, flight, vector, terms, noise_nt, dip_deg, declination_deg, intensity_nt, fs))]
 #[allow(clippy::too_many_arguments)]
 fn plan(
     py: Python<'_>,
@@ -494,6 +494,7 @@ fn plan(
     dip_deg: f64,
     declination_deg: f64,
     intensity_nt: f64,
+    fs: Option<f64>,
 ) -> PyResult<(String, Vec<String>)> {
     use tolles::plan::{BuiltinPlan, Maneuvers, PlanRequest};
     use tolles_core::flight::plan::Axis;
@@ -515,6 +516,7 @@ fn plan(
             vector,
             selection: RowSelection::default(),
             renames: Vec::new(),
+            fs_hz: fs,
         },
         (None, "box") => builtin(BuiltinPlan::Box)?,
         (None, "patent") => builtin(BuiltinPlan::Patent)?,
@@ -591,7 +593,7 @@ fn convert(
 /// as `tolles report` does, and prints it to `pdf` if given; returns (index.html's path,
 /// warnings).
 #[pyfunction]
-#[pyo3(signature = (flight, out, model, scalars, lines, time, renames, band, order, fs, pdf, legs))]
+#[pyo3(signature = (flight, out, model, scalars, lines, time, renames, band, order, fs, pdf, legs, noise_tolerance))]
 #[allow(clippy::too_many_arguments)]
 fn report(
     py: Python<'_>,
@@ -607,6 +609,7 @@ fn report(
     fs: Option<f64>,
     pdf: Option<PathBuf>,
     legs: Legs,
+    noise_tolerance: f64,
 ) -> PyResult<(PathBuf, Vec<String>)> {
     let (headings, heading, level, cardinal) = legs;
     let request = tolles::report::ReportRequest {
@@ -620,6 +623,7 @@ fn report(
         fs_hz: fs,
         selection: selection(lines, time)?,
         renames: renames.unwrap_or_default(),
+        noise_tolerance_nt: noise_tolerance,
         ..tolles::report::ReportRequest::new(flight, "")
     }
     .with_legs(headings, heading, level, cardinal);
@@ -627,7 +631,8 @@ fn report(
     let index = py.detach(|| -> Result<PathBuf, String> {
         let data = tolles::report::build_each(&request, &scalars, &Silent, &mut warnings)
             .map_err(|e| e.to_string())?;
-        let index = tolles_report::flight::write_each(&data, &out).map_err(|e| e.to_string())?;
+        let index =
+            tolles_report::flight::write_each(&data, &warnings, &out).map_err(|e| e.to_string())?;
         if let Some(pdf) = &pdf {
             tolles_report::export::print_pdf(&index, pdf).map_err(|e| e.to_string())?;
         }

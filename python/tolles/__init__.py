@@ -701,6 +701,7 @@ def report(
     heading_tolerance: float = 10.0,
     level_tolerance: float = 3.0,
     cardinal_tolerance: float = 20.0,
+    noise_tolerance: float = 0.1,
 ) -> _pathlib.Path:
     """Write the HTML report of a flight into the directory ``out``, as ``tolles report``.
 
@@ -713,7 +714,9 @@ def report(
     ``band`` (Hz), ``order``: the figure of merit's band-pass. ``pdf``: also print the page to
     this PDF with headless Chromium (``$TOLLES_CHROMIUM``, or chromium on ``PATH``).
     ``headings``, ``heading_tolerance``, ``level_tolerance``, ``cardinal_tolerance``: as in
-    :func:`fom`. Returns the path of ``index.html``; what was noticed is warned about.
+    :func:`fom`. ``noise_tolerance`` (nT): the survey specification's fourth-difference
+    tolerance, drawn under the fourth difference; each line passes when all of it lies within.
+    Returns the path of ``index.html``; what was noticed is warned about.
     """
     scalars = [] if scalar is None else _names(scalar, "scalar")
     with _tempfile.TemporaryDirectory() as scratch:
@@ -736,6 +739,7 @@ def report(
             None if fs is None else float(fs),
             None if pdf is None else _os.fspath(pdf),
             _legs(headings, heading_tolerance, level_tolerance, cardinal_tolerance),
+            float(noise_tolerance),
         )
     _warn(notes)
     return _pathlib.Path(index)
@@ -826,6 +830,7 @@ def plan(
     dip: float = 68.0,
     declination: float = 0.0,
     intensity: float = 52000.0,
+    fs: Optional[float] = None,
 ) -> dict:
     """How well a calibration flight determines each term, before or after flying it: exactly
     ``tolles plan --json``, as a dict.
@@ -835,7 +840,8 @@ def plan(
     ``yaw`` maneuvers out. ``flight``: the path of a flown flight instead, whose maneuvers are
     found in its attitude and weighed with its fluxgate ``vector`` (dip and intensity then come
     from the fluxgate). ``noise`` (nT) sets the standard errors' scale; ``dip`` (deg),
-    ``declination`` (deg) and ``intensity`` (nT) the earth field of a plan.
+    ``declination`` (deg) and ``intensity`` (nT) the earth field of a plan. ``fs`` (Hz): the
+    sample rate of a flight without a time column.
     """
     axes = [] if without is None else _names(without, "without")
     text, notes = _tolles.plan(
@@ -848,6 +854,7 @@ def plan(
         float(dip),
         float(declination),
         float(intensity),
+        None if fs is None else float(fs),
     )
     _warn(notes)
     return _json.loads(text)

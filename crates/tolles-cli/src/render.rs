@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 use tolles::model::ScalarModel;
 use tolles::report::ReportRequest;
 use tolles::{Error, Warning};
+use tolles_io::error::IoError;
 use tolles_io::select::SelectError;
 
 /// What a command does with the rows a selection kept, for the message that says so.
@@ -22,9 +23,25 @@ pub enum Use {
 
 /// Prints `warnings` on standard error, one line each, and empties the vector.
 pub fn warnings(warnings: &mut Vec<Warning>, purpose: Use) {
+    let mut said = Vec::new();
     for warning in warnings.drain(..) {
-        note!("{}", warning_text(&warning, purpose));
+        // Two scalars read from one file notice the same things of it: said once.
+        let text = warning_text(&warning, purpose);
+        if !said.contains(&text) {
+            note!("{text}");
+            said.push(text);
+        }
     }
+}
+
+/// `value` to four significant digits: a comparison of two small residuals stays readable
+/// (0.0001 nT against 0.0001 nT hid which was smaller).
+pub fn significant(value: f64) -> String {
+    if value == 0.0 || !value.is_finite() {
+        return format!("{value}");
+    }
+    let decimals = (3 - value.abs().log10().floor() as i32).max(0) as usize;
+    format!("{value:.decimals$}")
 }
 
 /// One warning as the command line says it.
@@ -103,7 +120,34 @@ pub fn error(e: Error) -> anyhow::Error {
             available.len(),
             available.join("|")
         ),
+        Error::Io(IoError::MissingColumn { path, column, hint }) => {
+            anyhow::anyhow!(
+                "{}: no column {column:?}{hint}{}",
+                path.display(),
+                rename_hint(&column, &hint)
+            )
+        }
         other => anyhow::Error::new(other),
+    }
+}
+
+/// ` (if it is, --rename NEAR=COLUMN)` when `hint` suggests one column near `column`: the
+/// flag that lets any command read a file whose names differ from the model's or the schema's.
+fn rename_hint(column: &str, hint: &str) -> String {
+    let near = hint
+        .strip_prefix("; did you mean ")
+        .and_then(|h| h.strip_suffix('?'))
+        .filter(|near| !near.contains([',', ':', ' ']))
+        // A fluxgate's component suggests a fluxgate's prefix: --vector names it.
+        .filter(|_| {
+            let column = column.to_ascii_lowercase();
+            !["_x", "_y", "_z"].iter().any(|axis| column.ends_with(axis))
+        });
+    match near {
+        Some(near) if !near.eq_ignore_ascii_case(column) => {
+            format!(" (if it is, --rename {near}={column})")
+        }
+        _ => String::new(),
     }
 }
 
@@ -124,8 +168,9 @@ impl<T> OrRender<T> for Result<T, Error> {
 pub fn report(request: &ReportRequest, scalars: &[String], out: &Path) -> anyhow::Result<PathBuf> {
     let mut noticed = Vec::new();
     let data = tolles::report::build_each(request, scalars, &Terminal::default(), &mut noticed);
+    let on_page = noticed.clone();
     warnings(&mut noticed, Use::Other);
-    tolles_report::flight::write_each(&data.or_render()?, out)
+    tolles_report::flight::write_each(&data.or_render()?, &on_page, out)
         .with_context(|| format!("writing the report to {}", out.display()))
 }
 
@@ -197,14 +242,15 @@ pub fn fit_summary(model: &ScalarModel, cal: &Path) -> std::io::Result<()> {
             .collect();
         writeln!(
             err,
-            "  network ({} inputs, layers {}, {}, seed {}): on held-out {} it leaves {:.4} nT where the linear model leaves {:.4} nT; kept (epoch {} of {})",
+            "  network ({} inputs, layers {}, {}, seed {}): on held-out {} it leaves {} nT where the linear model leaves {} nT ({:.1} % less); kept (epoch {} of {})",
             learned.network.inputs.len(),
             layers.join(","),
             learned.network.activation,
             learned.seed,
             learned.held_out,
-            learned.judged_network_rms_nt,
-            learned.judged_linear_rms_nt,
+            significant(learned.judged_network_rms_nt),
+            significant(learned.judged_linear_rms_nt),
+            100.0 * (1.0 - learned.judged_network_rms_nt / learned.judged_linear_rms_nt),
             learned.best_epoch,
             learned.epochs
         )?;
@@ -354,5 +400,16 @@ fn short_number(x: f64) -> String {
         format!("{x}")
     } else {
         format!("{x:e}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn significant_keeps_four_digits_of_small_and_large_values() {
+        assert_eq!(super::significant(0.000_123_46), "0.0001235");
+        assert_eq!(super::significant(0.000_1), "0.0001000");
+        assert_eq!(super::significant(12.345_6), "12.35");
+        assert_eq!(super::significant(123_456.0), "123456");
     }
 }

@@ -291,7 +291,8 @@ fn bad_input_gets_one_line_errors_naming_file_line_and_column() {
             if k == 0 {
                 l.to_string()
             } else {
-                format!("{},50000,0,20000,0,45000", k)
+                // At the good flight's 10 Hz, where the default band fits.
+                format!("{},50000,0,20000,0,45000", k as f64 * 0.1)
             }
         })
         .collect::<Vec<_>>()

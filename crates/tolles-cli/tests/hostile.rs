@@ -256,3 +256,108 @@ fn degenerate_references_and_extras_are_named_for_what_they_are() {
         .collect();
     assert!(numbers.len() == 2 && numbers[0] <= numbers[1], "{summary}");
 }
+
+/// `box.csv` in `dir` with its header's names replaced (`(old, new)`), as `name`.
+fn renamed(dir: &Path, name: &str, renames: &[(&str, &str)]) {
+    let text = std::fs::read_to_string(dir.join("box.csv")).unwrap();
+    let (header, rest) = text.split_once('\n').unwrap();
+    let header: Vec<String> = (header.split(','))
+        .map(|h| {
+            let new = renames
+                .iter()
+                .find(|(old, _)| *old == h)
+                .map(|(_, new)| *new);
+            new.unwrap_or(h).to_string()
+        })
+        .collect();
+    std::fs::write(dir.join(name), header.join(",") + "\n" + rest).unwrap();
+}
+
+#[test]
+fn hostile_round_4_messages_say_the_fix() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    damaged(d, "same.csv", "mag_1_uc", 1, "0");
+    // A model's scalar under another name: the error names the flag that maps it.
+    renamed(d, "named.csv", &[("mag_1_uc", "MAG")]);
+    let args = [
+        "compensate",
+        "named.csv",
+        "--model",
+        "m.json",
+        "--out",
+        "o.csv",
+    ];
+    let (ok, _, err) = run(d, &args);
+    assert!(!ok && err.lines().count() == 1, "{err}");
+    assert!(
+        err.contains("did you mean MAG? (if it is, --rename MAG=mag_1_uc)"),
+        "{err}"
+    );
+    // Fluxgate columns without a separator: the spelling that reads them.
+    let axes = [
+        ("flux_a_x", "FLUXX"),
+        ("flux_a_y", "FLUXY"),
+        ("flux_a_z", "FLUXZ"),
+    ];
+    renamed(d, "bare.csv", &axes);
+    let (ok, _, err) = fit(d, "bare.csv", &["--vector", "FLUX"]);
+    assert!(!ok, "{err}");
+    assert!(err.contains("did you mean FLUXX:FLUXY:FLUXZ?"), "{err}");
+    let fit_bare = [
+        "fit",
+        "bare.csv",
+        "--scalar",
+        "mag_1_uc",
+        "--vector",
+        "FLUXX:FLUXY:FLUXZ",
+        "--out",
+        "bare.json",
+    ];
+    assert!(run(d, &fit_bare).0);
+}
+
+#[test]
+fn a_band_beyond_nyquist_is_said_and_stored_as_used() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    let sim = [
+        "simulate", "--plan", "box", "--fs", "1", "--period", "20", "--out", "slow.csv",
+    ];
+    assert!(run(d, &sim).0);
+    let (ok, _, err) = fit(d, "slow.csv", &["--lambda", "auto"]);
+    assert!(ok, "{err}");
+    assert!(
+        err.contains("upper edge 0.9 Hz is at or above the Nyquist frequency 0.5 Hz"),
+        "{err}"
+    );
+    let model: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("out.json")).unwrap()).unwrap();
+    assert_eq!(model["fits"][0]["settings"]["band"]["pass2_hz"], 0.5);
+    let (ok, out, err) = run(d, &["fom", "slow.csv", "--scalar", "mag_1_uc"]);
+    assert!(ok, "{err}");
+    assert!(out.contains("Band-pass 0.05–0.5 Hz"), "{out}");
+    assert!(err.contains("upper edge 1 Hz"), "{err}");
+}
+
+#[test]
+fn tiny_files_and_untimed_plans_say_what_is_missing() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    damaged(d, "same.csv", "mag_1_uc", 1, "0");
+    let text = std::fs::read_to_string(d.join("box.csv")).unwrap();
+    let nine: Vec<&str> = text.lines().take(10).collect();
+    std::fs::write(d.join("nine.csv"), nine.join("\n") + "\n").unwrap();
+    let (_, out, err) = run(
+        d,
+        &["fom", "nine.csv", "--scalar", "mag_1_uc", "--fs", "10"],
+    );
+    assert!(!out.contains("NaN") && !err.contains("NaN"), "{out}{err}");
+    // plan reads a flight without tt at --fs, as every other command does.
+    std::fs::write(d.join("untimed.csv"), text.replacen("tt,", "t_gps,", 1)).unwrap();
+    let plan = ["plan", "untimed.csv", "--vector", "flux_a"];
+    let (ok, _, err) = run(d, &plan);
+    assert!(!ok && err.contains("give it with --fs"), "{err}");
+    let (ok, out, err) = run(d, &[&plan[..], &["--fs", "10"]].concat());
+    assert!(ok && out.contains("roll"), "{err}");
+}

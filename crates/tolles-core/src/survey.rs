@@ -28,6 +28,19 @@ pub fn circular_mean_deg(angles_deg: &[f64]) -> Option<f64> {
     Some(wrap_deg(s.atan2(c).to_degrees()))
 }
 
+/// Mean resultant length of angles (deg), in [0, 1]: 1 when all point one way, 0.64 over a
+/// steady 180° turn, 0 when they cancel; non-finite angles are ignored (`None` when none is
+/// finite).
+pub fn circular_concentration(angles_deg: &[f64]) -> Option<f64> {
+    let (mut s, mut c, mut n) = (0.0, 0.0, 0usize);
+    for a in angles_deg.iter().filter(|a| a.is_finite()) {
+        s += a.to_radians().sin();
+        c += a.to_radians().cos();
+        n += 1;
+    }
+    (n > 0).then(|| s.hypot(c) / n as f64)
+}
+
 /// `angle_deg` in [0, 360): `rem_euclid` alone rounds a tiny negative angle up to 360.
 fn wrap_deg(angle_deg: f64) -> f64 {
     let wrapped = angle_deg.rem_euclid(360.0);
@@ -180,5 +193,14 @@ mod tests {
         assert_eq!(median(&[3.0, 1.0, 2.0]), Some(2.0));
         assert_eq!(median(&[4.0, 1.0, f64::NAN, 2.0, 3.0]), Some(2.5));
         assert_eq!(median(&[f64::NAN]), None);
+    }
+
+    #[test]
+    fn concentration_of_a_straight_leg_and_of_a_turn() {
+        assert!((circular_concentration(&[359.0, 1.0]).unwrap() - 1.0).abs() < 1e-3);
+        let turn: Vec<f64> = (0..=180).map(f64::from).collect();
+        let r = circular_concentration(&turn).unwrap();
+        assert!((r - 2.0 / std::f64::consts::PI).abs() < 0.01, "{r}");
+        assert_eq!(circular_concentration(&[f64::NAN]), None);
     }
 }

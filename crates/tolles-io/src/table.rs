@@ -985,20 +985,32 @@ pub(crate) fn suggest(headers: &[String], name: &str) -> String {
 }
 
 /// `; did you mean FLUXA?` with the fluxgate prefixes in `headers` (names `P_x`, `P_y`, `P_z`
-/// in any case) near `prefix`, case-insensitively; `None` when none is near.
+/// in any case) near `prefix`, case-insensitively, and the three columns `PX:PY:PZ` of a
+/// fluxgate whose names have no separator (which no prefix reads); `None` when none is near.
 fn suggest_vector(headers: &[String], prefix: &str) -> Option<String> {
     let lower: Vec<String> = headers.iter().map(|h| h.to_ascii_lowercase()).collect();
     let wanted = prefix.to_ascii_lowercase();
-    let near: Vec<&str> = headers
+    let near: Vec<String> = headers
         .iter()
         .zip(&lower)
         .filter_map(|(h, l)| {
-            let stem = l.strip_suffix("_x")?;
-            let others = ["_y", "_z"].map(|a| format!("{stem}{a}"));
-            let complete = others.iter().all(|o| lower.contains(o));
-            let close =
-                stem.starts_with(&wanted) || wanted.starts_with(stem) || stem.contains(&wanted);
-            (complete && close).then(|| &h[..stem.len()])
+            let (stem, separator) = match l.strip_suffix("_x") {
+                Some(stem) => (stem, "_"),
+                None => (l.strip_suffix('x')?, ""),
+            };
+            let sibling = |axis: &str| {
+                let name = format!("{stem}{separator}{axis}");
+                (lower.iter().position(|o| *o == name)).map(|k| headers[k].as_str())
+            };
+            let (y, z) = (sibling("y")?, sibling("z")?);
+            let close = !stem.is_empty()
+                && (stem.starts_with(&wanted)
+                    || wanted.starts_with(stem)
+                    || stem.contains(&wanted));
+            close.then(|| match separator {
+                "_" => h[..stem.len()].to_string(),
+                _ => format!("{h}:{y}:{z}"),
+            })
         })
         .take(6)
         .collect();
@@ -1174,6 +1186,11 @@ mod tests {
         assert!(err.contains("did you mean FLUXA?"), "{err}");
         assert_eq!(t.vector("fluxa").unwrap()[2][0], 4.0);
         assert_eq!(t.vector("FLUXA_Z:FLUXA_Y:FLUXA_X").unwrap()[0][0], 4.0);
+        // Names without a separator are read as three columns, which is what is suggested.
+        let bare = read("tt,FLUXX,FLUXY,FLUXZ\n1,2,3,4\n").unwrap();
+        let err = bare.vector("FLUX").unwrap_err().to_string();
+        assert!(err.contains("did you mean FLUXX:FLUXY:FLUXZ?"), "{err}");
+        assert_eq!(bare.vector("FLUXX:FLUXY:FLUXZ").unwrap()[2][0], 4.0);
         let err = t.numeric("fluxa").unwrap_err().to_string();
         assert!(
             err.contains("did you mean FLUXA_X, FLUXA_Y, FLUXA_Z?"),

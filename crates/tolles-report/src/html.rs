@@ -143,7 +143,11 @@ figure.is-live > img, figure.is-live > .svg-note, figure.is-live > ul.legend { d
 @media print { .live-chart, .live-controls, .live-note { display: none !important; }
   figure.is-live > img, figure.is-live > .svg-note, figure.is-live > ul.legend { display: block; }
   figure.is-live > ul.legend { display: flex; } }
-@page { margin: 14mm 12mm; }
+/* A4, as survey contracts outside North America are written; numbered pages under a running
+   header (the title, in a second @page rule the page adds). */
+@page { size: A4; margin: 16mm 12mm 14mm;
+  @bottom-right { content: "page " counter(page) " of " counter(pages); font-size: 8pt;
+    color: #555; } }
 @media print {
   .wrap { max-width: none; padding: 0; }
   header.masthead { background: #fff; color: #000; padding: 0 0 12px; }
@@ -153,7 +157,8 @@ figure.is-live > img, figure.is-live > .svg-note, figure.is-live > ul.legend { d
   main > h2:not(:first-child) { break-before: page; }
   h2, h3 { break-after: avoid; }
   /* A long table splits across pages (its header repeats); every column stays on the page. */
-  figure, dl.kv, tr { break-inside: avoid; }
+  figure, dl.kv, tr, .grid { break-inside: avoid; }
+  footer { break-before: avoid; }
   .table-wrap { overflow: visible; width: auto; max-width: none; min-width: 0; }
   table { font-size: 8.5pt; }
   th, td { padding: 2px 5px; }

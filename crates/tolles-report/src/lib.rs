@@ -322,10 +322,11 @@ impl Report {
             out,
             "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
              <meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n\
-             <title>{title}</title>\n<style>{}</style>\n<script>{}</script>\n{}</head>\n<body>\n\
+             <title>{title}</title>\n<style>{}{}</style>\n<script>{}</script>\n{}</head>\n<body>\n\
              <header class=\"masthead\"><div class=\"wrap\">\n<p class=\"kicker\">tolles report</p>\n\
              <h1>{title}</h1>\n",
             html::STYLE,
+            running_header(&self.title),
             html::ERROR_CAPTURE,
             if live_scripts.is_empty() {
                 String::new()
@@ -732,6 +733,20 @@ fn civil_from_days(days: i64) -> (i64, i64, i64) {
     (yoe + era * 400 + i64::from(m <= 2), m, d)
 }
 
+/// The printed page's running header: the report's title, top left, on every page.
+fn running_header(title: &str) -> String {
+    let quoted: String = title
+        .chars()
+        .filter(|c| !c.is_control())
+        .flat_map(|c| match c {
+            '"' | '\\' => vec!['\\', c],
+            '<' => "\\3c ".chars().collect(),
+            _ => vec![c],
+        })
+        .collect();
+    format!("@page {{ @top-left {{ content: \"{quoted}\"; font-size: 8pt; color: #555; }} }}\n")
+}
+
 #[cfg(test)]
 mod tests {
     #[test]
@@ -801,6 +816,21 @@ mod tests {
         // Works offline: nothing is fetched from anywhere.
         assert!(!page.contains("http://") && !page.contains("https://"));
         assert!(!page.contains("@import") && !page.contains("url("));
+    }
+
+    #[test]
+    fn the_printed_page_is_a4_with_the_title_and_page_numbers() {
+        let dir = tempfile::tempdir().unwrap();
+        let page = std::fs::read_to_string(every_element().write(dir.path()).unwrap()).unwrap();
+        assert!(page.contains("size: A4"));
+        assert!(page.contains("counter(page) \" of \" counter(pages)"));
+        // The title in the running header cannot end the style sheet or the CSS string.
+        let header = running_header("a \"b\" </style>\\");
+        assert_eq!(
+            header,
+            "@page { @top-left { content: \"a \\\"b\\\" \\3c /style>\\\\\"; font-size: 8pt; \
+             color: #555; } }\n"
+        );
     }
 
     #[test]

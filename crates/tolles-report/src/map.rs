@@ -1,5 +1,7 @@
-//! A map of a flight's track as an SVG scatter, each point coloured by a value (nT) on a
-//! blue–white–red scale between the value's 2nd and 98th percentiles, with a colour bar.
+//! A map of a flight's track as an SVG scatter, each point coloured by a value (nT) less its
+//! median on a blue–white–red scale centred on zero (white is the median), out to the larger
+//! of the 2nd and 98th percentiles' distances from it, with a colour bar, a km grid and a
+//! scale bar.
 
 use crate::html::escape;
 use std::fmt::Write as _;
@@ -30,7 +32,11 @@ impl ScatterMap<'_> {
     pub fn to_svg(&self) -> Option<String> {
         let points = self.points();
         let values: Vec<f64> = points.iter().map(|p| p.2).collect();
-        let (lo, hi) = (percentile(&values, 0.02)?, percentile(&values, 0.98)?);
+        let median = percentile(&values, 0.5)?;
+        let reach = (percentile(&values, 0.02)? - median)
+            .abs()
+            .max((percentile(&values, 0.98)? - median).abs());
+        let (lo, hi) = (median - reach, median + reach);
         let frame = Frame::around(&points);
         let (w, h) = MAP_SIZE;
         let mut svg = format!(
@@ -41,6 +47,8 @@ impl ScatterMap<'_> {
             w / 2.0,
             escape(self.title)
         );
+        // Under the track, so no grid line crosses a point.
+        frame.grid(&mut svg);
         for (e, n, v) in &points {
             let (x, y) = frame.xy(*e, *n);
             let _ = write!(
@@ -50,7 +58,12 @@ impl ScatterMap<'_> {
             );
         }
         frame.axes(&mut svg);
-        colour_bar(&mut svg, lo, hi, self.value_label);
+        colour_bar(
+            &mut svg,
+            -reach,
+            reach,
+            &format!("{} − median {median:.1}", self.value_label),
+        );
         svg.push_str("</svg>\n");
         Some(svg)
     }
@@ -85,7 +98,10 @@ impl Frame {
         for (e, n, _) in points {
             (e0, e1, n0, n1) = (e0.min(*e), e1.max(*e), n0.min(*n), n1.max(*n));
         }
-        // A track along one axis (or one point) still needs a width to scale.
+        // A track along one axis (or one point) still needs a width to scale, and the track
+        // keeps off the frame by a twentieth of its extent.
+        let pad = 0.05 * (e1 - e0).max(n1 - n0).max(1e-3);
+        let (e0, e1, n0, n1) = (e0 - pad, e1 + pad, n0 - pad, n1 + pad);
         let span_km = ((e1 - e0).max(1e-3), (n1 - n0).max(1e-3));
         let (w, h) = Self::area();
         let px_per_km = (w / span_km.0).min(h / span_km.1);
@@ -110,6 +126,56 @@ impl Frame {
         let x = l + (east - self.east0) * self.px_per_km;
         let y = MAP_SIZE.1 - b - (north - self.north0) * self.px_per_km;
         (x, y)
+    }
+
+    /// Grid lines every `step` km with their labels inside the frame, and a scale bar of one
+    /// step at the bottom left.
+    fn grid(&self, svg: &mut String) {
+        let step = nice_step(self.span_km.0.max(self.span_km.1) / 5.0);
+        let (x0, y0) = self.xy(self.east0, self.north0);
+        let (x1, y1) = self.xy(self.east0 + self.span_km.0, self.north0 + self.span_km.1);
+        let ticks = |from: f64, span: f64| {
+            let first = (from / step).ceil() as i64;
+            let last = ((from + span) / step).floor() as i64;
+            (first..=last).map(|k| k as f64 * step)
+        };
+        for east in ticks(self.east0, self.span_km.0) {
+            let (x, _) = self.xy(east, self.north0);
+            let _ = write!(
+                svg,
+                "<line x1=\"{x:.1}\" y1=\"{y1:.1}\" x2=\"{x:.1}\" y2=\"{y0:.1}\" stroke=\"#ddd\" \
+                 stroke-width=\"0.6\"/><text x=\"{x:.1}\" y=\"{:.1}\" text-anchor=\"middle\" \
+                 font-size=\"9\" fill=\"#777\">{}</text>",
+                y1 + 10.0,
+                km(east)
+            );
+        }
+        for north in ticks(self.north0, self.span_km.1) {
+            let (_, y) = self.xy(self.east0, north);
+            let _ = write!(
+                svg,
+                "<line x1=\"{x0:.1}\" y1=\"{y:.1}\" x2=\"{x1:.1}\" y2=\"{y:.1}\" stroke=\"#ddd\" \
+                 stroke-width=\"0.6\"/><text x=\"{:.1}\" y=\"{:.1}\" font-size=\"9\" \
+                 fill=\"#777\">{}</text>",
+                x0 + 3.0,
+                y - 2.0,
+                km(north)
+            );
+        }
+        let length = step * self.px_per_km;
+        let (bx, by) = (x0 + 8.0, y0 - 8.0);
+        let _ = write!(
+            svg,
+            "<path d=\"M{bx:.1} {:.1}V{by:.1}H{:.1}V{:.1}\" stroke=\"#222\" fill=\"none\" \
+             stroke-width=\"1.5\"/><text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"middle\" \
+             font-size=\"10\">{} km</text>",
+            by - 4.0,
+            bx + length,
+            by - 4.0,
+            bx + length / 2.0,
+            by - 6.0,
+            format_step(step)
+        );
     }
 
     fn axes(&self, svg: &mut String) {
@@ -144,6 +210,22 @@ impl Frame {
     }
 }
 
+/// 1, 2 or 5 times a power of ten, the nearest at or above `rough` (km).
+fn nice_step(rough: f64) -> f64 {
+    let power = 10f64.powf(rough.max(1e-6).log10().floor());
+    [1.0, 2.0, 5.0, 10.0]
+        .into_iter()
+        .map(|m| m * power)
+        .find(|step| *step >= rough)
+        .unwrap_or(10.0 * power)
+}
+
+/// A grid step (km) without trailing zeros.
+fn format_step(step: f64) -> String {
+    let text = format!("{step:.3}");
+    text.trim_end_matches('0').trim_end_matches('.').to_string()
+}
+
 /// A position (km) to 0.1 km, never "-0.0".
 fn km(value: f64) -> String {
     let rounded = (value * 10.0).round() / 10.0;
@@ -153,7 +235,7 @@ fn km(value: f64) -> String {
 /// A vertical bar from `lo` (bottom) to `hi` (top) at the right of the map.
 fn colour_bar(svg: &mut String, lo: f64, hi: f64, label: &str) {
     let (_, _, t, b) = MARGIN;
-    let x = MAP_SIZE.0 - 72.0;
+    let x = MAP_SIZE.0 - 64.0;
     let height = MAP_SIZE.1 - t - b;
     let steps = 40;
     for k in 0..steps {
@@ -235,6 +317,37 @@ mod tests {
         assert_eq!(svg.matches("<circle").count(), 99);
         assert!(svg.contains("compensated &lt;field&gt;"));
         assert!(!svg.contains("NaN") && !svg.contains("inf"));
+    }
+
+    #[test]
+    fn the_scale_is_centred_on_the_median_and_the_map_has_a_grid_and_a_scale_bar() {
+        let east: Vec<f64> = (0..101).map(|k| k as f64 * 0.1).collect();
+        let north: Vec<f64> = east.iter().map(|e| e * 0.5).collect();
+        // Skewed: 100 nT over most of the track, up to 140 nT at its end.
+        let value: Vec<f64> = east
+            .iter()
+            .map(|e| 100.0 + (e - 7.0).max(0.0) * 13.0)
+            .collect();
+        let svg = ScatterMap {
+            title: "t",
+            east_km: &east,
+            north_km: &north,
+            value: &value,
+            value_label: "nT",
+        }
+        .to_svg()
+        .unwrap();
+        // White is the median (100 nT), the bar runs ± the farther percentile from it.
+        assert!(svg.contains("nT − median 100.0"), "{svg}");
+        assert!(svg.contains("fill=\"#f7f7f7\""));
+        // A 5 km grid over an 11 km track, labelled, and a scale bar of one step.
+        assert!(svg.contains(">5 km</text>"), "{svg}");
+        assert_eq!(svg.matches("stroke=\"#ddd\"").count(), 5);
+        assert!(svg.contains(">36.4</text>") && svg.contains(">-36.4</text>"));
+        // The track keeps off the frame: its first point is inside the plotting area.
+        let first = svg.split("<circle cx=\"").nth(1).unwrap();
+        let cx: f64 = first.split('"').next().unwrap().parse().unwrap();
+        assert!(cx > MARGIN.0 + 5.0, "{cx}");
     }
 
     #[test]

@@ -393,7 +393,8 @@ pub fn fit(
     warnings.extend(flight.time_steps_back.take());
     warnings.extend(warning);
     check_fit_rate(table, fs_hz)?;
-    let settings = request.settings();
+    let mut settings = request.settings();
+    settings.band = band_at(settings.band, fs_hz, table.path(), warnings);
     let columns = targets(table, request, std::mem::take(&mut flight.scalar))?;
     progress.begin(Stage::Fitting, None);
     let fitted: Vec<_> = columns
@@ -534,6 +535,26 @@ pub fn check_band(band: Band) -> Result<()> {
     match pass1_hz.is_finite() && pass2_hz.is_finite() {
         true => Ok(()),
         false => Err(Error::BadBand { pass1_hz, pass2_hz }),
+    }
+}
+
+/// `band` as a filter at `fs_hz` applies it: an upper edge at or above Nyquist is off, so the
+/// band runs to Nyquist, which is what a model or a report should say (warned of).
+pub fn band_at(band: Band, fs_hz: f64, path: &Path, warnings: &mut Vec<Warning>) -> Band {
+    let nyquist_hz = fs_hz / 2.0;
+    match band.pass2_hz.is_finite() && band.pass2_hz > nyquist_hz {
+        true => {
+            warnings.push(Warning::BandEdgeAboveNyquist {
+                path: path.to_path_buf(),
+                edge_hz: band.pass2_hz,
+                nyquist_hz,
+            });
+            Band {
+                pass2_hz: nyquist_hz,
+                ..band
+            }
+        }
+        false => band,
     }
 }
 

@@ -144,6 +144,17 @@ impl FomRequest {
     }
 }
 
+/// Where a flight's sample rate came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RateSource {
+    /// The file: its time column, or the sample interval it states.
+    File,
+    /// The request (`--fs`).
+    Given,
+    /// Assumed: the model's calibration rate, for a flight that states none.
+    Model,
+}
+
 /// What [`fom`] found and computed.
 #[derive(Debug, Clone)]
 pub struct FomOutcome {
@@ -151,6 +162,8 @@ pub struct FomOutcome {
     pub tt: Vec<f64>,
     /// Sample rate (Hz).
     pub fs_hz: f64,
+    /// Where the sample rate came from.
+    pub fs_from: RateSource,
     /// The uncompensated scalar (nT).
     pub scalar: Vec<f64>,
     /// The compensated scalar (nT), with a model.
@@ -218,6 +231,11 @@ fn measure_flight(
         (None, Some(fit)) if !states_rate => Some(fit.fit.fs_hz),
         (given, _) => given,
     };
+    let fs_from = match (request.fs_hz, given) {
+        (Some(_), _) => RateSource::Given,
+        (None, Some(_)) => RateSource::Model,
+        (None, None) => RateSource::File,
+    };
     let (fs_hz, warning) = sample_rate(table, tt.as_deref(), given)?;
     warnings.extend(warning);
     let tt = tt.unwrap_or_else(|| (0..table.len()).map(|k| k as f64 / fs_hz).collect());
@@ -235,7 +253,7 @@ fn measure_flight(
         });
     }
     let settings = FomSettings {
-        band: request.band,
+        band: crate::fit::band_at(request.band, fs_hz, path, warnings),
         order: request.order,
     };
     let measure = |signal: &[f64]| {
@@ -264,6 +282,7 @@ fn measure_flight(
     let outcome = FomOutcome {
         tt,
         fs_hz,
+        fs_from,
         scalar,
         compensated,
         maneuvers,

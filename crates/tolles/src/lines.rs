@@ -5,8 +5,8 @@
 use std::ops::Range;
 use tolles_core::signal::metrics::{fourth_difference, std_dev};
 use tolles_core::survey::{
-    circular_mean_deg, detrended_std, local_north_east_m, median, track_bearings_deg,
-    track_length_m,
+    circular_concentration, circular_mean_deg, detrended_std, local_north_east_m, median,
+    track_bearings_deg, track_length_m,
 };
 use tolles_io::schema::{EAST, LATITUDE, LINE_COLUMN, LONGITUDE, NORTH, YAW};
 use tolles_io::table::{Column, Table};
@@ -31,12 +31,36 @@ pub struct LineRow {
     pub noise_before_nt: Option<f64>,
     /// The same of the compensated scalar (nT), with a model.
     pub noise_after_nt: Option<f64>,
+    /// The largest |fourth difference| of the compensated scalar (of the uncompensated without
+    /// a model) over the line (nT), what a survey's noise specification bounds.
+    pub peak_fourth_difference_nt: Option<f64>,
     /// Mean of the line's compensated scalar (uncompensated without a model) minus the median
     /// of all lines' means (nT).
     pub level_nt: Option<f64>,
     /// The same of the uncompensated scalar, with or without a model (nT).
     pub level_before_nt: Option<f64>,
+    /// Time of the line's first and last row (s, as the time column), when finite.
+    pub span_s: Option<(f64, f64)>,
+    /// A survey line, a turn, or a leg of the compensation box.
+    pub kind: LineKind,
 }
+
+/// What a line id of the flight holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LineKind {
+    /// A straight line: its heading stays within about ±25° of its mean
+    /// ([`STRAIGHT_CONCENTRATION`]).
+    Line,
+    /// A turn or a transit whose heading wanders.
+    Turn,
+    /// A leg of the compensation box: one of its maneuvers lies in it (set by the report,
+    /// which knows the maneuvers).
+    BoxLeg,
+}
+
+/// The least mean resultant length of a straight line's headings: ±25° of scatter about the
+/// mean (a 180° turn has 0.64, a box leg's ±5° of yaw 0.99).
+pub const STRAIGHT_CONCENTRATION: f64 = 0.9;
 
 /// Where the heading of a line came from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -93,7 +117,7 @@ pub fn line_table(table: &Table, inputs: &LineInputs) -> Option<LineTable> {
     if lines.len() < 2 || ids.len() != inputs.tt.len() {
         return None;
     }
-    let (heading_from, headings) = headings(table, &lines);
+    let (heading_from, headings, straight) = headings(table, &lines);
     let (extent_from, extents) = extents(table, inputs.tt, &lines);
     let levels = |x: &[f64]| {
         let means: Vec<f64> = lines.iter().map(|l| mean(&pick(x, l))).collect();
@@ -107,15 +131,16 @@ pub fn line_table(table: &Table, inputs: &LineInputs) -> Option<LineTable> {
     let levels_after = levels(inputs.after.unwrap_or(inputs.before));
     let rows = lines
         .iter()
-        .zip(headings)
+        .zip(headings.into_iter().zip(straight))
         .zip(extents)
         .zip(levels_after.into_iter().zip(levels_before))
         .map(
-            |(((line, heading_deg), extent), (level_nt, level_before_nt))| {
+            |(((line, (heading_deg, straight)), extent), (level_nt, level_before_nt))| {
                 let tt = pick(inputs.tt, line);
                 let of = |x: &[f64]| (detrended_std(&tt, &pick(x, line)), noise(x, line));
                 let (residual_before_nt, noise_before_nt) = of(inputs.before);
                 let (residual_after_nt, noise_after_nt) = inputs.after.map(of).unwrap_or_default();
+                let peak_fourth_difference_nt = peak(inputs.after.unwrap_or(inputs.before), line);
                 LineRow {
                     line: line.id.clone(),
                     rows: line.len(),
@@ -125,8 +150,14 @@ pub fn line_table(table: &Table, inputs: &LineInputs) -> Option<LineTable> {
                     residual_after_nt,
                     noise_before_nt,
                     noise_after_nt,
+                    peak_fourth_difference_nt,
                     level_nt,
                     level_before_nt,
+                    span_s: span(&tt),
+                    kind: match straight {
+                        false => LineKind::Turn,
+                        true => LineKind::Line,
+                    },
                 }
             },
         )
@@ -270,34 +301,54 @@ fn positions(table: &Table) -> Option<(Vec<f64>, Vec<f64>, bool)> {
     Some((column(NORTH)?, column(EAST)?, false))
 }
 
-fn headings(table: &Table, lines: &[Line]) -> (HeadingSource, Vec<Option<f64>>) {
-    if let Ok(yaw) = table.numeric(YAW) {
+/// The first and last finite time of a line (s).
+fn span(tt: &[f64]) -> Option<(f64, f64)> {
+    let first = tt.iter().copied().find(|t| t.is_finite())?;
+    let last = tt.iter().copied().rfind(|t| t.is_finite())?;
+    Some((first, last))
+}
+
+/// The largest |fourth difference| over the line (nT), each run differenced alone.
+fn peak(x: &[f64], line: &Line) -> Option<f64> {
+    (line.runs.iter())
+        .flat_map(|r| fourth_difference(&x[r.clone()]))
+        .filter(|d| d.is_finite())
+        .map(f64::abs)
+        .max_by(f64::total_cmp)
+}
+
+/// Each line's mean heading (deg) and whether it is straight ([`STRAIGHT_CONCENTRATION`]; a
+/// line with no heading counts as straight).
+fn headings(table: &Table, lines: &[Line]) -> (HeadingSource, Vec<Option<f64>>, Vec<bool>) {
+    let of = |angles: &[f64]| {
+        let straight = circular_concentration(angles).is_none_or(|r| r >= STRAIGHT_CONCENTRATION);
+        (circular_mean_deg(angles), straight)
+    };
+    let (source, per_line): (_, Vec<_>) = if let Ok(yaw) = table.numeric(YAW) {
+        let per_line = lines.iter().map(|l| of(&pick(&yaw, l))).collect();
+        (HeadingSource::Yaw, per_line)
+    } else if let Some((north, east, from_lat_lon)) = positions(table) {
         let per_line = lines
             .iter()
-            .map(|l| circular_mean_deg(&pick(&yaw, l)))
+            .map(|l| {
+                let bearings: Vec<f64> = l
+                    .runs
+                    .iter()
+                    .flat_map(|r| track_bearings_deg(&north[r.clone()], &east[r.clone()]))
+                    .collect();
+                of(&bearings)
+            })
             .collect();
-        return (HeadingSource::Yaw, per_line);
-    }
-    let Some((north, east, from_lat_lon)) = positions(table) else {
-        return (HeadingSource::None, vec![None; lines.len()]);
-    };
-    let per_line = lines
-        .iter()
-        .map(|l| {
-            let bearings: Vec<f64> = l
-                .runs
-                .iter()
-                .flat_map(|r| track_bearings_deg(&north[r.clone()], &east[r.clone()]))
-                .collect();
-            circular_mean_deg(&bearings)
-        })
-        .collect();
-    let source = if from_lat_lon {
-        HeadingSource::LatLon
+        let source = match from_lat_lon {
+            true => HeadingSource::LatLon,
+            false => HeadingSource::NorthEast,
+        };
+        (source, per_line)
     } else {
-        HeadingSource::NorthEast
+        (HeadingSource::None, vec![(None, true); lines.len()])
     };
-    (source, per_line)
+    let (headings, straight) = per_line.into_iter().unzip();
+    (source, headings, straight)
 }
 
 fn extents(table: &Table, tt: &[f64], lines: &[Line]) -> (ExtentSource, Vec<Option<f64>>) {

@@ -86,6 +86,8 @@ pub enum Maneuvers {
         selection: RowSelection,
         /// Column renames `(old, new)` applied when reading.
         renames: Vec<(String, String)>,
+        /// The sample rate (Hz) of a flight without a time column (or to override it).
+        fs_hz: Option<f64>,
     },
 }
 
@@ -172,9 +174,10 @@ pub fn plan(
             vector,
             selection,
             renames,
+            fs_hz,
         } => {
             let read = crate::read::read_renamed(path, selection, renames, progress, warnings)?;
-            let flown = flown(&read.table, vector, &design)?;
+            let flown = flown(&read.table, vector, *fs_hz, &design, warnings)?;
             scenario.fs_hz = flown.fs_hz;
             field.inclination_deg = flown.dip_deg;
             field.intensity_nt = flown.intensity_nt;
@@ -279,14 +282,22 @@ struct Flown {
 
 const WHAT: &str = "identifiability";
 
-fn flown(table: &Table, vector: &str, design: &Design) -> Result<Flown> {
+fn flown(
+    table: &Table,
+    vector: &str,
+    fs_hz: Option<f64>,
+    design: &Design,
+    warnings: &mut Vec<Warning>,
+) -> Result<Flown> {
     let path = table.path();
     let flux = VectorSeries::from(table.vector(vector)?);
-    let tt = time_column(table)?.0.ok_or_else(|| Error::NoTimeColumn {
-        path: path.to_path_buf(),
-        what: WHAT,
-    })?;
-    let (fs_hz, _) = sample_rate(table, Some(&tt), None)?;
+    // Without a time column the rate comes from the file's stated interval or `fs_hz`, as
+    // every other command takes it.
+    let (tt, steps_back) = time_column(table)?;
+    warnings.extend(steps_back);
+    let (fs_hz, warning) = sample_rate(table, tt.as_deref(), fs_hz)?;
+    warnings.extend(warning);
+    let tt = tt.unwrap_or_else(|| (0..table.len()).map(|k| k as f64 / fs_hz).collect());
     let (roll, pitch, yaw) = (
         table.numeric(ROLL)?,
         table.numeric(PITCH)?,
@@ -391,6 +402,56 @@ mod tests {
     }
 
     #[test]
+    fn a_flown_box_without_time_takes_its_rate_from_fs() {
+        let dir = tempfile::tempdir().unwrap();
+        let with_time = dir.path().join("box.csv");
+        write(
+            &simulate(&SimulateRequest::default(), &Silent).unwrap(),
+            &with_time,
+        )
+        .unwrap();
+        let text = std::fs::read_to_string(&with_time).unwrap();
+        let path = dir.path().join("untimed.csv");
+        std::fs::write(&path, text.replacen("tt,", "t_gps,", 1)).unwrap();
+        let request = |fs_hz| PlanRequest {
+            maneuvers: Maneuvers::Flown {
+                path: path.clone(),
+                vector: "flux_a".into(),
+                selection: RowSelection::default(),
+                renames: Vec::new(),
+                fs_hz,
+            },
+            ..PlanRequest::default()
+        };
+        let refused = plan(&request(None), &Silent, &mut Vec::new()).unwrap_err();
+        assert!(matches!(refused, Error::NoSampleRate { .. }), "{refused}");
+        let timed = PlanRequest {
+            maneuvers: Maneuvers::Flown {
+                path: with_time,
+                vector: "flux_a".into(),
+                selection: RowSelection::default(),
+                renames: Vec::new(),
+                fs_hz: None,
+            },
+            ..PlanRequest::default()
+        };
+        // The same maneuvers weighed the same, to the rounding of the file's times.
+        let errors = |request: &PlanRequest| -> Vec<f64> {
+            let json = plan(request, &Silent, &mut Vec::new()).unwrap().to_json();
+            let terms = json["identifiability"]["terms"].as_array().unwrap().clone();
+            terms
+                .iter()
+                .map(|t| t["std_error"].as_f64().unwrap())
+                .collect()
+        };
+        let (given, read) = (errors(&request(Some(10.0))), errors(&timed));
+        assert_eq!(given.len(), read.len());
+        for (g, r) in given.iter().zip(&read) {
+            assert!((g / r - 1.0).abs() < 1e-3, "{g} {r}");
+        }
+    }
+
+    #[test]
     fn a_flown_box_is_weighed_with_its_own_fluxgate_and_field() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("box.csv");
@@ -411,6 +472,7 @@ mod tests {
                 vector: "flux_a".into(),
                 selection: RowSelection::default(),
                 renames: Vec::new(),
+                fs_hz: None,
             },
             ..PlanRequest::default()
         };

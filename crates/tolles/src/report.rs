@@ -5,7 +5,7 @@
 
 use crate::error::{Error, Result};
 use crate::fom::{fit_for, fom, scalar_to_use, straight_levels, FomOutcome, FomRequest};
-use crate::lines::{line_table, track, LineInputs, LineTable, Track};
+use crate::lines::{line_table, track, LineInputs, LineKind, LineTable, Track};
 use crate::model::{ModelFile, ScalarModel};
 use crate::progress::Progress;
 use crate::warning::Warning;
@@ -15,6 +15,7 @@ use tolles_core::maneuvers::detect::Maneuver;
 use tolles_core::maneuvers::fom::{bandpassed, FomSettings};
 use tolles_core::maneuvers::heading::{HeadingLevels, HeadingSettings};
 use tolles_core::maneuvers::ManeuverKind;
+use tolles_core::signal::metrics::fourth_difference;
 use tolles_core::signal::metrics::std_dev;
 use tolles_core::signal::spectrum::{welch, Spectrum};
 use tolles_io::schema::{PITCH, ROLL, YAW};
@@ -48,7 +49,15 @@ pub struct ReportRequest {
     /// How near a cardinal heading a maneuver counts as its (degrees), as
     /// [`FomRequest::cardinal_tolerance_deg`].
     pub cardinal_tolerance_deg: f64,
+    /// The survey specification's fourth-difference tolerance (nT): each line passes when
+    /// every fourth difference of its (compensated) scalar lies within ±this; default
+    /// [`NOISE_TOLERANCE_NT`].
+    pub noise_tolerance_nt: f64,
 }
+
+/// The default fourth-difference tolerance (nT), ±0.1 nT: a common total-field survey
+/// specification for the normalised fourth difference (x₋₂ − 4x₋₁ + 6x₀ − 4x₊₁ + x₊₂)/16.
+pub const NOISE_TOLERANCE_NT: f64 = 0.1;
 
 impl ReportRequest {
     /// A report on `scalar` of `flight` without a model, in the FOM's default band.
@@ -65,6 +74,7 @@ impl ReportRequest {
             renames: Vec::new(),
             headings: fom.headings,
             cardinal_tolerance_deg: fom.cardinal_tolerance_deg,
+            noise_tolerance_nt: NOISE_TOLERANCE_NT,
         }
     }
 
@@ -212,6 +222,9 @@ pub struct Trace {
     pub centred: Vec<f64>,
     /// Band-passed in the request's band (nT); NaN where it cannot be.
     pub bandpassed: Vec<f64>,
+    /// Its normalised fourth difference (x₋₂ − 4x₋₁ + 6x₀ − 4x₊₁ + x₊₂)/16 (nT); NaN on the
+    /// first and last two rows.
+    pub fourth_difference: Vec<f64>,
 }
 
 /// The compensated scalar's error against a simulator's truth.
@@ -242,6 +255,7 @@ pub fn build(
     progress: &dyn Progress,
     warnings: &mut Vec<Warning>,
 ) -> Result<ReportData> {
+    check_tolerance(request)?;
     let model = read_model(request)?;
     let model = model.as_ref().map(|(m, path)| (m, *path));
     let scalar = scalar_to_use(request.scalar.as_deref(), model)?;
@@ -259,6 +273,7 @@ pub fn build_each(
     progress: &dyn Progress,
     warnings: &mut Vec<Warning>,
 ) -> Result<Vec<ReportData>> {
+    check_tolerance(request)?;
     let model = read_model(request)?;
     let model = model.as_ref().map(|(m, path)| (m, *path));
     let mut scalars = scalars.to_vec();
@@ -300,6 +315,17 @@ pub fn build_each(
 }
 
 /// The model file of `request`, read, with its path.
+/// A fourth-difference tolerance that is not a positive number of nT is refused.
+fn check_tolerance(request: &ReportRequest) -> Result<()> {
+    let tolerance = request.noise_tolerance_nt;
+    match tolerance.is_finite() && tolerance > 0.0 {
+        true => Ok(()),
+        false => Err(Error::Invalid(format!(
+            "the fourth-difference tolerance must be a positive number of nT, not {tolerance}"
+        ))),
+    }
+}
+
 fn read_model(request: &ReportRequest) -> Result<Option<(ModelFile, &std::path::Path)>> {
     request
         .model
@@ -364,7 +390,8 @@ fn build_scalar(
             before: &outcome.scalar,
             after: outcome.compensated.as_deref(),
         },
-    );
+    )
+    .map(|lines| with_box_legs(lines, &outcome.maneuvers));
     if lines.is_some() {
         // A survey has no box by design; its page says so where a FOM would be.
         warnings.retain(|w| !matches!(w, Warning::NoManeuvers { .. }));
@@ -428,6 +455,7 @@ fn trace(x: &[f64], outcome: &FomOutcome, request: &ReportRequest) -> Result<Tra
     Ok(Trace {
         centred: centred(x),
         bandpassed,
+        fourth_difference: fourth_difference(x),
     })
 }
 
@@ -475,6 +503,33 @@ fn truth_error(compensated: &[f64], truth: &[f64]) -> TruthError {
 fn spectrum(x: &[f64], fs_hz: f64, signal: &'static str) -> Result<Spectrum> {
     welch(x, fs_hz).map_err(|reason| Error::Spectrum { signal, reason })
 }
+
+/// `lines` with each line of the box marked a box leg: one that holds a maneuver, or that lies
+/// wholly within [`BOX_MARGIN_S`] of the box's first and last maneuver (a lead-in, a turn
+/// between legs).
+fn with_box_legs(mut lines: LineTable, maneuvers: &[Maneuver]) -> LineTable {
+    let (Some(first), Some(last)) = (
+        maneuvers.iter().map(|m| m.start_tt).min_by(f64::total_cmp),
+        maneuvers.iter().map(|m| m.end_tt).max_by(f64::total_cmp),
+    ) else {
+        return lines;
+    };
+    let (from, to) = (first - BOX_MARGIN_S, last + BOX_MARGIN_S);
+    let stretches = &lines.stretches;
+    for row in &mut lines.rows {
+        let stretches = || stretches.iter().filter(|(id, ..)| *id == row.line);
+        let holds = |m: &Maneuver| stretches().any(|(_, a, b)| m.start_tt <= *b && m.end_tt >= *a);
+        let inside = stretches().all(|(_, a, b)| *a >= from && *b <= to);
+        if maneuvers.iter().any(holds) || inside {
+            row.kind = LineKind::BoxLeg;
+        }
+    }
+    lines
+}
+
+/// How far before the box's first maneuver and after its last a line still belongs to the
+/// box (s): a lead-in or the turn onto the next heading.
+const BOX_MARGIN_S: f64 = 60.0;
 
 /// The counted maneuvers, each with its compensated peak-to-peak found by its start.
 fn maneuver_rows(outcome: &FomOutcome) -> Vec<ManeuverRow> {
@@ -532,7 +587,7 @@ mod tests {
         assert_eq!(request.headings.max_pitch_deg, 1.0);
     }
     use crate::progress::Silent;
-    use crate::simulate::{simulate, write, SimulateRequest};
+    use crate::simulate::{simulate, write, PlanKind, SimulateRequest};
 
     #[test]
     fn a_report_of_a_simulated_box_before_and_after() {
@@ -593,6 +648,82 @@ mod tests {
         let headings: Vec<f64> = after.headings.iter().map(|h| h.heading_deg).collect();
         assert_eq!(headings, [0.0, 90.0, 180.0, 270.0]);
         assert!(after.headings.iter().all(|h| h.after_nt.is_some()));
+    }
+
+    /// A box, then (after its last row) survey lines 1001… with turns 2, 4… renumbered +100, as
+    /// one CSV file.
+    fn box_then_lines(dir: &std::path::Path) -> PathBuf {
+        let csv = |plan| {
+            let path = dir.join(format!("{}.csv", plan as u8));
+            let request = SimulateRequest {
+                plan,
+                lines: 3,
+                ..SimulateRequest::default()
+            };
+            write(&simulate(&request, &Silent).unwrap(), &path).unwrap();
+            std::fs::read_to_string(path).unwrap()
+        };
+        let (plan_box, survey) = (csv(PlanKind::Box), csv(PlanKind::Survey));
+        let header = survey.lines().next().unwrap();
+        let column = |name| header.split(',').position(|h| h == name).unwrap();
+        let (tt, line) = (column("tt"), column("line"));
+        let last_tt: f64 = plan_box
+            .lines()
+            .last()
+            .unwrap()
+            .split(',')
+            .nth(tt)
+            .unwrap()
+            .parse()
+            .unwrap();
+        let mut out = plan_box.clone();
+        for row in survey.lines().skip(1) {
+            let cells: Vec<String> = (row.split(',').enumerate())
+                .map(|(k, c)| match k {
+                    k if k == tt => (c.parse::<f64>().unwrap() + last_tt + 0.1).to_string(),
+                    k if k == line => (c.parse::<f64>().unwrap() + 100.0).to_string(),
+                    _ => c.to_string(),
+                })
+                .collect();
+            out += &(cells.join(",") + "\n");
+        }
+        let path = dir.join("box-and-lines.csv");
+        std::fs::write(&path, out).unwrap();
+        path
+    }
+
+    #[test]
+    fn a_box_then_lines_lists_every_line_and_names_the_rest() {
+        let dir = tempfile::tempdir().unwrap();
+        let flight = box_then_lines(dir.path());
+        let data = build(
+            &ReportRequest::new(&flight, "mag_1_uc"),
+            &Silent,
+            &mut Vec::new(),
+        )
+        .unwrap();
+        assert_eq!(data.maneuvers.len(), 12);
+        let of = |kind| -> Vec<String> {
+            let lines = data.lines.as_ref().unwrap();
+            (lines.rows.iter())
+                .filter(|r| r.kind == kind)
+                .map(|r| r.line.clone())
+                .collect()
+        };
+        assert_eq!(of(LineKind::Line), ["1101", "1102", "1103"]);
+        assert_eq!(of(LineKind::Turn), ["102", "104"]);
+        // Every line of the box, its lead-ins and its turns too, is a leg of it.
+        assert_eq!(of(LineKind::BoxLeg).len(), 31, "{:?}", of(LineKind::BoxLeg));
+        let line = &data
+            .lines
+            .as_ref()
+            .unwrap()
+            .rows
+            .iter()
+            .find(|r| r.line == "1101")
+            .unwrap();
+        let (start, end) = line.span_s.unwrap();
+        assert!(end - start > 60.0, "{start} {end}");
     }
 
     /// A simulated box with a second scalar `mag_2_uc`: `mag_1_uc` plus a 0.5 nT wobble.

@@ -23,6 +23,16 @@ pub enum Warning {
         /// 1 / the median step of the time column (Hz).
         from_time_hz: f64,
     },
+    /// A band edge at or above the Nyquist frequency: that edge is off, and the band runs up
+    /// to Nyquist (what the model stores and the output says).
+    BandEdgeAboveNyquist {
+        /// The flight file.
+        path: PathBuf,
+        /// The edge asked for (Hz).
+        edge_hz: f64,
+        /// Half the sample rate (Hz).
+        nyquist_hz: f64,
+    },
     /// The time column gives a sample rate no magnetometer samples at.
     UnlikelySampleRate {
         /// The flight file.
@@ -248,6 +258,19 @@ impl fmt::Display for Warning {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Warning::ReaderNote { path, note } => write!(f, "{}: {note}", path.display()),
+            Warning::BandEdgeAboveNyquist {
+                path,
+                edge_hz,
+                nyquist_hz,
+            } => write!(
+                f,
+                "{}: the band's upper edge {} Hz is at or above the Nyquist frequency {} Hz of \
+                 its sample rate; the band runs up to {} Hz (a high-pass), and says so",
+                path.display(),
+                hz(*edge_hz),
+                hz(*nyquist_hz),
+                hz(*nyquist_hz)
+            ),
             Warning::PoorFit {
                 scalar,
                 improvement,

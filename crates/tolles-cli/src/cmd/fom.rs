@@ -106,6 +106,14 @@ fn evaluate(args: &Args) -> Result<(String, FomOutcome)> {
     Ok((scalar, outcome.or_render()?))
 }
 
+/// A fourth-difference noise (nT), or why there is none: it needs five finite rows in a row.
+fn noise(nt: f64) -> String {
+    match nt.is_finite() {
+        true => format!("{nt:.4} nT"),
+        false => "— (fewer than five usable rows in a row)".into(),
+    }
+}
+
 fn write_table(out: &mut impl Write, args: &Args, scalar: &str, o: &FomOutcome) -> Result<()> {
     let (lo, hi) = o.before.band_hz;
     writeln!(
@@ -174,21 +182,22 @@ fn write_table(out: &mut impl Write, args: &Args, scalar: &str, o: &FomOutcome) 
     match after.filter(|_| o.before.fom_nt.is_finite()) {
         Some(after) => writeln!(
             out,
-            "improvement ratio (FOM uncompensated / compensated): {:.1}\nfourth-difference noise: {:.4} nT uncompensated, {:.4} nT compensated",
+            "improvement ratio (FOM uncompensated / compensated): {:.1}\nfourth-difference noise: {} uncompensated, {} compensated",
             improvement_ratio(&o.before, after),
-            o.before.fourth_difference_nt,
-            after.fourth_difference_nt
+            noise(o.before.fourth_difference_nt),
+            noise(after.fourth_difference_nt)
         )?,
         None => match after {
             Some(after) => writeln!(
                 out,
-                "fourth-difference noise: {:.4} nT uncompensated, {:.4} nT compensated",
-                o.before.fourth_difference_nt, after.fourth_difference_nt
+                "fourth-difference noise: {} uncompensated, {} compensated",
+                noise(o.before.fourth_difference_nt),
+                noise(after.fourth_difference_nt)
             )?,
             None => writeln!(
                 out,
-                "improvement ratio: give --model to compare with the compensated data\nfourth-difference noise: {:.4} nT",
-                o.before.fourth_difference_nt
+                "improvement ratio: give --model to compare with the compensated data\nfourth-difference noise: {}",
+                noise(o.before.fourth_difference_nt)
             )?,
         },
     }

@@ -87,6 +87,9 @@ pub struct Args {
     /// Print JSON instead of a table
     #[arg(long)]
     pub json: bool,
+    /// Sample rate (Hz) of a flight without a tt column (or to override it)
+    #[arg(long, requires = "flight", allow_negative_numbers = true)]
+    pub fs: Option<f64>,
     /// Rows and names of the flight (only with a flight)
     #[command(flatten)]
     pub select: crate::select::Selection,
@@ -127,6 +130,7 @@ fn maneuvers(args: &Args) -> Result<Maneuvers> {
             vector,
             selection: args.select.rows(),
             renames: args.select.renames.clone(),
+            fs_hz: args.fs,
         });
     }
     if !args.select.rows().is_empty() || !args.select.renames.is_empty() {

@@ -44,6 +44,11 @@ pub struct Args {
     /// Pass band LO,HI (Hz) of the figure of merit and the band-passed plots
     #[arg(long, default_value = "0.05,1", allow_hyphen_values = true)]
     pub band: String,
+    /// The survey specification's fourth-difference tolerance (nT): the report draws ± it
+    /// under the fourth difference and passes each line whose every fourth difference lies
+    /// within it
+    #[arg(long, value_name = "NT", default_value_t = tolles::report::NOISE_TOLERANCE_NT)]
+    pub noise_tolerance: f64,
     /// Sample rate (Hz), if the file has no tt column
     #[arg(long, allow_negative_numbers = true)]
     pub fs: Option<f64>,
@@ -62,6 +67,7 @@ pub fn run(args: Args) -> Result<()> {
         scalar: None,
         selection: args.select.rows(),
         renames: args.select.renames.clone(),
+        noise_tolerance_nt: args.noise_tolerance,
         ..ReportRequest::new(args.flight, "")
     });
     let index = render::report(&request, &args.scalar, &args.out)?;

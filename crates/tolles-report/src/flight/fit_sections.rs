@@ -115,6 +115,7 @@ pub(super) fn patent(report: Report, model: &ScalarModel) -> Report {
 /// The fit's diagnostics, its cross-validation and the term sets it compared.
 pub(super) fn diagnostics(mut report: Report, model: &ScalarModel) -> Report {
     let d = &model.fit.diagnostics;
+    let band = model.fit.settings.target == Target::Band;
     let mut items = vec![
         (
             "samples used",
@@ -125,11 +126,23 @@ pub(super) fn diagnostics(mut report: Report, model: &ScalarModel) -> Report {
             d.samples_nonfinite.to_string(),
         ),
         (
-            "filtered scalar before",
+            match band {
+                true => "scalar in the fit's band, before",
+                false => "scalar minus the reference, before (unfiltered)",
+            },
             format!("{:.4} nT", d.filtered_std_before_nt),
         ),
-        ("filtered residual", format!("{:.4} nT", d.residual_std_nt)),
-        ("improvement ratio", format!("{:.2}", d.improvement_ratio)),
+        (
+            match band {
+                true => "residual in the fit's band",
+                false => "residual (unfiltered)",
+            },
+            format!("{:.4} nT", d.residual_std_nt),
+        ),
+        (
+            "fit's improvement (before / residual; not the FOM's)",
+            format!("×{:.2}", d.improvement_ratio),
+        ),
         (
             "condition number of AᵀA + ridge penalty",
             format!("{:.3e}", d.condition_number),
@@ -174,21 +187,39 @@ pub(super) fn diagnostics(mut report: Report, model: &ScalarModel) -> Report {
         .key_values(&borrowed(&items))
         .paragraph(fit_definitions(model));
     if let Some(cv) = &d.cross_validation {
+        // With a prior the sweep is over its multiplier at one λ: that is the column to show.
+        let prior = cv.grid.iter().any(|p| p.prior_multiplier.is_some());
         let rows: Vec<Vec<String>> = cv
             .grid
             .iter()
             .map(|p| {
                 let rms = p.heldout_rms_nt;
                 let rms = rms.map_or("not solvable".into(), |r| format!("{r:.5}"));
-                vec![format!("{:e}", p.lambda_rel), rms]
+                let chosen = p.lambda_rel == cv.chosen_lambda_rel
+                    && p.prior_multiplier == cv.chosen_prior_multiplier;
+                let mut row = vec![format!("{:e}", p.lambda_rel)];
+                if prior {
+                    row.push(p.prior_multiplier.map_or("-".into(), |m| format!("{m:e}")));
+                }
+                row.extend([rms, if chosen { "chosen" } else { "" }.into()]);
+                row
             })
             .collect();
+        let mut headers = vec!["λ (× diag AᵀA)"];
+        if prior {
+            headers.push("× the physical prior");
+        }
+        headers.extend(["held-out RMS (nT)", ""]);
         report = report
             .paragraph(format!(
-                "{}-fold blocked cross-validation over time:",
-                cv.folds
+                "{}-fold blocked cross-validation over time{}:",
+                cv.folds,
+                match prior {
+                    true => ", the physical prior's strength swept (its groups then tuned apart)",
+                    false => "",
+                }
             ))
-            .table(&["λ (× diag AᵀA)", "held-out RMS (nT)"], &rows);
+            .table(&headers, &rows);
     }
     term_choice(report, model)
 }
@@ -205,11 +236,21 @@ pub(super) fn fit_definitions(model: &ScalarModel) -> String {
         "unfiltered: the fit's target was the aircraft's field itself".to_string()
     };
     format!(
-        "Filtered scalar before and filtered residual: standard deviations over the samples used \
-         of the scalar and of the scalar minus the model ({filtered}). Improvement ratio: the \
-         first divided by the second. The condition number (2-norm) measures how well the \
+        "Scalar before and residual: standard deviations over the samples used of the scalar \
+         and of the scalar minus the model ({filtered}). The fit's improvement: the first \
+         divided by the second (the summary's improvement is the FOM's ratio, on this \
+         flight). The condition number (2-norm) measures how well the \
          coefficients are determined: each factor of ten costs about a digit."
     )
+}
+
+/// A compared model's terms, with `+` the extra channels it used (rows alike otherwise).
+fn with_extras(score: &tolles::tolles_core::fit::TermScore) -> String {
+    let extras: Vec<String> = score.extras.iter().map(ToString::to_string).collect();
+    match extras.is_empty() {
+        true => score.terms.to_string(),
+        false => format!("{}+{}", score.terms, extras.join("+")),
+    }
 }
 
 pub(super) fn term_choice(report: Report, model: &ScalarModel) -> Report {
@@ -221,7 +262,7 @@ pub(super) fn term_choice(report: Report, model: &ScalarModel) -> Report {
         .iter()
         .map(|t| {
             vec![
-                t.terms.to_string(),
+                with_extras(t),
                 t.magnitude.to_string(),
                 t.lambda_rel.map_or("-".into(), |l| format!("{l:e}")),
                 t.heldout_rms_nt

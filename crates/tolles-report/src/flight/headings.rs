@@ -37,7 +37,8 @@ pub(super) fn heading_error(mut report: Report, data: &ReportData) -> Report {
         ],
         &cells,
     );
-    if !before.skipped.is_empty() {
+    // A survey passes the other headings only in its turns: no straight flight was meant there.
+    if !before.skipped.is_empty() && has_box(data) {
         let skipped: Vec<String> = before
             .skipped
             .iter()
@@ -80,24 +81,24 @@ pub(super) fn level_against_heading(report: Report, data: &ReportData) -> Report
     } else {
         (heading_levels(&data.headings), HEADING_LEVELS)
     };
-    let cells: Vec<GridCell> = points
-        .into_iter()
+    let points: Vec<LevelPoints> = (points.into_iter())
         .filter(|p| !p.heading_deg.is_empty())
-        .map(|p| GridCell {
-            title: format!("{} compensation", p.when),
-            plots: vec![heading_plot(&p)],
-            caption: None,
-        })
         .collect();
-    if cells.is_empty() {
+    if points.is_empty() {
         return report;
     }
-    report.paragraph(caption).grid(cells)
+    report.paragraph(caption).line_plot(heading_plot(&points))
 }
 
-pub(super) const HEADING_LEVELS: &str = "Level against heading: each heading's mean scalar over its      straight and level samples minus the mean of the headings' levels (nT), with ± one standard      error of the mean; before and after compensation on their own axes. The spread is the      heading error.";
+pub(super) const HEADING_LEVELS: &str = "Level against heading: each heading's mean scalar over \
+    its straight and level samples minus the mean of the headings' levels (nT), with ± one \
+    standard error of the mean; before and after compensation on one axis. The spread is the \
+    heading error.";
 
-pub(super) const LINE_LEVELS: &str = "Level against heading: each line's mean scalar minus the mean of      the lines' means (nT), at the line's circular mean heading (the Lines table's heading);      before and after compensation on their own axes. A turn is a point of its own where the      line column numbers it.";
+pub(super) const LINE_LEVELS: &str = "Level against heading: each straight line's mean scalar \
+    minus the mean of the lines' means (nT), at the line's circular mean heading (the Lines \
+    table's heading); before and after compensation on one axis. Turns are left out: a turn \
+    has no heading.";
 
 /// The points of one level-against-heading plot (deg, nT, nT); error bars may be empty.
 pub(super) struct LevelPoints {
@@ -157,6 +158,7 @@ pub(super) fn line_levels(data: &ReportData) -> Vec<LevelPoints> {
         lines
             .rows
             .iter()
+            .filter(|r| r.kind == LineKind::Line)
             .map(|r| (r.heading_deg.unwrap_or(nan), level(r).unwrap_or(nan), nan))
             .collect()
     };
@@ -175,22 +177,23 @@ pub(super) fn line_levels(data: &ReportData) -> Vec<LevelPoints> {
     points
 }
 
-pub(super) fn heading_plot(p: &LevelPoints) -> LinePlot {
+pub(super) fn heading_plot(points: &[LevelPoints]) -> LinePlot {
     // 359.96° belongs beside 0°, not beyond the axis.
-    let heading = p.heading_deg.iter().map(|h| h.rem_euclid(360.0)).collect();
+    let series = (points.iter())
+        .map(|p| {
+            let heading = p.heading_deg.iter().map(|h| h.rem_euclid(360.0)).collect();
+            Series::new(p.when.to_lowercase(), heading, p.level_nt.clone())
+                .colour(p.colour)
+                .points(p.error_nt.clone())
+        })
+        .collect();
     LinePlot {
-        title: format!(
-            "Level against heading, {} compensation",
-            p.when.to_lowercase()
-        ),
+        title: "Level against heading, before and after compensation".into(),
         x_label: "heading (°)".into(),
         y_label: "level − mean (nT)".into(),
-        series: vec![Series::new("level", heading, p.level_nt.clone())
-            .colour(p.colour)
-            .points(p.error_nt.clone())],
+        series,
         x_range: Some((0.0, 360.0)),
         x_ticks: HEADING_TICKS.to_vec(),
-        size: PlotSize::HALF,
         ..LinePlot::default()
     }
 }

@@ -13,7 +13,8 @@ use fit_sections::*;
 use headings::*;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
-use tolles::lines::{ExtentSource, HeadingSource, LineRow, LineTable};
+use tolles::fom::RateSource;
+use tolles::lines::{ExtentSource, HeadingSource, LineKind, LineRow, LineTable};
 use tolles::model::ScalarModel;
 use tolles::report::{HeadingRow, ManeuverRow, ReportData};
 use tolles::tolles_core::fit::Target;
@@ -21,14 +22,20 @@ use tolles::tolles_core::maneuvers::detect::Maneuver;
 use tolles::tolles_core::maneuvers::heading::HeadingLevels;
 use tolles::tolles_core::signal::metrics::std_dev;
 use tolles::tolles_core::signal::spectrum::Spectrum;
+use tolles::warning::Warning;
 
 /// Said in place of the figure-of-merit sections when the flight has no box maneuvers.
 const NO_BOX: &str =
     "This flight has no compensation-box maneuvers, so it has no figure of merit (FOM).";
 
+/// Said in place of the figure-of-merit sections when the flight lacks an attitude column.
+const NO_ATTITUDE: &str = "This flight lacks attitude (ins_roll, ins_pitch and ins_yaw are \
+    needed), so no maneuver can be found in it and it has no figure of merit (FOM). A file \
+    that names them otherwise can say which with --rename (e.g. --rename ROLL=ins_roll).";
+
 /// Lays out `data` and writes it as `dir/index.html` with its plots; returns the page's path.
 pub fn write(data: &ReportData, dir: &Path) -> Result<PathBuf, ReportError> {
-    write_each(std::slice::from_ref(data), dir)
+    write_each(std::slice::from_ref(data), &[], dir)
 }
 
 /// The report of `data`, its maps referenced but not written (see [`write()`]).
@@ -37,9 +44,14 @@ pub fn page(data: &ReportData) -> Report {
 }
 
 /// Lays out the reports of several scalars of one flight on one page (see [`page_each`]) and
-/// writes it as `dir/index.html` with its plots; returns the page's path.
-pub fn write_each(data: &[ReportData], dir: &Path) -> Result<PathBuf, ReportError> {
-    let (page, maps) = page_and_maps(data);
+/// writes it as `dir/index.html` with its plots; returns the page's path. `warnings`, what
+/// building `data` noticed, head the page as they head the command's output.
+pub fn write_each(
+    data: &[ReportData],
+    warnings: &[Warning],
+    dir: &Path,
+) -> Result<PathBuf, ReportError> {
+    let (page, maps) = page_and_maps(data, warnings);
     let mut staged = crate::Staged::default();
     let index = page.stage(dir, &mut staged)?;
     for map in &maps {
@@ -51,11 +63,28 @@ pub fn write_each(data: &[ReportData], dir: &Path) -> Result<PathBuf, ReportErro
 
 /// One scalar's report as [`page`]; several: a table comparing them, then each one's sections
 /// headed with its name. Maps are referenced but not written (see [`write_each`]).
-pub fn page_each(data: &[ReportData]) -> Report {
-    page_and_maps(data).0
+pub fn page_each(data: &[ReportData], warnings: &[Warning]) -> Report {
+    page_and_maps(data, warnings).0
 }
 
-fn page_and_maps(data: &[ReportData]) -> (Report, Vec<Map>) {
+fn page_and_maps(data: &[ReportData], warnings: &[Warning]) -> (Report, Vec<Map>) {
+    let (report, maps) = pages_and_maps(data);
+    (with_warnings(report, warnings), maps)
+}
+
+/// `report` with each of `warnings` (once) under its summary, as the command line says them.
+fn with_warnings(report: Report, warnings: &[Warning]) -> Report {
+    let mut said: Vec<String> = Vec::new();
+    for warning in warnings {
+        let text = format!("Warning: {warning}");
+        if !said.contains(&text) {
+            said.push(text);
+        }
+    }
+    said.into_iter().fold(report, Report::summary_note)
+}
+
+fn pages_and_maps(data: &[ReportData]) -> (Report, Vec<Map>) {
     if let [one] = data {
         let maps = maps(one, "");
         return (page_with(one, &maps), maps);
@@ -202,8 +231,9 @@ fn map_section(mut report: Report, data: &ReportData, maps: &[Map]) -> Report {
         "north_m/east_m"
     };
     report = report.section("Map").paragraph(format!(
-        "The track east and north (km) of its start, from {from}; colours run blue–white–red \
-         between the value's 2nd and 98th percentiles (values beyond take the end colours)."
+        "The track east and north (km) of its start, from {from}, on a km grid with a scale \
+         bar; colours run blue–white–red with white at the value's median, out to the farther \
+         of its 2nd and 98th percentiles on both sides (values beyond take the end colours)."
     ));
     for map in maps {
         report = report.image(&map.src, &map.alt);
@@ -215,12 +245,17 @@ fn page_with(data: &ReportData, maps: &[Map]) -> Report {
     let request = &data.request;
     let mut report = Report::new(format!("Compensation report: {}", request.flight.display()))
         .subtitle(format!(
-            "Scalar {} at {:.3} Hz, {} samples; figure-of-merit band {}–{} Hz.",
+            "Scalar {} at {:.3} Hz{}, {} samples; figure-of-merit band {}–{} Hz.",
             request.scalar.as_deref().unwrap_or_default(),
             data.fom.fs_hz,
+            match data.fom.fs_from {
+                RateSource::File => "",
+                RateSource::Given => " (given with --fs)",
+                RateSource::Model => " (assumed: the model's rate; the file states none)",
+            },
             data.fom.tt.len(),
-            request.band.pass1_hz,
-            request.band.pass2_hz
+            data.fom.before.band_hz.0,
+            data.fom.before.band_hz.1
         ))
         .provenance(provenance(data));
     report = summary(report, data);
@@ -228,11 +263,16 @@ fn page_with(data: &ReportData, maps: &[Map]) -> Report {
         report = model_banner(report, fit, request.model.as_deref());
     }
     if !has_box(data) {
-        report = report.paragraph(NO_BOX);
+        report = report.paragraph(match data.attitude.all() {
+            Some(_) => NO_BOX,
+            None => NO_ATTITUDE,
+        });
     }
-    // A box's "lines" are its legs and turns, which the maneuver sections describe.
-    if let (Some(lines), false) = (&data.lines, has_box(data)) {
-        report = per_line(report, lines, data.compensated.is_some());
+    // A box's legs and the turns are not survey lines: the maneuver sections describe the
+    // legs, and the lines' table names the rest below it.
+    if let Some(lines) = data.lines.as_ref().filter(|l| has_lines(l)) {
+        let tolerance = data.request.noise_tolerance_nt;
+        report = per_line(report, lines, data.compensated.is_some(), tolerance);
     }
     report = map_section(report, data, maps);
     report = signals(report, data);
@@ -270,9 +310,19 @@ fn fitted_on(fit: &ScalarModel, flight: &std::path::Path) -> String {
         return "From the model's calibration flight (its file does not name it), not this one."
             .to_string();
     };
-    let same = std::path::Path::new(calibration).file_name() == flight.file_name();
-    match same {
-        true => format!("From the calibration on this flight ({calibration})."),
+    // A fit of several flights names them joined by " + ".
+    let same = |part: &str| {
+        let part = std::path::Path::new(part.trim());
+        match (part.canonicalize(), flight.canonicalize()) {
+            (Ok(a), Ok(b)) => a == b,
+            _ => part.file_name() == flight.file_name(),
+        }
+    };
+    match calibration.split(" + ").any(same) {
+        true => format!(
+            "From a calibration that includes this flight ({calibration}): what this page \
+             shows of the compensation is not independent of the fit."
+        ),
         false => format!("From the calibration flight {calibration}, not this flight."),
     }
 }
@@ -487,12 +537,12 @@ fn borrowed<'a>(items: &'a [(&'a str, String)]) -> Vec<(&'a str, &'a str)> {
 }
 
 /// The per-line table, each column defined in the paragraph above it.
-fn per_line(report: Report, lines: &LineTable, compensated: bool) -> Report {
+fn per_line(report: Report, lines: &LineTable, compensated: bool, tolerance: f64) -> Report {
     let extent_header = match lines.extent_from {
         ExtentSource::Duration => "duration (s)",
         _ => "length (km)",
     };
-    let mut headers = vec!["line", "heading (°)", extent_header, "rows"];
+    let mut headers = vec!["line", "start", "end", "heading (°)", extent_header, "rows"];
     if compensated {
         headers.extend([
             "residual before (nT)",
@@ -504,15 +554,50 @@ fn per_line(report: Report, lines: &LineTable, compensated: bool) -> Report {
         headers.extend(["residual (nT)", "noise (nT)"]);
     }
     headers.push("level (nT)");
-    let cells: Vec<Vec<String>> = lines
-        .rows
-        .iter()
-        .map(|r| line_cells(r, compensated))
+    let spec = format!("within ±{tolerance} nT");
+    headers.extend(["peak 4th diff (nT)", spec.as_str()]);
+    let cells: Vec<Vec<String>> = (lines.rows.iter())
+        .filter(|r| r.kind == LineKind::Line)
+        .map(|r| line_cells(r, compensated, tolerance))
         .collect();
-    report
+    let report = report
         .section("Lines")
         .paragraph(line_definitions(lines, compensated))
-        .table(&headers, &cells)
+        .table(&headers, &cells);
+    match others(lines) {
+        Some(text) => report.paragraph(text),
+        None => report,
+    }
+}
+
+/// True when `lines` holds a straight line that is not a leg of the box.
+fn has_lines(lines: &LineTable) -> bool {
+    lines.rows.iter().any(|r| r.kind == LineKind::Line)
+}
+
+/// The line ids left out of the lines' table, by what they are.
+fn others(lines: &LineTable) -> Option<String> {
+    let ids = |kind| {
+        let ids: Vec<&str> = (lines.rows.iter())
+            .filter(|r| r.kind == kind)
+            .map(|r| r.line.as_str())
+            .collect();
+        (!ids.is_empty()).then(|| ids.join(", "))
+    };
+    let parts: Vec<String> = [
+        (LineKind::Turn, "turns and transits (heading not steady)"),
+        (LineKind::BoxLeg, "legs of the compensation box"),
+    ]
+    .into_iter()
+    .filter_map(|(kind, what)| ids(kind).map(|ids| format!("{what}: {ids}")))
+    .collect();
+    (!parts.is_empty()).then(|| format!("Not in the table: {}.", parts.join("; ")))
+}
+
+/// A time (s) as the clock of its day, hh:mm:ss (POSIX seconds give the UTC time of day).
+fn clock(t: f64) -> String {
+    let s = t.rem_euclid(86_400.0).floor() as u64;
+    format!("{:02}:{:02}:{:02}", s / 3600, s / 60 % 60, s % 60)
 }
 
 fn line_definitions(lines: &LineTable, compensated: bool) -> String {
@@ -533,12 +618,16 @@ fn line_definitions(lines: &LineTable, compensated: bool) -> String {
         "scalar"
     };
     format!(
-        "One row per value of the line column, rows of a line wherever they are. Heading: \
+        "One row per straight line of the line column, rows of a line wherever they are. \
+         Start, end: the time of its first and last row, hh:mm:ss (of the UTC day for POSIX \
+         times). Heading: \
          {heading}. {}: {extent}. Residual: standard deviation of the scalar about its \
          least-squares straight line in time over the line (the line's trend removed). Noise: \
          standard deviation of the fourth difference (x₋₂ − 4x₋₁ + 6x₀ − 4x₊₁ + x₊₂)/16 of the \
          scalar, as tolles fom prints it. Level: the line's mean {signal} minus the median of \
-         all lines' means. — : too few finite samples (a residual needs 3, a noise 5).",
+         all lines' means. Peak 4th diff: the largest |fourth difference| of the line's \
+         {signal}, which passes the specification when within the tolerance (report \
+         --noise-tolerance). — : too few finite samples (a residual needs 3, a noise 5).",
         match lines.extent_from {
             ExtentSource::Duration => "Duration",
             _ => "Length",
@@ -546,13 +635,18 @@ fn line_definitions(lines: &LineTable, compensated: bool) -> String {
     )
 }
 
-fn line_cells(row: &LineRow, compensated: bool) -> Vec<String> {
+fn line_cells(row: &LineRow, compensated: bool, tolerance: f64) -> Vec<String> {
     let cell = |v: Option<f64>, decimals: usize| {
         v.filter(|v| v.is_finite())
             .map_or("—".into(), |v| format!("{v:.decimals$}"))
     };
+    let (start, end) = row
+        .span_s
+        .map_or(("—".into(), "—".into()), |(a, b)| (clock(a), clock(b)));
     let mut cells = vec![
         row.line.clone(),
+        start,
+        end,
         // 359.96° prints as 0.0, not 360.0.
         cell(
             row.heading_deg.map(|h| ((h * 10.0).round() / 10.0) % 360.0),
@@ -570,6 +664,12 @@ fn line_cells(row: &LineRow, compensated: bool) -> Vec<String> {
         cells.push(cell(row.noise_after_nt, 4));
     }
     cells.push(cell(row.level_nt, 3));
+    cells.push(cell(row.peak_fourth_difference_nt, 3));
+    cells.push(match row.peak_fourth_difference_nt {
+        Some(peak) if peak <= tolerance => "pass".into(),
+        Some(_) => "FAIL".into(),
+        None => "—".into(),
+    });
     cells
 }
 
@@ -641,6 +741,7 @@ fn signals(mut report: Report, data: &ReportData) -> Report {
             filtered,
             None,
         ));
+    report = report.line_plot(fourth_difference_plot(data, &over_time));
     if let Some(error) = &data.error {
         report = report.line_plot(over_time(
             "Compensated minus truth".into(),
@@ -687,7 +788,51 @@ fn signals(mut report: Report, data: &ReportData) -> Report {
             Some("Roll (right wing down positive) and pitch (nose up positive).".into()),
         ));
     }
+    // Yaw on its own axis: 0–360° would flatten a ±10° roll beside it.
+    if let Some(yaw) = data.attitude.yaw_deg.as_deref() {
+        report = report.line_plot(LinePlot {
+            y_range: Some((0.0, 360.0)),
+            ..over_time(
+                "Heading".into(),
+                "yaw (°)",
+                vec![series("yaw", yaw, Colour::CYCLE[2])],
+                Some("Yaw: the heading, clockwise from north (0–360°).".into()),
+            )
+        });
+    }
     report
+}
+
+/// A chart over the flight's time: title, y label, series and caption.
+type OverTime<'a> = dyn Fn(String, &str, Vec<Series>, Option<String>) -> LinePlot + 'a;
+
+/// The fourth difference of the compensated scalar (as read without a model) against the
+/// survey specification's ± tolerance, the core figure of a survey's noise QC.
+fn fourth_difference_plot(data: &ReportData, plot: &OverTime<'_>) -> LinePlot {
+    let t = &data.fom.tt;
+    let (trace, name) = match &data.compensated {
+        Some(after) => (after, "compensated"),
+        None => (&data.uncompensated, "as read"),
+    };
+    let tolerance = data.request.noise_tolerance_nt;
+    let level = |v: f64, name: &str| {
+        Series::new(name, t.clone(), vec![v; t.len()]).colour(Colour::REFERENCE)
+    };
+    plot(
+        format!("Fourth difference ({name}) against ±{tolerance} nT"),
+        "fourth difference (nT)",
+        vec![
+            Series::new(name, t.clone(), trace.fourth_difference.clone())
+                .colour(Colour::COMPENSATED),
+            level(tolerance, &format!("+{tolerance} nT")),
+            level(-tolerance, &format!("−{tolerance} nT")),
+        ],
+        Some(format!(
+            "(x₋₂ − 4x₋₁ + 6x₀ − 4x₊₁ + x₊₂)/16 of the {name} scalar, sample by sample; the \
+             survey specification's tolerance ±{tolerance} nT (report --noise-tolerance). A \
+             line passes when all of it lies within (the lines' table)."
+        )),
+    )
 }
 
 /// The network's share of the correction, in words.
@@ -768,6 +913,13 @@ fn shading_only(windows: &[Span]) -> Vec<Span> {
         .collect()
 }
 
+/// The spectrum's lowest frequency above 0 Hz (Hz).
+fn lowest_bin(data: &ReportData) -> Option<f64> {
+    (data.spectrum_before.frequency_hz.iter())
+        .copied()
+        .find(|f| *f > 0.0 && f.is_finite())
+}
+
 fn spectra(report: Report, data: &ReportData) -> Report {
     let inputs = std::iter::once((
         "uncompensated",
@@ -795,6 +947,8 @@ fn spectra(report: Report, data: &ReportData) -> Report {
         series,
         log_x: true,
         log_y: true,
+        // Up to Nyquist, not the decade above it: nothing is measured there.
+        x_range: lowest_bin(data).map(|lo| (lo, data.fom.fs_hz / 2.0)),
         spans: bands(data),
         caption: Some(format!(
             "{caption} Shaded: the band the figure of merit is measured in{}.",
@@ -1084,22 +1238,45 @@ mod tests {
         }
         assert!(!html.contains("per column unit"));
         let plots = dir.path().join("report/plots");
-        // Six plots, three per maneuver, two of level against heading and the two maps.
+        // Eight plots, three per maneuver, one of level against heading and the two maps.
         assert_eq!(
             std::fs::read_dir(&plots).unwrap().count(),
-            6 + 3 * 12 + 2 + 2
+            8 + 3 * 12 + 1 + 2
         );
         let svg = |name: &str| std::fs::read_to_string(plots.join(name)).unwrap();
         // Compensated bars (hundredths of a nT) beside uncompensated ones (tens of nT) need
         // a log axis to be seen at all.
-        let fom = svg("06-peak-to-peak-of-the-band-passed-scalar-m.svg");
+        let fom = svg("08-peak-to-peak-of-the-band-passed-scalar-m.svg");
         for decade in ["10⁻²", "10⁰", "10²"] {
             assert!(fom.contains(decade), "FOM chart lacks the decade {decade}");
         }
-        let psd = svg("05-power-spectral-density.svg");
+        let psd = svg("07-power-spectral-density.svg");
         for mark in ["FOM band 0.05–1 Hz", "fit band 0.1–0.9 Hz", "10⁻¹"] {
             assert!(psd.contains(mark), "PSD lacks {mark}");
         }
+    }
+
+    #[test]
+    fn a_flight_in_the_calibration_is_said_to_be_in_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let model = tolles::model::ModelFile::read(&box_model(dir.path())).unwrap();
+        let mut fit = model.fits[0].clone();
+        let flight = dir.path().join("box.csv");
+        // The same file by another spelling of its path, alone or among several.
+        let other_spelling = dir.path().join(".").join("box.csv");
+        for calibration in [
+            other_spelling.display().to_string(),
+            format!("a.csv + {}", flight.display()),
+        ] {
+            fit.calibration_flight = Some(calibration.clone());
+            let said = fitted_on(&fit, &other_spelling);
+            assert!(
+                said.contains("includes this flight"),
+                "{calibration}: {said}"
+            );
+        }
+        let said = fitted_on(&fit, &dir.path().join("survey.csv"));
+        assert!(said.ends_with("not this flight."), "{said}");
     }
 
     /// A model fitted on a simulated box, saved in `dir`.
@@ -1174,10 +1351,10 @@ mod tests {
             assert_eq!(panels, 4, "{axis}");
         }
         // The time series are live charts, with the maneuvers as their windows.
-        assert_eq!(html.matches("data-live=").count(), 4);
-        let data = std::fs::read_to_string(dir.path().join("report/data/04-attitude.js")).unwrap();
+        assert_eq!(html.matches("data-live=").count(), 6);
+        let data = std::fs::read_to_string(dir.path().join("report/data/05-attitude.js")).unwrap();
         assert_eq!(data.matches("\"label\":\"roll ").count(), 4);
-        assert_eq!(svgs.len(), 6 + 3 * 12 + 2 + 2);
+        assert_eq!(svgs.len(), 8 + 3 * 12 + 1 + 2);
         for svg in &svgs {
             assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
             for bad in ["NaN", "inf", "no data"] {
@@ -1264,17 +1441,16 @@ mod tests {
     fn level_against_heading_has_a_point_per_heading_level() {
         let dir = tempfile::tempdir().unwrap();
         let (data, html) = box_report(dir.path(), true);
+        // Before and after on one axis.
         let svgs = shown_svgs(dir.path(), section(&html, "Heading error"));
-        let [before, after] = &svgs[..] else {
+        let [svg] = &svgs[..] else {
             panic!("{} plots", svgs.len())
         };
-        assert_eq!(markers(before, Colour::UNCOMPENSATED), data.headings.len());
-        assert_eq!(markers(after, Colour::COMPENSATED), data.headings.len());
+        assert_eq!(markers(svg, Colour::UNCOMPENSATED), data.headings.len());
+        assert_eq!(markers(svg, Colour::COMPENSATED), data.headings.len());
         assert_eq!(data.headings.len(), 4);
-        for svg in [before, after] {
-            assert!(!svg.contains("NaN"));
-            assert!(svg.contains(">\n270\n<") || svg.contains(">270<"), "{svg}");
-        }
+        assert!(!svg.contains("NaN"));
+        assert!(svg.contains(">\n270\n<") || svg.contains(">270<"), "{svg}");
         let points = heading_levels(&data.headings);
         let mean: f64 = points[0].level_nt.iter().sum();
         assert!(mean.abs() < 1e-9, "levels relative to their mean");
@@ -1296,10 +1472,30 @@ mod tests {
         };
         let mut warnings = Vec::new();
         let data = build(&request, &Silent, &mut warnings).unwrap();
-        // No "is this a compensation flight?": the page says it has no box.
-        assert!(warnings.is_empty(), "{warnings:?}");
-        let index = write(&data, &dir.join("report")).unwrap();
+        // No "is this a compensation flight?": the page says it has no box. The survey's
+        // turns bank beyond the box's rolls, as `compensate` also says.
+        let extrapolated =
+            |w: &Warning| matches!(w, Warning::Extrapolated { rows, .. } if *rows < 100);
+        assert!(warnings.iter().all(extrapolated), "{warnings:?}");
+        let index =
+            write_each(std::slice::from_ref(&data), &warnings, &dir.join("report")).unwrap();
         (data, std::fs::read_to_string(index).unwrap())
+    }
+
+    #[test]
+    fn a_flight_without_attitude_is_said_to_lack_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let flight = dir.path().join("box.csv");
+        let simulated = simulate::simulate(&Default::default(), &Silent).unwrap();
+        simulate::write(&simulated, &flight).unwrap();
+        let request = ReportRequest {
+            renames: vec![("ins_roll".into(), "roll_deg".into())],
+            ..ReportRequest::new(&flight, "mag_1_uc")
+        };
+        let mut warnings = Vec::new();
+        let data = build(&request, &Silent, &mut warnings).unwrap();
+        let html = std::fs::read_to_string(write(&data, &dir.path().join("r")).unwrap()).unwrap();
+        assert!(html.contains(NO_ATTITUDE) && !html.contains(NO_BOX));
     }
 
     #[test]
@@ -1345,12 +1541,23 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let (data, html) = survey_report(dir.path());
         let lines = data.lines.as_ref().unwrap();
-        // Four lines joined by three turns, each turn its own line id.
+        // Four lines joined by three turns, each turn its own line id: the lines in the
+        // table, each with its specification's verdict, the turns named below it.
         assert_eq!(lines.rows.len(), 7);
         assert_eq!(lines.extent_from, ExtentSource::LatLon);
-        for row in &lines.rows {
+        let kinds: Vec<LineKind> = lines.rows.iter().map(|r| r.kind).collect();
+        use LineKind::{Line, Turn};
+        assert_eq!(kinds, [Line, Turn, Line, Turn, Line, Turn, Line]);
+        assert!(
+            html.contains("Not in the table: turns and transits (heading not steady): 2, 4, 6.")
+        );
+        assert_eq!(html.matches("<td>pass</td>").count(), 4);
+        // What `compensate` would warn of heads the page, once.
+        assert_eq!(html.matches("Warning: ").count(), 1);
+        assert!(html.contains("the model extrapolates there"));
+        for row in lines.rows.iter().filter(|r| r.kind == Line) {
             assert!(
-                html.contains(&format!(">{}</td>", row.line)),
+                html.contains(&format!(">{}</td><td>00:", row.line)),
                 "{}",
                 row.line
             );
@@ -1362,6 +1569,7 @@ mod tests {
                 row.noise_before_nt,
                 row.noise_after_nt,
                 row.level_nt,
+                row.peak_fourth_difference_nt,
             ];
             assert!(
                 numbers.iter().all(|v| v.is_some_and(f64::is_finite)),
@@ -1386,13 +1594,22 @@ mod tests {
         let (data, html) = survey_report(dir.path());
         assert!(!html.contains(">Maneuvers</h2>"));
         let svgs = shown_svgs(dir.path(), section(&html, "Heading error"));
-        let [before, after] = &svgs[..] else {
+        let [svg] = &svgs[..] else {
             panic!("{} plots", svgs.len())
         };
+        // A point per straight line, before and after; the turns have no heading.
         let lines = data.lines.as_ref().unwrap();
-        assert_eq!(markers(before, Colour::UNCOMPENSATED), lines.rows.len());
-        assert_eq!(markers(after, Colour::COMPENSATED), lines.rows.len());
-        assert!(html.contains("each line&#39;s mean scalar"));
+        let straight = lines
+            .rows
+            .iter()
+            .filter(|r| r.kind == LineKind::Line)
+            .count();
+        assert_eq!(straight, 4);
+        assert_eq!(markers(svg, Colour::UNCOMPENSATED), straight);
+        assert_eq!(markers(svg, Colour::COMPENSATED), straight);
+        assert!(html.contains("each straight line&#39;s mean scalar"));
+        // Not "too little straight flight on 90°, 270°": a survey meant none there.
+        assert!(!html.contains("Too little straight flight"));
     }
 
     #[test]

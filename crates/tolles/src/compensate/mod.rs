@@ -151,19 +151,26 @@ pub fn compensate(
 }
 
 /// `fit` applied to `flight`: eddy terms rescaled to the flight's sample rate (the request's if
-/// given, else from its time column, else the model's), the level as the request says.
+/// given, else from its time column, else the model's), the level as the request says. The
+/// rows where the model extrapolates are warned of as `compensate` warns of them (the
+/// flight's path and `fit`'s output column named).
 pub fn compensate_flight(
     flight: &Flight,
     fit: &ScalarModel,
     request: &CompensateRequest,
     warnings: &mut Vec<Warning>,
 ) -> Result<Compensation> {
-    let computed = flight_field(flight, fit, request, warnings)?;
-    Ok(with_level(
-        &flight.scalar,
-        computed.field,
-        level(fit, request.level),
-    ))
+    let mut computed = flight_field(flight, fit, request, warnings)?;
+    let field = std::mem::take(&mut computed.field);
+    let of = field.len();
+    let outside = row_trust(computed, request).outside;
+    warnings.extend(Warning::extrapolated(
+        flight.table.path(),
+        outside,
+        of,
+        &fit.output_column,
+    ));
+    Ok(with_level(&flight.scalar, field, level(fit, request.level)))
 }
 
 /// The two parts of a correction with a learned network, row by row (nT).
