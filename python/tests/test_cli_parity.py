@@ -1,7 +1,9 @@
 """Python and the `tolles` command compute the same things on the same files: read, fit,
 compensate, FOM, and models passed both ways."""
 
+import inspect
 import json
+import re
 
 import numpy as np
 import pandas as pd
@@ -333,3 +335,73 @@ def test_several_flights_fit_as_the_cli_fits_several_files(cli, tmp_path):
     assert model.network is not None and model.network["held_out"] == "lines"
     with pytest.raises(tolles.TollesError, match="at least one"):
         tolles.fit([])
+
+
+# Every request option of the command line has its Python keyword and the same default, and
+# the other way round: a flag added to one and not the other fails here. What only one of them
+# has is listed with the reason.
+CLI_ONLY = {
+    "help": "clap's",
+    "out": "Python returns the value (report: its out is a keyword)",
+    "json": "Python returns a dict",
+    "line": "Python selects rows when it reads (tolles.read(line=…))",
+    "time": "Python selects rows when it reads (tolles.read(time=…))",
+    "rename": "Python renames when it reads (tolles.read(renames=…))",
+}
+# The commands whose Python function reads a file itself (and so takes line, time, renames).
+READS_ITSELF = {"report"}
+# (command, flag) → Python keyword, where the names differ.
+PYTHON_NAME = {
+    ("fit", "lambda"): "lambda_",
+    ("plan", "inclination"): "dip",
+    ("plan", "plan"): "maneuvers",
+    ("procedure", "inclination"): "dip",
+    ("report", "rename"): "renames",
+}
+# Keywords that are the data itself, not an option.
+DATA = {"df", "flight", "path", "input", "output"}
+
+
+def _cli_options(cli, command):
+    text = cli(command, "--help").stdout
+    options = {}
+    for flag, rest in re.findall(r"^\s+(?:-\w, )?--([a-z0-9-]+)(.*(?:\n(?!\s+-).*)*)", text, re.M):
+        default = re.search(r"\[default: ([^\]]*)\]", rest)
+        options[flag] = default.group(1) if default else None
+    return options
+
+
+def _same_default(cli_default, python_default):
+    if cli_default is None or python_default is None or python_default is inspect.Parameter.empty:
+        return True  # one of them leaves it to the library's own default
+    if isinstance(python_default, tuple):
+        return tuple(float(v) for v in cli_default.split(",")) == tuple(map(float, python_default))
+    if isinstance(python_default, bool):
+        return cli_default in ("true", "false") and (cli_default == "true") == python_default
+    if isinstance(python_default, (int, float)):
+        return float(cli_default) == float(python_default)
+    return str(cli_default) == str(python_default)
+
+
+@pytest.mark.parametrize("command", ["fit", "compensate", "fom", "report", "plan", "procedure"])
+def test_every_cli_option_is_a_python_keyword_with_its_default(cli, command):
+    options = _cli_options(cli, command)
+    parameters = inspect.signature(getattr(tolles, command)).parameters
+    reads = command in READS_ITSELF
+    missing, differing = [], []
+    expected = set()
+    for flag, default in options.items():
+        name = PYTHON_NAME.get((command, flag), flag.replace("-", "_"))
+        if flag in CLI_ONLY and not (reads and flag in ("line", "time", "rename", "out")):
+            continue
+        if flag == "maneuvers" and command == "plan":
+            name = "maneuvers"
+        expected.add(name)
+        if name not in parameters:
+            missing.append(f"--{flag} (as {name})")
+        elif not _same_default(default, parameters[name].default):
+            differing.append(f"--{flag}: {default} against {name}={parameters[name].default!r}")
+    extra = [p for p in parameters if p not in expected and p not in DATA and not (reads and p == "out")]
+    assert not missing, f"tolles {command}: no Python keyword for {missing}"
+    assert not differing, f"tolles {command}: defaults differ: {differing}"
+    assert not extra, f"tolles.{command}: keywords the command line has no flag for: {extra}"

@@ -44,6 +44,9 @@ pub struct Args {
     /// Pass band LO,HI (Hz) of the figure of merit and the band-passed plots
     #[arg(long, default_value = "0.05,1", allow_hyphen_values = true)]
     pub band: String,
+    /// Butterworth order of the band-pass (per edge)
+    #[arg(long, default_value_t = 4)]
+    pub order: usize,
     /// The survey specification's fourth-difference tolerance (nT): the report draws ± it
     /// under the fourth difference and passes each line whose every fourth difference lies
     /// within it
@@ -63,6 +66,7 @@ pub fn run(args: Args) -> Result<()> {
     let request = args.legs.apply_to_report(ReportRequest {
         model: args.model,
         band: Band { pass1_hz, pass2_hz },
+        order: args.order,
         fs_hz: args.fs,
         scalar: None,
         selection: args.select.rows(),

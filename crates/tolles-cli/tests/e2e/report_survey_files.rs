@@ -1,0 +1,98 @@
+//! `tolles report` of survey files as delivered: no attitude, positions under survey names, lines
+//! sorted by number so that time steps back between them.
+
+use crate::common::tolles;
+use std::path::{Path, PathBuf};
+
+fn gondwana() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../tolles-io/tests/fixtures/aseg_gdf2/Example_Mag_Gondwana_200Ma.dfn")
+}
+
+/// The page, the plot files and what the command said on stderr.
+fn report(flight: &Path, scalar: &str, out: &Path) -> (String, Vec<String>, String) {
+    let done = tolles()
+        .arg("report")
+        .arg(flight)
+        .args(["--scalar", scalar, "--out"])
+        .arg(out)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&done.stderr).to_string();
+    assert!(done.status.success(), "{stderr}");
+    let page = std::fs::read_to_string(out.join("index.html")).unwrap();
+    let plots = std::fs::read_dir(out.join("plots"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
+        .collect();
+    (page, plots, stderr)
+}
+
+fn assert_no_nan_or_inf(page: &str, plots: &[String], dir: &Path) {
+    for text in std::iter::once(page.to_string()).chain(
+        plots
+            .iter()
+            .map(|p| std::fs::read_to_string(dir.join("plots").join(p)).unwrap()),
+    ) {
+        for bad in ["NaN", "inf", "∞"] {
+            assert!(!text.contains(bad), "{bad} in the report");
+        }
+    }
+}
+
+#[test]
+fn a_gdf_survey_sorted_by_line_without_attitude_reports_every_line_and_a_map() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("report");
+    let (page, plots, stderr) = report(&gondwana(), "CompMag", &out);
+    assert!(stderr.contains("time steps back"), "{stderr}");
+    assert!(stderr.contains("no attitude column"), "{stderr}");
+    for line in ["43012", "47020"] {
+        assert!(
+            page.contains(&format!("<td class=\"num\">{line}</td>")),
+            "{line}"
+        );
+    }
+    // Latitude/Longitude are the survey's names for lat/lon.
+    assert!(plots.iter().any(|p| p.starts_with("map-")), "{plots:?}");
+    assert!(!page.contains("FOM before"));
+    assert_no_nan_or_inf(&page, &plots, &out);
+}
+
+#[test]
+fn a_simulated_survey_stripped_of_attitude_still_reports() {
+    let dir = tempfile::tempdir().unwrap();
+    let full = dir.path().join("survey.csv");
+    tolles()
+        .args(["simulate", "--plan", "survey", "--lines", "3", "--out"])
+        .arg(&full)
+        .assert()
+        .success();
+    let text = std::fs::read_to_string(&full).unwrap();
+    let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+    let keep: Vec<usize> = ["tt", "line", "lat", "lon", "mag_1_uc"]
+        .iter()
+        .map(|c| header.iter().position(|h| h == c).unwrap())
+        .collect();
+    let stripped: String = text
+        .lines()
+        .map(|l| {
+            let cells: Vec<&str> = l.split(',').collect();
+            let kept: Vec<&str> = keep.iter().map(|&k| cells[k]).collect();
+            kept.join(",") + "\n"
+        })
+        .collect();
+    let flight = dir.path().join("stripped.csv");
+    std::fs::write(&flight, stripped).unwrap();
+    let out = dir.path().join("report");
+    let (page, plots, stderr) = report(&flight, "mag_1_uc", &out);
+    assert!(stderr.contains("no attitude column"), "{stderr}");
+    for line in ["1001", "1002", "1003"] {
+        assert!(
+            page.contains(&format!("<td class=\"num\">{line}</td>")),
+            "line {line}"
+        );
+    }
+    assert!(plots.iter().any(|p| p.starts_with("map-")), "{plots:?}");
+    assert_no_nan_or_inf(&page, &plots, &out);
+}
