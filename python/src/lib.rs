@@ -552,7 +552,7 @@ fn output_names(model: &str, names: Vec<String>, uncertainty: bool) -> PyResult<
     let mut out = Vec::new();
     for (name, _) in tolles_io::schema::output_names(&names, &wanted) {
         if uncertainty {
-            let added = [format!("{name}_sigma"), format!("{name}_extrapolated")];
+            let added = tolles_io::schema::trust_columns(&name);
             let added: Vec<&str> = added.iter().map(String::as_str).collect();
             let unique = tolles_io::schema::output_names(&names, &added);
             out.push(name);

@@ -316,6 +316,15 @@ pub fn output_name(headers: &[String], wanted: &str) -> (String, bool) {
     (renamed, true)
 }
 
+/// The columns written beside a compensated column `name` by `--uncertainty`: its standard
+/// error `name_sigma` (nT) and its extrapolation flag `name_extrapolated` (1 or 0).
+pub fn trust_columns(name: &str) -> [String; 2] {
+    [format!("{name}_sigma"), format!("{name}_extrapolated")]
+}
+
+/// The column `stream` adds after the compensated ones: each line's status (`ok`, or why not).
+pub const STATUS_COLUMN: &str = "status";
+
 /// [`output_name`] for several added columns at once: each is also kept apart from those
 /// named before it, so two added columns never share a name.
 pub fn output_names(headers: &[String], wanted: &[&str]) -> Vec<(String, bool)> {

@@ -161,7 +161,9 @@ impl Layout {
                 text
             }
         };
-        let wanted: Vec<&str> = added.iter().copied().chain(["status"]).collect();
+        let wanted: Vec<&str> = (added.iter().copied())
+            .chain([crate::schema::STATUS_COLUMN])
+            .collect();
         for (name, _) in crate::schema::output_names(&names, &wanted) {
             output_header.push(',');
             push_field(&mut output_header, &name);

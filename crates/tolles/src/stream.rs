@@ -201,7 +201,7 @@ impl Setup {
         }
         let outputs = model.fits.iter().flat_map(|m| {
             let name = &m.output_column;
-            let trust = [format!("{name}_sigma"), format!("{name}_extrapolated")];
+            let trust = tolles_io::schema::trust_columns(name);
             std::iter::once(name.clone()).chain(trust.into_iter().filter(|_| request.uncertainty))
         });
         Ok(Setup {

@@ -349,10 +349,7 @@ pub fn trust_columns(
                     false => f64::NAN,
                 })
                 .collect();
-            let names = [
-                format!("{}_sigma", c.name),
-                format!("{}_extrapolated", c.name),
-            ];
+            let names = tolles_io::schema::trust_columns(&c.name);
             let wanted: Vec<&str> = names.iter().map(String::as_str).collect();
             let unique = output_names(headers, &wanted);
             vec![
