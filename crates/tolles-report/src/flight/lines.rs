@@ -1,0 +1,147 @@
+//! The lines' table of a flight report: each straight survey line with its times, heading,
+//! extent, residual and noise before and after (nT), level (nT) and the noise specification's
+//! pass or FAIL; the turns and the box's legs named under it.
+
+use super::*;
+
+/// The per-line table, each column defined in the paragraph above it.
+pub(super) fn per_line(
+    report: Report,
+    lines: &LineTable,
+    compensated: bool,
+    tolerance: f64,
+) -> Report {
+    let extent_header = match lines.extent_from {
+        ExtentSource::Duration => "duration (s)",
+        _ => "length (km)",
+    };
+    let mut headers = vec!["line", "start", "end", "heading (°)", extent_header, "rows"];
+    if compensated {
+        headers.extend([
+            "residual before (nT)",
+            "residual after (nT)",
+            "noise before (nT)",
+            "noise after (nT)",
+        ]);
+    } else {
+        headers.extend(["residual (nT)", "noise (nT)"]);
+    }
+    headers.push("level (nT)");
+    let spec = format!("within ±{tolerance} nT");
+    headers.extend(["peak 4th diff (nT)", spec.as_str()]);
+    let cells: Vec<Vec<String>> = (lines.rows.iter())
+        .filter(|r| r.kind == LineKind::Line)
+        .map(|r| line_cells(r, compensated, tolerance))
+        .collect();
+    let report = report
+        .section("Lines")
+        .paragraph(line_definitions(lines, compensated))
+        .table(&headers, &cells);
+    match others(lines) {
+        Some(text) => report.paragraph(text),
+        None => report,
+    }
+}
+
+/// True when `lines` holds a straight line that is not a leg of the box.
+pub(super) fn has_lines(lines: &LineTable) -> bool {
+    lines.rows.iter().any(|r| r.kind == LineKind::Line)
+}
+
+/// The line ids left out of the lines' table, by what they are.
+fn others(lines: &LineTable) -> Option<String> {
+    let ids = |kind| {
+        let ids: Vec<&str> = (lines.rows.iter())
+            .filter(|r| r.kind == kind)
+            .map(|r| r.line.as_str())
+            .collect();
+        (!ids.is_empty()).then(|| ids.join(", "))
+    };
+    let parts: Vec<String> = [
+        (LineKind::Turn, "turns and transits (heading not steady)"),
+        (LineKind::BoxLeg, "legs of the compensation box"),
+    ]
+    .into_iter()
+    .filter_map(|(kind, what)| ids(kind).map(|ids| format!("{what}: {ids}")))
+    .collect();
+    (!parts.is_empty()).then(|| format!("Not in the table: {}.", parts.join("; ")))
+}
+
+/// A time (s) as the clock of its day, hh:mm:ss (POSIX seconds give the UTC time of day).
+fn clock(t: f64) -> String {
+    let s = t.rem_euclid(86_400.0).floor() as u64;
+    format!("{:02}:{:02}:{:02}", s / 3600, s / 60 % 60, s % 60)
+}
+
+fn line_definitions(lines: &LineTable, compensated: bool) -> String {
+    let heading = match lines.heading_from {
+        HeadingSource::Yaw => "the circular mean of ins_yaw",
+        HeadingSource::LatLon => "the circular mean bearing of the track from lat/lon",
+        HeadingSource::NorthEast => "the circular mean bearing of the track from north_m/east_m",
+        HeadingSource::None => "— (the flight has no ins_yaw and no positions)",
+    };
+    let extent = match lines.extent_from {
+        ExtentSource::LatLon => "the track length from lat/lon",
+        ExtentSource::NorthEast => "the track length from north_m/east_m",
+        ExtentSource::Duration => "the time flown on the line (the flight has no positions)",
+    };
+    let signal = if compensated {
+        "compensated scalar"
+    } else {
+        "scalar"
+    };
+    format!(
+        "One row per straight line of the line column, rows of a line wherever they are. \
+         Start, end: the time of its first and last row, hh:mm:ss (of the UTC day for POSIX \
+         times). Heading: \
+         {heading}. {}: {extent}. Residual: standard deviation of the scalar about its \
+         least-squares straight line in time over the line (the line's trend removed). Noise: \
+         standard deviation of the fourth difference (x₋₂ − 4x₋₁ + 6x₀ − 4x₊₁ + x₊₂)/16 of the \
+         scalar, as tolles fom prints it. Level: the line's mean {signal} minus the median of \
+         all lines' means. Peak 4th diff: the largest |fourth difference| of the line's \
+         {signal}, which passes the specification when within the tolerance (report \
+         --noise-tolerance). — : too few finite samples (a residual needs 3, a noise 5).",
+        match lines.extent_from {
+            ExtentSource::Duration => "Duration",
+            _ => "Length",
+        }
+    )
+}
+
+fn line_cells(row: &LineRow, compensated: bool, tolerance: f64) -> Vec<String> {
+    let cell = |v: Option<f64>, decimals: usize| {
+        v.filter(|v| v.is_finite())
+            .map_or("—".into(), |v| format!("{v:.decimals$}"))
+    };
+    let (start, end) = row
+        .span_s
+        .map_or(("—".into(), "—".into()), |(a, b)| (clock(a), clock(b)));
+    let mut cells = vec![
+        row.line.clone(),
+        start,
+        end,
+        // 359.96° prints as 0.0, not 360.0.
+        cell(
+            row.heading_deg.map(|h| ((h * 10.0).round() / 10.0) % 360.0),
+            1,
+        ),
+        cell(row.extent, 2),
+        row.rows.to_string(),
+        cell(row.residual_before_nt, 3),
+    ];
+    if compensated {
+        cells.push(cell(row.residual_after_nt, 4));
+    }
+    cells.push(cell(row.noise_before_nt, 4));
+    if compensated {
+        cells.push(cell(row.noise_after_nt, 4));
+    }
+    cells.push(cell(row.level_nt, 3));
+    cells.push(cell(row.peak_fourth_difference_nt, 3));
+    cells.push(match row.peak_fourth_difference_nt {
+        Some(peak) if peak <= tolerance => "pass".into(),
+        Some(_) => "FAIL".into(),
+        None => "—".into(),
+    });
+    cells
+}
