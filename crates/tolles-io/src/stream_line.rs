@@ -22,6 +22,7 @@ use std::borrow::Cow;
 use std::fmt::Write;
 
 pub use crate::schema::TIME_COLUMN;
+use crate::schema::{LINE_COLUMN, PITCH, ROLL, YAW};
 
 /// Where a stream's header puts the columns a model needs.
 #[derive(Debug, Clone, PartialEq)]
@@ -31,6 +32,10 @@ pub struct Layout {
     scalars: Vec<(usize, String)>,
     fluxgates: Vec<[(usize, String); 3]>,
     extras: Vec<(usize, String)>,
+    /// Roll, pitch and yaw, when the header has all three (for a live view, not compensation).
+    attitude: Option<[usize; 3]>,
+    /// The line id column, when the header has one.
+    line_id: Option<usize>,
     /// The output header line (without newline): the input's plus the added columns.
     pub output_header: String,
 }
@@ -74,6 +79,11 @@ pub struct Line {
     pub extras: Vec<f64>,
     /// What was wrong with the line or its cells.
     pub flags: Vec<CellFlag>,
+    /// Roll, pitch, yaw (deg) when the header has them, NaN when unreadable; read quietly
+    /// (compensation does not need them, so they flag nothing).
+    pub attitude: Option<[f64; 3]>,
+    /// The line id when the header has a line column, NaN when unreadable.
+    pub line_id: Option<f64>,
 }
 
 impl Layout {
@@ -171,6 +181,11 @@ impl Layout {
         Ok(Self {
             width: names.len(),
             time: index(TIME_COLUMN),
+            attitude: (|| {
+                let [r, p, y] = [ROLL, PITCH, YAW].map(index);
+                Some([r?, p?, y?])
+            })(),
+            line_id: index(LINE_COLUMN),
             scalars,
             fluxgates,
             extras,
@@ -194,6 +209,8 @@ impl Layout {
             fluxgates: vec![[f64::NAN; 3]; self.fluxgates.len()],
             extras: vec![f64::NAN; self.extras.len()],
             flags: Vec::new(),
+            attitude: self.attitude.map(|_| [f64::NAN; 3]),
+            line_id: self.line_id.map(|_| f64::NAN),
         };
         let Ok(text) = std::str::from_utf8(raw) else {
             line.flags
@@ -226,6 +243,9 @@ impl Layout {
             .map(|axes| axes.each_ref().map(&mut cell))
             .collect();
         let extras: Vec<f64> = self.extras.iter().map(&mut cell).collect();
+        let quiet = |k: usize| fields[k].trim().parse::<f64>().unwrap_or(f64::NAN);
+        line.attitude = self.attitude.map(|columns| columns.map(quiet));
+        line.line_id = self.line_id.map(quiet);
         line.time_s = time;
         line.scalars = scalars;
         line.fluxgates = fluxgates;

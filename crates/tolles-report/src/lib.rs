@@ -43,6 +43,7 @@ pub mod map;
 pub mod numbers;
 mod part;
 pub mod plot;
+pub mod stream_page;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};

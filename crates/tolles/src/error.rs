@@ -218,6 +218,14 @@ pub enum Error {
         /// The column named twice.
         name: String,
     },
+    /// The live page's address cannot be served (taken, or not this machine's).
+    #[error("--live {address}: cannot serve the page there: {source}")]
+    LiveBind {
+        /// The address asked for.
+        address: String,
+        /// Why.
+        source: std::io::Error,
+    },
     /// A request whose settings contradict each other or are out of range.
     #[error("{0}")]
     Invalid(String),

@@ -72,6 +72,7 @@ pub mod fit;
 pub mod fom;
 pub mod info;
 pub mod lines;
+pub mod live;
 pub mod model;
 pub mod plan;
 pub mod procedure;

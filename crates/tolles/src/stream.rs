@@ -37,6 +37,7 @@
 //! when the reader is slow, so nothing queues without bound.
 
 use crate::error::{Error, Result};
+use crate::live::LiveFeed;
 use crate::model::ModelFile;
 use std::io::{BufRead, BufReader, ErrorKind, Read, Write};
 use std::net::{TcpListener, TcpStream};
@@ -119,6 +120,8 @@ pub struct Setup {
     renames: Vec<(String, String)>,
     /// What the caller should be told before the first line (see [`Setup::warnings`]).
     warnings: Vec<crate::Warning>,
+    /// Where each output line of the first scalar is also recorded for the live page.
+    live: Option<Arc<LiveFeed>>,
 }
 
 impl Setup {
@@ -219,7 +222,15 @@ impl Setup {
             idle_timeout: request.idle_timeout,
             renames: Vec::new(),
             warnings,
+            live: None,
         })
+    }
+
+    /// The setup with every output line of the first scalar also recorded in `feed` (see
+    /// [`crate::live`]); the stream never waits for it.
+    pub fn with_live(mut self, feed: Arc<LiveFeed>) -> Self {
+        self.live = Some(feed);
+        self
     }
 
     /// What the caller should be told before the first line: σ asked of a model that holds
@@ -395,7 +406,8 @@ fn serve_lines(
             &mut text,
         )
     });
-    stream.finish(|o| format_output((&layout, setup.uncertainty), stats, o, &mut text));
+    let live = setup.live.as_deref();
+    stream.finish(|o| format_output((&layout, setup.uncertainty, live), stats, o, &mut text));
     out.write_all(text.as_bytes()).map_err(Error::StreamIo)?;
     out.flush().map_err(Error::StreamIo)
 }
@@ -410,7 +422,7 @@ fn compensate_line(
     aligned: &[f64],
     text: &mut String,
 ) {
-    let layout = (layout, setup.uncertainty);
+    let layout = (layout, setup.uncertainty, setup.live.as_deref());
     let (vectors, extras) = aligned.split_at(3 * stream.fluxgate_count());
     let fluxgates: Vec<[f64; 3]> = vectors.chunks(3).map(|v| [v[0], v[1], v[2]]).collect();
     let scalars = line.scalars.clone();
@@ -458,12 +470,28 @@ fn layout(setup: &Setup, raw: &[u8]) -> Result<Layout> {
 /// Appends the output line of `o` to `text`: with `uncertainty`, each compensated value
 /// followed by its standard error and extrapolation flag (see [`StreamRequest::uncertainty`]).
 fn format_output(
-    (layout, uncertainty): (&Layout, bool),
+    (layout, uncertainty, live): (&Layout, bool, Option<&LiveFeed>),
     stats: &Stats,
     o: Output<'_, (Line, Instant)>,
     text: &mut String,
 ) {
     let (line, arrived) = &o.payload;
+    if let Some(feed) = live {
+        let values = (
+            line.scalars.first().copied(),
+            o.compensated.first().copied(),
+        );
+        let value = |v: Option<f64>| v.unwrap_or(f64::NAN);
+        let time_s = line.time_s.unwrap_or(f64::NAN);
+        let (raw, compensated) = (value(values.0), value(values.1));
+        feed.record(
+            time_s,
+            (raw, compensated),
+            line.attitude,
+            line.line_id,
+            o.is_ok(),
+        );
+    }
     match !uncertainty {
         true => layout.write_output(line, o.compensated, &o.status(), text),
         false => {
@@ -796,6 +824,7 @@ mod tests {
             idle_timeout: None,
             renames: Vec::new(),
             warnings: Vec::new(),
+            live: None,
         }
     }
 

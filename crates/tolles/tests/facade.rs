@@ -111,3 +111,95 @@ fn whole_chunked_and_streamed_compensation_agree() {
     }
     assert_eq!(missing, 1);
 }
+
+/// A page's files for the tests: the state element alone.
+fn bare_page() -> tolles::live::LivePage {
+    tolles::live::LivePage {
+        html: tolles::live::LIVE_ELEMENT.to_string(),
+        uplot_js: "",
+        uplot_css: "",
+    }
+}
+
+/// `GET path` from the live page at `address`: the body.
+fn get(address: std::net::SocketAddr, path: &str) -> String {
+    use std::io::{Read, Write};
+    let mut connection = std::net::TcpStream::connect(address).unwrap();
+    write!(connection, "GET {path} HTTP/1.1\r\nHost: x\r\n\r\n").unwrap();
+    let mut text = String::new();
+    connection.read_to_string(&mut text).unwrap();
+    text.split_once("\r\n\r\n").unwrap().1.to_string()
+}
+
+#[test]
+fn the_live_page_shows_what_the_stream_answered_and_never_holds_it_up() {
+    use tolles::live::{Live, LiveRequest};
+    let dir = tempfile::tempdir().unwrap();
+    let (model, _) = model_and_survey(dir.path());
+    let flight = dir.path().join("box.csv");
+    let request = LiveRequest {
+        address: "127.0.0.1:0".into(),
+        noise_spec_nt: 0.1,
+        fom_spec_nt: 1.5,
+        fs_hz: 10.0,
+        verdict: "good".into(),
+    };
+    let live = Live::start(request.clone(), bare_page()).unwrap();
+    // A second page on the same port is refused, naming the address.
+    let taken = LiveRequest {
+        address: live.address().to_string(),
+        ..request
+    };
+    let refused = Live::start(taken, bare_page()).err().unwrap();
+    assert!(
+        refused.to_string().contains(&live.address().to_string()),
+        "{refused}"
+    );
+    // A browser that asks for the events and never reads them.
+    let mut stalled = std::net::TcpStream::connect(live.address()).unwrap();
+    std::io::Write::write_all(&mut stalled, b"GET /events HTTP/1.1\r\n\r\n").unwrap();
+    let setup = Setup::new(&model, Path::new("m.json"), &StreamRequest::default()).unwrap();
+    let setup = setup.with_live(live.feed());
+    let input = std::fs::read(&flight).unwrap();
+    let mut output = Vec::new();
+    serve(&setup, &Stats::default(), &input[..], &mut output).unwrap();
+    live.feed().end();
+    let answered = String::from_utf8(output).unwrap();
+    let lines = answered.lines().count() - 1;
+    let last: f64 = last_values(&answered, 1).last().unwrap().unwrap();
+    // The worker publishes within a quarter of a second of the end.
+    std::thread::sleep(std::time::Duration::from_millis(600));
+    let state: serde_json::Value =
+        serde_json::from_str(&get(live.address(), "/state.json")).unwrap();
+    assert_eq!(state["samples"].as_u64().unwrap() as usize, lines);
+    assert_eq!(state["last_nt"].as_f64().unwrap(), last);
+    assert_eq!(state["status"], "ended");
+    // The live box's figure of merit against the batch one, on the same compensated values.
+    let mut warnings = Vec::new();
+    let table = tolles::read::read(&flight, &Default::default(), &Silent, &mut warnings)
+        .unwrap()
+        .table;
+    let batch = tolles::fom::fom(
+        &table,
+        &tolles::fom::FomRequest::new("mag_1_uc"),
+        Some(&model.fits[0]),
+        &mut warnings,
+    )
+    .unwrap();
+    let batch_after = batch.after.unwrap().fom_nt;
+    let live_after = state["fom"]["after_nt"].as_f64().unwrap();
+    println!("FOM after: live {live_after:.4} nT, batch {batch_after:.4} nT");
+    assert!((live_after / batch_after - 1.0).abs() < 0.10);
+    assert_eq!(state["fom"]["slots"], 12);
+    let page = get(live.address(), "/");
+    assert!(
+        page.contains(&format!("data-samples=\"{lines}\"")),
+        "{page}"
+    );
+    assert!(page.contains(&format!("data-last-nt=\"{last}\"")), "{page}");
+    assert!(
+        page.contains(&format!("data-fom-nt=\"{live_after}\"")),
+        "{page}"
+    );
+    drop(stalled);
+}

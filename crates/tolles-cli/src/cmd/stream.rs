@@ -6,13 +6,17 @@ use std::net::TcpListener;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
+use tolles::live::{Live, LivePage, LiveRequest, LIVE_ELEMENT};
+use tolles::model::ModelFile;
 use tolles::stream::{Derivative, Event, Setup, Stats, StreamRequest};
 use tolles::Error;
 
 const EXAMPLES: &str = "\
 Examples:
   tail -f live.csv | tolles stream --model model.json
-  tolles stream --model model.json --listen 127.0.0.1:7700 --derivative causal";
+  tolles stream --model model.json --listen 127.0.0.1:7700 --derivative causal
+  # In flight: the stream on stdout as ever, and a page to watch at http://127.0.0.1:8080/
+  tolles simulate --plan box --out box.csv && tolles stream --model model.json --live 127.0.0.1:8080 < box.csv";
 
 /// Compensate a live stream of CSV lines, one output line for every input line.
 ///
@@ -82,6 +86,26 @@ pub struct Args {
         allow_negative_numbers = true
     )]
     pub idle_timeout: f64,
+    /// Also serve a page to watch at this address while the stream runs (e.g. 127.0.0.1:8080;
+    /// port 0 picks a free one, printed on stderr): the compensated trace, the noise against
+    /// --noise-spec, the box's maneuvers and FOM as they are flown, each line as it completes.
+    /// The stream never waits for the page; its state is also at /state.json
+    #[arg(long, value_name = "ADDR")]
+    pub live: Option<String>,
+    /// The survey specification's fourth-difference noise (nT) the live page judges against
+    #[arg(long, value_name = "NT", default_value_t = 0.1, requires = "live")]
+    pub noise_spec: f64,
+    /// The figure of merit (nT) the box must pass on the live page
+    #[arg(long, value_name = "NT", default_value_t = 1.5, requires = "live")]
+    pub fom_spec: f64,
+    /// How long the live page stays up after standard input ends (s), to read its last state
+    #[arg(
+        long,
+        value_name = "SECONDS",
+        default_value_t = 15.0,
+        requires = "live"
+    )]
+    pub live_linger: f64,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -105,7 +129,16 @@ pub fn run(args: Args) -> Result<()> {
     };
     let setup = Setup::new(&model, &args.model, &request).map_err(setup_error)?;
     render::warnings(&mut setup.warnings().to_vec(), render::Use::Other);
-    let setup = Arc::new(setup.with_renames(args.renames.clone()));
+    let setup = setup.with_renames(args.renames.clone());
+    let live = args
+        .live
+        .as_ref()
+        .map(|address| live_page(&args, address, &model, &setup))
+        .transpose()?;
+    let setup = Arc::new(match &live {
+        Some(live) => setup.with_live(live.feed()),
+        None => setup,
+    });
     let stats = Arc::new(Stats::default());
     if !args.quiet {
         let stats = Arc::clone(&stats);
@@ -125,6 +158,10 @@ pub fn run(args: Args) -> Result<()> {
             if !args.quiet {
                 note!("{}", health(&stats));
             }
+            if let Some(live) = &live {
+                live.feed().end();
+                linger(live, args.live_linger);
+            }
             match result {
                 Err(e) if e.is_disconnect() => Ok(()),
                 other => other.or_render().context("stream on standard input"),
@@ -135,6 +172,49 @@ pub fn run(args: Args) -> Result<()> {
 }
 
 const HEALTH_PERIOD: Duration = Duration::from_secs(5);
+
+/// Starts the live page at `address` (see `tolles::live`), saying where on stderr.
+fn live_page(args: &Args, address: &str, model: &ModelFile, setup: &Setup) -> Result<Live> {
+    for (flag, value) in [
+        ("--noise-spec", args.noise_spec),
+        ("--fom-spec", args.fom_spec),
+    ] {
+        if !(value.is_finite() && value > 0.0) {
+            return Err(anyhow!(
+                "{flag} must be a positive number of nT, got {value}"
+            ));
+        }
+    }
+    let verdict = (model.fits.first().and_then(|f| f.fit.verdict.as_ref()))
+        .map_or("unknown".to_string(), |v| v.grade.to_string());
+    let request = LiveRequest {
+        address: address.to_string(),
+        noise_spec_nt: args.noise_spec,
+        fom_spec_nt: args.fom_spec,
+        fs_hz: setup.fs_hz(),
+        verdict,
+    };
+    let title = format!("tolles stream: {}", args.model.display());
+    let page = LivePage {
+        html: tolles_report::stream_page::page(&title, LIVE_ELEMENT),
+        uplot_js: tolles_report::stream_page::UPLOT_JS,
+        uplot_css: tolles_report::stream_page::UPLOT_CSS,
+    };
+    let live = Live::start(request, page).or_render()?;
+    note!("live page at http://{}/", live.address());
+    Ok(live)
+}
+
+/// Keeps the live page up `seconds` after the input ended, so its last state can be read.
+fn linger(live: &Live, seconds: f64) {
+    if seconds > 0.0 && seconds.is_finite() {
+        note!(
+            "stream: input ended; the live page stays at http://{}/ for {seconds} s",
+            live.address()
+        );
+        std::thread::sleep(Duration::from_secs_f64(seconds));
+    }
+}
 
 /// A model the stream cannot use, said with the flags and commands that help.
 fn setup_error(e: Error) -> anyhow::Error {

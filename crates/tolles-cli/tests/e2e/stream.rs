@@ -392,3 +392,81 @@ fn a_stream_takes_raw_channel_names_and_renames_as_a_file_does() {
     let args = ["--model", "m.json", "--rename", "MAGUC=mag_1_uc"];
     assert_eq!(stream_out(dir.path(), &args, &own), plain);
 }
+
+#[test]
+fn live_keeps_stdout_as_it_is_and_serves_the_state() {
+    let dir = TempDir::new().unwrap();
+    let survey = model_and_survey(dir.path());
+    let mut child = std::process::Command::new(assert_cmd::cargo::cargo_bin("tolles"))
+        .current_dir(dir.path())
+        .args([
+            "stream",
+            "--model",
+            "m.json",
+            "--quiet",
+            "--live",
+            "127.0.0.1:0",
+        ])
+        .args(["--live-linger", "30"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stderr = BufReader::new(child.stderr.take().unwrap());
+    let mut said = String::new();
+    stderr.read_line(&mut said).unwrap();
+    let address = said
+        .trim()
+        .strip_prefix("live page at http://")
+        .unwrap()
+        .trim_end_matches('/');
+    let address = address.to_string();
+    // Written from a thread of its own: the stream answers as it reads.
+    let mut stdin = child.stdin.take().unwrap();
+    let input = survey.clone();
+    let writer = std::thread::spawn(move || stdin.write_all(input.as_bytes()).unwrap());
+    let mut out = String::new();
+    let mut stdout = BufReader::new(child.stdout.take().unwrap());
+    for _ in 0..survey.lines().count() {
+        stdout.read_line(&mut out).unwrap();
+    }
+    writer.join().unwrap();
+    let batch = run(
+        dir.path(),
+        &["compensate", "survey.csv", "--model", "m.json"],
+    );
+    check_equivalent(&survey, &batch, &out);
+    // The page, after the input ended, while it lingers: every line, the last value.
+    std::thread::sleep(std::time::Duration::from_millis(600));
+    let mut connection = TcpStream::connect(&address).unwrap();
+    connection
+        .write_all(b"GET /state.json HTTP/1.1\r\n\r\n")
+        .unwrap();
+    let mut response = String::new();
+    connection.read_to_string(&mut response).unwrap();
+    let state: serde_json::Value =
+        serde_json::from_str(response.split_once("\r\n\r\n").unwrap().1).unwrap();
+    assert_eq!(state["samples"], survey.lines().count() - 1);
+    let last = out
+        .lines()
+        .rev()
+        .find_map(|l| last_fields(l, 2)[0].parse::<f64>().ok());
+    assert_eq!(state["last_nt"].as_f64(), last);
+    assert_eq!(state["status"], "ended");
+    // The same address again: a one-line error.
+    let taken = tolles()
+        .current_dir(dir.path())
+        .args(["stream", "--model", "m.json", "--live", &address])
+        .write_stdin("")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&taken.stderr);
+    assert!(!taken.status.success() && err.lines().count() == 1, "{err}");
+    assert!(
+        err.contains(&format!("--live {address}: cannot serve the page there")),
+        "{err}"
+    );
+    child.kill().unwrap();
+    child.wait().unwrap();
+}

@@ -27,6 +27,7 @@ pub mod detect;
 pub mod fom;
 pub mod heading;
 pub mod identifiability;
+pub mod live;
 
 use serde::{Deserialize, Serialize};
 use std::fmt;
