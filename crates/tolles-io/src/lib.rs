@@ -30,6 +30,7 @@ pub mod format;
 pub mod gdf;
 mod guard;
 pub mod hdf5;
+mod header;
 pub mod mat;
 mod open;
 pub mod parquet;
