@@ -73,11 +73,13 @@ pub mod fom;
 pub mod info;
 pub mod lines;
 pub mod model;
+mod numbers;
 pub mod plan;
 pub mod procedure;
 pub mod progress;
 pub mod read;
 pub mod report;
+mod selection;
 pub mod simulate;
 pub mod stream;
 #[cfg(test)]

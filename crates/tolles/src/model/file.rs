@@ -118,6 +118,9 @@ pub struct LearnedCorrection {
     pub joint: bool,
 }
 
+/// How much less than the linear model a network must leave on the judging rows to be kept.
+pub const KEEP_MARGIN: f64 = 0.05;
+
 /// The pieces of a calibration flight that `fit --network` deals to training, stopping and
 /// judging.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
