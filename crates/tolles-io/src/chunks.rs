@@ -40,9 +40,10 @@ mod blocks;
 use crate::atomic::AtomicFile;
 use crate::error::IoError;
 use crate::format::Format;
+use crate::header::check_header;
 use crate::table::{
-    bounded_header, check_header, csv_error, read_located, write_header, write_rows, Bounded,
-    Column, Table, TextColumn,
+    bounded_header, csv_error, read_located, write_header, write_rows, Bounded, Column, Table,
+    TextColumn,
 };
 use crate::xyz::XyzChunks;
 use ::parquet::column::reader::ColumnReader;
@@ -175,7 +176,7 @@ impl ChunkReader {
     /// headers and in every chunk read from now on, as [`Table::rename`] renames a table read
     /// whole; an error if there is no such column or another is already called `new`.
     pub fn rename(&mut self, old: &str, new: &str) -> Result<(), IoError> {
-        crate::table::rename_header(&self.path, &mut self.headers, old, new)?;
+        crate::header::rename_header(&self.path, &mut self.headers, old, new)?;
         self.renamed = true;
         Ok(())
     }

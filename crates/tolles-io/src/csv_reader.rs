@@ -13,6 +13,8 @@
 //! cell.
 
 use crate::error::IoError;
+// Defined with the other header checks, which the raw reader shares; still public here.
+pub use crate::header::MAX_HEADER_BYTES;
 use crate::rawcsv::{Bytes, RawCsv, Wanted};
 use crate::table::{Column, Table, TextColumn};
 use std::io::Read;
@@ -152,9 +154,6 @@ fn general(reader: impl Read, path: &Path) -> Result<Table, IoError> {
     let columns = columns.into_iter().map(Column::Text).collect();
     Table::from_columns(path, headers, columns, Some(lines))
 }
-
-/// The longest header line a CSV file may have (bytes); far beyond any real flight's.
-pub const MAX_HEADER_BYTES: usize = 1 << 20;
 
 /// A reader whose header line was checked by [`bounded_header`], which also notes how it ended:
 /// the csv crate does not say whether the last row had a newline of its own, and without one

@@ -354,7 +354,7 @@ fn data_part<'a>(line: &'a str, def: &Definition) -> Result<Option<&'a str>, Str
     let lead = word
         .find(|c: char| !c.is_ascii_alphabetic())
         .map_or(word, |at| &word[..at]);
-    if first_numeric && !lead.is_empty() && crate::table::parse_cell(word).is_none() {
+    if first_numeric && !lead.is_empty() && crate::header::parse_cell(word).is_none() {
         // Records that carry `DATA` though the .dfn names no data type.
         if rt.is_empty() && lead.eq_ignore_ascii_case("DATA") {
             return Ok(Some(&start[4..]));
@@ -467,7 +467,7 @@ fn split_record<'a>(
         // is not a number was cut; either is missing rather than a wrong value.
         if let Some(at) = cells.len().checked_sub(1) {
             let cut = open_end && !line.ends_with(char::is_whitespace);
-            if !fields[at].text && (cut || crate::table::parse_cell(cells[at]).is_none()) {
+            if !fields[at].text && (cut || crate::header::parse_cell(cells[at]).is_none()) {
                 cells[at] = "";
             }
         }
@@ -520,7 +520,7 @@ fn fixed_width<'a>(line: &'a str, fields: &[Field], truncated: bool) -> Option<V
         let start_at = start.min(end);
         let cell = line[start_at..end].trim();
         let cell = if cut_off && !field.text { "" } else { cell };
-        if !field.text && crate::table::parse_cell(cell).is_none() {
+        if !field.text && crate::header::parse_cell(cell).is_none() {
             return None;
         }
         cells.push(cell);

@@ -4,7 +4,8 @@
 //! - [`table`]: flight data as a table of named columns;
 //! - [`csv_reader`]: CSV text with a header row read into a table, from a file, bytes or a reader;
 //! - [`csv_writer`]: tables written as CSV, cells as read and added numbers round-tripping;
-//! - [`format`](mod@format): which format a flight file is in, [`table::Table::read`] for any of them;
+//! - [`format`](mod@format): which format a flight file is in; [`table::Table::read`] reads any of
+//!   them;
 //! - [`xyz`], [`gdf`], [`hdf5`], [`mat`], [`parquet`]: Geosoft XYZ, ASEG-GDF2, HDF5, MATLAB v5
 //!   MAT-file and Parquet tables;
 //! - [`chunks`]: flight tables read and written a chunk of rows at a time (bounded memory);
@@ -29,7 +30,9 @@ pub mod format;
 pub mod gdf;
 mod guard;
 pub mod hdf5;
+mod header;
 pub mod mat;
+mod open;
 pub mod parquet;
 pub mod rawcsv;
 pub mod schema;

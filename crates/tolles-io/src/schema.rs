@@ -228,7 +228,7 @@ fn without_coordinate_tokens(name: &str) -> (String, bool) {
 /// raw channel that gives it. `igrf` also comes from the lowest-numbered `IGRFMAGn`.
 pub fn aliases(headers: &[String]) -> Vec<(String, usize)> {
     let present =
-        |name: &str| crate::table::find_column(std::path::Path::new(""), headers, name).is_ok();
+        |name: &str| crate::header::find_column(std::path::Path::new(""), headers, name).is_ok();
     let mut out: Vec<(String, usize)> = Vec::new();
     let mut igrf: Option<(u64, usize)> = None;
     for (k, header) in headers.iter().enumerate() {
@@ -302,7 +302,7 @@ pub fn compensated_name(scalar: &str) -> String {
 /// A column counts as taken when [`crate::table::find_column`] would find it (also by case).
 pub fn output_name(headers: &[String], wanted: &str) -> (String, bool) {
     let taken =
-        |name: &str| crate::table::find_column(std::path::Path::new(""), headers, name).is_ok();
+        |name: &str| crate::header::find_column(std::path::Path::new(""), headers, name).is_ok();
     if !taken(wanted) {
         return (wanted.to_string(), false);
     }

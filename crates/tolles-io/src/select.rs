@@ -360,7 +360,7 @@ fn column_for(table: &Table, name: &'static str, by: &'static str) -> Result<usi
         path: table.path().to_path_buf(),
         by,
         column: name,
-        hint: crate::table::suggest(table.headers(), name),
+        hint: crate::header::suggest(table.headers(), name),
     })
 }
 

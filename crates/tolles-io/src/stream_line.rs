@@ -131,12 +131,12 @@ impl Layout {
             .collect();
         let here = std::path::Path::new("header");
         for (old, new) in renames {
-            crate::table::rename_header(here, &mut names, old, new)
+            crate::header::rename_header(here, &mut names, old, new)
                 .map_err(|e| format!("renaming {old} to {new}: {e}"))?;
         }
         let aliases = crate::schema::aliases(&names);
         let index = |name: &str| {
-            crate::table::find_column(here, &names, name)
+            crate::header::find_column(here, &names, name)
                 .ok()
                 .or_else(|| {
                     let alias = aliases.iter().find(|(a, _)| a.eq_ignore_ascii_case(name));
@@ -145,7 +145,7 @@ impl Layout {
         };
         let find = |name: &str| {
             index(name).map(|k| (k, name.to_string())).ok_or_else(|| {
-                let hint = crate::table::suggest(&names, name);
+                let hint = crate::header::suggest(&names, name);
                 format!("header has no column {name:?}{hint}")
             })
         };

@@ -16,13 +16,16 @@
 //! the NULL value of a GDF field); anything else that does not parse as a number is an error
 //! naming the line (or, for binary files, the row) and column.
 
+pub use crate::csv_reader::CsvReader;
 pub(crate) use crate::csv_reader::{bounded_header, csv_error, read_located, Bounded};
-pub use crate::csv_reader::{CsvReader, MAX_HEADER_BYTES};
 pub use crate::csv_writer::{
     format_value, write_columns, write_columns_to, write_padded, write_with_column,
 };
 pub(crate) use crate::csv_writer::{non_finite_text, write_header, write_rows};
 use crate::error::IoError;
+use crate::header::{check_header, rename_header, suggest_vector};
+// Part of this module's API since before they moved to `header`, which the readers share.
+pub use crate::header::{find_column, parse_cell, MAX_HEADER_BYTES};
 use crate::rawcsv::RawRows;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -874,57 +877,6 @@ impl Parsed<'_> {
     }
 }
 
-/// Renames header `old` (found as [`find_column`] finds it) of the file `path` to `new`; an
-/// error if there is no such header or another is already called `new`.
-pub(crate) fn rename_header(
-    path: &Path,
-    headers: &mut [String],
-    old: &str,
-    new: &str,
-) -> Result<(), IoError> {
-    let index = find_column(path, headers, old)?;
-    let new = new.trim();
-    if new.is_empty() {
-        return Err(IoError::Empty {
-            path: path.to_path_buf(),
-        });
-    }
-    if headers
-        .iter()
-        .enumerate()
-        .any(|(k, h)| k != index && h == new)
-    {
-        return Err(IoError::DuplicateColumn {
-            path: path.to_path_buf(),
-            column: new.to_string(),
-        });
-    }
-    headers[index] = new.to_string();
-    Ok(())
-}
-
-/// The index of column `name` in `headers` (of the file `path`), or an error that suggests near
-/// names; see [`Table::index_of`].
-pub fn find_column(path: &Path, headers: &[String], name: &str) -> Result<usize, IoError> {
-    let mut caseless = headers
-        .iter()
-        .enumerate()
-        .filter(|(_, h)| h.eq_ignore_ascii_case(name));
-    let only_caseless = match (caseless.next(), caseless.next()) {
-        (Some((k, _)), None) => Some(k),
-        _ => None,
-    };
-    headers
-        .iter()
-        .position(|h| h == name)
-        .or(only_caseless)
-        .ok_or_else(|| IoError::MissingColumn {
-            path: path.to_path_buf(),
-            column: name.to_string(),
-            hint: suggest(headers, name),
-        })
-}
-
 /// The indices among `headers` of the columns `names` would find ([`Table::index_of`]) once
 /// the table is renamed `(old, new)` by `renames` and given the raw-channel aliases
 /// ([`crate::schema::aliases`]): what a workflow will ask for, known before the rows are read.
@@ -953,116 +905,8 @@ pub fn indices_after_renames(
         .collect()
 }
 
-/// `; did you mean A, B?` with the headers near `name` (case-insensitively), or the header's
-/// first names when none is near.
-pub(crate) fn suggest(headers: &[String], name: &str) -> String {
-    let n = name.to_ascii_lowercase();
-    let stem = n.trim_end_matches(['x', 'y', 'z']).trim_end_matches('_');
-    // Spelled without its separators (mag1uc, MAG-1-UC) a name is still near.
-    let bare = |s: &str| s.replace(['_', '-', ' ', '.'], "");
-    let near: Vec<&str> = headers
-        .iter()
-        .filter(|h| {
-            let h = h.to_ascii_lowercase();
-            h.contains(&n)
-                || n.contains(&h)
-                || (!stem.is_empty() && h.starts_with(stem))
-                || (!h.is_empty() && bare(&h) == bare(&n))
-        })
-        .map(String::as_str)
-        .take(6)
-        .collect();
-    if near.is_empty() {
-        let shown: Vec<&str> = headers.iter().map(String::as_str).take(12).collect();
-        let more = match headers.len().saturating_sub(shown.len()) {
-            0 => String::new(),
-            n => format!(" and {n} more (tolles info lists them)"),
-        };
-        format!("; the header has: {}{more}", shown.join(", "))
-    } else {
-        format!("; did you mean {}?", near.join(", "))
-    }
-}
-
-/// `; did you mean FLUXA?` with the fluxgate prefixes in `headers` (names `P_x`, `P_y`, `P_z`
-/// in any case) near `prefix`, case-insensitively, and the three columns `PX:PY:PZ` of a
-/// fluxgate whose names have no separator (which no prefix reads); `None` when none is near.
-fn suggest_vector(headers: &[String], prefix: &str) -> Option<String> {
-    let lower: Vec<String> = headers.iter().map(|h| h.to_ascii_lowercase()).collect();
-    let wanted = prefix.to_ascii_lowercase();
-    let near: Vec<String> = headers
-        .iter()
-        .zip(&lower)
-        .filter_map(|(h, l)| {
-            let (stem, separator) = match l.strip_suffix("_x") {
-                Some(stem) => (stem, "_"),
-                None => (l.strip_suffix('x')?, ""),
-            };
-            let sibling = |axis: &str| {
-                let name = format!("{stem}{separator}{axis}");
-                (lower.iter().position(|o| *o == name)).map(|k| headers[k].as_str())
-            };
-            let (y, z) = (sibling("y")?, sibling("z")?);
-            let close = !stem.is_empty()
-                && (stem.starts_with(&wanted)
-                    || wanted.starts_with(stem)
-                    || stem.contains(&wanted));
-            close.then(|| match separator {
-                "_" => h[..stem.len()].to_string(),
-                _ => format!("{h}:{y}:{z}"),
-            })
-        })
-        .take(6)
-        .collect();
-    (!near.is_empty()).then(|| format!("; did you mean {}?", near.join(", ")))
-}
-
-/// Parses one cell: empty or NaN is missing (NaN); otherwise a number or `None`.
-pub fn parse_cell(cell: &str) -> Option<f64> {
-    let cell = cell.trim();
-    if cell.is_empty() || cell.eq_ignore_ascii_case("nan") {
-        return Some(f64::NAN);
-    }
-    cell.parse::<f64>().ok()
-}
-
-/// Errors if `headers` names no column or names one twice.
-pub(crate) fn check_header(path: &Path, headers: &[String]) -> Result<(), IoError> {
-    if headers.is_empty() || headers.iter().all(String::is_empty) {
-        return Err(IoError::Empty {
-            path: path.to_path_buf(),
-        });
-    }
-    check_unique(path, headers)
-}
-
-fn check_unique(path: &Path, headers: &[String]) -> Result<(), IoError> {
-    // A set, not a scan of the names before each: a header of 400 000 names took minutes.
-    let mut seen = std::collections::HashSet::with_capacity(headers.len());
-    match headers.iter().find(|h| !seen.insert(h.as_str())) {
-        Some(h) => Err(IoError::DuplicateColumn {
-            path: path.to_path_buf(),
-            column: h.clone(),
-        }),
-        None => Ok(()),
-    }
-}
-
 #[cfg(test)]
 mod tests {
-    #[test]
-    fn a_long_header_is_listed_in_part_with_the_rest_counted() {
-        let headers: Vec<String> = (0..20).map(|k| format!("col{k}")).collect();
-        let said = suggest(&headers, "mag_1_uc");
-        assert!(said.starts_with("; the header has: col0, col1,"), "{said}");
-        assert!(
-            said.ends_with("col11 and 8 more (tolles info lists them)"),
-            "{said}"
-        );
-        let few = suggest(&headers[..3], "mag_1_uc");
-        assert_eq!(few, "; the header has: col0, col1, col2");
-    }
-
     use super::*;
 
     fn read(text: &str) -> Result<Table, IoError> {

@@ -81,7 +81,7 @@ const CANDIDATE_BYTES: usize = 8 << 20;
 
 impl Candidates {
     fn push(&mut self, comment: &str) {
-        if comment.len() > crate::table::MAX_HEADER_BYTES {
+        if comment.len() > crate::header::MAX_HEADER_BYTES {
             return; // no header is that long; it is only a comment
         }
         let count = comment.split_whitespace().count();

@@ -19,7 +19,9 @@
 //! assert_eq!(ey[0], [5.0, -3.0, 0.0, 9.0]);
 //! ```
 
-use crate::plot::{Colour, LinePlot, Span};
+// `Live` is defined with the plot that holds it, so the plot needs nothing from this module.
+pub use crate::plot::Live;
+use crate::plot::{Colour, LinePlot};
 use crate::ReportError;
 
 /// The uPlot release vendored in `vendor/uplot`.
@@ -33,13 +35,6 @@ pub const UPLOT_LICENSE: &str = include_str!("../vendor/uplot/LICENSE");
 
 /// Most points (per series) a chart's data holds; longer series are kept as an envelope.
 pub const MAX_POINTS: usize = 1 << 17;
-
-/// What a live chart adds to its plot.
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct Live {
-    /// Windows of the x axis shaded and labelled on the chart (maneuvers, say; units of x).
-    pub windows: Vec<Span>,
-}
 
 /// A live chart's data file and what its caption should say about it.
 #[derive(Debug, Clone, PartialEq)]
@@ -337,7 +332,7 @@ pub const START_SCRIPT: &str = r##"
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plot::Series;
+    use crate::plot::{Series, Span};
 
     fn decode_base64(text: &str) -> Vec<u8> {
         let value = |c: u8| ALPHABET.bytes().position(|a| a == c).unwrap() as u32;

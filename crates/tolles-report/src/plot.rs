@@ -204,7 +204,14 @@ pub struct LinePlot {
     pub x_ticks: Vec<f64>,
     /// Also drawn as a zoomable chart in the page (see [`crate::live`]), the SVG kept for
     /// printing and as the fallback; all series must share their x values. `None`: SVG only.
-    pub live: Option<crate::live::Live>,
+    pub live: Option<Live>,
+}
+
+/// What a live chart adds to its plot.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Live {
+    /// Windows of the x axis shaded and labelled on the chart (maneuvers, say; units of x).
+    pub windows: Vec<Span>,
 }
 
 /// A bar chart: one group of bars per category, one bar per series in every group.

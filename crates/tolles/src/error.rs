@@ -153,7 +153,7 @@ pub enum Error {
         pass2_hz: f64,
     },
     /// A fit at a sample rate (Hz) no model can be kept at.
-    #[error("{}: a model cannot be fitted at {} Hz: the sample rate must lie within {}–{} Hz (is time in seconds? give the rate with --fs; fs= in Python)", path.display(), crate::warning::hz(*fs_hz), crate::warning::hz(*lo_hz), crate::warning::hz(*hi_hz))]
+    #[error("{}: a model cannot be fitted at {} Hz: the sample rate must lie within {}–{} Hz (is time in seconds? give the rate with --fs; fs= in Python)", path.display(), crate::numbers::hz(*fs_hz), crate::numbers::hz(*lo_hz), crate::numbers::hz(*hi_hz))]
     FitRateOutOfRange {
         /// The flight file.
         path: PathBuf,

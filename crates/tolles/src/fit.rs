@@ -8,6 +8,8 @@ use crate::error::{Error, Result};
 use crate::model::{ModelFile, ScalarModel};
 use crate::progress::{Progress, Stage};
 use crate::read::{checked_names, Flight};
+// Compensation and the figure of merit give it too; `tolles::fit::verdict_warning` as before.
+pub use crate::warning::verdict_warning;
 use crate::warning::Warning;
 use rayon::prelude::*;
 use std::path::Path;
@@ -293,15 +295,6 @@ fn extras_dropped(
     (!channels.is_empty()).then(|| Warning::ExtrasDropped {
         scalar: scalar.to_string(),
         channels,
-    })
-}
-
-/// A warning when `fit`'s verdict is not `good`.
-pub fn verdict_warning(scalar: &str, fit: &tolles_core::fit::Fit) -> Option<Warning> {
-    let verdict = fit.verdict.as_ref()?;
-    (!verdict.is_good()).then(|| Warning::Verdict {
-        scalar: scalar.to_string(),
-        verdict: verdict.clone(),
     })
 }
 

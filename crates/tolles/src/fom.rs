@@ -294,7 +294,7 @@ fn measure_flight(
     };
     warnings.extend(gaps(path, &outcome));
     if let Some(f) = fit {
-        warnings.extend(crate::fit::verdict_warning(&f.scalar, &f.fit));
+        warnings.extend(crate::warning::verdict_warning(&f.scalar, &f.fit));
     }
     Ok(outcome)
 }
@@ -385,7 +385,7 @@ pub fn scalar_to_use(scalar: Option<&str>, model: Option<(&ModelFile, &Path)>) -
     match model {
         Some((model, _)) if model.fits.len() == 1 => Ok(model.fits[0].scalar.clone()),
         Some((model, path)) => {
-            crate::compensate::check_model(model, path)?;
+            crate::model::check_model(model, path)?;
             Err(Error::ScalarNeeded {
                 path: Some(path.to_path_buf()),
                 available: model.fits.iter().map(|f| f.scalar.clone()).collect(),
@@ -400,7 +400,7 @@ pub fn scalar_to_use(scalar: Option<&str>, model: Option<(&ModelFile, &Path)>) -
 
 /// The model's fit for the scalar `scalar`; `path` names the model file in errors.
 pub fn fit_for<'m>(model: &'m ModelFile, path: &Path, scalar: &str) -> Result<&'m ScalarModel> {
-    crate::compensate::check_model(model, path)?;
+    crate::model::check_model(model, path)?;
     model
         .fits
         .iter()

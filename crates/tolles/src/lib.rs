@@ -74,11 +74,13 @@ pub mod info;
 pub mod lines;
 pub mod live;
 pub mod model;
+mod numbers;
 pub mod plan;
 pub mod procedure;
 pub mod progress;
 pub mod read;
 pub mod report;
+mod selection;
 pub mod simulate;
 pub mod stream;
 #[cfg(test)]

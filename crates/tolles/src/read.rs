@@ -3,6 +3,8 @@
 
 use crate::error::{Error, Result};
 use crate::progress::{CountingReader, Progress, Stage};
+// Defined in its own module, which warnings also use; public here as before.
+pub use crate::selection::Selection;
 use crate::warning::Warning;
 use std::path::Path;
 use tolles_core::fit::FitError;
@@ -22,15 +24,6 @@ pub struct FlightData {
     pub table: Table,
     /// What a selection kept, when one was asked for.
     pub selected: Option<Selection>,
-}
-
-/// What a row selection kept.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Selection {
-    /// One line: `selected 360 of 4661 rows (lines 2, 4; tt ..200 s)`.
-    pub summary: String,
-    /// Rows of the file left out.
-    pub left_out: usize,
 }
 
 /// Reads the flight at `path` in the format its extension names (CSV, XYZ, GDF, HDF5 or

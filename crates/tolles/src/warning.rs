@@ -1,6 +1,8 @@
 //! Warnings: what a workflow noticed but worked around, returned as values for the caller to
 //! show (the CLI prints them on standard error, Python raises `UserWarning`s).
 
+// Errors write rates the same way; `tolles::warning::hz` stays the public path.
+pub use crate::numbers::hz;
 use std::fmt;
 use std::path::{Path, PathBuf};
 use tolles_io::schema::TIME_COLUMN;
@@ -123,7 +125,7 @@ pub enum Warning {
         /// The file read.
         path: PathBuf,
         /// The selection and what it kept.
-        selection: crate::read::Selection,
+        selection: crate::selection::Selection,
     },
     /// A fit that barely improved on the data, or needed the strongest ridge tried: the model
     /// explains little, often because an interference source is not among the regressors.
@@ -290,7 +292,7 @@ impl fmt::Display for Warning {
             } => write!(
                 f,
                 "the network for {scalar} was not kept: on held-out {held_out} it leaves {network_rms_nt:.4} nT against the linear model's {linear_rms_nt:.4} nT (it must leave at least {:.0} % less)",
-                100.0 * crate::fit::network::KEEP_MARGIN
+                100.0 * crate::model::KEEP_MARGIN
             ),
             Warning::ExtrasDropped { scalar, channels } => write!(
                 f,
@@ -406,6 +408,15 @@ impl fmt::Display for Warning {
     }
 }
 
+/// A warning when `fit`'s verdict is not `good`.
+pub fn verdict_warning(scalar: &str, fit: &tolles_core::fit::Fit) -> Option<Warning> {
+    let verdict = fit.verdict.as_ref()?;
+    (!verdict.is_good()).then(|| Warning::Verdict {
+        scalar: scalar.to_string(),
+        verdict: verdict.clone(),
+    })
+}
+
 /// `a (960), b (18)`.
 fn name_lengths(columns: &[(String, usize)]) -> String {
     let list: Vec<String> = columns
@@ -413,15 +424,6 @@ fn name_lengths(columns: &[(String, usize)]) -> String {
         .map(|(name, len)| format!("{name} ({len})"))
         .collect();
     list.join(", ")
-}
-
-/// A rate (Hz) for a message: as written when of ordinary size, else in scientific notation,
-/// so that 1e-300 is not three hundred zeros.
-pub fn hz(v: f64) -> String {
-    match v == 0.0 || (1e-3..1e7).contains(&v.abs()) {
-        true => format!("{v}"),
-        false => format!("{v:e}"),
-    }
 }
 
 /// Aliased columns a warning names before it counts the rest.

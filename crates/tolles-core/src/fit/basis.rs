@@ -9,8 +9,8 @@
 //!
 //! [`Column::of_diagonals`]: crate::model::terms::Column::of_diagonals
 
-use super::levels::LevelRows;
-use super::problem::FoldFactor;
+use super::factor::FoldFactor;
+use super::level_rows::LevelRows;
 use crate::model::design::Term;
 use nalgebra::DMatrix;
 
@@ -147,6 +147,28 @@ pub(super) fn diagonal_parts(term: &Term, among: &[Term]) -> Option<Vec<(Term, f
     found.into_iter().collect()
 }
 
+/// `beta`, the coefficients of `terms`, as coefficients of `columns`: 0 for a column that is
+/// none of `terms`.
+pub(super) fn on_columns(columns: &[Term], terms: &[Term], beta: &[f64]) -> Vec<f64> {
+    columns
+        .iter()
+        .map(|c| terms.iter().position(|t| t == c).map_or(0.0, |k| beta[k]))
+        .collect()
+}
+
+/// The entries of `s`, whose rows and columns are `columns`, for the rows and columns
+/// `terms` (zero for a term not among `columns`).
+pub(super) fn on_column_pairs(columns: &[Term], terms: &[Term], s: &DMatrix<f64>) -> DMatrix<f64> {
+    let at: Vec<Option<usize>> = terms
+        .iter()
+        .map(|t| columns.iter().position(|c| c == t))
+        .collect();
+    DMatrix::from_fn(terms.len(), terms.len(), |i, j| match (at[i], at[j]) {
+        (Some(a), Some(b)) => s[(a, b)],
+        _ => 0.0,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -250,5 +272,23 @@ mod tests {
         let (gram, want) = (r.transpose() * &r, full.transpose() * &full);
         let scale = want.amax();
         assert!((gram - want).amax() <= 1e-12 * scale);
+    }
+
+    #[test]
+    fn coefficients_go_to_the_columns_of_their_terms() {
+        use crate::model::terms::{Axis, Column};
+        let term = |column| Term {
+            fluxgate: 0,
+            column,
+        };
+        let (x, y, z) = (
+            term(Column::Permanent(Axis::X)),
+            term(Column::Permanent(Axis::Y)),
+            term(Column::Permanent(Axis::Z)),
+        );
+        assert_eq!(
+            on_columns(&[x, y, z], &[z, x], &[3.0, 1.0]),
+            [1.0, 0.0, 3.0]
+        );
     }
 }

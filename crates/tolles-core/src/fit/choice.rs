@@ -5,12 +5,14 @@ use super::crossval::{
     cross_validate, cross_validate_prior_groups, heldout_sum_of_squares_on, penalty,
     CrossValidation, LAMBDA_GRID, PRIOR_GRID,
 };
+use super::error::FitError;
+use super::factor::FoldFactor;
+use super::outcome::TermScore;
 use super::plausible::{self, Fault};
 use super::prior::PriorWeights;
-use super::problem::FoldFactor;
 use super::qr::upper_factor;
 use super::ridge::{Ridge, RidgeSolution};
-use super::{FitError, Lambda, MagnitudeChoice, TermScore, LAMBDA_MAX_RATIO, TERM_CHOICE_MARGIN};
+use super::settings::{Lambda, MagnitudeChoice, LAMBDA_MAX_RATIO, TERM_CHOICE_MARGIN};
 use crate::model::design::{Design, Term};
 use crate::model::magnitude::Magnitude;
 use crate::model::terms::TermSet;

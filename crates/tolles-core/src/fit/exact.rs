@@ -3,17 +3,32 @@
 //! settles or diverges.
 
 use super::choice::{choose_design, Chosen};
+use super::error::FitError;
+use super::level_rows::LevelRows;
 use super::level_setup::LevelSetup;
-use super::levels::LevelRows;
 use super::problem::*;
-use super::{
-    FitError, MagnitudeChoice, EXACT_CLEAR_LOSS, EXACT_ITERATIONS, EXACT_SETTLED, EXACT_TOLERANCE,
-};
+use super::settings::MagnitudeChoice;
 use crate::model::design::Design;
 use crate::model::magnitude::exact_jacobian_into;
 use crate::parallel::{blocks, split_rows};
 use multiversion::multiversion;
 use std::ops::Range;
+
+/// Gauss-Newton iterations of the exact fit at most.
+const EXACT_ITERATIONS: usize = 8;
+
+/// Relative change of the coefficients below which the exact fit has converged.
+const EXACT_TOLERANCE: f64 = 1e-7;
+
+/// Relative change of the coefficients the next Gauss-Newton iteration is expected to make
+/// (the last step times the last ratio of steps: the iterations converge linearly) below which
+/// an exact fit that clearly loses to the linear one is not refined further: what it reports,
+/// its score, would move by about as little.
+const EXACT_SETTLED: f64 = 1e-9;
+
+/// Relative margin by which the exact fit's score must exceed the linear fit's to lose
+/// clearly: far more than a settled fit's score can still move.
+const EXACT_CLEAR_LOSS: f64 = 1e-3;
 
 impl Problem<'_, '_> {
     /// The exact-magnitude fit of `design` by Gauss-Newton from the linear solution, when the

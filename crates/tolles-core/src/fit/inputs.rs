@@ -1,7 +1,11 @@
 //! What a fit refuses before it starts: inputs of unequal length, rates and settings out of
 //! range, a fluxgate of impossible magnitude, a flight with nothing that varies.
 
-use super::*;
+use super::error::FitError;
+use super::settings::{FitSettings, Lambda};
+use crate::model::limits::{scalar_usable, FLUX_MAGNITUDE_RANGE_NT};
+use crate::model::vector::{Fluxgates, VectorSeries};
+use std::ops::Range;
 
 pub(super) fn check_inputs(
     scalar: &[f64],

@@ -1,11 +1,15 @@
 //! What a fit's heading-level rows need: the reference, the low-pass, the weight of the rows,
 //! and their misfit and diagnostics for a solution.
 
-use super::levels::{self, LevelDiagnostics, LevelRows, LowFrequency, Reference};
-use super::problem::{on_columns, run_score_covariance};
-use super::FitSettings;
+use super::basis::on_columns;
+use super::diagnostics::run_score_covariance;
+use super::level_rows::{rms_misfit, LevelRows};
+use super::levels::{self, LowFrequency, Reference};
+use super::outcome::LevelDiagnostics;
+use super::settings::FitSettings;
 use crate::model::design::Term;
 use nalgebra::DMatrix;
+use std::ops::Range;
 
 /// What the heading levels need: the reference, the low-pass, and the weight of their rows.
 pub(super) struct LevelSetup {
@@ -56,7 +60,7 @@ impl LevelSetup {
 
     /// RMS misfit of the level rows (nT) for the coefficients `beta` of `terms`.
     pub(super) fn misfit(&self, terms: &[Term], beta: &[f64]) -> f64 {
-        levels::rms_misfit(&self.rows, &on_columns(&self.row_terms, terms, beta))
+        rms_misfit(&self.rows, &on_columns(&self.row_terms, terms, beta))
     }
 
     /// The level rows' residual sum of squares as the solve saw it, weighted (nT²), for the
@@ -72,8 +76,9 @@ impl LevelSetup {
 
     /// The level rows' long-run score covariance as the solve weighted them (columns of
     /// `row_terms`), for the coefficients `beta` of `terms`: see
-    /// [`Prepared::score_covariance`]. A level row is a low-passed sample, correlated with its
-    /// neighbours over about two periods of the cutoff, `fs_hz` samples a second.
+    /// [`super::problem::Prepared::score_covariance`]. A level row is a low-passed sample,
+    /// correlated with its neighbours over about two periods of the cutoff, `fs_hz` samples a
+    /// second.
     pub(super) fn score_covariance(
         &self,
         terms: &[Term],
@@ -115,6 +120,42 @@ impl LevelSetup {
             expected_rms_nt: Some(self.expected_nt).filter(|e| e.is_finite()),
             level_std_error_nt: misfit / (count as f64 / 4.0).max(1.0).sqrt(),
             weight: self.weight(),
+        }
+    }
+}
+
+/// What the level rows' target is the scalar less, over a run.
+#[derive(Clone, Copy)]
+pub(super) enum LevelReference<'w> {
+    /// The calibrated reference's values (nT).
+    Values(&'w [f64]),
+    /// The fluxgate's magnitude, the signal after the target, while the fluxgate is calibrated
+    /// from the same rows ([`levels::InPass`]): the calibration's correction joins the level
+    /// rows' target afterwards. The magnitude rather than nothing, so that the low-pass sees
+    /// the small difference of two fields of 50 000 nT rather than each (its rounding is
+    /// relative to what it filters).
+    Magnitude,
+}
+
+impl<'w> LevelReference<'w> {
+    /// The reference of `setup` over `run`.
+    pub(super) fn of(setup: &'w LevelSetup, run: Range<usize>) -> Self {
+        match &setup.reference {
+            Some(r) => LevelReference::Values(levels::reference_over(r, run)),
+            None => LevelReference::Magnitude,
+        }
+    }
+
+    /// The reference over `rows` (of the run), its `signals` over them at hand: the columns,
+    /// the target, the magnitude.
+    pub(super) fn over<'s, S: AsRef<[f64]>>(
+        &'s self,
+        rows: Range<usize>,
+        signals: &'s [S],
+    ) -> &'s [f64] {
+        match self {
+            LevelReference::Values(values) => &values[rows],
+            LevelReference::Magnitude => signals[signals.len() - 1].as_ref(),
         }
     }
 }

@@ -26,20 +26,32 @@
 
 use crate::fit::basis::diagonal_parts;
 use crate::fit::choice::choose_design;
+use crate::fit::diagnostics::band_residual_std;
+use crate::fit::factor::FoldFactor;
+use crate::fit::inputs::check_not_constant;
+use crate::fit::level_rows::combination;
 use crate::fit::prior::{Prior, PriorWeights};
-use crate::fit::problem::{FoldFactor, Spare};
-use crate::fit::{Band, FitSettings, Lambda, Samples};
+use crate::fit::samples::Samples;
+use crate::fit::settings::{FitSettings, Lambda};
+use crate::fit::spare::Spare;
 use crate::model::design::{Design, Term};
 use crate::model::terms::TermSet;
-use crate::model::vector::{norms3_into, Fluxgates, VectorSeries};
+use crate::model::vector::{norms3_into, VectorSeries};
 use crate::parallel::split_rows;
+use crate::signal::filter::Band;
 use crate::signal::filter::{
     filtfilt_many_unless_constant, filtfilt_sampled_then_in_place,
     filtfilt_sampled_unless_constant, Butterworth, FilterError,
 };
 use nalgebra::DMatrix;
-use serde::{Deserialize, Serialize};
 use std::ops::Range;
+
+// Public here, where they were first: the level rows and the calibration's diagnostics are
+// defined in modules of their own, and the calibration ([`reference()`]) is a fit, made where
+// fits are.
+pub use crate::fit::level_rows::{centre, rms_misfit, LevelRows};
+pub use crate::fit::outcome::{FluxgateCalibration, LevelDiagnostics};
+pub use crate::fit::run::reference;
 
 /// The calibrated fluxgate magnitude used as an earth-field reference.
 #[derive(Debug, Clone, PartialEq)]
@@ -48,41 +60,6 @@ pub struct Reference {
     pub values: Vec<f64>,
     /// What the calibration found.
     pub calibration: FluxgateCalibration,
-}
-
-/// The fluxgate's own errors as seen in its magnitude.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct FluxgateCalibration {
-    /// Offset of each axis, x, y, z (nT).
-    pub offset_nt: [f64; 3],
-    /// Traceless distortion `K` (dimensionless) as `[zz−xx, zz−yy, xy+yx, xz+zx, yz+zy]`.
-    pub distortion: [f64; 5],
-    /// Standard deviation of the band-passed magnitude after calibration (nT): fluxgate noise
-    /// and geology inside the band.
-    pub residual_std_nt: f64,
-}
-
-/// How the low-frequency rows were used, for the fit's diagnostics.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct LevelDiagnostics {
-    /// The fluxgate calibration behind the reference.
-    pub fluxgate: FluxgateCalibration,
-    /// Low-frequency rows that entered the fit.
-    pub rows: usize,
-    /// Their cut-off (Hz).
-    pub cutoff_hz: f64,
-    /// RMS misfit of the low-passed `y − R` after the fit (nT): how well one constant and the
-    /// model explain the levels the calibration flight flew.
-    pub residual_rms_nt: f64,
-    /// What a model that describes the low frequencies would leave of them (nT RMS): the
-    /// reference's own noise through the low-pass (absent in files before it).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub expected_rms_nt: Option<f64>,
-    /// Standard error of a heading level (nT): the misfit over the square root of the rows per
-    /// heading of a four-heading box.
-    pub level_std_error_nt: f64,
-    /// Weight of each low-frequency row relative to a band-passed one.
-    pub weight: f64,
 }
 
 /// Largest believable fluxgate offset (nT): beyond it the calibration has fitted something else
@@ -95,76 +72,14 @@ pub const MAX_OFFSET_NT: f64 = crate::fit::plausible::MAX_PERMANENT_NT;
 /// Largest believable distortion (dimensionless), likewise.
 pub const MAX_DISTORTION: f64 = 0.05;
 
-/// Calibrates the fluxgate against its own band-passed magnitude and returns the reference, or
-/// `None` when the calibration cannot be fitted (too little data, constant attitude) or found
-/// an offset or distortion no fluxgate has (see [`MAX_OFFSET_NT`], [`MAX_DISTORTION`]).
-pub fn reference(
-    flux: &VectorSeries,
-    usable: &[bool],
-    fs_hz: f64,
-    tt: Option<&[f64]>,
-    settings: &FitSettings,
-) -> Option<Reference> {
-    // As a fit would check them: a fluxgate out of range gives no reference, and a sample it
-    // does not have is not usable whatever `usable` says.
-    crate::fit::check_flux_magnitude(flux).ok()?;
-    let finite = Fluxgates::from(flux).finite_mask();
-    let usable = usable.iter().zip(finite).map(|(u, f)| *u && f).collect();
-    let samples = Samples::within(usable, tt);
-    reference_reusing(flux, &samples, fs_hz, settings, &Spare::default())
-}
-
-/// [`reference()`] on the fit's `samples` (the usable ones of `flux` and their runs), with the
-/// calibration fit's buffers from `spare`, and given back to it.
-pub(super) fn reference_reusing(
-    flux: &VectorSeries,
-    samples: &Samples,
-    fs_hz: f64,
-    settings: &FitSettings,
-    spare: &Spare,
-) -> Option<Reference> {
-    let magnitude = magnitude_of(flux, &samples.usable);
-    let design = calibration_design();
-    let calibration_settings = FitSettings {
-        design: design.clone(),
-        lambda: Lambda::auto(),
-        alternative_terms: Vec::new(),
-        levels: false,
-        magnitude: Default::default(),
-        prior: calibration_prior(settings),
-        ..settings.clone()
-    };
-    // The magnitude is believable wherever the fluxgate is usable (its check bounds it far
-    // below the scalar's limit) and NaN elsewhere, so the fit's samples are the magnitude's.
-    debug_assert!(magnitude
-        .iter()
-        .zip(&samples.usable)
-        .all(|(m, u)| crate::fit::scalar_usable(*m) == *u));
-    let cal = crate::fit::fit_reusing(
-        &magnitude,
-        flux.into(),
-        fs_hz,
-        samples,
-        &calibration_settings,
-        spare,
-        crate::fit::Wanted::Coefficients,
-    )
-    .ok()?;
-    let fitted = Calibrated {
-        coefficients: cal.coefficients,
-        residual_std_nt: cal.diagnostics.residual_std_nt,
-    };
-    reference_of(flux, samples, magnitude, &design, &fitted, spare)
-}
-
 /// The prior of a fluxgate calibration within a fit of `settings`: the fluxgate's own, when the
 /// fit has one.
-fn calibration_prior(settings: &FitSettings) -> Option<Prior> {
+pub(super) fn calibration_prior(settings: &FitSettings) -> Option<Prior> {
     settings.prior.map(|_| Prior::FLUXGATE)
 }
 
 /// The design of the fluxgate's calibration: a permanent and a traceless induced field.
-fn calibration_design() -> Design {
+pub(super) fn calibration_design() -> Design {
     Design::new(TermSet {
         permanent: true,
         induced: Some(crate::model::terms::InducedTerms::Traceless),
@@ -175,7 +90,7 @@ fn calibration_design() -> Design {
 }
 
 /// `|F|` of every sample of `flux` (nT), NaN where not `usable`.
-fn magnitude_of(flux: &VectorSeries, usable: &[bool]) -> Vec<f64> {
+pub(super) fn magnitude_of(flux: &VectorSeries, usable: &[bool]) -> Vec<f64> {
     let mut magnitude = vec![0.0; flux.len()];
     split_rows(flux.len(), &mut [&mut magnitude], |rows, out| {
         let components = [&flux.x, &flux.y, &flux.z].map(|c| &c[rows.clone()]);
@@ -191,15 +106,15 @@ fn magnitude_of(flux: &VectorSeries, usable: &[bool]) -> Vec<f64> {
 
 /// What a calibration fit found: its coefficients (the calibration design's) and the scatter
 /// of its band-passed residual (nT).
-struct Calibrated {
-    coefficients: Vec<f64>,
-    residual_std_nt: f64,
+pub(super) struct Calibrated {
+    pub(super) coefficients: Vec<f64>,
+    pub(super) residual_std_nt: f64,
 }
 
 /// The reference of the calibration `fitted`: `magnitude` (of every sample, NaN where not
 /// usable, taken over) less its calibrated correction; `None` if the calibration is not
 /// believable.
-fn reference_of(
+pub(super) fn reference_of(
     flux: &VectorSeries,
     samples: &Samples,
     mut magnitude: Vec<f64>,
@@ -315,7 +230,7 @@ impl InPass {
         spare: &Spare,
     ) -> Option<(Reference, Vec<f64>)> {
         let magnitude = magnitude_of(flux, &samples.usable);
-        crate::fit::check_not_constant(&magnitude, flux, &samples.usable).ok()?;
+        check_not_constant(&magnitude, flux, &samples.usable).ok()?;
         let fitted = self.fit(folds)?;
         let reference = reference_of(flux, samples, magnitude, &self.design, &fitted, spare)?;
         Some((reference, fitted.coefficients))
@@ -346,7 +261,7 @@ impl InPass {
         )
         .ok()?;
         let solution = &chosen.solution;
-        let residual_std_nt = crate::fit::band_residual_std(solution, 0, 0.0);
+        let residual_std_nt = band_residual_std(solution, 0, 0.0);
         let finite = solution.coefficients.iter().all(|c| c.is_finite());
         (finite && residual_std_nt.is_finite()).then(|| Calibrated {
             coefficients: solution.coefficients.clone(),
@@ -512,130 +427,6 @@ fn difference_on_all_cores(y: &[f64], r: &[f64], out: &mut [f64]) {
             *o = y - r;
         }
     });
-}
-
-/// Low-frequency rows of one run, before centring and weighting.
-#[derive(Debug, Clone)]
-pub struct LevelRows {
-    /// Rows (one per kept sample), columns as the band rows.
-    pub a: DMatrix<f64>,
-    /// Targets (nT).
-    pub y: Vec<f64>,
-    /// Sample index of each row within its run, to interleave them with the band rows in time.
-    pub at: Vec<usize>,
-}
-
-impl LevelRows {
-    /// No rows, for `columns` columns.
-    pub(super) fn none(columns: usize) -> Self {
-        LevelRows {
-            a: DMatrix::zeros(0, columns),
-            y: Vec::new(),
-            at: Vec::new(),
-        }
-    }
-
-    /// The rows at `at` from the low-passed samples of each column, then of the target.
-    pub(super) fn from_sampled(sampled: Vec<Vec<f64>>, at: Vec<usize>) -> Self {
-        let width = sampled.len().checked_sub(1);
-        Self::from_parts(width.expect("the target is filtered last"), [sampled], at)
-    }
-
-    /// [`LevelRows::from_sampled`] of the kept samples given in parts that follow each other
-    /// in time (a run's windows), each with `width` columns and then the target (or empty).
-    ///
-    /// Each part goes straight to its place in the matrix, column by column, copied whole: an
-    /// iterator over every value took 12 ms of 10⁷ samples' level rows, and columns grown part
-    /// by part and then copied took fresh memory twice, with the other core idle.
-    pub(super) fn from_parts(
-        width: usize,
-        parts: impl IntoIterator<Item = Vec<Vec<f64>>>,
-        at: Vec<usize>,
-    ) -> Self {
-        let count = at.len();
-        let mut a = vec![0.0; count * width];
-        let mut y = Vec::with_capacity(count);
-        for part in parts {
-            if let Some((target, columns)) = part.split_last() {
-                for (c, values) in columns.iter().enumerate() {
-                    a[c * count + y.len()..][..values.len()].copy_from_slice(values);
-                }
-                y.extend_from_slice(target);
-            }
-        }
-        LevelRows {
-            a: DMatrix::from_vec(count, width, a),
-            y,
-            at,
-        }
-    }
-}
-
-/// Subtracts, from every level row's columns and target, their mean over all runs: the unknown
-/// constant between the scalar and the reference is eliminated rather than fitted.
-pub fn centre(rows: &mut [LevelRows]) {
-    let count: usize = rows.iter().map(|r| r.y.len()).sum();
-    if count == 0 {
-        return;
-    }
-    // Column by column, the columns dealt to the cores (200 k rows of 18 columns at 10⁷
-    // samples, fresh from the filters: memory-bound).
-    let p = rows[0].a.ncols();
-    let columns: Vec<usize> = (0..=p).collect();
-    let sum_of = |c: usize| {
-        rows.iter().fold(0.0, |sum, r| match c < p {
-            true => sum + r.a.column(c).sum(),
-            false => sum + r.y.iter().sum::<f64>(),
-        })
-    };
-    let means =
-        crate::parallel::map_items(&columns, count * (p + 1), |&c| sum_of(c) / count as f64);
-    let mut parts: Vec<(&mut [f64], f64)> = Vec::with_capacity(rows.len() * (p + 1));
-    for r in rows.iter_mut() {
-        let n = r.y.len();
-        let a = r.a.as_mut_slice().chunks_exact_mut(n.max(1));
-        parts.extend(a.zip(means.iter().copied()));
-        parts.push((r.y.as_mut_slice(), means[p]));
-    }
-    crate::parallel::for_each_item(&mut parts, count * (p + 1), |(values, mean)| {
-        values.iter_mut().for_each(|v| *v -= *mean);
-    });
-}
-
-/// `A·w` over the rows `rows` of the level rows' columns `a` (as many columns as `w` has):
-/// each row's sum taken column after column from the empty sum, as a sum across the row would
-/// be, but a column at a time (contiguous, so it vectorises): the same values.
-fn combination(a: &DMatrix<f64>, w: &[f64], rows: Range<usize>) -> Vec<f64> {
-    let empty: f64 = std::iter::empty::<f64>().sum();
-    let mut out = vec![empty; rows.len()];
-    for (column, w) in a.as_slice().chunks_exact(a.nrows().max(1)).zip(w) {
-        out.iter_mut()
-            .zip(&column[rows.clone()])
-            .for_each(|(o, a)| *o += a * w);
-    }
-    out
-}
-
-/// RMS of `y − A·β` over all level rows (nT), NaN without rows.
-///
-/// The fit is formed by parts of the rows on all cores ([`combination`]); the squares are then
-/// added in row order: the same values as row after row.
-pub fn rms_misfit(rows: &[LevelRows], beta: &[f64]) -> f64 {
-    let mut sum = 0.0;
-    let mut count = 0usize;
-    for r in rows {
-        let n = r.y.len();
-        let mut squares = vec![0.0; n];
-        crate::parallel::split_items(&mut squares, |part, squares| {
-            let fitted = combination(&r.a, beta, part.clone());
-            for ((q, y), f) in squares.iter_mut().zip(&r.y[part]).zip(&fitted) {
-                *q = (y - f).powi(2);
-            }
-        });
-        squares.iter().for_each(|q| sum += q);
-        count += n;
-    }
-    (sum / count as f64).sqrt()
 }
 
 /// The reference's values over `run`.

@@ -2,15 +2,21 @@
 //! interleaved level rows, and the Gauss-Newton rows of the exact magnitude.
 
 use super::choice::Chosen;
-use super::level_setup::LevelSetup;
-use super::levels::{self, LevelRows, LowFrequency};
+use super::diagnostics::{run_score_covariance, RunningStd};
+use super::error::FitError;
+pub(super) use super::factor::FoldFactor;
+use super::level_rows::LevelRows;
+use super::level_setup::{LevelReference, LevelSetup};
+use super::levels::{InPass, LowFrequency};
 use super::qr::{stacked_factor, triangular_factor};
+use super::samples::Samples;
+use super::settings::{FitSettings, Lambda, Target};
 pub(super) use super::spare::Spare;
-use super::windows::{window_len, windows_dealt, LevelReference, Windows};
-use super::{FitError, FitSettings, Lambda, Samples, Target};
+use super::window_size::{window_len, windows_dealt};
 use crate::model::design::{Design, Term};
+use crate::model::terms::Column;
 use crate::model::vector::Fluxgates;
-use crate::signal::filter::{filtfilt_many_unless_constant, Butterworth};
+use crate::signal::filter::{filtfilt_many_unless_constant, magnav_bandpass, Butterworth};
 use nalgebra::DMatrix;
 use std::ops::Range;
 
@@ -33,7 +39,7 @@ pub(super) struct Problem<'p, 'a> {
     pub(super) spare: &'p Spare,
     /// Sample rate (Hz).
     pub(super) fs_hz: f64,
-    /// Samples per window of a long run ([`window_samples`]).
+    /// Samples per window of a long run ([`super::window_size::window_samples`]).
     pub(super) window_samples: usize,
     /// Whether the calibration maneuvered too little for the folds to separate the terms
     /// ([`super::prior::PriorWeights::parsimonious`]); known once the band rows are.
@@ -55,6 +61,26 @@ pub(crate) struct AboveBand {
 }
 
 impl AboveBand {
+    /// With extra channels and a band whose upper edge is on (in `settings`): rows above the
+    /// band that only the extra channels' columns explain, for the columns `union`.
+    pub(super) fn of(
+        settings: &FitSettings,
+        fs_hz: f64,
+        union: &[Term],
+    ) -> Result<Option<AboveBand>, FitError> {
+        if settings.design.extras.is_empty() || settings.target != Target::Band {
+            return Ok(None);
+        }
+        let high_pass = magnav_bandpass(settings.band.pass2_hz, 0.0, settings.order, fs_hz)?;
+        Ok(high_pass.map(|filter| AboveBand {
+            filter,
+            extra: union
+                .iter()
+                .map(|t| matches!(t.column, Column::Extra { .. }))
+                .collect(),
+        }))
+    }
+
     /// The same rows for a design of the columns `terms`: only its extra channels' columns
     /// kept (a design without them has its rows zeroed, so they stay part of the score, as they
     /// were for the linear fit it is compared with, but explain nothing).
@@ -70,7 +96,12 @@ impl AboveBand {
 
     /// A run's rows above the band from its unfiltered columns and target (`data`, as
     /// [`FillRun`] writes them), trimmed; the target is the last column.
-    fn rows(&self, data: &[f64], n: usize, trim: usize) -> Result<DMatrix<f64>, FitError> {
+    pub(super) fn rows(
+        &self,
+        data: &[f64],
+        n: usize,
+        trim: usize,
+    ) -> Result<DMatrix<f64>, FitError> {
         let width = data.len() / n;
         let mut a = DMatrix::from_column_slice(n, width, data);
         for (c, keep) in self.extra.iter().enumerate() {
@@ -85,15 +116,15 @@ impl AboveBand {
 }
 
 /// The filtered rows of one run.
-struct RunRows {
+pub(super) struct RunRows {
     /// The columns and the target, column-major, `len` samples each, filtered but not trimmed,
     /// at the start of a buffer that may be longer; empty for a run done in windows.
-    data: Vec<f64>,
-    len: usize,
+    pub(super) data: Vec<f64>,
+    pub(super) len: usize,
     /// Rows above the band (trimmed), the target last; with extra channels only.
-    above: Option<DMatrix<f64>>,
+    pub(super) above: Option<DMatrix<f64>>,
     /// For a run done in windows, its band rows already factored.
-    factored: Option<Factored>,
+    pub(super) factored: Option<Factored>,
 }
 
 /// Consecutive ranges of a run's band rows and their factors.
@@ -105,7 +136,7 @@ pub(super) struct Factored {
     /// to [`Problem::prepare`] start, and their factors.
     pub(super) pieces: Pieces,
     /// The scatter of its filtered target over its band rows.
-    pub(super) target: super::RunningStd,
+    pub(super) target: RunningStd,
 }
 
 /// A used run's rows as the folds count them.
@@ -119,11 +150,11 @@ struct RowCounts<'l> {
 /// level rows and rows above the band.
 pub(super) struct Prepared {
     /// Columns, the target and the signals after it included.
-    width: usize,
+    pub(super) width: usize,
     /// Signals after the target (see [`Problem::prepare`]).
-    extra: usize,
-    trim: usize,
-    runs: Vec<RunRows>,
+    pub(super) extra: usize,
+    pub(super) trim: usize,
+    pub(super) runs: Vec<RunRows>,
     /// Per run, the centred, unweighted level rows; empty without levels.
     pub(super) levels: Vec<LevelRows>,
     pub(super) short: usize,
@@ -145,17 +176,6 @@ pub(super) type Plan = Vec<Vec<Piece>>;
 pub(super) struct BandFactors {
     /// Per run, consecutive ranges of band rows and their factors.
     runs: Vec<Pieces>,
-}
-
-/// One fold's rows reduced to triangular factors of all the columns and the target.
-#[derive(Clone)]
-pub(super) struct FoldFactor {
-    /// Factor of every row of the fold.
-    pub(super) r: DMatrix<f64>,
-    pub(super) rows: usize,
-    /// Factor of its (weighted) level rows alone.
-    pub(super) level_r: DMatrix<f64>,
-    pub(super) level_rows: usize,
 }
 
 /// [`Prepared::plan`] of runs with the rows `runs`.
@@ -245,7 +265,7 @@ fn extend(stretches: &mut Vec<Stretch>, kind: u8, rows: usize) {
 }
 
 /// Where the plans cut the band rows `0..band` of run `run`, its ends included, in order.
-fn cuts_of(plans: &[&Plan], run: usize, band: usize) -> Vec<usize> {
+pub(super) fn cuts_of(plans: &[&Plan], run: usize, band: usize) -> Vec<usize> {
     let mut cuts = vec![0, band];
     for piece in plans.iter().flat_map(|p| p.iter().flatten()) {
         if piece.run == run {
@@ -392,7 +412,7 @@ impl Prepared {
 
     /// Standard deviation of the filtered targets of the band rows and the rows above it (nT).
     pub(super) fn band_std(&self) -> f64 {
-        let mut before = super::RunningStd::default();
+        let mut before = RunningStd::default();
         let target = self.width - 1 - self.extra;
         for run in 0..self.runs.len() {
             if let Some(factored) = &self.runs[run].factored {
@@ -570,7 +590,7 @@ impl Problem<'_, '_> {
     /// in place and, with `levels`, gives its level rows of the columns and the target,
     /// low-passed from the unfiltered signals: with a band-pass, the two filters share the
     /// cores as one job.
-    fn filter_run(
+    pub(super) fn filter_run(
         &self,
         run: Range<usize>,
         signals: &mut [&mut [f64]],
@@ -632,7 +652,7 @@ impl Problem<'_, '_> {
     }
 
     /// Samples trimmed at each end of a run, and the fewest a run needs to give rows.
-    fn trim_and_needed(&self, above_band: Option<&AboveBand>) -> (usize, usize) {
+    pub(super) fn trim_and_needed(&self, above_band: Option<&AboveBand>) -> (usize, usize) {
         let trim = if self.filter.is_some() {
             self.settings.trim
         } else {
@@ -692,7 +712,7 @@ impl Problem<'_, '_> {
             .collect()
     }
 
-    /// The folds of the fluxgate's calibration from the linear rows ([`levels::InPass`]),
+    /// The folds of the fluxgate's calibration from the linear rows ([`InPass`]),
     /// cross-validated as its own fit would be, when they are not those of `band_plan`.
     pub(super) fn calibration_plan(
         &self,
@@ -710,7 +730,7 @@ impl Problem<'_, '_> {
     /// is done whole: shorter than two windows, without a band-pass, with rows above the band,
     /// or with filters that take too long to settle for the overlap to stay small beside a
     /// window.
-    fn window_margin(
+    pub(super) fn window_margin(
         &self,
         n: usize,
         low: Option<&LowFrequency>,
@@ -745,109 +765,8 @@ impl Problem<'_, '_> {
         }
     }
 
-    /// Band rows (and, with `levels`, level rows; with `above_band`, rows above the band) of
-    /// every run long enough, from the `width` columns, the target and the `extra` signals after
-    /// it that `fill` writes. The signals after the target are filtered and factored with the
-    /// others (after the target: the leading columns of a factor are those of the columns
-    /// before, whatever follows) and have no level rows: the fluxgate's magnitude, whose
-    /// calibration [`levels::InPass`] takes from these rows.
-    ///
-    /// Runs of two windows or more are filtered and factored window by window, their band
-    /// rows cut where the folds of `plans` start (see [`Problem::plans_ahead`]).
-    pub(super) fn prepare(
-        &self,
-        width: usize,
-        extra: usize,
-        fill: &FillRun<'_>,
-        levels: Option<&LevelSetup>,
-        above_band: Option<&AboveBand>,
-        plans: &[&Plan],
-    ) -> Result<Prepared, FitError> {
-        let (trim, needed) = self.trim_and_needed(above_band);
-        let signals = width + 1 + extra;
-        let low = levels.map(|l| &l.low);
-        let sizes: Vec<usize> = self
-            .samples
-            .runs
-            .iter()
-            .map(|r| match r.len() < needed {
-                true => 0,
-                false => self.buffer_len(r.len(), width + extra, low, above_band),
-            })
-            .collect();
-        let mut buffers = self.spare.take_each(&sizes).into_iter();
-        let mut runs = Vec::new();
-        let mut level_rows = Vec::new();
-        let mut short = 0;
-        for (run, used) in self.samples.runs.iter().zip(sizes) {
-            let n = run.len();
-            let mut buffer = buffers.next().expect("one buffer per run");
-            if used == 0 {
-                short += n;
-                continue;
-            }
-            if let Some(margin) = self.window_margin(n, low, above_band) {
-                let windows = Windows {
-                    run: run.clone(),
-                    margin,
-                    width,
-                    extra,
-                    trim,
-                };
-                let cuts = cuts_of(plans, runs.len(), n - 2 * trim);
-                if let Some((factored, rows)) =
-                    windows.factor(self, fill, levels, &cuts, &mut buffer)
-                {
-                    #[cfg(test)]
-                    super::windows::windows_in_tests::DONE
-                        .set(super::windows::windows_in_tests::DONE.get() + 1);
-                    self.spare.give([buffer]);
-                    level_rows.extend(rows);
-                    runs.push(RunRows {
-                        data: Vec::new(),
-                        len: n,
-                        above: None,
-                        factored: Some(factored),
-                    });
-                    continue;
-                }
-                // A constant column: the whole run decides what its filters do.
-                buffer.resize(n * signals, 0.0);
-            }
-            let data = &mut buffer[..n * signals];
-            fill(
-                run.clone(),
-                0..n,
-                &mut data.chunks_mut(n).collect::<Vec<_>>(),
-            );
-            let above = match above_band {
-                Some(above) => Some(above.rows(data, n, trim)?),
-                None => None,
-            };
-            let mut signals: Vec<&mut [f64]> = data.chunks_mut(n).collect();
-            if let Some(rows) = self.filter_run(run.clone(), &mut signals, extra, levels)? {
-                level_rows.push(rows);
-            }
-            runs.push(RunRows {
-                data: buffer,
-                len: n,
-                above,
-                factored: None,
-            });
-        }
-        levels::centre(&mut level_rows);
-        Ok(Prepared {
-            width: signals,
-            extra,
-            trim,
-            runs,
-            levels: level_rows,
-            short,
-        })
-    }
-
     /// The low-pass of the heading levels' rows, when the settings ask for levels and they can
-    /// have them (the fluxgate's calibration, which [`Problem::level_setup`] then needs, may
+    /// have them (the fluxgate's calibration, which [`super::run`]`::level_setup` then needs, may
     /// still fail).
     pub(super) fn level_low_pass(&self, fs_hz: f64) -> Result<Option<LowFrequency>, FitError> {
         let s = self.settings;
@@ -857,20 +776,8 @@ impl Problem<'_, '_> {
         Ok(LowFrequency::new(s.band, s.order, s.trim, fs_hz)?)
     }
 
-    /// The reference and low-pass for heading levels, when the settings ask for them and the
-    /// fluxgate can be calibrated.
-    pub(super) fn level_setup(&self, fs_hz: f64) -> Result<Option<LevelSetup>, FitError> {
-        let s = self.settings;
-        let Some(setup) = self.level_setup_pending(fs_hz)? else {
-            return Ok(None);
-        };
-        let flux = self.flux.series()[0];
-        let reference = levels::reference_reusing(flux, self.samples, fs_hz, s, self.spare);
-        Ok(reference.map(|r| setup.with_reference(r, s, fs_hz)))
-    }
-
     /// The low-pass for heading levels, when the settings ask for them, without a reference
-    /// yet: for a fit that calibrates the fluxgate from its own rows ([`levels::InPass`]).
+    /// yet: for a fit that calibrates the fluxgate from its own rows ([`InPass`]).
     pub(super) fn level_setup_pending(&self, fs_hz: f64) -> Result<Option<LevelSetup>, FitError> {
         Ok(self.level_low_pass(fs_hz)?.map(|low| LevelSetup {
             reference: None,
@@ -884,12 +791,12 @@ impl Problem<'_, '_> {
     }
 
     /// `setup` with the reference calibrated from the fold factors `folds` of the linear rows
-    /// ([`levels::InPass`]), and the target of their level rows `rows` made `y − R`; `None`
+    /// ([`InPass`]), and the target of their level rows `rows` made `y − R`; `None`
     /// if the fluxgate cannot be calibrated (the fit then has no levels).
     pub(super) fn calibrated_in_pass(
         &self,
         setup: LevelSetup,
-        in_pass: &levels::InPass,
+        in_pass: &InPass,
         folds: &[FoldFactor],
         rows: &mut [LevelRows],
         fs_hz: f64,
@@ -963,63 +870,10 @@ pub(super) enum LevelChoice {
     Untrusted { misfit_nt: f64 },
 }
 
-/// One run's long-run score covariance (see [`Prepared::score_covariance`]): with `Bₖ` the
-/// centred scores summed over rows `k..k+block`, `n/(block·positions)·Σₖ BₖBₖᵀ`. Block starts
-/// step by an eighth of a block, which costs nothing in accuracy next to the block's own.
-pub(super) fn run_score_covariance(
-    columns: &[&[f64]],
-    residual: &[f64],
-    block: usize,
-) -> DMatrix<f64> {
-    let (p, n) = (columns.len(), residual.len());
-    let score = |c: usize, t: usize| columns[c][t] * residual[t];
-    let mean: Vec<f64> = (0..p)
-        .map(|c| (0..n).map(|t| score(c, t)).sum::<f64>() / n as f64)
-        .collect();
-    // Prefix sums of the centred scores, one row per sample.
-    let mut prefix = DMatrix::zeros(n + 1, p);
-    for t in 0..n {
-        for c in 0..p {
-            prefix[(t + 1, c)] = prefix[(t, c)] + score(c, t) - mean[c];
-        }
-    }
-    let step = (block / 8).max(1);
-    let mut sum = DMatrix::zeros(p, p);
-    let mut positions = 0usize;
-    for k in (0..=n - block).step_by(step) {
-        let b = (prefix.row(k + block) - prefix.row(k)).transpose();
-        sum.ger(1.0, &b, &b, 1.0);
-        positions += 1;
-    }
-    sum * (n as f64 / (block as f64 * positions as f64))
-}
-
 /// Subtracts the mean: a run's intercept, for a target that has no filter to remove it.
 fn remove_mean(x: &mut [f64]) {
     let mean = x.iter().sum::<f64>() / x.len().max(1) as f64;
     x.iter_mut().for_each(|v| *v -= mean);
-}
-
-/// `beta`, the coefficients of `terms`, as coefficients of `columns`: 0 for a column that is
-/// none of `terms`.
-pub(super) fn on_columns(columns: &[Term], terms: &[Term], beta: &[f64]) -> Vec<f64> {
-    columns
-        .iter()
-        .map(|c| terms.iter().position(|t| t == c).map_or(0.0, |k| beta[k]))
-        .collect()
-}
-
-/// The entries of `s`, whose rows and columns are `columns`, for the rows and columns
-/// `terms` (zero for a term not among `columns`).
-pub(super) fn on_column_pairs(columns: &[Term], terms: &[Term], s: &DMatrix<f64>) -> DMatrix<f64> {
-    let at: Vec<Option<usize>> = terms
-        .iter()
-        .map(|t| columns.iter().position(|c| c == t))
-        .collect();
-    DMatrix::from_fn(terms.len(), terms.len(), |i, j| match (at[i], at[j]) {
-        (Some(a), Some(b)) => s[(a, b)],
-        _ => 0.0,
-    })
 }
 
 #[cfg(test)]
@@ -1027,24 +881,6 @@ mod tests {
     use super::*;
 
     use crate::fit::ridge::Ridge;
-
-    #[test]
-    fn coefficients_go_to_the_columns_of_their_terms() {
-        use crate::model::terms::{Axis, Column};
-        let term = |column| Term {
-            fluxgate: 0,
-            column,
-        };
-        let (x, y, z) = (
-            term(Column::Permanent(Axis::X)),
-            term(Column::Permanent(Axis::Y)),
-            term(Column::Permanent(Axis::Z)),
-        );
-        assert_eq!(
-            on_columns(&[x, y, z], &[z, x], &[3.0, 1.0]),
-            [1.0, 0.0, 3.0]
-        );
-    }
 
     /// [`merged_kinds`] a row at a time, as the rows were once merged.
     fn kinds_row_by_row(band: usize, trim: usize, level_at: &[usize], above: usize) -> Vec<u8> {

@@ -1,10 +1,11 @@
 //! What a fit knows about how far to trust it: the coefficients' covariance, the correction's
 //! uncertainty over the calibration, the span the calibration covered, and the verdict.
 
+use crate::fit::outcome::Diagnostics;
 use crate::fit::plausible::{self, Fault};
 use crate::fit::ridge::RidgeSolution;
+use crate::fit::settings::Lambda;
 use crate::fit::verdict::{judge, Evidence, Verdict, MIN_TERM_EFFECT_NT};
-use crate::fit::{Diagnostics, Lambda};
 use crate::model::coverage::Coverage;
 use crate::model::design::{central_difference, Design};
 use crate::model::terms::Column;

@@ -2,10 +2,12 @@
 //! where the run goes on, and its core's band rows factored, on whichever core is free, so the
 //! rows of a whole run need never be held at once.
 
-use super::level_setup::LevelSetup;
-use super::levels::{self, LevelRows};
+use super::diagnostics::RunningStd;
+use super::level_rows::LevelRows;
+use super::level_setup::{LevelReference, LevelSetup};
 use super::problem::*;
 use super::qr::RowFactor;
+use super::window_size::{window_core, window_len, windows_dealt};
 use crate::signal::filter::{
     filtfilt_window_handed, filtfilt_window_sampled, surely_varying, Butterworth, Ends, Fed, Jumps,
     PREFIX,
@@ -13,74 +15,10 @@ use crate::signal::filter::{
 use std::ops::Range;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
-/// Samples per window of a long run, which is filtered and factored window by window, each
-/// window taken whole by the next core free: the rows of a whole run need not be held at once (at 10⁷
-/// samples and 19 columns they are 1.5 GB, which on a virtual machine take seconds to fault in).
-/// Runs shorter than two windows are done whole. 2¹⁶ to 2¹⁹ timed the same at 10⁷ samples;
-/// 2¹⁸ keeps the overlap a thirtieth of a window and two windows' buffers near 85 MB. Tests
-/// run with it too; those about windows ask for shorter ones ([`with_window_samples`]).
-const WINDOW_SAMPLES: usize = 1 << 18;
-
-thread_local! {
-    /// Samples per window of the fits started on this thread when not [`WINDOW_SAMPLES`]: set
-    /// only by [`with_window_samples`], so a test can have a run of tens of thousands of
-    /// samples done in windows.
-    static WINDOW_SAMPLES_HERE: std::cell::Cell<Option<usize>> = const { std::cell::Cell::new(None) };
-}
-
-/// Samples per window of a fit started on this thread.
-pub(super) fn window_samples() -> usize {
-    WINDOW_SAMPLES_HERE.get().unwrap_or(WINDOW_SAMPLES)
-}
-
-/// Runs `f` with the fits it starts on this thread cutting long runs into windows of
-/// `samples` (at least 2¹⁰).
-#[cfg(test)]
-pub(super) fn with_window_samples<T>(samples: usize, f: impl FnOnce() -> T) -> T {
-    let before = WINDOW_SAMPLES_HERE.replace(Some(samples.max(1 << 10)));
-    let out = f();
-    WINDOW_SAMPLES_HERE.set(before);
-    out
-}
-
-/// Samples of each window's own part (its core) of a run of `n` samples done in windows of
-/// `window` samples: the run cut into equal parts of at most `window`, as many as a multiple
-/// of [`WINDOW_MULTIPLE`].
-fn window_core(n: usize, window: usize) -> usize {
-    n.div_ceil(n.div_ceil(window).next_multiple_of(WINDOW_MULTIPLE))
-}
-
-/// The windows of a run come in a multiple of this many. They are taken whole by the cores:
-/// with one window more than a multiple of the cores (39 at 10⁷ samples on two), one core
-/// worked through it alone while the other waited, 0.14 s per pass over the rows. The layout
-/// does not depend on the cores, so neither do the values; four balances one, two and four.
-const WINDOW_MULTIPLE: usize = 4;
-
-/// Samples of the longest window of a run of `n` samples done in windows of `window` samples
-/// overlapping by `margin`: a core and a margin on each side.
-pub(super) fn window_len(n: usize, window: usize, margin: usize) -> usize {
-    window_core(n, window) + 2 * margin
-}
-
-/// Windows of a run of `n` samples done in windows of `window` samples that are worked on at
-/// once: one per core, at most one per window. A window's buffer is taken for each.
-pub(super) fn windows_dealt(n: usize, window: usize) -> usize {
-    crate::parallel::cores().min(n.div_ceil(window_core(n, window)))
-}
-
-/// In tests, how many runs were done in windows.
-#[cfg(test)]
-pub(super) mod windows_in_tests {
-    use std::cell::Cell;
-    thread_local! {
-        pub(in crate::fit) static DONE: Cell<usize> = const { Cell::new(0) };
-    }
-}
-
 /// A long run done window by window: each window is the run's samples of its core (about
-/// [`WINDOW_SAMPLES`]) widened by `margin` on each side within the run, filled, filtered with
-/// open ends where the run goes on, and its core's band rows factored; the margins' values are
-/// thrown away once their filters have settled.
+/// [`super::window_size::window_samples`] of them) widened by `margin` on each side within the
+/// run, filled, filtered with open ends where the run goes on, and its core's band rows
+/// factored; the margins' values are thrown away once their filters have settled.
 pub(super) struct Windows {
     pub(super) run: Range<usize>,
     pub(super) margin: usize,
@@ -96,7 +34,7 @@ pub(super) struct Windows {
 /// its level rows, per signal.
 struct WindowPart {
     pieces: Pieces,
-    target: Vec<super::RunningStd>,
+    target: Vec<RunningStd>,
     sampled: Vec<Vec<f64>>,
 }
 
@@ -110,38 +48,6 @@ struct WindowInputs<'w, 'p, 'a> {
     kept: Option<Vec<usize>>,
     /// What the level rows' target is the scalar less, with levels.
     reference: Option<LevelReference<'w>>,
-}
-
-/// What the level rows' target is the scalar less, over a run.
-#[derive(Clone, Copy)]
-pub(super) enum LevelReference<'w> {
-    /// The calibrated reference's values (nT).
-    Values(&'w [f64]),
-    /// The fluxgate's magnitude, the signal after the target, while the fluxgate is calibrated
-    /// from the same rows ([`levels::InPass`]): the calibration's correction joins the level
-    /// rows' target afterwards. The magnitude rather than nothing, so that the low-pass sees
-    /// the small difference of two fields of 50 000 nT rather than each (its rounding is
-    /// relative to what it filters).
-    Magnitude,
-}
-
-impl<'w> LevelReference<'w> {
-    /// The reference of `setup` over `run`.
-    pub(super) fn of(setup: &'w LevelSetup, run: Range<usize>) -> Self {
-        match &setup.reference {
-            Some(r) => LevelReference::Values(levels::reference_over(r, run)),
-            None => LevelReference::Magnitude,
-        }
-    }
-
-    /// The reference over `rows` (of the run), its `signals` over them at hand: the columns,
-    /// the target, the magnitude.
-    fn over<'s, S: AsRef<[f64]>>(&'s self, rows: Range<usize>, signals: &'s [S]) -> &'s [f64] {
-        match self {
-            LevelReference::Values(values) => &values[rows],
-            LevelReference::Magnitude => signals[signals.len() - 1].as_ref(),
-        }
-    }
 }
 
 impl Windows {
@@ -235,7 +141,7 @@ impl Windows {
     ) -> (Factored, Option<LevelRows>) {
         let mut factored = Factored {
             pieces: Vec::new(),
-            target: super::RunningStd::default(),
+            target: RunningStd::default(),
         };
         let mut sampled = Vec::new();
         for part in parts {
@@ -350,7 +256,7 @@ impl Windows {
         core: &Core,
         cuts: &[usize],
         fed: &mut Fed,
-    ) -> (Pieces, Vec<super::RunningStd>) {
+    ) -> (Pieces, Vec<RunningStd>) {
         let n = self.run.len();
         let window_start = core.window.start;
         let samples = core.core.start.max(self.trim)..core.core.end.min(n - self.trim);
@@ -386,7 +292,7 @@ impl Windows {
                 }
             }
             let values = &handed[self.width][index(stretch.start)..index(stretch.end)];
-            target.push(super::RunningStd::of_block(values));
+            target.push(RunningStd::of_block(values));
         };
         filtfilt_window_handed(band, columns, core.ends, first, fed, &mut take);
         // The stretches came from the last.

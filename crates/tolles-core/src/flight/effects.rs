@@ -31,7 +31,7 @@
 //! ([`EffectsTrack`]), on a random stream of its own: the sensor noise of a flight with effects
 //! is the noise of the same flight without them.
 
-use super::sim::{add, norm};
+use super::vec3::{add, norm};
 use crate::model::interpret::AircraftField;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;

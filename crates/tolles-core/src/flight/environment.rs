@@ -13,11 +13,42 @@
 //! total-field effects: they are added along the direction of the main field.
 
 use crate::flight::igrf::{self, IgrfError};
-use crate::flight::sim::EarthField;
 use serde::{Deserialize, Serialize};
 
 /// Mean earth radius for the flat-earth offsets (m).
 const EARTH_RADIUS_M: f64 = 6_371_000.0;
+
+/// A uniform earth field.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct EarthField {
+    /// Total intensity (nT).
+    pub intensity_nt: f64,
+    /// Inclination (dip), positive down (degrees).
+    pub inclination_deg: f64,
+    /// Declination, clockwise from true north (degrees).
+    pub declination_deg: f64,
+}
+
+impl Default for EarthField {
+    /// A mid-latitude northern field: 52 000 nT, dip 68°, declination −3°.
+    fn default() -> Self {
+        Self {
+            intensity_nt: 52_000.0,
+            inclination_deg: 68.0,
+            declination_deg: -3.0,
+        }
+    }
+}
+
+impl EarthField {
+    /// The field in NED (nT).
+    pub fn ned(&self) -> [f64; 3] {
+        let (si, ci) = self.inclination_deg.to_radians().sin_cos();
+        let (sd, cd) = self.declination_deg.to_radians().sin_cos();
+        let f = self.intensity_nt;
+        [f * ci * cd, f * ci * sd, f * si]
+    }
+}
 
 /// Where and when the flight starts.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

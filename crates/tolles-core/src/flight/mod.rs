@@ -10,3 +10,4 @@ pub mod maneuver_list;
 pub mod plan;
 pub mod sensor;
 pub mod sim;
+mod vec3;

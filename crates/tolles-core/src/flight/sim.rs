@@ -29,10 +29,13 @@
 
 pub use crate::flight::effects::Effects;
 use crate::flight::effects::EffectsTrack;
+// The uniform field is the environment's; kept public here, where it was first defined.
+pub use crate::flight::environment::EarthField;
 use crate::flight::environment::{Environment, Location};
 use crate::flight::igrf::IgrfError;
 use crate::flight::plan::Plan;
 pub use crate::flight::sensor::{Fluxgate, Sensors};
+use crate::flight::vec3::{add, norm};
 use crate::model::interpret::AircraftField;
 use crate::model::vector::VectorSeries;
 use rand::SeedableRng;
@@ -40,38 +43,6 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
-
-/// A uniform earth field.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct EarthField {
-    /// Total intensity (nT).
-    pub intensity_nt: f64,
-    /// Inclination (dip), positive down (degrees).
-    pub inclination_deg: f64,
-    /// Declination, clockwise from true north (degrees).
-    pub declination_deg: f64,
-}
-
-impl Default for EarthField {
-    /// A mid-latitude northern field: 52 000 nT, dip 68°, declination −3°.
-    fn default() -> Self {
-        Self {
-            intensity_nt: 52_000.0,
-            inclination_deg: 68.0,
-            declination_deg: -3.0,
-        }
-    }
-}
-
-impl EarthField {
-    /// The field in NED (nT).
-    pub fn ned(&self) -> [f64; 3] {
-        let (si, ci) = self.inclination_deg.to_radians().sin_cos();
-        let (sd, cd) = self.declination_deg.to_radians().sin_cos();
-        let f = self.intensity_nt;
-        [f * ci * cd, f * ci * sd, f * si]
-    }
-}
 
 /// A field proportional to an electrical current, such as a UAV's motor supply.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -495,14 +466,6 @@ fn body_rate(plan: &Plan, ned: [f64; 3], t: f64) -> [f64; 3] {
 
 fn normal(sigma: f64) -> Normal<f64> {
     Normal::new(0.0, sigma).expect("checked: finite and non-negative")
-}
-
-pub(super) fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-}
-
-pub(super) fn norm(v: [f64; 3]) -> f64 {
-    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
 }
 
 #[cfg(test)]

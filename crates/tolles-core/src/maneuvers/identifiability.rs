@@ -175,7 +175,7 @@ pub fn suggest(
 }
 
 /// The 16 patent terms as linear functions of a design's coefficients (16 × columns), for a
-/// design built at `fs_hz`. Names are those of [`crate::model::interpret::PatentTerms::named`].
+/// design built at `fs_hz`. Names are those of [`crate::patent::PatentTerms::named`].
 pub fn patent_map(design: &Design, fs_hz: f64) -> (Vec<String>, DMatrix<f64>) {
     let p = design.width();
     let names: Vec<String> = AircraftField::default()

@@ -44,8 +44,10 @@ pub mod harmonics;
 pub mod procedure;
 // The printed tables are long data; they live in their own file but belong to this module's API.
 mod tables;
+mod terms;
 
 pub use tables::{closed_form, printed_table, ClosedForm, ClosedHarmonics, PrintedRow, Provenance};
+pub use terms::{EddyPatentTerms, InducedPatentTerms, PatentTerms, PermTerms};
 
 use crate::flight::attitude::Attitude;
 use crate::maneuvers::ManeuverKind;
@@ -227,7 +229,7 @@ impl Term {
         Term::EddyVT,
     ];
 
-    /// The 16 terms a scalar magnetometer can see (as in [`crate::model::interpret::PatentTerms`]).
+    /// The 16 terms a scalar magnetometer can see (as in [`PatentTerms`]).
     pub const OBSERVABLE: [Term; 16] = [
         Term::PermT,
         Term::PermL,

@@ -5,8 +5,8 @@
 
 use super::open_error;
 use crate::error::IoError;
+use crate::header::MAX_HEADER_BYTES;
 use crate::rawcsv::{body_rows, header_line_names, Bytes, RawRows};
-use crate::table::MAX_HEADER_BYTES;
 use std::fs::File;
 use std::io::Read;
 use std::path::Path;

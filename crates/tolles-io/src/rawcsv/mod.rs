@@ -31,7 +31,7 @@ pub use write::{format_number, write_rows};
 use crate::bytemask::{any_of, each_of, with_block, BLOCK};
 use crate::decimal::plain_decimal;
 use crate::error::IoError;
-use crate::table::parse_cell;
+use crate::header::{check_header, parse_cell};
 use rayon::prelude::*;
 use std::ops::{Deref, Range};
 use std::path::Path;
@@ -161,7 +161,7 @@ fn from_bytes_in_pieces(
 ) -> Option<RawCsv> {
     let header_end = memchr::memchr(b'\n', &bytes)?;
     let headers = header_line_names(&bytes[..=header_end])?;
-    crate::table::check_header(path, &headers).ok()?;
+    check_header(path, &headers).ok()?;
     let fields = wanted(&headers);
     let body = header_end + 1..bytes.len();
     let (rows, lines) = rows_in(
@@ -330,7 +330,7 @@ pub(crate) fn header_line_names(line: &[u8]) -> Option<Vec<String>> {
     // A quote may hide a line break in a name, a carriage return inside the line ends the header
     // early for the general reader, and an overlong header is the general reader's error.
     let inside = line.strip_suffix(b"\r\n").unwrap_or(&line[..end]);
-    if line.contains(&b'"') || inside.contains(&b'\r') || end > crate::table::MAX_HEADER_BYTES {
+    if line.contains(&b'"') || inside.contains(&b'\r') || end > crate::header::MAX_HEADER_BYTES {
         return None;
     }
     header_names(line)

@@ -6,12 +6,15 @@ mod chunked;
 pub use chunked::{needs_bounded_memory, reads_in_chunks};
 
 use crate::error::{Error, Result};
+// Checking a model is the model's; `tolles::compensate::check_model` stays the public path.
+pub use crate::model::check_model;
 use crate::model::{ModelFile, ScalarModel};
-use crate::read::{Flight, Selection};
+use crate::read::Flight;
+use crate::selection::Selection;
 use crate::warning::Warning;
 use rayon::prelude::*;
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::str::FromStr;
 use tolles_core::compensate::chunk::{ChunkCompensator, ChunkField, Setup};
 use tolles_core::compensate::{with_level, Compensation, Level};
@@ -128,7 +131,7 @@ pub fn compensate(
             warnings.extend(steps_back);
         }
         warnings.extend(noticed);
-        warnings.extend(crate::fit::verdict_warning(&fit.scalar, &fit.fit));
+        warnings.extend(crate::warning::verdict_warning(&fit.scalar, &fit.fit));
         let (path, of, column) = (table.path(), table.len(), &fit.output_column);
         warnings.extend(Warning::extrapolated(path, trust.outside, of, column));
         warnings.extend(Warning::uncomputable(path, result.uncomputable, of, column));
@@ -415,16 +418,6 @@ pub struct FileOutcome {
     pub selected: Option<Selection>,
     /// Rows written.
     pub rows: usize,
-}
-
-/// Checks that `model` holds fits; `path` names it in the error.
-pub fn check_model(model: &ModelFile, path: &Path) -> Result<()> {
-    if model.fits.is_empty() {
-        return Err(Error::EmptyModel {
-            path: path.to_path_buf(),
-        });
-    }
-    Ok(())
 }
 
 /// Compensates the survey file of `request` with `model` and writes it with one compensated

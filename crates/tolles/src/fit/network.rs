@@ -18,6 +18,8 @@
 
 use crate::error::{Error, Result};
 use crate::model::ScalarModel;
+// Defined with the judged results in the model file, which the warnings also read.
+pub use crate::model::KEEP_MARGIN;
 use crate::model::{HeldOut, LearnedCorrection};
 use crate::read::Flight;
 use crate::warning::Warning;
@@ -34,9 +36,6 @@ pub const MIN_LINES: usize = 10;
 
 /// Shares of the rows for training, early stopping and judging.
 const SHARES: [f64; 3] = [0.6, 0.2, 0.2];
-
-/// How much less than the linear model a network must leave on the judging rows to be kept.
-pub const KEEP_MARGIN: f64 = 0.05;
 
 /// What to learn with: the network's settings and its own input channels.
 #[derive(Debug, Clone, PartialEq, Default)]

@@ -35,8 +35,9 @@ use serde::{Deserialize, Serialize};
 use std::path::Path;
 use tolles_core::fit::Fit;
 use tolles_core::model::extra::{MAX_LAG_S, MAX_LOWPASS_HZ, MIN_LOWPASS_HZ};
-use tolles_core::model::interpret::{AircraftField, PatentTerms};
+use tolles_core::model::interpret::AircraftField;
 use tolles_core::model::network::{feature_names, Network};
+use tolles_core::patent::PatentTerms;
 use tolles_io::IoError;
 
 /// The `format` tag of a model file.
@@ -116,6 +117,9 @@ pub struct LearnedCorrection {
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub joint: bool,
 }
+
+/// How much less than the linear model a network must leave on the judging rows to be kept.
+pub const KEEP_MARGIN: f64 = 0.05;
 
 /// The pieces of a calibration flight that `fit --network` deals to training, stopping and
 /// judging.

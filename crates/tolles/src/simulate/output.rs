@@ -18,7 +18,8 @@ use serde::Serialize;
 use std::path::Path;
 use tolles_core::flight::plan::Plan;
 use tolles_core::flight::sim::{Scenario, SimulatedFlight};
-use tolles_core::model::interpret::{AircraftField, PatentTerms};
+use tolles_core::model::interpret::AircraftField;
+use tolles_core::patent::PatentTerms;
 use tolles_io::simulation::{write_named_columns, COLUMNS, EFFECT_COLUMNS};
 use tolles_io::IoError;
 
