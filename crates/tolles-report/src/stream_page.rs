@@ -136,7 +136,7 @@ const SCRIPT: &str = r##"
       return [l.line, fmt(l.start_s, 1) + "–" + fmt(l.end_s, 1), l.samples, fmt(l.noise_nt, 4), fmt(l.peak_fourth_difference_nt, 3), l.pass ? "pass" : "FAIL"];
     });
     document.getElementById("status-line").textContent = "stream " + s.status + " · " +
-      fmt(s.lines_per_s, 1) + " lines/s · last line " + fmt(s.since_last_line_s, 1) + " s ago · " + s.fs_hz + " Hz";
+      fmt(s.lines_per_s, 1) + " lines/s · last line " + fmt(s.since_last_line_s, 1) + " s ago · " + fmt(s.fs_hz, 3) + " Hz";
     if (s.chart) { draw(s.chart); }
   }
   function poll() {

@@ -16,7 +16,7 @@ use std::collections::VecDeque;
 use std::io::{BufRead, BufReader, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream};
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
-use std::sync::mpsc::{sync_channel, Receiver, RecvTimeoutError, SyncSender, TrySendError};
+use std::sync::mpsc::{sync_channel, Receiver, SyncSender, TryRecvError, TrySendError};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use tolles_core::maneuvers::live::{BoxSample, LiveBox, LiveBoxSettings};
@@ -62,6 +62,8 @@ const CHART_S: f64 = 300.0;
 const CHART_POINTS: usize = 1500;
 /// Seconds of flight the noise tile is taken over (s).
 const NOISE_S: f64 = 10.0;
+/// How often the worker takes what the stream queued.
+const DRAIN: Duration = Duration::from_millis(20);
 /// How often the worker publishes (and an event stream sends) a snapshot.
 const PUBLISH: Duration = Duration::from_millis(250);
 /// No line for this long and the stream reads as stalled.
@@ -236,22 +238,38 @@ impl Worker {
         }
     }
 
+    /// Drains the queue every [`DRAIN`] instead of waiting on it: a receiver blocked on the
+    /// channel makes every send a wake-up system call, which the stream would pay line by line.
     fn run(mut self, receiver: Receiver<Message>) {
         let mut published_at = Instant::now();
+        let mut idle_since = Instant::now();
         loop {
-            match receiver.recv_timeout(PUBLISH) {
-                Ok(Message::Sample(s)) => self.take(s),
-                Ok(Message::Ended) | Err(RecvTimeoutError::Disconnected) => {
-                    self.live_box.finish();
-                    self.close_line();
-                    self.ended.store(true, Ordering::Relaxed);
-                    self.publish();
-                    return;
+            std::thread::sleep(DRAIN);
+            let mut took = false;
+            loop {
+                match receiver.try_recv() {
+                    Ok(Message::Sample(s)) => {
+                        self.take(s);
+                        took = true;
+                    }
+                    Ok(Message::Ended) | Err(TryRecvError::Disconnected) => {
+                        self.live_box.finish();
+                        self.close_line();
+                        self.ended.store(true, Ordering::Relaxed);
+                        self.publish();
+                        return;
+                    }
+                    Err(TryRecvError::Empty) => break,
                 }
+            }
+            match took {
+                true => idle_since = Instant::now(),
                 // Nothing for a while: a paused stream shows what it has flown so far.
-                Err(RecvTimeoutError::Timeout) => {
+                false if idle_since.elapsed() >= PUBLISH => {
                     self.live_box.score_now();
+                    idle_since = Instant::now();
                 }
+                false => {}
             }
             if published_at.elapsed() >= PUBLISH {
                 self.publish();
