@@ -88,3 +88,13 @@ pub fn group_thousands(n: usize) -> String {
     }
     out
 }
+/// `value ± error` to the error's two significant digits (53544.7 ± 6.3, not 53544.701 ±
+/// 6.312): digits beyond what the error allows are noise. Three decimals when the error is not
+/// a positive finite number.
+pub fn with_error(value: f64, error: f64) -> String {
+    let decimals = match error.is_finite() && error > 0.0 {
+        true => (1 - error.log10().floor() as i32).clamp(0, 9) as usize,
+        false => 3,
+    };
+    format!("{value:.decimals$} ± {error:.decimals$}")
+}

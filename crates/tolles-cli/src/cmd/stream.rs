@@ -149,12 +149,14 @@ pub fn run(args: Args) -> Result<()> {
     }
     match &args.listen {
         None => {
-            let result = tolles::stream::serve(
-                &setup,
-                &stats,
-                std::io::stdin().lock(),
-                std::io::stdout().lock(),
-            );
+            let input = std::io::stdin().lock();
+            // With the page, standard output is closed when the input ends, so a reader sees
+            // the end of the answers while the page lingers.
+            let owned = live.as_ref().and_then(|_| owned_stdout());
+            let result = match owned {
+                Some(out) => tolles::stream::serve(&setup, &stats, input, out),
+                None => tolles::stream::serve(&setup, &stats, input, std::io::stdout().lock()),
+            };
             if !args.quiet {
                 note!("{}", health(&stats));
             }
@@ -203,6 +205,20 @@ fn live_page(args: &Args, address: &str, model: &ModelFile, setup: &Setup) -> Re
     let live = Live::start(request, page).or_render()?;
     note!("live page at http://{}/", live.address());
     Ok(live)
+}
+
+/// Standard output as a file this command owns, so dropping it closes it.
+#[cfg(unix)]
+fn owned_stdout() -> Option<std::fs::File> {
+    use std::os::fd::FromRawFd;
+    // SAFETY: descriptor 1 is open for the life of the process, and nothing in `stream` writes
+    // to standard output once the stream's writer (this file) has been dropped.
+    Some(unsafe { std::fs::File::from_raw_fd(1) })
+}
+
+#[cfg(not(unix))]
+fn owned_stdout() -> Option<std::fs::File> {
+    None
 }
 
 /// Keeps the live page up `seconds` after the input ended, so its last state can be read.

@@ -426,18 +426,18 @@ fn live_keeps_stdout_as_it_is_and_serves_the_state() {
     let mut stdin = child.stdin.take().unwrap();
     let input = survey.clone();
     let writer = std::thread::spawn(move || stdin.write_all(input.as_bytes()).unwrap());
+    // Standard output ends with the input, while the page lingers (30 s) to be read.
     let mut out = String::new();
     let mut stdout = BufReader::new(child.stdout.take().unwrap());
-    for _ in 0..survey.lines().count() {
-        stdout.read_line(&mut out).unwrap();
-    }
+    stdout.read_to_string(&mut out).unwrap();
+    assert_eq!(out.lines().count(), survey.lines().count());
     writer.join().unwrap();
     let batch = run(
         dir.path(),
         &["compensate", "survey.csv", "--model", "m.json"],
     );
     check_equivalent(&survey, &batch, &out);
-    // The page, after the input ended, while it lingers: every line, the last value.
+    // The page, after the input and the output ended: every line, the last value.
     std::thread::sleep(std::time::Duration::from_millis(600));
     let mut connection = TcpStream::connect(&address).unwrap();
     connection

@@ -54,13 +54,13 @@ pub(super) fn heading_error(mut report: Report, data: &ReportData) -> Report {
 
 pub(super) fn heading_error_text(levels: &HeadingLevels) -> String {
     match (levels.heading_error_nt, levels.uncertainty_nt) {
-        (Some(e), Some(u)) => format!("{e:.3} ± {u:.3} nT"),
+        (Some(e), Some(u)) => format!("{} nT", crate::numbers::with_error(e, u)),
         _ => "none (fewer than two headings)".into(),
     }
 }
 
 pub(super) fn heading_cells(row: &HeadingRow) -> Vec<String> {
-    let level = |(l, se): (f64, f64)| format!("{l:.3} ± {se:.3}");
+    let level = |(l, se): (f64, f64)| crate::numbers::with_error(l, se);
     vec![
         format!("{:.0}", row.heading_deg),
         row.samples.to_string(),
