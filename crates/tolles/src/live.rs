@@ -38,6 +38,30 @@ pub struct LiveRequest {
     pub verdict: String,
 }
 
+impl LiveRequest {
+    /// The verdict of `model`'s first fit (the scalar the page shows), `unknown` for a model
+    /// file that has none.
+    pub fn verdict_of(model: &crate::model::ModelFile) -> String {
+        (model.fits.first().and_then(|f| f.fit.verdict.as_ref()))
+            .map_or("unknown".to_string(), |v| v.grade.to_string())
+    }
+
+    /// A specification that is not a positive number of nT is refused.
+    fn check(&self) -> Result<()> {
+        for (what, value) in [
+            ("--noise-spec", self.noise_spec_nt),
+            ("--fom-spec", self.fom_spec_nt),
+        ] {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(Error::Invalid(format!(
+                    "{what} must be a positive number of nT, got {value}"
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
 /// The page's files: the HTML (with [`LIVE_ELEMENT`] where the state element goes) and the
 /// chart library it loads.
 #[derive(Debug, Clone)]
@@ -156,6 +180,7 @@ impl Live {
     /// Binds `request.address` (an error naming it when taken) and starts the worker and the
     /// server threads.
     pub fn start(request: LiveRequest, page: LivePage) -> Result<Live> {
+        request.check()?;
         let listener = TcpListener::bind(&request.address).map_err(|source| Error::LiveBind {
             address: request.address.clone(),
             source,

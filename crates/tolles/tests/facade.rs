@@ -150,6 +150,16 @@ fn the_live_page_shows_what_the_stream_answered_and_never_holds_it_up() {
         address: live.address().to_string(),
         ..request
     };
+    let zero = LiveRequest {
+        noise_spec_nt: 0.0,
+        ..taken.clone()
+    };
+    let bad = Live::start(zero, bare_page()).err().unwrap();
+    assert!(
+        bad.to_string()
+            .contains("--noise-spec must be a positive number"),
+        "{bad}"
+    );
     let refused = Live::start(taken, bare_page()).err().unwrap();
     assert!(
         refused.to_string().contains(&live.address().to_string()),

@@ -177,24 +177,12 @@ const HEALTH_PERIOD: Duration = Duration::from_secs(5);
 
 /// Starts the live page at `address` (see `tolles::live`), saying where on stderr.
 fn live_page(args: &Args, address: &str, model: &ModelFile, setup: &Setup) -> Result<Live> {
-    for (flag, value) in [
-        ("--noise-spec", args.noise_spec),
-        ("--fom-spec", args.fom_spec),
-    ] {
-        if !(value.is_finite() && value > 0.0) {
-            return Err(anyhow!(
-                "{flag} must be a positive number of nT, got {value}"
-            ));
-        }
-    }
-    let verdict = (model.fits.first().and_then(|f| f.fit.verdict.as_ref()))
-        .map_or("unknown".to_string(), |v| v.grade.to_string());
     let request = LiveRequest {
         address: address.to_string(),
         noise_spec_nt: args.noise_spec,
         fom_spec_nt: args.fom_spec,
         fs_hz: setup.fs_hz(),
-        verdict,
+        verdict: LiveRequest::verdict_of(model),
     };
     let title = format!("tolles stream: {}", args.model.display());
     let page = LivePage {
