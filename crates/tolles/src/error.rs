@@ -12,7 +12,6 @@ use tolles_core::maneuvers::heading::HeadingError;
 use tolles_core::maneuvers::identifiability::PlanningError;
 use tolles_core::patent::procedure::ProcedureError;
 use tolles_core::signal::filter::FilterError;
-use tolles_core::signal::spectrum::SpectrumError;
 use tolles_io::schema::TIME_COLUMN;
 use tolles_io::select::SelectError;
 use tolles_io::IoError;
@@ -356,11 +355,29 @@ pub enum Error {
         /// The value given (degrees).
         value: f64,
     },
-    /// A maneuver period that is not a positive number of seconds.
-    #[error("the maneuver period must be a positive number of seconds, got {period_s}")]
-    BadPeriod {
-        /// The period asked for (s).
-        period_s: f64,
+    /// A numeric setting of `simulate` outside its range.
+    #[error("{flag} ({python}= in Python) must lie within {low}..={high} {unit}, got {value}")]
+    SimulateSetting {
+        /// The command-line flag.
+        flag: &'static str,
+        /// The Python keyword.
+        python: &'static str,
+        /// The smallest value allowed, in `unit`.
+        low: f64,
+        /// The largest value allowed, in `unit`.
+        high: f64,
+        /// The setting's unit.
+        unit: &'static str,
+        /// The value given, in `unit`.
+        value: f64,
+    },
+    /// A simulated flight longer than the sample limit.
+    #[error("the flight would hold {samples:.3e} samples, more than {limit:.0e}: ask for fewer --lines or --cycles, a shorter --line-duration or --period, or a lower --fs")]
+    SimulateTooLong {
+        /// The samples the plan and rate ask for.
+        samples: f64,
+        /// The most a flight may hold.
+        limit: f64,
     },
     /// A fit whose network `stream --adapt` cannot adapt (`fit --network`).
     #[error("{}: the fit of {scalar} holds a network, which --adapt cannot adapt; stream without --adapt, or fit without --network", path.display())]
@@ -401,14 +418,6 @@ pub enum Error {
     /// A filter could not be designed for the data's sample rate.
     #[error(transparent)]
     FilterDesign(#[from] FilterError),
-    /// A spectrum could not be computed, e.g. too few samples without gaps.
-    #[error("spectrum of the {signal} scalar: {reason}")]
-    Spectrum {
-        /// Which signal: `uncompensated` or `compensated`.
-        signal: &'static str,
-        /// Why the spectrum could not be computed.
-        reason: SpectrumError,
-    },
 }
 
 /// The result of a workflow.

@@ -372,6 +372,7 @@ pub fn fit(
     check_extras(table, request)?;
     if let Some(network) = &request.network {
         network::check(network)?;
+        network::check_no_target(network, &request.scalars, request.reference.as_deref())?;
     }
     if request.network.is_some() && request.reference.is_none() {
         return Err(Error::Invalid(

@@ -119,8 +119,9 @@ pub struct ReportData {
     pub truth: Option<Vec<f64>>,
     /// Compensated minus truth, with a model and a truth column.
     pub error: Option<TruthError>,
-    /// Power spectral density of the scalar before compensation (nT²/Hz).
-    pub spectrum_before: Spectrum,
+    /// Power spectral density of the scalar before compensation (nT²/Hz); `None` when the
+    /// flight is too short for one (a warning says so).
+    pub spectrum_before: Option<Spectrum>,
     /// The same after compensation, with a model.
     pub spectrum_after: Option<Spectrum>,
     /// The counted box maneuvers, in the order found.
@@ -428,12 +429,17 @@ fn build_scalar(
             .zip(truth.as_deref())
             .map(|(c, truth)| truth_error(c, truth)),
         truth: truth.as_deref().map(centred),
-        spectrum_before: spectrum(&outcome.scalar, outcome.fs_hz, "uncompensated")?,
+        spectrum_before: spectrum(
+            table,
+            &outcome.scalar,
+            outcome.fs_hz,
+            "uncompensated",
+            warnings,
+        ),
         spectrum_after: outcome
             .compensated
             .as_deref()
-            .map(|c| spectrum(c, outcome.fs_hz, "compensated"))
-            .transpose()?,
+            .and_then(|c| spectrum(table, c, outcome.fs_hz, "compensated", warnings)),
         maneuvers: maneuver_rows(&outcome),
         headings: heading_rows(&outcome),
         request: request.clone(),
@@ -500,8 +506,23 @@ fn truth_error(compensated: &[f64], truth: &[f64]) -> TruthError {
     }
 }
 
-fn spectrum(x: &[f64], fs_hz: f64, signal: &'static str) -> Result<Spectrum> {
-    welch(x, fs_hz).map_err(|reason| Error::Spectrum { signal, reason })
+/// The spectrum of `x` at `fs_hz` (Hz), or a warning why there is none.
+fn spectrum(
+    table: &Table,
+    x: &[f64],
+    fs_hz: f64,
+    signal: &'static str,
+    warnings: &mut Vec<Warning>,
+) -> Option<Spectrum> {
+    welch(x, fs_hz)
+        .map_err(|reason| {
+            warnings.push(Warning::NoSpectrum {
+                path: table.path().to_path_buf(),
+                signal,
+                reason: reason.to_string(),
+            })
+        })
+        .ok()
 }
 
 /// `lines` with each line of the box marked a box leg: one that holds a maneuver, or that lies
@@ -640,7 +661,7 @@ mod tests {
         let spectrum = after.spectrum_after.as_ref().unwrap();
         assert_eq!(
             spectrum.frequency_hz.len(),
-            after.spectrum_before.frequency_hz.len()
+            after.spectrum_before.as_ref().unwrap().frequency_hz.len()
         );
         for m in &after.maneuvers {
             assert!(m.after_nt.unwrap() < m.before_nt / 10.0, "{m:?}");

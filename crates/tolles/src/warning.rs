@@ -71,6 +71,16 @@ pub enum Warning {
         /// Rows in the flight (rows).
         of: usize,
     },
+    /// A report's spectrum could not be computed (a flight shorter than a segment, or cut by
+    /// gaps into shorter runs): the page goes without it.
+    NoSpectrum {
+        /// The flight file.
+        path: PathBuf,
+        /// Which signal: `uncompensated` or `compensated`.
+        signal: &'static str,
+        /// Why, as the spectrum said.
+        reason: String,
+    },
     /// No maneuvers were found in the attitude.
     NoManeuvers {
         /// The flight file.
@@ -328,6 +338,15 @@ impl fmt::Display for Warning {
             Warning::NotCompensated { path, rows, of } => write!(
                 f,
                 "{}: {rows} of {of} rows cannot be compensated (missing scalar or fluxgate values)",
+                path.display()
+            ),
+            Warning::NoSpectrum {
+                path,
+                signal,
+                reason,
+            } => write!(
+                f,
+                "{}: no spectrum of the {signal} scalar ({reason}); the report goes without it",
                 path.display()
             ),
             Warning::NoManeuvers { path, columns } => write!(

@@ -213,10 +213,6 @@ fn request(args: &Args) -> SimulateRequest {
 /// A library error, naming the flag that sets what it is about.
 fn error(e: Error) -> anyhow::Error {
     match e {
-        Error::BadSampleRate { fs_hz } => anyhow!("--fs must be a positive number, got {fs_hz}"),
-        Error::BadPeriod { period_s } => {
-            anyhow!("--period must be a positive number, got {period_s}")
-        }
         Error::DateFormat { text } => anyhow!("--date must be YYYY-MM-DD, got {text:?}"),
         Error::Date { text, reason } => anyhow!("--date {text}: {reason}"),
         other => render::error(other),

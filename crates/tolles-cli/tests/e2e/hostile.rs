@@ -353,6 +353,18 @@ fn tiny_files_and_untimed_plans_say_what_is_missing() {
         &["fom", "nine.csv", "--scalar", "mag_1_uc", "--fs", "10"],
     );
     assert!(!out.contains("NaN") && !err.contains("NaN"), "{out}{err}");
+    // A report of nine rows is a page without spectra, and says why.
+    let report = [
+        "report", "nine.csv", "--scalar", "mag_1_uc", "--model", "m.json", "--out", "nine",
+    ];
+    let (ok, _, err) = run(d, &report);
+    assert!(ok && d.join("nine/index.html").exists(), "{err}");
+    let page = std::fs::read_to_string(d.join("nine/index.html")).unwrap();
+    assert!(
+        err.contains("no spectrum of the uncompensated scalar"),
+        "{err}"
+    );
+    assert!(page.contains("no spectrum of the uncompensated scalar"));
     // plan reads a flight without tt at --fs, as every other command does.
     std::fs::write(d.join("untimed.csv"), text.replacen("tt,", "t_gps,", 1)).unwrap();
     let plan = ["plan", "untimed.csv", "--vector", "flux_a"];

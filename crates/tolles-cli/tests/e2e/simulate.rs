@@ -101,7 +101,31 @@ fn bad_arguments_are_one_line_errors() {
     for (args, expected) in [
         (vec!["--date", "2025-02-30"], "not a calendar date"),
         (vec!["--date", "yesterday"], "YYYY-MM-DD"),
-        (vec!["--fs", "0"], "--fs must be a positive number"),
+        (vec!["--fs", "0"], "--fs (fs= in Python) must lie within"),
+        // Hostile round 4: settings that overflowed to infinities, exhausted memory or hung.
+        (
+            vec!["--reference", "--reference-noise", "1e308"],
+            "--reference-noise (reference_noise= in Python) must lie within 0..=10000 nT",
+        ),
+        (vec!["--geology", "1e308"], "--geology"),
+        (vec!["--roll", "1e308"], "--roll"),
+        (vec!["--fs", "1e9"], "--fs"),
+        (vec!["--plan", "survey", "--lines", "4000000000"], "--lines"),
+        (
+            vec![
+                "--plan",
+                "survey",
+                "--lines",
+                "10000",
+                "--line-duration",
+                "86400",
+            ],
+            "more than 1e7: ask for fewer --lines",
+        ),
+        (
+            vec!["--intensity", "1e308", "--dip", "70", "--declination", "0"],
+            "--intensity",
+        ),
         (vec!["--date", "1800-01-01"], "outside the IGRF-14 validity"),
     ] {
         let result = tolles()

@@ -181,6 +181,16 @@ pub enum NetworkError {
     },
 }
 
+/// The largest output mean and scale a network may have (nT): an aircraft field beyond this
+/// describes no aircraft, and 10³⁰⁰ would pass every finite check and be written as data.
+const MAX_OUTPUT_NT: f64 = 100_000.0;
+/// The range of an input's scale (its channel's unit): a subnormal scale turns every input into
+/// an infinity, which then reads as missing data.
+const MIN_SCALE: f64 = 1e-9;
+const MAX_SCALE: f64 = 1e12;
+/// The largest input mean (its channel's unit).
+const MAX_MEAN: f64 = 1e12;
+
 impl Network {
     /// Checks shapes and numbers: one mean and positive scale per input, each layer's input
     /// count that of the layer before, one output unit, finite weights.
@@ -195,11 +205,12 @@ impl Network {
             ));
         }
         if let Some(k) = (self.input_mean.iter().zip(&self.input_scale))
-            .position(|(m, s)| !m.is_finite() || !s.is_finite() || *s <= 0.0)
+            .position(|(m, s)| !(m.abs() <= MAX_MEAN && (MIN_SCALE..=MAX_SCALE).contains(s)))
         {
             return bad(format!(
-                "input {} has no finite mean and positive scale",
-                self.inputs[k]
+                "input {} needs a mean within ±{MAX_MEAN:e} and a scale within {MIN_SCALE:e}..={MAX_SCALE:e} \
+                 (its channel's unit), got {} and {}",
+                self.inputs[k], self.input_mean[k], self.input_scale[k]
             ));
         }
         let range_ok = |[low, high]: [f64; 2]| low.is_finite() && high.is_finite() && low <= high;
@@ -212,8 +223,11 @@ impl Network {
             ));
         }
         let (mean, scale) = (self.output_mean_nt, self.output_scale_nt);
-        if !(mean.is_finite() && scale.is_finite() && scale > 0.0) {
-            return bad("the output has no finite mean and positive scale".into());
+        if !(mean.abs() <= MAX_OUTPUT_NT && scale > 0.0 && scale <= MAX_OUTPUT_NT) {
+            return bad(format!(
+                "the output needs a mean within ±{MAX_OUTPUT_NT} nT and a scale within \
+                 0..={MAX_OUTPUT_NT} nT, got {mean:e} and {scale:e} nT"
+            ));
         }
         let mut width = n;
         for (k, layer) in self.layers.iter().enumerate() {
@@ -431,6 +445,10 @@ mod tests {
         cases.push((|n| n.input_mean.push(0.0), "2 inputs but 3 means"));
         cases.push((|n| n.layers.truncate(1), "gives 2 outputs"));
         cases.push((|n| n.output_scale_nt = -1.0, "output"));
+        // Hostile round 4: finite but absurd numbers that passed as a model.
+        cases.push((|n| n.output_scale_nt = 1e300, "got 5e-1 and 1e300 nT"));
+        cases.push((|n| n.output_mean_nt = -1e300, "output needs a mean"));
+        cases.push((|n| n.input_scale[0] = 1e-320, "input a needs"));
         cases.push((
             |n| n.input_range = vec![[0.0, 1.0]],
             "2 inputs but 1 ranges",

@@ -782,18 +782,18 @@ fn shading_only(windows: &[Span]) -> Vec<Span> {
 
 /// The spectrum's lowest frequency above 0 Hz (Hz).
 fn lowest_bin(data: &ReportData) -> Option<f64> {
-    (data.spectrum_before.frequency_hz.iter())
+    (data.spectrum_before.as_ref()?.frequency_hz.iter())
         .copied()
         .find(|f| *f > 0.0 && f.is_finite())
 }
 
+/// The spectra before and after; nothing when the flight was too short for one (the warnings
+/// panel says why).
 fn spectra(report: Report, data: &ReportData) -> Report {
-    let inputs = std::iter::once((
-        "uncompensated",
-        &data.spectrum_before,
-        Colour::UNCOMPENSATED,
-    ))
-    .chain(
+    let Some(before) = &data.spectrum_before else {
+        return report;
+    };
+    let inputs = std::iter::once(("uncompensated", before, Colour::UNCOMPENSATED)).chain(
         data.spectrum_after
             .iter()
             .map(|psd| ("compensated", psd, Colour::COMPENSATED)),

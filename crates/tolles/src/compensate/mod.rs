@@ -111,7 +111,7 @@ pub fn compensate(
             let mut computed = flight_field(&flight, fit, request, &mut noticed)?;
             let field = std::mem::take(&mut computed.field);
             let result = with_level(&flight.scalar, field, level(fit, request.level));
-            let trust = row_trust(computed, request);
+            let trust = row_trust(computed, &result.compensated, request);
             Ok((result, trust, noticed, flight.time_steps_back))
         })
         .collect();
@@ -166,14 +166,15 @@ pub fn compensate_flight(
     let mut computed = flight_field(flight, fit, request, warnings)?;
     let field = std::mem::take(&mut computed.field);
     let of = field.len();
-    let outside = row_trust(computed, request).outside;
+    let compensation = with_level(&flight.scalar, field, level(fit, request.level));
+    let outside = row_trust(computed, &compensation.compensated, request).outside;
     warnings.extend(Warning::extrapolated(
         flight.table.path(),
         outside,
         of,
         &fit.output_column,
     ));
-    Ok(with_level(&flight.scalar, field, level(fit, request.level)))
+    Ok(compensation)
 }
 
 /// The two parts of a correction with a learned network, row by row (nT).
@@ -269,15 +270,25 @@ fn survey_rate(
     })
 }
 
-/// How far to trust each row, from its computed `field`: the count of rows outside what the
-/// calibration flew, and with `request.uncertainty` each row's standard error and flag (see
-/// `tolles_core::compensate::trust`). A model file before version 3 has neither coverage nor
-/// uncertainty: nothing is counted and the standard errors are NaN.
-fn row_trust(field: ChunkField, request: &CompensateRequest) -> RowTrust {
+/// How far to trust each row of `values` (nT), from its computed `field`: the count of rows
+/// outside what the calibration flew, and with `request.uncertainty` each row's standard error
+/// and flag (see `tolles_core::compensate::trust`). A row without a value has neither: the
+/// field may be known where the scalar is missing, but there is no value to trust. A model
+/// file before version 3 has neither coverage nor uncertainty: nothing is counted and the
+/// standard errors are NaN.
+fn row_trust(field: ChunkField, values: &[f64], request: &CompensateRequest) -> RowTrust {
+    let mut outside = field.outside;
+    let mut sigma = field.sigma;
+    for (r, _) in values.iter().enumerate().filter(|(_, v)| !v.is_finite()) {
+        outside[r] = false;
+        if let Some(s) = sigma.as_mut() {
+            s[r] = f64::NAN;
+        }
+    }
     RowTrust {
-        outside: field.outside.iter().filter(|f| **f).count(),
-        extrapolated: request.uncertainty.then_some(field.outside),
-        sigma: field.sigma,
+        outside: outside.iter().filter(|f| **f).count(),
+        extrapolated: request.uncertainty.then_some(outside),
+        sigma,
     }
 }
 
@@ -569,6 +580,31 @@ mod whole_tests {
             matches!(warnings[1], Warning::OutputRenamed { .. }),
             "{warnings:?}"
         );
+    }
+
+    #[test]
+    fn a_row_without_a_scalar_has_no_sigma_and_no_flag() {
+        let survey = flight(PlanKind::Survey, 5);
+        let mut columns = survey.columns().to_vec();
+        let scalar = survey
+            .headers()
+            .iter()
+            .position(|h| h == "mag_1_uc")
+            .unwrap();
+        if let Column::Numbers(values) = &mut columns[scalar] {
+            values[20] = f64::NAN;
+        }
+        let survey =
+            Table::from_columns("s.csv", survey.headers().to_vec(), columns, None).unwrap();
+        let request = CompensateRequest {
+            uncertainty: true,
+            ..CompensateRequest::default()
+        };
+        let out = compensate(&survey, &model(), &request, &mut Vec::new()).unwrap();
+        let sigma = out[0].trust.sigma.as_ref().unwrap();
+        assert!(out[0].values[20].is_nan() && sigma[20].is_nan());
+        assert!(sigma[19].is_finite() && sigma[21].is_finite());
+        assert!(!out[0].trust.extrapolated.as_ref().unwrap()[20]);
     }
 
     #[test]

@@ -74,6 +74,28 @@ pub fn check(request: &NetworkRequest) -> Result<()> {
     Ok(())
 }
 
+/// An error when a network input is the fit's target: a scalar being compensated or the
+/// reference. Either lets the network read its own answer, so the held-out judge overstates
+/// its gain, and a survey without the reference could not be compensated at all.
+pub fn check_no_target(
+    request: &NetworkRequest,
+    scalars: &[String],
+    reference: Option<&str>,
+) -> Result<()> {
+    let targets = scalars.iter().map(String::as_str).chain(reference);
+    match targets
+        .into_iter()
+        .find(|t| request.channels.iter().any(|c| c == t))
+    {
+        None => Ok(()),
+        Some(target) => Err(Error::Invalid(format!(
+            "--inputs {target} (inputs= in Python): the network would read the target it learns \
+             ({target} is the scalar or the reference); give other channels, e.g. currents or \
+             attitude"
+        ))),
+    }
+}
+
 /// Trains a network on what `model`'s linear correction leaves of its `target` (nT: the
 /// scalar less the reference) on `flight` at `fs_hz` (Hz); puts it in `model` when it earns
 /// its place, else says why in `warnings`. With [`NetworkRequest::joint`], the linear model
@@ -365,6 +387,22 @@ mod tests {
         });
         println!("noise alone: {said:?} (linear, network)");
         assert!(said.is_some(), "{warnings:?}");
+    }
+
+    #[test]
+    fn a_network_may_not_read_the_scalar_or_the_reference() {
+        let request = |channel: &str| NetworkRequest {
+            channels: vec!["cur_1".into(), channel.into()],
+            ..NetworkRequest::default()
+        };
+        let scalars = ["mag_1_uc".to_string()];
+        for target in ["mag_1_uc", "mag_ref"] {
+            let error = check_no_target(&request(target), &scalars, Some("mag_ref"))
+                .unwrap_err()
+                .to_string();
+            assert!(error.starts_with(&format!("--inputs {target} ")), "{error}");
+        }
+        assert!(check_no_target(&request("ins_roll"), &scalars, Some("mag_ref")).is_ok());
     }
 
     #[test]

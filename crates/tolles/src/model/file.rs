@@ -303,6 +303,14 @@ impl ModelFile {
 
 /// Sample rates (Hz) a model can have been fitted at; outside them eddy terms rescale to garbage.
 pub const FS_RANGE_HZ: (f64, f64) = (1e-3, 1e6);
+/// The scale (nT) the induced and eddy columns are divided by: MagNav's is 50 000, the earth's
+/// field; a subnormal one would turn every row into an infinity, read back as missing data.
+const BT_SCALE_RANGE_NT: (f64, f64) = (1.0, 1e6);
+/// Largest believable σ noise term (nT): more than any aircraft field.
+const NOISE_LIMIT_NT: f64 = 1e5;
+/// Largest believable |covariance| or |mean design row| entry (the coefficients' units
+/// squared; the columns' units): the square of [`COEFFICIENT_LIMIT`].
+const COVARIANCE_LIMIT: f64 = COEFFICIENT_LIMIT * COEFFICIENT_LIMIT;
 /// Largest believable |coefficient| or |level| (nT per unit of its column): anything larger is
 /// a damaged file, and would otherwise surface later as an unrelated-looking failure.
 const COEFFICIENT_LIMIT: f64 = 1e9;
@@ -319,10 +327,19 @@ fn check_numbers(fit: &ScalarModel) -> Result<(), String> {
         ));
     }
     let bt = fit.fit.settings.design.bt_scale;
-    if !(bt.is_finite() && bt > 0.0) {
+    if !(BT_SCALE_RANGE_NT.0..=BT_SCALE_RANGE_NT.1).contains(&bt) {
         return Err(format!(
-            "fit of {scalar}: settings.design.bt_scale {} must be a positive number of nT",
-            show(bt)
+            "fit of {scalar}: settings.design.bt_scale {} must lie within {}–{} nT",
+            show(bt),
+            BT_SCALE_RANGE_NT.0,
+            BT_SCALE_RANGE_NT.1
+        ));
+    }
+    if fit.fit.columns.len() != fit.fit.coefficients.len() {
+        return Err(format!(
+            "fit of {scalar}: {} column names for {} coefficients",
+            fit.fit.columns.len(),
+            fit.fit.coefficients.len()
         ));
     }
     check_lags(fit)?;
@@ -426,10 +443,24 @@ fn check_trust(fit: &ScalarModel) -> Result<(), String> {
                 u.covariance.len()
             ));
         }
-        let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
-        if !(finite(&u.mean_row) && finite(&u.covariance)) {
+        let bounded = |v: &[f64]| v.iter().all(|x| x.abs() <= COVARIANCE_LIMIT);
+        if !(bounded(&u.mean_row) && bounded(&u.covariance)) {
             return Err(format!(
-                "fit of {scalar}: uncertainty holds a value that is not finite"
+                "fit of {scalar}: uncertainty holds a value that is not finite or beyond ±{COVARIANCE_LIMIT:e}"
+            ));
+        }
+        // Rounding leaves a variance of zero slightly negative; more than that is damage.
+        let diagonal: Vec<f64> = (0..width).map(|j| u.covariance[j * width + j]).collect();
+        let rounding = 1e-9 * diagonal.iter().fold(0.0, |m: f64, d| m.max(d.abs()));
+        if let Some(j) = diagonal.iter().position(|d| *d < -rounding) {
+            return Err(format!(
+                "fit of {scalar}: uncertainty.covariance gives coefficient {j} a negative variance"
+            ));
+        }
+        if !(0.0..=NOISE_LIMIT_NT).contains(&u.noise_nt) {
+            return Err(format!(
+                "fit of {scalar}: uncertainty.noise_nt {} must lie within 0–{NOISE_LIMIT_NT} nT",
+                show(u.noise_nt)
             ));
         }
     }
@@ -569,6 +600,62 @@ mod tests {
     }
 
     #[test]
+    fn hostile_scales_columns_and_uncertainties_are_refused() {
+        use tolles_core::fit::FitSettings;
+        let width = FitSettings::magnav().design.width();
+        let uncertainty = |diagonal: f64, noise: f64| {
+            let mut covariance = vec![0.0; width * width];
+            covariance[0] = diagonal;
+            serde_json::json!({
+                "covariance": covariance, "mean_row": vec![0.0; width], "noise_nt": noise
+            })
+            .to_string()
+        };
+        let with_uncertainty = |field: &str, value: &str| {
+            let mut json: serde_json::Value =
+                serde_json::from_str(&model_with("/version", "3")).unwrap();
+            json["fits"][0]["uncertainty"] = serde_json::from_str(&uncertainty(1.0, 0.1)).unwrap();
+            *json.pointer_mut(field).unwrap() = serde_json::from_str(value).unwrap();
+            json.to_string()
+        };
+        let good = with_uncertainty("/version", "3");
+        assert!(ModelFile::from_json(&good, "m.json").is_ok());
+        for (field, value, says) in [
+            (
+                "/fits/0/settings/design/bt_scale",
+                "1e-320".into(),
+                "bt_scale",
+            ),
+            ("/fits/0/columns/0", "null".into(), "invalid"),
+            (
+                "/fits/0/uncertainty",
+                uncertainty(-1.0, 0.1),
+                "negative variance",
+            ),
+            ("/fits/0/uncertainty", uncertainty(1e300, 0.1), "beyond"),
+            (
+                "/fits/0/uncertainty",
+                uncertainty(1.0, 1e300),
+                "noise_nt 1e300",
+            ),
+        ] {
+            let err = ModelFile::from_json(&with_uncertainty(field, &value), "m.json")
+                .unwrap_err()
+                .to_string();
+            assert!(err.contains(says), "{field}: {err}");
+        }
+        let mut json: serde_json::Value = serde_json::from_str(&good).unwrap();
+        json.pointer_mut("/fits/0/columns")
+            .and_then(serde_json::Value::as_array_mut)
+            .unwrap()
+            .pop();
+        let err = ModelFile::from_json(&json.to_string(), "m.json")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("column names for"), "{err}");
+    }
+
+    #[test]
     fn hand_edited_lags_and_low_passes_are_refused() {
         let edited = |edit: &dyn Fn(&mut serde_json::Value)| {
             let mut value: serde_json::Value =
@@ -597,6 +684,8 @@ mod tests {
                 ]);
                 let coefficients = fit["coefficients"].as_array_mut().unwrap();
                 coefficients.extend([0.0.into(), 0.0.into(), 0.0.into()]);
+                let columns = fit["columns"].as_array_mut().unwrap();
+                columns.extend(["cur_x".into(), "cur_y".into(), "cur_z".into()]);
             })
         };
         assert!(with_extra(0.5, 0.2).is_ok());

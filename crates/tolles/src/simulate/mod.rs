@@ -1,6 +1,7 @@
 //! Flights whose truth is known: a plan flown by a simulated installation over IGRF-14 (or a
 //! uniform field), with geology, diurnal variation and sensor errors.
 
+mod limits;
 pub mod output;
 
 use crate::error::{Error, Result};
@@ -286,7 +287,9 @@ pub struct Simulated {
 
 /// Simulates the flight `request` describes; deterministic for a given request.
 pub fn simulate(request: &SimulateRequest, progress: &dyn Progress) -> Result<Simulated> {
+    limits::check_settings(request)?;
     let plan = plan(request);
+    limits::check_length(plan.duration_s(), request.fs_hz)?;
     let scenario = scenario(request)?;
     simulate_plan(request.plan, plan, scenario, progress)
 }
@@ -375,14 +378,6 @@ fn scenario(r: &SimulateRequest) -> Result<Scenario> {
         Preset::Uav => Installation::Uav,
         Preset::Realistic => Installation::Realistic,
     };
-    if !positive(r.fs_hz) {
-        return Err(Error::BadSampleRate { fs_hz: r.fs_hz });
-    }
-    if !positive(r.period_s) {
-        return Err(Error::BadPeriod {
-            period_s: r.period_s,
-        });
-    }
     let mut scenario = installation.scenario(r.seed);
     scenario.fs_hz = r.fs_hz;
     scenario.speed_mps = r.speed_mps;
@@ -444,10 +439,6 @@ pub fn parse_date(text: &str) -> Result<f64> {
     })
 }
 
-fn positive(value: f64) -> bool {
-    value.is_finite() && value > 0.0
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -460,7 +451,7 @@ mod tests {
             ..SimulateRequest::default()
         };
         assert!(
-            matches!(simulate(&fs, &Silent), Err(Error::BadSampleRate { fs_hz }) if fs_hz == 0.0)
+            matches!(simulate(&fs, &Silent), Err(Error::SimulateSetting { flag: "--fs", value, .. }) if value == 0.0)
         );
         let period = SimulateRequest {
             period_s: -1.0,
@@ -468,11 +459,24 @@ mod tests {
         };
         assert!(matches!(
             simulate(&period, &Silent),
-            Err(Error::BadPeriod { .. })
+            Err(Error::SimulateSetting {
+                flag: "--period",
+                ..
+            })
         ));
         assert!(matches!(
             parse_date("yesterday"),
             Err(Error::DateFormat { .. })
+        ));
+        let long = SimulateRequest {
+            plan: PlanKind::Survey,
+            lines: 10_000,
+            line_duration_s: 86_400.0,
+            ..SimulateRequest::default()
+        };
+        assert!(matches!(
+            simulate(&long, &Silent),
+            Err(Error::SimulateTooLong { .. })
         ));
         let e = parse_date("2025-02-30").unwrap_err();
         assert_eq!(
