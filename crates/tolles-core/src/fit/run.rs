@@ -208,6 +208,7 @@ pub(super) fn fit_reusing(
     spare.give(prepared.into_buffers());
     let terms = design.design_terms();
     let exact = problem.exact(&design, &chosen, levels.as_ref())?;
+    let exact_tried = exact.is_some();
     let (magnitude, chosen, iterations) = match exact {
         Some(exact) => {
             let picked = pick_magnitude(chosen, exact.chosen, exact.iterations, settings.magnitude);
@@ -278,6 +279,7 @@ pub(super) fn fit_reusing(
             restrained: chosen.restrained.clone(),
             excitation_deg: excitation,
             white_noise_nt,
+            unrivalled_linear: magnitude == Magnitude::Linear && !exact_tried,
             covariance: match &band_scores {
                 Some(band) => {
                     let level = levels.as_ref().map(|l| {

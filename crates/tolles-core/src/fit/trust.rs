@@ -8,6 +8,7 @@ use crate::fit::settings::Lambda;
 use crate::fit::verdict::{judge, Evidence, Verdict, MIN_TERM_EFFECT_NT};
 use crate::model::coverage::Coverage;
 use crate::model::design::{central_difference, Design};
+use crate::model::magnitude::exact_at;
 use crate::model::terms::Column;
 use crate::model::vector::Fluxgates;
 use nalgebra::{DMatrix, DVector};
@@ -18,30 +19,67 @@ pub use crate::model::uncertainty::Uncertainty;
 /// Samples of the calibration looked at for the uncertainty over it (evenly spread).
 const SAMPLES: usize = 20_000;
 
-/// Unfiltered design rows of about [`SAMPLES`] samples spread over `runs`.
-fn sampled_rows(design: &Design, flux: &Fluxgates, runs: &[Range<usize>]) -> Vec<Vec<f64>> {
+/// One calibration sample as a design row reads it: the fluxgate (nT), its change per sample
+/// (nT/sample) and the extra channels' values.
+struct Sample {
+    b: [f64; 3],
+    db: [f64; 3],
+    extras: Vec<f64>,
+}
+
+/// About [`SAMPLES`] samples spread evenly over `runs`.
+fn samples(flux: &Fluxgates, runs: &[Range<usize>]) -> Vec<Sample> {
     let series = flux.series()[0];
-    let columns = design.columns();
     let total: usize = runs.iter().map(|r| r.len()).sum();
     let step = total.div_ceil(SAMPLES).max(1);
-    let mut rows = Vec::new();
-    let mut extras = vec![0.0; flux.extras().len()];
+    let mut samples = Vec::new();
     for run in runs {
         let components = [&series.x, &series.y, &series.z];
         let rate = components.map(|c| central_difference(&c[run.clone()]));
         for k in run.clone().step_by(step) {
             let i = k - run.start;
-            extras
-                .iter_mut()
-                .zip(flux.extras())
-                .for_each(|(e, c)| *e = c[k]);
-            let mut row = vec![0.0; columns.len()];
-            let db = [rate[0][i], rate[1][i], rate[2][i]];
-            design.row_with_extras(&columns, series.at(k), db, &extras, &mut row);
-            rows.push(row);
+            samples.push(Sample {
+                b: series.at(k),
+                db: [rate[0][i], rate[1][i], rate[2][i]],
+                extras: flux.extras().iter().map(|c| c[k]).collect(),
+            });
         }
     }
-    rows
+    samples
+}
+
+/// Unfiltered design rows of `samples`.
+fn sampled_rows(design: &Design, samples: &[Sample]) -> Vec<Vec<f64>> {
+    let columns = design.columns();
+    samples
+        .iter()
+        .map(|s| {
+            let mut row = vec![0.0; columns.len()];
+            design.row_with_extras(&columns, s.b, s.db, &s.extras, &mut row);
+            row
+        })
+        .collect()
+}
+
+/// Standard deviation over `samples` (nT) of what a linear magnitude leaves out of the field
+/// `coefficients` describe: `|B + H| − |B| − B̂·H`, about `|H⊥|²/(2|B|)`. NaN over several
+/// fluxgates, which the exact magnitude does not model.
+fn second_order_nt(
+    design: &Design,
+    coefficients: &[f64],
+    samples: &[Sample],
+    corrections: &[f64],
+) -> f64 {
+    if design.fluxgates != 1 {
+        return f64::NAN;
+    }
+    let columns = design.columns();
+    let left: Vec<f64> = (samples.iter().zip(corrections))
+        .map(|(s, linear)| {
+            exact_at(design, &columns, coefficients, s.b, s.db, &s.extras).0 - linear
+        })
+        .collect();
+    crate::signal::metrics::std_dev(&left)
 }
 
 /// What the trust in one fit is judged from, besides its diagnostics.
@@ -58,6 +96,10 @@ pub(super) struct Inputs<'a> {
     /// White noise of the calibration's scalar less the model's correction (nT), from its
     /// fourth difference.
     pub white_noise_nt: f64,
+    /// A linear magnitude that no exact fit was tried against (extra channels, several
+    /// fluxgates, `--magnitude linear`): one that won against it was chosen knowingly, this one
+    /// is judged on what it leaves out.
+    pub unrivalled_linear: bool,
     /// The coefficients' covariance (coefficient units squared).
     pub covariance: DMatrix<f64>,
     /// The target was the interference itself (a fit against a reference).
@@ -103,26 +145,35 @@ pub(super) fn assess(
         restrained,
         excitation_deg,
         white_noise_nt,
+        unrivalled_linear,
         covariance,
         interference,
     } = inputs;
     let p = coefficients.len();
-    let rows = sampled_rows(design, flux, runs);
+    let samples = samples(flux, runs);
+    let rows = sampled_rows(design, &samples);
     let count = rows.len().max(1) as f64;
     let mean_row: Vec<f64> = (0..p)
         .map(|j| rows.iter().map(|r| r[j]).sum::<f64>() / count)
         .collect();
-    let noise_nt = left_over_nt(diagnostics, white_noise_nt);
-    let uncertainty = Uncertainty {
-        covariance: covariance.transpose().as_slice().to_vec(),
-        mean_row,
-        noise_nt,
-    };
     let beta = DVector::from_column_slice(coefficients);
     let corrections: Vec<f64> = rows
         .iter()
         .map(|r| DVector::from_column_slice(r).dot(&beta))
         .collect();
+    let left_nt = left_over_nt(diagnostics, white_noise_nt);
+    let second_order_nt = match unrivalled_linear {
+        true => second_order_nt(design, coefficients, &samples, &corrections),
+        false => f64::NAN,
+    };
+    // What a linear magnitude leaves out stays out of σ: the fit absorbs most of it into its
+    // coefficients, and added to σ's noise term it put σ at 3–5× the error of fine fits with a
+    // current (bench/verdict's 163 and 211 nT cabins).
+    let uncertainty = Uncertainty {
+        covariance: covariance.transpose().as_slice().to_vec(),
+        mean_row,
+        noise_nt: left_nt,
+    };
     let sigma_rms = (rows
         .iter()
         .map(|r| uncertainty.sigma(r).powi(2))
@@ -169,6 +220,8 @@ pub(super) fn assess(
         fluxgate_offset_nt: levels.map_or(f64::NAN, |l| {
             l.fluxgate.offset_nt.iter().fold(0.0, |m, o| m.max(o.abs()))
         }),
+        second_order_nt,
+        left_nt,
     };
     // Extra channels that cross-validation dropped are not in the model: nor is their range.
     let extras: &[&[f64]] = if design.extras.is_empty() {
