@@ -593,7 +593,7 @@ fn convert(
 /// as `tolles report` does, and prints it to `pdf` if given; returns (index.html's path,
 /// warnings).
 #[pyfunction]
-#[pyo3(signature = (flight, out, model, scalars, lines, time, renames, band, order, fs, pdf, legs, noise_tolerance))]
+#[pyo3(signature = (flight, out, model, scalars, lines, time, renames, band, order, fs, pdf, legs, noise_tolerance, reference))]
 #[allow(clippy::too_many_arguments)]
 fn report(
     py: Python<'_>,
@@ -610,6 +610,7 @@ fn report(
     pdf: Option<PathBuf>,
     legs: Legs,
     noise_tolerance: f64,
+    reference: Option<String>,
 ) -> PyResult<(PathBuf, Vec<String>)> {
     let (headings, heading, level, cardinal) = legs;
     let request = tolles::report::ReportRequest {
@@ -624,6 +625,7 @@ fn report(
         selection: selection(lines, time)?,
         renames: renames.unwrap_or_default(),
         noise_tolerance_nt: noise_tolerance,
+        reference,
         ..tolles::report::ReportRequest::new(flight, "")
     }
     .with_legs(headings, heading, level, cardinal);

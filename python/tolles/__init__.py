@@ -702,6 +702,7 @@ def report(
     level_tolerance: float = 3.0,
     cardinal_tolerance: float = 20.0,
     noise_tolerance: float = 0.1,
+    reference: Optional[str] = None,
 ) -> _pathlib.Path:
     """Write the HTML report of a flight into the directory ``out``, as ``tolles report``.
 
@@ -716,6 +717,8 @@ def report(
     ``headings``, ``heading_tolerance``, ``level_tolerance``, ``cardinal_tolerance``: as in
     :func:`fom`. ``noise_tolerance`` (nT): the survey specification's fourth-difference
     tolerance, drawn under the fourth difference; each line passes when all of it lies within.
+    ``reference``: a column (nT) to judge the compensated scalar against instead of the
+    simulator's ``truth_earth``, e.g. SGL's ``mag_1_c``.
     Returns the path of ``index.html``; what was noticed is warned about.
     """
     scalars = [] if scalar is None else _names(scalar, "scalar")
@@ -740,6 +743,7 @@ def report(
             None if pdf is None else _os.fspath(pdf),
             _legs(headings, heading_tolerance, level_tolerance, cardinal_tolerance),
             float(noise_tolerance),
+            reference,
         )
     _warn(notes)
     return _pathlib.Path(index)

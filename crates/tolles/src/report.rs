@@ -53,6 +53,10 @@ pub struct ReportRequest {
     /// every fourth difference of its (compensated) scalar lies within ±this; default
     /// [`NOISE_TOLERANCE_NT`].
     pub noise_tolerance_nt: f64,
+    /// A column to judge the compensated scalar against instead of the simulator's truth
+    /// (`truth_earth`): a reference magnetometer, or a compensation made elsewhere such as
+    /// SGL's `mag_1_c` (nT).
+    pub reference: Option<String>,
 }
 
 /// The default fourth-difference tolerance (nT), ±0.1 nT: a common total-field survey
@@ -75,6 +79,7 @@ impl ReportRequest {
             headings: fom.headings,
             cardinal_tolerance_deg: fom.cardinal_tolerance_deg,
             noise_tolerance_nt: NOISE_TOLERANCE_NT,
+            reference: None,
         }
     }
 
@@ -115,7 +120,8 @@ pub struct ReportData {
     pub uncompensated: Trace,
     /// The scalar after compensation, with a model.
     pub compensated: Option<Trace>,
-    /// The true earth field minus its mean (nT), when the flight has a truth column.
+    /// The true earth field minus its mean (nT), when the flight has a truth column, or the
+    /// reference column's ([`ReportRequest::reference`]).
     pub truth: Option<Vec<f64>>,
     /// Compensated minus truth, with a model and a truth column.
     pub error: Option<TruthError>,
@@ -373,7 +379,10 @@ fn build_scalar(
         scalar: Some(scalar.to_string()),
         ..request.clone()
     };
-    let truth = table.numeric(TRUTH_COLUMN).ok();
+    let truth = match &request.reference {
+        Some(column) => Some(table.numeric(column)?),
+        None => table.numeric(TRUTH_COLUMN).ok(),
+    };
     let fom_request = FomRequest {
         band: request.band,
         order: request.order,

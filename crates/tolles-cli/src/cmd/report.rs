@@ -55,6 +55,10 @@ pub struct Args {
     /// Sample rate (Hz), if the file has no tt column
     #[arg(long, allow_negative_numbers = true)]
     pub fs: Option<f64>,
+    /// Judge the compensated scalar against this column (nT) instead of the simulator's
+    /// truth_earth: a reference magnetometer, or a compensation made elsewhere (SGL's mag_1_c)
+    #[arg(long, value_name = "COLUMN")]
+    pub reference: Option<String>,
     #[command(flatten)]
     pub legs: crate::input::Legs,
     #[command(flatten)]
@@ -72,6 +76,7 @@ pub fn run(args: Args) -> Result<()> {
         selection: args.select.rows(),
         renames: args.select.renames.clone(),
         noise_tolerance_nt: args.noise_tolerance,
+        reference: args.reference,
         ..ReportRequest::new(args.flight, "")
     });
     let index = render::report(&request, &args.scalar, &args.out)?;

@@ -150,6 +150,14 @@ fn the_report_shows_the_network_s_share(d: &Path) {
     );
     let html = std::fs::read_to_string(d.join("rep/index.html")).unwrap();
     assert!(html.contains("A network (8 hidden units, swish, 5 inputs)"));
+    // On the first screen, among the summary's tiles, before any section.
+    let tile = html
+        .find("network share of the correction")
+        .expect("a network tile");
+    assert!(
+        tile < html.find("<h2").unwrap_or(usize::MAX),
+        "the tile is below a section"
+    );
     let said = html
         .split("part varies by ")
         .nth(1)

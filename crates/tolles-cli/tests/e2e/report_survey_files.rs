@@ -96,3 +96,55 @@ fn a_simulated_survey_stripped_of_attitude_still_reports() {
     assert!(plots.iter().any(|p| p.starts_with("map-")), "{plots:?}");
     assert_no_nan_or_inf(&page, &plots, &out);
 }
+
+/// `--reference COLUMN` judges the compensated scalar against a column of the flight, as
+/// MagNav users compare with SGL's `mag_1_c`: here a reference magnetometer, which reads the
+/// earth field as the truth does, so the two errors agree to its noise.
+#[test]
+fn a_reference_column_takes_the_place_of_the_truth() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let run = |args: &[&str]| {
+        let done = tolles().current_dir(d).args(args).output().unwrap();
+        let stderr = String::from_utf8_lossy(&done.stderr).to_string();
+        assert!(done.status.success(), "{args:?}: {stderr}");
+    };
+    run(&[
+        "simulate",
+        "--preset",
+        "tail-stinger",
+        "--reference",
+        "--out",
+        "box.csv",
+    ]);
+    run(&[
+        "fit", "box.csv", "--scalar", "mag_1_uc", "--vector", "flux_a", "--out", "m.json",
+    ]);
+    let report = ["report", "box.csv", "--model", "m.json", "--out"];
+    run(&[&report[..], &["truth"]].concat());
+    run(&[&report[..], &["ref", "--reference", "mag_ref"]].concat());
+    let page = |dir: &str| std::fs::read_to_string(d.join(dir).join("index.html")).unwrap();
+    let (truth, reference) = (page("truth"), page("ref"));
+    let after = |page: &str, label: &str| -> f64 {
+        let at = page.find(label).unwrap_or_else(|| panic!("no {label:?}"));
+        let value = page[at..].split("<dd>").nth(1).unwrap();
+        value.split(' ').next().unwrap().parse().unwrap()
+    };
+    assert!(!reference.contains("error vs truth after"));
+    let (t, r) = (
+        after(&truth, "error vs truth after"),
+        after(&reference, "error vs mag_ref after"),
+    );
+    println!("error after: vs truth {t} nT, vs mag_ref {r} nT");
+    assert!((r - t).abs() < 0.02, "{t} {r}");
+    let missing = tolles()
+        .current_dir(d)
+        .args([&report[..], &["x", "--reference", "mag_1_c"]].concat())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&missing.stderr);
+    assert!(
+        !missing.status.success() && stderr.contains("mag_1_c"),
+        "{stderr}"
+    );
+}

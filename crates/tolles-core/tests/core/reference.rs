@@ -110,8 +110,8 @@ fn a_reference_fit_is_closer_to_the_truth_than_the_band_pass() {
 #[test]
 fn a_reference_fit_that_leaves_a_current_out_is_doubtful_and_names_extra() {
     use common::{inputs_with_current, settings_with_extras};
-    use tolles_core::fit::MagnitudeChoice;
     use tolles_core::fit::verdict::Reason;
+    use tolles_core::fit::MagnitudeChoice;
     use tolles_core::model::interpret::AircraftField;
     let mut s = scenario(1);
     s.extras.current = Installation::Uav.scenario(1).extras.current;

@@ -128,11 +128,16 @@ fn several_header(data: &[ReportData]) -> Report {
             .provenance(provenance(d));
     }
     let rows: Vec<Vec<String>> = data.iter().map(comparison_cells).collect();
+    let vs = first.map_or_else(|| "truth".to_string(), |d| against(d).short);
+    let error_vs = format!("error vs {vs}");
     report
         .section("Scalars compared")
-        .paragraph(
- "Each scalar before and after compensation, as its own sections below define the figures: FOM (box maneuvers), 4th-difference noise, heading error, and the standard deviation of compensated minus the simulator's truth.",
-        )
+        .paragraph(format!(
+            "Each scalar before and after compensation, as its own sections below define the \
+             figures: FOM (box maneuvers), 4th-difference noise, heading error, and the \
+             standard deviation of compensated minus {}.",
+            first.map_or_else(|| "the truth".to_string(), |d| against(d).long)
+        ))
         .table(
             &[
                 "scalar",
@@ -142,7 +147,7 @@ fn several_header(data: &[ReportData]) -> Report {
                 "4th-diff. noise after",
                 "heading error before",
                 "heading error after",
-                "error vs truth",
+                &error_vs,
             ],
             &rows,
         )
@@ -386,6 +391,12 @@ fn network_sentence(learned: &tolles::model::LearnedCorrection) -> String {
 
 fn summary(report: Report, data: &ReportData) -> Report {
     let before = &data.fom.before;
+    let vs = against(data);
+    let heading_vs = format!("heading error after, vs {}", vs.short);
+    let (error_before, error_after) = (
+        format!("error vs {} before", vs.short),
+        format!("error vs {} after", vs.short),
+    );
     let mut items = Vec::new();
     if let Some(v) = data.fit.as_ref().and_then(|f| f.fit.verdict.as_ref()) {
         items.push(("model verdict", v.grade.to_string()));
@@ -441,11 +452,23 @@ fn summary(report: Report, data: &ReportData) -> Report {
         .as_ref()
         .and_then(|h| h.heading_error_nt)
     {
-        items.push(("heading error after, vs truth", nt(error, 3)));
+        items.push((heading_vs.as_str(), nt(error, 3)));
     }
     if let Some((before, after)) = truth_errors(data) {
-        items.push(("error vs truth before", nt(before, 3)));
-        items.push(("error vs truth after", nt(after, 4)));
+        items.push((error_before.as_str(), nt(before, 3)));
+        items.push((error_after.as_str(), nt(after, 4)));
+    }
+    if let Some(share) = &data.network {
+        // The network's part of the correction beside the linear model's: whether it matters.
+        items.push((
+            "network share of the correction",
+            format!(
+                "{} of {} ({:.1} %)",
+                nt(share.network_std_nt, 4),
+                nt(share.linear_std_nt, 3),
+                100.0 * share.network_std_nt / share.linear_std_nt
+            ),
+        ));
     }
     if has_box(data) {
         items.push((
@@ -484,15 +507,19 @@ fn summary_definitions(data: &ReportData) -> String {
                  error); the legs lie over different ground at different times, so geology and \
                  diurnal variation between them stay in it, however good the compensation.";
     }
+    let vs = against(data);
     if data.heading_vs_truth.is_some() {
-        text += " Heading error vs truth: the same of the compensated scalar minus the \
-                 simulator's true earth field: what the compensation itself leaves.";
+        text += &format!(
+            " Heading error vs {}: the same of the compensated scalar minus {}: what the \
+             compensation itself leaves.",
+            vs.short, vs.long
+        );
     }
     if truth_errors(data).is_some() {
         text += &format!(
-            " Error vs truth: the standard deviation of the scalar minus the simulator's true \
-             earth field ({}), before and after compensation.",
-            tolles::report::TRUTH_COLUMN
+            " Error vs {}: the standard deviation of the scalar minus {}, before and after \
+             compensation.",
+            vs.short, vs.long
         );
     }
     text
@@ -510,6 +537,31 @@ fn truth_errors(data: &ReportData) -> Option<(f64, f64)> {
         .map(|(s, t)| s - t)
         .collect();
     Some((std_dev(&before), after.std_nt))
+}
+
+/// What the compensated scalar is judged against: the simulator's truth, or the reference
+/// column the request names.
+struct Against {
+    /// As a label says it: `truth` or the column's name.
+    short: String,
+    /// As a sentence says it.
+    long: String,
+}
+
+fn against(data: &ReportData) -> Against {
+    match &data.request.reference {
+        Some(column) => Against {
+            short: column.clone(),
+            long: format!("the reference column {column}"),
+        },
+        None => Against {
+            short: "truth".into(),
+            long: format!(
+                "the simulator's true earth field ({})",
+                tolles::report::TRUTH_COLUMN
+            ),
+        },
+    }
 }
 
 /// True when the flight has compensation-box maneuvers, so a figure of merit.
@@ -555,7 +607,11 @@ fn signals(mut report: Report, data: &ReportData) -> Report {
     let mut filtered = vec![series(&as_read, &before.bandpassed, Colour::UNCOMPENSATED)];
     // The truth goes under the compensated curve, which it should hide where they agree.
     if let Some(truth) = &data.truth {
-        raw.push(series("truth (earth field)", truth, Colour::REFERENCE));
+        let name = match &data.request.reference {
+            Some(column) => column.clone(),
+            None => "truth (earth field)".into(),
+        };
+        raw.push(series(&name, truth, Colour::REFERENCE));
     }
     if let Some(after) = after {
         raw.push(series("compensated", &after.centred, Colour::COMPENSATED));
@@ -610,18 +666,18 @@ fn signals(mut report: Report, data: &ReportData) -> Report {
         ));
     report = report.line_plot(fourth_difference_plot(data, &over_time));
     if let Some(error) = &data.error {
+        let vs = against(data);
         report = report.line_plot(over_time(
-            "Compensated minus truth".into(),
+            format!("Compensated minus {}", vs.short),
             "error (nT)",
             vec![series(
-                "compensated − truth",
+                &format!("compensated − {}", vs.short),
                 &error.centred,
                 Colour::COMPENSATED,
             )],
             Some(format!(
-                "Standard deviation {:.4} nT (the simulator's truth column {}).",
-                error.std_nt,
-                tolles::report::TRUTH_COLUMN
+                "Standard deviation {:.4} nT (against {}).",
+                error.std_nt, vs.long
             )),
         ));
     }
