@@ -39,6 +39,14 @@ pub struct LineRow {
     pub level_nt: Option<f64>,
     /// The same of the uncompensated scalar, with or without a model (nT).
     pub level_before_nt: Option<f64>,
+    /// RMS over the line of the correction (uncompensated − compensated) less its mean over
+    /// the flight (nT), with a model: how much compensation changed the line, its level
+    /// included.
+    pub correction_nt: Option<f64>,
+    /// RMS over the line of the compensated scalar less the truth (or reference), less that
+    /// difference's mean over the flight (nT), with a model and a truth: the line's error,
+    /// its level included.
+    pub error_nt: Option<f64>,
     /// Time of the line's first and last row (s, as the time column), when finite.
     pub span_s: Option<(f64, f64)>,
     /// A survey line, a turn, or a leg of the compensation box.
@@ -108,6 +116,8 @@ pub struct LineInputs<'a> {
     pub before: &'a [f64],
     /// Compensated scalar (nT), with a model.
     pub after: Option<&'a [f64]>,
+    /// What the compensated scalar should be (nT): the simulator's truth or a reference.
+    pub truth: Option<&'a [f64]>,
 }
 
 /// The per-line table of `table`, or `None` when it has no line column or only one line id.
@@ -129,6 +139,11 @@ pub fn line_table(table: &Table, inputs: &LineInputs) -> Option<LineTable> {
     };
     let levels_before = levels(inputs.before);
     let levels_after = levels(inputs.after.unwrap_or(inputs.before));
+    let correction = inputs.after.map(|after| difference(inputs.before, after));
+    let error = inputs
+        .after
+        .zip(inputs.truth)
+        .map(|(a, t)| difference(a, t));
     let rows = lines
         .iter()
         .zip(headings.into_iter().zip(straight))
@@ -153,6 +168,8 @@ pub fn line_table(table: &Table, inputs: &LineInputs) -> Option<LineTable> {
                     peak_fourth_difference_nt,
                     level_nt,
                     level_before_nt,
+                    correction_nt: correction.as_deref().and_then(|c| rms(c, line)),
+                    error_nt: error.as_deref().and_then(|e| rms(e, line)),
                     span_s: span(&tt),
                     kind: match straight {
                         false => LineKind::Turn,
@@ -273,6 +290,23 @@ fn pick(x: &[f64], line: &Line) -> Vec<f64> {
         .iter()
         .flat_map(|r| x[r.clone()].to_vec())
         .collect()
+}
+
+/// `a − b` less its mean over the finite rows (nT).
+fn difference(a: &[f64], b: &[f64]) -> Vec<f64> {
+    let d: Vec<f64> = a.iter().zip(b).map(|(a, b)| a - b).collect();
+    let m = mean(&d);
+    d.iter().map(|v| v - m).collect()
+}
+
+/// RMS of the finite values of `x` on `line`; `None` without one.
+fn rms(x: &[f64], line: &Line) -> Option<f64> {
+    let finite: Vec<f64> = pick(x, line)
+        .into_iter()
+        .filter(|v| v.is_finite())
+        .collect();
+    let n = finite.len() as f64;
+    (n > 0.0).then(|| (finite.iter().map(|v| v * v).sum::<f64>() / n).sqrt())
 }
 
 fn mean(x: &[f64]) -> f64 {
@@ -402,6 +436,7 @@ mod tests {
             tt: &tt,
             before: &before,
             after: None,
+            truth: None,
         };
         let lines = line_table(&t, &inputs).unwrap();
         let ids: Vec<&str> = lines.rows.iter().map(|r| r.line.as_str()).collect();
@@ -427,6 +462,7 @@ mod tests {
             tt: &tt,
             before: &before,
             after: None,
+            truth: None,
         };
         let lines = line_table(&t, &inputs).unwrap();
         assert_eq!(lines.heading_from, HeadingSource::Yaw);
@@ -473,6 +509,7 @@ mod tests {
             tt: &tt,
             before: &[1.0, 2.0],
             after: None,
+            truth: None,
         };
         assert!(line_table(&table(&[("line", vec![3.0, 3.0])]), &inputs).is_none());
         assert!(line_table(&table(&[("x", vec![3.0, 4.0])]), &inputs).is_none());
@@ -485,6 +522,7 @@ mod tests {
             tt: &tt,
             before: &[1.0, 2.0, f64::NAN],
             after: Some(&[1.0, 2.0, 3.0]),
+            truth: None,
         };
         let t = table(&[("line", vec![1.0, 2.0, 1.0])]);
         let lines = line_table(&t, &inputs).unwrap();

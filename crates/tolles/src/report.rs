@@ -399,6 +399,7 @@ fn build_scalar(
             tt: &outcome.tt,
             before: &outcome.scalar,
             after: outcome.compensated.as_deref(),
+            truth: truth.as_deref(),
         },
     )
     .map(|lines| with_box_legs(lines, &outcome.maneuvers));
@@ -754,6 +755,29 @@ mod tests {
             .unwrap();
         let (start, end) = line.span_s.unwrap();
         assert!(end - start > 60.0, "{start} {end}");
+        assert!(line.correction_nt.is_none() && line.error_nt.is_none());
+
+        // With a model (fitted on the box), each line has its correction and its error.
+        let mut warnings = Vec::new();
+        let read = crate::read::read(&flight, &Default::default(), &Silent, &mut warnings);
+        let fit_request =
+            crate::fit::FitRequest::new(vec!["mag_1_uc".into()], vec!["flux_a".into()]);
+        let model = crate::fit::fit(&read.unwrap().table, &fit_request, &Silent, &mut warnings);
+        let model_path = dir.path().join("m.json");
+        crate::model::save_model(&model.unwrap(), &model_path).unwrap();
+        let request = ReportRequest {
+            model: Some(model_path),
+            ..ReportRequest::new(&flight, "mag_1_uc")
+        };
+        let data = build(&request, &Silent, &mut warnings).unwrap();
+        for row in (data.lines.as_ref().unwrap().rows.iter()).filter(|r| r.kind == LineKind::Line) {
+            let (correction, error) = (row.correction_nt.unwrap(), row.error_nt.unwrap());
+            println!(
+                "line {}: correction {correction:.3} nT, error {error:.4} nT",
+                row.line
+            );
+            assert!(correction > 1.0 && error < 0.1 * correction, "{row:?}");
+        }
     }
 
     /// A simulated box with a second scalar `mag_2_uc`: `mag_1_uc` plus a 0.5 nT wobble.

@@ -10,6 +10,7 @@ pub(super) fn per_line(
     lines: &LineTable,
     compensated: bool,
     tolerance: f64,
+    vs: &str,
 ) -> Report {
     let extent_header = match lines.extent_from {
         ExtentSource::Duration => "duration (s)",
@@ -27,15 +28,27 @@ pub(super) fn per_line(
         headers.extend(["residual (nT)", "noise (nT)"]);
     }
     headers.push("level (nT)");
+    if compensated {
+        headers.push("correction (nT)");
+    }
+    let with_error = lines.rows.iter().any(|r| r.error_nt.is_some());
+    let error_header = format!("error vs {vs} (nT)");
+    if with_error {
+        headers.push(&error_header);
+    }
     let spec = format!("within ±{tolerance} nT");
     headers.extend(["peak 4th diff (nT)", spec.as_str()]);
     let cells: Vec<Vec<String>> = (lines.rows.iter())
         .filter(|r| r.kind == LineKind::Line)
-        .map(|r| line_cells(r, compensated, tolerance))
+        .map(|r| line_cells(r, compensated, with_error, tolerance))
         .collect();
     let report = report
         .section("Lines")
-        .paragraph(line_definitions(lines, compensated))
+        .paragraph(line_definitions(
+            lines,
+            compensated,
+            with_error.then_some(vs),
+        ))
         .table(&headers, &cells);
     match others(lines) {
         Some(text) => report.paragraph(text),
@@ -73,7 +86,7 @@ fn clock(t: f64) -> String {
     format!("{:02}:{:02}:{:02}", s / 3600, s / 60 % 60, s % 60)
 }
 
-fn line_definitions(lines: &LineTable, compensated: bool) -> String {
+fn line_definitions(lines: &LineTable, compensated: bool, vs: Option<&str>) -> String {
     let heading = match lines.heading_from {
         HeadingSource::Yaw => "the circular mean of ins_yaw",
         HeadingSource::LatLon => "the circular mean bearing of the track from lat/lon",
@@ -90,6 +103,19 @@ fn line_definitions(lines: &LineTable, compensated: bool) -> String {
     } else {
         "scalar"
     };
+    let correction = match compensated {
+        true => {
+            " Correction: the RMS over the line of uncompensated − compensated, less its \
+                 mean over the flight (the line's change of level included)."
+        }
+        false => "",
+    };
+    let error = vs.map_or(String::new(), |vs| {
+        format!(
+            " Error vs {vs}: the RMS over the line of compensated − {vs}, less its mean over the \
+             flight (the line's level error included)."
+        )
+    });
     format!(
         "One row per straight line of the line column, rows of a line wherever they are. \
          Start, end: the time of its first and last row, hh:mm:ss (of the UTC day for POSIX \
@@ -100,7 +126,8 @@ fn line_definitions(lines: &LineTable, compensated: bool) -> String {
          scalar, as tolles fom prints it. Level: the line's mean {signal} minus the median of \
          all lines' means. Peak 4th diff: the largest |fourth difference| of the line's \
          {signal}, which passes the specification when within the tolerance (report \
-         --noise-tolerance). — : too few finite samples (a residual needs 3, a noise 5).",
+         --noise-tolerance).{correction}{error} — : too few finite samples (a residual needs \
+         3, a noise 5).",
         match lines.extent_from {
             ExtentSource::Duration => "Duration",
             _ => "Length",
@@ -108,7 +135,7 @@ fn line_definitions(lines: &LineTable, compensated: bool) -> String {
     )
 }
 
-fn line_cells(row: &LineRow, compensated: bool, tolerance: f64) -> Vec<String> {
+fn line_cells(row: &LineRow, compensated: bool, with_error: bool, tolerance: f64) -> Vec<String> {
     let cell = |v: Option<f64>, decimals: usize| {
         v.filter(|v| v.is_finite())
             .map_or("—".into(), |v| format!("{v:.decimals$}"))
@@ -137,6 +164,12 @@ fn line_cells(row: &LineRow, compensated: bool, tolerance: f64) -> Vec<String> {
         cells.push(cell(row.noise_after_nt, 4));
     }
     cells.push(cell(row.level_nt, 3));
+    if compensated {
+        cells.push(cell(row.correction_nt, 3));
+    }
+    if with_error {
+        cells.push(cell(row.error_nt, 4));
+    }
     cells.push(cell(row.peak_fourth_difference_nt, 3));
     cells.push(match row.peak_fourth_difference_nt {
         Some(peak) if peak <= tolerance => "pass".into(),

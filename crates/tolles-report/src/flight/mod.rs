@@ -281,7 +281,8 @@ fn page_with(data: &ReportData, maps: &[Map]) -> Report {
     // legs, and the lines' table names the rest below it.
     if let Some(lines) = data.lines.as_ref().filter(|l| has_lines(l)) {
         let tolerance = data.request.noise_tolerance_nt;
-        report = per_line(report, lines, data.compensated.is_some(), tolerance);
+        let vs = against(data).short;
+        report = per_line(report, lines, data.compensated.is_some(), tolerance, &vs);
     }
     report = map_section(report, data, maps);
     report = signals(report, data);
