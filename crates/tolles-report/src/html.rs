@@ -106,8 +106,8 @@ dl.kv dd.num { text-align: right; font-variant-numeric: tabular-nums; }
 dl.kv dt:nth-last-of-type(1), dl.kv dd:last-of-type { border-bottom: 0; }
 .table-wrap { overflow-x: auto; margin: 14px 0; border: 1px solid var(--line); border-radius: 8px;
   width: fit-content; max-width: 100%; min-width: 420px; }
-table { border-collapse: collapse; width: 100%; font-size: 15px; }
-th, td { padding: 7px 12px; text-align: left; white-space: nowrap; }
+table { border-collapse: collapse; width: 100%; font-size: 14px; }
+th, td { padding: 6px 8px; text-align: left; white-space: nowrap; }
 thead th { white-space: normal; vertical-align: bottom; }
 thead th { background: var(--wash); color: var(--muted); font-weight: 600; font-size: 13px;
   border-bottom: 1px solid var(--line); }

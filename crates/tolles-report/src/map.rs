@@ -251,12 +251,13 @@ fn colour_bar(svg: &mut String, lo: f64, hi: f64, label: &str) {
     let _ = write!(
         svg,
         "<text x=\"{}\" y=\"{}\">{hi:.1}</text><text x=\"{}\" y=\"{}\">{lo:.1}</text>\
-         <text x=\"{}\" y=\"{}\" font-size=\"10\">{}</text>",
+         <text x=\"{}\" y=\"{}\" font-size=\"10\" text-anchor=\"end\">{}</text>",
         x + 15.0,
         t + 8.0,
         x + 15.0,
         t + height,
-        x - 10.0,
+        // Ends at the right edge: a median of 53 544.7 nT ran past it from the bar.
+        MAP_SIZE.0 - 4.0,
         MAP_SIZE.1 - 8.0,
         escape(label)
     );

@@ -16,7 +16,7 @@ pub(super) fn per_line(
         ExtentSource::Duration => "duration (s)",
         _ => "length (km)",
     };
-    let mut headers = vec!["line", "start", "end", "heading (°)", extent_header, "rows"];
+    let mut headers = vec!["line", "time", "heading (°)", extent_header, "rows"];
     if compensated {
         headers.extend([
             "residual before (nT)",
@@ -118,7 +118,7 @@ fn line_definitions(lines: &LineTable, compensated: bool, vs: Option<&str>) -> S
     });
     format!(
         "One row per straight line of the line column, rows of a line wherever they are. \
-         Start, end: the time of its first and last row, hh:mm:ss (of the UTC day for POSIX \
+         Time: of its first and last row, hh:mm:ss (of the UTC day for POSIX \
          times). Heading: \
          {heading}. {}: {extent}. Residual: standard deviation of the scalar about its \
          least-squares straight line in time over the line (the line's trend removed). Noise: \
@@ -140,13 +140,12 @@ fn line_cells(row: &LineRow, compensated: bool, with_error: bool, tolerance: f64
         v.filter(|v| v.is_finite())
             .map_or("—".into(), |v| format!("{v:.decimals$}"))
     };
-    let (start, end) = row
+    let time = row
         .span_s
-        .map_or(("—".into(), "—".into()), |(a, b)| (clock(a), clock(b)));
+        .map_or("—".into(), |(a, b)| format!("{}–{}", clock(a), clock(b)));
     let mut cells = vec![
         row.line.clone(),
-        start,
-        end,
+        time,
         // 359.96° prints as 0.0, not 360.0.
         cell(
             row.heading_deg.map(|h| ((h * 10.0).round() / 10.0) % 360.0),

@@ -464,10 +464,10 @@ fn summary(report: Report, data: &ReportData) -> Report {
         items.push((
             "network share of the correction",
             format!(
-                "{} of {} ({:.1} %)",
-                nt(share.network_std_nt, 4),
-                nt(share.linear_std_nt, 3),
-                100.0 * share.network_std_nt / share.linear_std_nt
+                "{} % ({} of {} nT)",
+                crate::numbers::format_value(100.0 * share.network_std_nt / share.linear_std_nt),
+                crate::numbers::format_value(share.network_std_nt),
+                crate::numbers::format_value(share.linear_std_nt),
             ),
         ));
     }
