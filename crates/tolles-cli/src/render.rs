@@ -313,10 +313,9 @@ pub fn fit_summary(model: &ScalarModel, cal: &Path) -> std::io::Result<()> {
         "  {:<12} {:>14} {:>12}  unit",
         "term", "coefficient", "std error"
     )?;
-    let terms = model.fit.settings.design.design_terms();
     let columns = model.fit.columns.iter().zip(&model.fit.coefficients);
     for (k, ((name, beta), se)) in columns.zip(&d.std_errors).enumerate() {
-        let unit = terms.get(k).map_or("nT", |t| t.coefficient_unit());
+        let unit = model.coefficient_unit(k);
         writeln!(err, "  {name:<12} {beta:>14.6} {se:>12.4}  {unit}")?;
     }
     let p = &model.patent;

@@ -36,6 +36,32 @@ pub const LOAD_CURRENT: &str = "cur_load";
 pub const FLAP_ANGLE: &str = "pos_flap";
 /// Temperature of the aircraft's magnetised structure (°C), as the simulator writes it.
 pub const TEMPERATURE: &str = "temp";
+/// The unit of an extra channel by its name, for its coefficient's unit (nT per it): the
+/// simulator's channels by name, then DAF-MIT/SGL's families by prefix (`cur_*` currents,
+/// `vol_*` voltages); first match wins.
+const CHANNEL_UNITS: [(&str, &str); 8] = [
+    (LOAD_CURRENT, "A"),
+    (FLAP_ANGLE, "°"),
+    (TEMPERATURE, "°C"),
+    ("cur_", "A"),
+    ("vol_", "V"),
+    ("volt", "V"),
+    ("temp_", "°C"),
+    ("ins_", "°"),
+];
+
+/// The unit of the channel `name` ([`CHANNEL_UNITS`]: `A`, `V`, `°`, `°C`), or `None` when
+/// its name does not say it.
+pub fn channel_unit(name: &str) -> Option<&'static str> {
+    let name = name.to_ascii_lowercase();
+    CHANNEL_UNITS
+        .iter()
+        .find(|(pattern, _)| {
+            name == *pattern || (pattern.ends_with('_') && name.starts_with(pattern))
+        })
+        .map(|(_, unit)| *unit)
+}
+
 /// Truth: what the simulated cabin effects add to the scalar (nT).
 pub const TRUTH_EFFECTS: &str = "truth_effects";
 /// Diurnal variation (nT), as a base station measured it.
@@ -341,6 +367,20 @@ pub fn output_names(headers: &[String], wanted: &[&str]) -> Vec<(String, bool)> 
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn channel_units_come_from_known_names_and_families() {
+        assert_eq!(channel_unit("cur_strb"), Some("A"));
+        assert_eq!(channel_unit("CUR_FLAP"), Some("A"));
+        assert_eq!(channel_unit("cur_load"), Some("A"));
+        assert_eq!(channel_unit("vol_bat_1"), Some("V"));
+        assert_eq!(channel_unit("pos_flap"), Some("°"));
+        assert_eq!(channel_unit("temp"), Some("°C"));
+        assert_eq!(channel_unit("ins_roll"), Some("°"));
+        assert_eq!(channel_unit("current"), None);
+        assert_eq!(channel_unit("mystery"), None);
+    }
+
     use super::*;
 
     fn strings(names: &[&str]) -> Vec<String> {

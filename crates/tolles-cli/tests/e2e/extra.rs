@@ -26,6 +26,14 @@ fn a_motor_current_as_an_extra_channel_is_compensated() {
     assert!(warned.contains("try --extra"), "{warned}");
     assert!(!summary.contains("try --extra"), "{summary}");
     assert!(summary.contains("+cur_1"), "{summary}");
+    // A current's coefficients are in nT per ampere, as the channel's name says.
+    let row = summary
+        .lines()
+        .find(|l| l.trim_start().starts_with("cur_1_x"));
+    assert!(
+        row.is_some_and(|r| r.trim_end().ends_with("nT/A")),
+        "{summary}"
+    );
     assert!(with < 0.05 && without > 100.0 * with, "{without} -> {with}");
     let model = std::fs::read_to_string(dir.path().join("m.json")).unwrap();
     assert!(

@@ -44,3 +44,44 @@ fn the_python_build_says_what_it_builds_and_how_long_it_took() {
         "{said:?}"
     );
 }
+
+/// Every `--test NAME` the docs cite names a test binary that exists: the figures' commands
+/// must run as written (`scripts/docs-figures` re-runs them).
+#[test]
+fn every_test_binary_the_docs_cite_exists() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let mut binaries = Vec::new();
+    for krate in std::fs::read_dir(root.join("crates")).unwrap() {
+        let Ok(tests) = std::fs::read_dir(krate.unwrap().path().join("tests")) else {
+            continue;
+        };
+        for entry in tests {
+            let path = entry.unwrap().path();
+            let stem = path.file_stem().unwrap().to_string_lossy().to_string();
+            if path.extension().is_some_and(|e| e == "rs") || path.join("main.rs").exists() {
+                binaries.push(stem);
+            }
+        }
+    }
+    let mut docs = vec![root.join("README.md"), root.join("CONTRIBUTING.md")];
+    for doc in std::fs::read_dir(root.join("docs")).unwrap() {
+        docs.push(doc.unwrap().path());
+    }
+    for doc in docs
+        .iter()
+        .filter(|d| d.extension().is_some_and(|e| e == "md"))
+    {
+        let text = std::fs::read_to_string(doc).unwrap().replace('\n', " ");
+        for cited in text.split("--test ").skip(1) {
+            let name: String = cited
+                .chars()
+                .take_while(|c| c.is_alphanumeric() || *c == '_')
+                .collect();
+            assert!(
+                binaries.contains(&name),
+                "{}: --test {name} is no test binary ({binaries:?})",
+                doc.display()
+            );
+        }
+    }
+}

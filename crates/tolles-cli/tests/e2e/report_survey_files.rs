@@ -94,6 +94,12 @@ fn a_simulated_survey_stripped_of_attitude_still_reports() {
         );
     }
     assert!(plots.iter().any(|p| p.starts_with("map-")), "{plots:?}");
+    // Each straight line's profile, and none of the turns'.
+    assert!(page.contains("Line profiles"));
+    for line in ["1001", "1002", "1003"] {
+        assert!(page.contains(&format!("Line {line}")), "profile of {line}");
+    }
+    assert!(!page.contains("Line 2<"), "a turn drawn as a line");
     assert_no_nan_or_inf(&page, &plots, &out);
 }
 

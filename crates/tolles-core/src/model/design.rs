@@ -74,18 +74,6 @@ pub struct Term {
     pub column: Column,
 }
 
-impl Term {
-    /// The unit of this term's coefficient. Design columns are dimensionless (B̂, B̂·B/Bt_scale,
-    /// B̂·Ḃ/Bt_scale, 1), so their coefficients are in nT; an extra channel's column carries
-    /// the channel's own unit, so its coefficient is in nT per unit of the channel.
-    pub fn coefficient_unit(&self) -> &'static str {
-        match self.column {
-            Column::Extra { .. } => "nT per channel unit",
-            _ => "nT",
-        }
-    }
-}
-
 impl Design {
     /// A one-fluxgate design with MagNav's `Bt_scale` of 50 000 nT.
     pub fn new(terms: TermSet) -> Self {

@@ -6,7 +6,6 @@ use super::*;
 /// Coefficients with standard errors, the aircraft's field they describe and the patent's terms.
 pub(super) fn model(report: Report, model: &ScalarModel) -> Report {
     let fit = &model.fit;
-    let terms = fit.settings.design.design_terms();
     let rows: Vec<Vec<String>> = fit
         .columns
         .iter()
@@ -14,12 +13,11 @@ pub(super) fn model(report: Report, model: &ScalarModel) -> Report {
         .zip(&fit.diagnostics.std_errors)
         .enumerate()
         .map(|(k, ((name, beta), se))| {
-            let unit = terms.get(k).map_or("nT", |t| t.coefficient_unit());
             vec![
                 name.clone(),
                 format!("{beta:.6}"),
                 format!("{se:.4}"),
-                unit.into(),
+                model.coefficient_unit(k),
             ]
         })
         .collect();

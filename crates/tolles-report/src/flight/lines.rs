@@ -177,3 +177,79 @@ fn line_cells(row: &LineRow, compensated: bool, with_error: bool, tolerance: f64
     });
     cells
 }
+
+/// The most lines drawn as profiles: beyond it the page would be mostly profiles.
+const MAX_PROFILES: usize = 12;
+
+/// Each straight line's profile (up to [`MAX_PROFILES`]): the scalar before and after
+/// compensation, each less its mean over the line, against the time since the line began.
+pub(super) fn line_profiles(mut report: Report, data: &ReportData) -> Report {
+    let Some(lines) = data.lines.as_ref().filter(|l| has_lines(l)) else {
+        return report;
+    };
+    let straight: Vec<&LineRow> = (lines.rows.iter())
+        .filter(|r| r.kind == LineKind::Line)
+        .collect();
+    let shown = straight.len().min(MAX_PROFILES);
+    report = report.section("Line profiles").paragraph(format!(
+        "Each straight line's scalar{} less its mean over the line, against the time since the \
+         line began (s): the anomalies a survey delivers, and what compensation took out of \
+         them. {} of {} lines{}.",
+        if data.compensated.is_some() {
+            " before and after compensation"
+        } else {
+            ""
+        },
+        shown,
+        straight.len(),
+        if shown < straight.len() {
+            ", the first in the table"
+        } else {
+            ""
+        }
+    ));
+    for row in &straight[..shown] {
+        let rows = line_rows(lines, &row.line, &data.fom.tt);
+        let Some(&first) = rows.first() else {
+            continue;
+        };
+        let t0 = data.fom.tt[first];
+        let x: Vec<f64> = rows.iter().map(|&k| data.fom.tt[k] - t0).collect();
+        let profile = |trace: &tolles::report::Trace| {
+            let values: Vec<f64> = rows.iter().map(|&k| trace.centred[k]).collect();
+            let finite: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
+            let mean = finite.iter().sum::<f64>() / finite.len().max(1) as f64;
+            values.iter().map(|v| v - mean).collect::<Vec<f64>>()
+        };
+        let mut series =
+            vec![
+                Series::new("uncompensated", x.clone(), profile(&data.uncompensated))
+                    .colour(Colour::UNCOMPENSATED),
+            ];
+        if let Some(after) = &data.compensated {
+            series.push(
+                Series::new("compensated", x.clone(), profile(after)).colour(Colour::COMPENSATED),
+            );
+        }
+        report = report.line_plot(LinePlot {
+            title: format!("Line {}", row.line),
+            x_label: "time since the line began (s)".into(),
+            y_label: "field − line mean (nT)".into(),
+            series,
+            size: PlotSize::SMALL,
+            ..LinePlot::default()
+        });
+    }
+    report
+}
+
+/// The rows of `lines`' line `id`, from its stretches' times in `tt` (s).
+fn line_rows(lines: &LineTable, id: &str, tt: &[f64]) -> Vec<usize> {
+    let spans: Vec<(f64, f64)> = (lines.stretches.iter())
+        .filter(|(line, _, _)| line == id)
+        .map(|(_, a, b)| (*a, *b))
+        .collect();
+    (0..tt.len())
+        .filter(|&k| spans.iter().any(|(a, b)| (*a..=*b).contains(&tt[k])))
+        .collect()
+}

@@ -286,6 +286,7 @@ fn page_with(data: &ReportData, maps: &[Map]) -> Report {
     }
     report = map_section(report, data, maps);
     report = signals(report, data);
+    report = line_profiles(report, data);
     report = spectra(report, data);
     if has_box(data) {
         report = figure_of_merit(report, data);

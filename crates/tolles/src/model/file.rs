@@ -177,6 +177,24 @@ impl ScalarModel {
 }
 
 impl ScalarModel {
+    /// The unit of coefficient `k`: nT for the aircraft's terms (the induced and eddy columns
+    /// are scaled by `bt_scale`), nT per the channel's unit for an extra channel's (`nT/A` for
+    /// `cur_*`, [`tolles_io::schema::channel_unit`]), `nT per unit of NAME` when its name does
+    /// not say its unit.
+    pub fn coefficient_unit(&self, k: usize) -> String {
+        let design = &self.fit.settings.design;
+        match design.design_terms().get(k).map(|t| t.column) {
+            Some(tolles_core::model::terms::Column::Extra { channel, .. }) => {
+                let name = design.extras.get(channel).map_or("?", |e| e.name.as_str());
+                match tolles_io::schema::channel_unit(name) {
+                    Some(unit) => format!("nT/{unit}"),
+                    None => format!("nT per unit of {name}"),
+                }
+            }
+            _ => "nT".to_string(),
+        }
+    }
+
     /// Records that the fit was made against the reference magnetometer `column`.
     pub fn with_reference(mut self, column: Option<&str>) -> Self {
         self.reference = column.map(str::to_string);
