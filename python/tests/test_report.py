@@ -51,3 +51,16 @@ def test_an_unknown_scalar_is_a_tolles_error(box, tmp_path):
     flight, _ = box
     with pytest.raises(tolles.TollesError, match="mag_9_uc"):
         tolles.report(flight, tmp_path, scalar="mag_1_uc,mag_9_uc")
+
+
+def test_a_reference_column_is_judged_against_as_the_cli_does(box, cli, tmp_path, monkeypatch):
+    flight, model = box
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1795862700")
+    # The truth itself as a reference column: the page names it where it said "truth".
+    index = tolles.report(flight, tmp_path / "py", model=model, reference="truth_earth")
+    page = index.read_text()
+    assert "error vs truth_earth after" in page and "error vs truth after" not in page
+    cli("report", flight, "--model", model, "--reference", "truth_earth", "--out", tmp_path / "cli")
+    assert index.read_bytes() == (tmp_path / "cli" / "index.html").read_bytes()
+    with pytest.raises(tolles.TollesError, match="mag_1_c"):
+        tolles.report(flight, tmp_path / "none", model=model, reference="mag_1_c")
