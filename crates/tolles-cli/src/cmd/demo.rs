@@ -138,7 +138,7 @@ fn figure_of_merit(cal: &Path, model: &ModelFile) -> Result<()> {
         "  FOM before {:8.3} nT   after {:7.3} nT   improvement ×{:.0}",
         outcome.before.fom_nt,
         after.fom_nt,
-        tolles::tolles_core::maneuvers::fom::improvement_ratio(&outcome.before, after)
+        outcome.improvement_ratio().unwrap_or(f64::NAN)
     );
     Ok(())
 }

@@ -7,7 +7,6 @@ use std::io::Write;
 use std::path::PathBuf;
 use tolles::fom::{heading_text, FomOutcome, FomRequest};
 use tolles_core::fit::Band;
-use tolles_core::maneuvers::fom::improvement_ratio;
 use tolles_core::maneuvers::heading::{HeadingLevel, HeadingLevels};
 
 const EXAMPLES: &str = "\
@@ -183,7 +182,7 @@ fn write_table(out: &mut impl Write, args: &Args, scalar: &str, o: &FomOutcome) 
         Some(after) => writeln!(
             out,
             "improvement ratio (FOM uncompensated / compensated): {:.1}\nfourth-difference noise: {} uncompensated, {} compensated",
-            improvement_ratio(&o.before, after),
+            o.improvement_ratio().unwrap_or(f64::NAN),
             noise(o.before.fourth_difference_nt),
             noise(after.fourth_difference_nt)
         )?,
