@@ -108,23 +108,13 @@ impl<'py> Frame<'py> {
     }
 }
 
-/// The columns the fits of `model` read.
+/// The columns compensating with `model` reads, time aside (optional in a frame: `dt` or
+/// `fs` may give the rate): the facade's list, so Python reads what the CLI reads.
 fn model_columns(model: &ModelFile) -> Vec<String> {
-    let mut wanted = Vec::new();
-    for fit in &model.fits {
-        wanted.push(fit.scalar.clone());
-        wanted.extend(fit.vectors.iter().flat_map(|v| vector_columns(v)));
-        wanted.extend(
-            fit.fit
-                .settings
-                .design
-                .extras
-                .iter()
-                .map(|e| e.name.clone()),
-        );
-        wanted.extend(tolles::compensate::network_channels(fit).iter().cloned());
-    }
-    wanted
+    tolles::compensate::columns_read(model)
+        .into_iter()
+        .filter(|c| c != TIME_COLUMN)
+        .collect()
 }
 
 /// The attitude columns a maneuver search reads, and `scalar`.
@@ -405,15 +395,9 @@ fn fom(
         .map_err(failed)?;
     let mut wanted = attitude_and(&scalar);
     if let Some(fit) = fit {
-        wanted.extend(fit.vectors.iter().flat_map(|v| vector_columns(v)));
-        wanted.extend(
-            fit.fit
-                .settings
-                .design
-                .extras
-                .iter()
-                .map(|e| e.name.clone()),
-        );
+        // What compensating with the fit reads (time is optional, as in `model_columns`).
+        let columns = tolles::compensate::fit_columns(fit);
+        wanted.extend(columns.into_iter().filter(|c| c != TIME_COLUMN));
     }
     let table = Frame::new(source, names, get, dt).table(&wanted)?;
     let request = with_legs(

@@ -478,16 +478,16 @@ pub fn compensate_file(
 
 /// The columns compensating with `model` reads.
 pub fn columns_read(model: &ModelFile) -> Vec<String> {
-    model
-        .fits
-        .iter()
-        .flat_map(|f| {
-            let extras = &f.fit.settings.design.extras;
-            let mut names = crate::read::flight_columns(&f.scalar, &f.vectors, extras);
-            names.extend(network_channels(f).iter().cloned());
-            names
-        })
-        .collect()
+    model.fits.iter().flat_map(fit_columns).collect()
+}
+
+/// The columns applying `fit` reads: its scalar, time, fluxgates, extra channels and its
+/// network's channels.
+pub fn fit_columns(fit: &ScalarModel) -> Vec<String> {
+    let extras = &fit.fit.settings.design.extras;
+    let mut names = crate::read::flight_columns(&fit.scalar, &fit.vectors, extras);
+    names.extend(network_channels(fit).iter().cloned());
+    names
 }
 
 /// The columns `fit`'s network reads besides the fluxgate and the extra channels (none
