@@ -239,13 +239,15 @@ class Installation:
         return steps[:n] + smooth_noise(rng, n, 1.0, 5.0) * 180 / np.pi
 
     def exact_oracle(self, box_scalar, box_earth, survey_earth, box_vector=None,
-                     survey_vector=None, currents=(None, None)):
+                     survey_vector=None, currents=(None, None), earth_known=True):
         """The true model itself, `|B + p + A·B + E·dB/dt| − |B|` with A traceless, fitted by
         nonlinear least squares to the box with the earth's field `box_earth` known (body
         frame, nT); returns the aircraft's field it predicts on `survey_earth` (nT). With
         `box_vector` and `survey_vector` (the fluxgate's readings, nT) B is read from them
         instead, as any compensation must, and only the earth's magnitude is known. With an
-        installation's current, `currents` holds the box's and the survey's (A)."""
+        installation's current, `currents` holds the box's and the survey's (A). With
+        `earth_known` false the earth's magnitude is not known either: the fit's target is the
+        scalar less the fluxgate's magnitude, all that the data tell."""
         box_vector = box_earth if box_vector is None else box_vector
         survey_vector = survey_earth if survey_vector is None else survey_vector
         kind = self.kind
@@ -272,7 +274,7 @@ class Installation:
         from scipy.optimize import least_squares
         scale = np.r_[np.full(3, 100.0), np.full(8, 1e-3), np.full(9, 1e-4), 1.0, np.ones(3)]
         scale = scale[:21] if currents[0] is None else scale
-        target = box_scalar - np.linalg.norm(box_earth, axis=1)
+        target = box_scalar - np.linalg.norm(box_earth if earth_known else box_vector, axis=1)
         fitted = least_squares(lambda q: field(q * scale, box_vector, currents[0]) - target,
                                np.zeros(len(scale)), x_scale=1.0, method="lm")
         return field(fitted.x * scale, survey_vector, currents[1])

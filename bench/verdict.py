@@ -106,7 +106,12 @@ def one(seed, tolles, work):
     vector = lambda f: f[[f"flux_a_{c}" for c in "xyz"]].to_numpy() - inst.flux_offset  # noqa
     floor = scores(y - inst.exact_oracle(scalar, box_earth, survey_earth, vector(box),
                                          vector(survey), currents=currents), truth)["overall"]
-    row = {"seed": seed, "kind": kind.name, "oracle": oracle, "fluxgate oracle": floor}
+    # What the data alone tell: the fluxgate oracle without the earth's magnitude.
+    data_floor = scores(y - inst.exact_oracle(scalar, box_earth, survey_earth, vector(box),
+                                              vector(survey), currents=currents,
+                                              earth_known=False), truth)["overall"]
+    row = {"seed": seed, "kind": kind.name, "oracle": oracle, "fluxgate oracle": floor,
+           "data-only oracle": data_floor}
     outcome = run_tolles(tolles, work, "cur_1" in box)
     if outcome is None:
         row.update(grade="refused", reasons=[])
