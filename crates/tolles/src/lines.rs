@@ -18,6 +18,8 @@ pub struct LineRow {
     pub line: String,
     /// Rows of the flight on this line.
     pub rows: usize,
+    /// Where they are: each stretch of consecutive rows on the line, in row order.
+    pub runs: Vec<Range<usize>>,
     /// Circular mean heading (deg, clockwise from north, in [0, 360)).
     pub heading_deg: Option<f64>,
     /// Length of the track (km), or without positions the time flown (s).
@@ -159,6 +161,7 @@ pub fn line_table(table: &Table, inputs: &LineInputs) -> Option<LineTable> {
                 LineRow {
                     line: line.id.clone(),
                     rows: line.len(),
+                    runs: line.runs.clone(),
                     heading_deg,
                     extent,
                     residual_before_nt,

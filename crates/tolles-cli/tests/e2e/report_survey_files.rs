@@ -1,7 +1,7 @@
 //! `tolles report` of survey files as delivered: no attitude, positions under survey names, lines
 //! sorted by number so that time steps back between them.
 
-use crate::common::tolles;
+use crate::common::{self, tolles};
 use std::path::{Path, PathBuf};
 
 fn gondwana() -> PathBuf {
@@ -110,11 +110,7 @@ fn a_simulated_survey_stripped_of_attitude_still_reports() {
 fn a_reference_column_takes_the_place_of_the_truth() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let run = |args: &[&str]| {
-        let done = tolles().current_dir(d).args(args).output().unwrap();
-        let stderr = String::from_utf8_lossy(&done.stderr).to_string();
-        assert!(done.status.success(), "{args:?}: {stderr}");
-    };
+    let run = |args: &[&str]| common::run_in(d, args);
     run(&[
         "simulate",
         "--preset",

@@ -272,21 +272,7 @@ fn a_hostile_tcp_client_ends_only_its_own_stream() {
 fn a_reader_that_goes_away_ends_the_stream_without_a_panic() {
     let dir = TempDir::new().unwrap();
     let survey = model_and_survey(dir.path());
-    let mut child = std::process::Command::new(assert_cmd::cargo::cargo_bin("tolles"))
-        .current_dir(dir.path())
-        .args([
-            "stream",
-            "--model",
-            "m.json",
-            "--quiet",
-            "--derivative",
-            "causal",
-        ])
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut child = spawned_stream(dir.path(), &["--derivative", "causal"]);
     let mut stdout = BufReader::new(child.stdout.take().unwrap());
     let mut stdin = child.stdin.take().unwrap();
     let mut lines = survey.lines();
@@ -325,6 +311,20 @@ fn a_model_column_missing_from_the_header_is_a_one_line_error() {
         "error: stream on standard input: header has no column \"flux_a_y\"; did you mean \
          flux_a_x, flux_a_z?"
     );
+}
+
+/// Starts `tolles stream --model m.json --quiet ARGS` in `dir` with its stdin, stdout and
+/// stderr piped to the test.
+fn spawned_stream(dir: &std::path::Path, args: &[&str]) -> std::process::Child {
+    std::process::Command::new(assert_cmd::cargo::cargo_bin("tolles"))
+        .current_dir(dir)
+        .args(["stream", "--model", "m.json", "--quiet"])
+        .args(args)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap()
 }
 
 /// Starts `tolles ARGS --listen 127.0.0.1:0` in `dir`; returns the server and the address it
@@ -397,22 +397,8 @@ fn a_stream_takes_raw_channel_names_and_renames_as_a_file_does() {
 fn live_keeps_stdout_as_it_is_and_serves_the_state() {
     let dir = TempDir::new().unwrap();
     let survey = model_and_survey(dir.path());
-    let mut child = std::process::Command::new(assert_cmd::cargo::cargo_bin("tolles"))
-        .current_dir(dir.path())
-        .args([
-            "stream",
-            "--model",
-            "m.json",
-            "--quiet",
-            "--live",
-            "127.0.0.1:0",
-        ])
-        .args(["--live-linger", "30"])
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let live = ["--live", "127.0.0.1:0", "--live-linger", "30"];
+    let mut child = spawned_stream(dir.path(), &live);
     let mut stderr = BufReader::new(child.stderr.take().unwrap());
     let mut said = String::new();
     stderr.read_line(&mut said).unwrap();

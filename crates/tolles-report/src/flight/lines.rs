@@ -209,7 +209,7 @@ pub(super) fn line_profiles(mut report: Report, data: &ReportData) -> Report {
         }
     ));
     for row in &straight[..shown] {
-        let rows = line_rows(lines, &row.line, &data.fom.tt);
+        let rows: Vec<usize> = row.runs.iter().flat_map(Range::clone).collect();
         let Some(&first) = rows.first() else {
             continue;
         };
@@ -241,15 +241,4 @@ pub(super) fn line_profiles(mut report: Report, data: &ReportData) -> Report {
         });
     }
     report
-}
-
-/// The rows of `lines`' line `id`, from its stretches' times in `tt` (s).
-fn line_rows(lines: &LineTable, id: &str, tt: &[f64]) -> Vec<usize> {
-    let spans: Vec<(f64, f64)> = (lines.stretches.iter())
-        .filter(|(line, _, _)| line == id)
-        .map(|(_, a, b)| (*a, *b))
-        .collect();
-    (0..tt.len())
-        .filter(|&k| spans.iter().any(|(a, b)| (*a..=*b).contains(&tt[k])))
-        .collect()
 }
