@@ -158,6 +158,12 @@ figure.is-live > img, figure.is-live > .svg-note, figure.is-live > ul.legend { d
   h2, h3 { break-after: avoid; }
   /* A long table splits across pages (its header repeats); every column stays on the page. */
   figure, dl.kv, tr, .grid { break-inside: avoid; }
+  /* A short table prints whole, and the sentence that introduces it stays on its page. */
+  .table-wrap.short { break-inside: avoid; }
+  p:has(+ .table-wrap), p:has(+ .grid), p:has(+ figure) { break-after: avoid; }
+  .table-wrap + p { break-before: avoid; }
+  .grid.many { break-inside: auto; }
+  p { orphans: 3; widows: 3; }
   footer { break-before: avoid; }
   .table-wrap { overflow: visible; width: auto; max-width: none; min-width: 0; }
   table { font-size: 8.5pt; }

@@ -434,6 +434,9 @@ fn numeric_class(cell: &str) -> &'static str {
     }
 }
 
+/// Rows of a table short enough to print on one page, never split (A4 at 8.5 pt holds ~45).
+const SHORT_TABLE_ROWS: usize = 24;
+
 fn table(out: &mut String, headers: &[String], rows: &[Vec<String>]) {
     // A column is numeric when all its non-empty cells are, so header and cells align alike.
     let numeric: Vec<bool> = (0..headers.len())
@@ -453,7 +456,13 @@ fn table(out: &mut String, headers: &[String], rows: &[Vec<String>]) {
             ""
         }
     };
-    out.push_str("<div class=\"table-wrap\"><table>\n<thead><tr>");
+    // A table of up to a page's third is printed whole (see the print style sheet).
+    let whole = if rows.len() <= SHORT_TABLE_ROWS {
+        " short"
+    } else {
+        ""
+    };
+    let _ = write!(out, "<div class=\"table-wrap{whole}\"><table>\n<thead><tr>");
     for (c, h) in headers.iter().enumerate() {
         let _ = write!(out, "<th{}>{}</th>", class(c), escape(h));
     }
@@ -582,8 +591,10 @@ fn grid_start(cells: &[GridCell]) -> String {
         .unwrap_or(plot::PLOT_WIDTH);
     // Cells shrink to 85 % of their plots' width before a row gives up a column.
     let min = (widest as f64 * 0.85).round();
+    // A grid of more than a page's worth of cells may break between its rows when printed.
+    let many = if cells.len() > 4 { " many" } else { "" };
     format!(
-        "<div class=\"grid\" style=\"grid-template-columns: repeat(auto-fill, minmax(min({min}px, 100%), 1fr))\">\n"
+        "<div class=\"grid{many}\" style=\"grid-template-columns: repeat(auto-fill, minmax(min({min}px, 100%), 1fr))\">\n"
     )
 }
 

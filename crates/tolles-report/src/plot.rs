@@ -146,6 +146,10 @@ pub struct Series {
     /// Half-length of an error bar at each point (units of the y axis), as many as `y`;
     /// drawn for [`SeriesStyle::Points`] on a linear y axis. Empty: none.
     pub y_error: Vec<f64>,
+    /// For an angle drawn within one turn (a heading in 0–360°, say): the period (units of
+    /// the y axis). A line is broken where it jumps by more than half of it, so that a wrap
+    /// from 359° to 0° is not drawn as a stroke across the plot. `None`: never broken.
+    pub period: Option<f64>,
 }
 
 impl Series {
@@ -170,6 +174,13 @@ impl Series {
     pub fn points(mut self, y_error: Vec<f64>) -> Self {
         self.style = SeriesStyle::Points;
         self.y_error = y_error;
+        self
+    }
+
+    /// The same series taken as an angle of `period` (units of the y axis): see
+    /// [`Series::period`].
+    pub fn circular(mut self, period: f64) -> Self {
+        self.period = Some(period);
         self
     }
 }
@@ -202,6 +213,9 @@ pub struct LinePlot {
     /// Where the x axis is labelled (units of the x axis, linear axes only); empty: chosen
     /// from the range.
     pub x_ticks: Vec<f64>,
+    /// Where the y axis is labelled, and with what text (linear axes only); empty: chosen
+    /// from the range.
+    pub y_ticks: Vec<(f64, String)>,
     /// Also drawn as a zoomable chart in the page (see [`crate::live`]), the SVG kept for
     /// printing and as the fallback; all series must share their x values. `None`: SVG only.
     pub live: Option<Live>,
@@ -347,7 +361,11 @@ impl LinePlot {
             };
             match series.style {
                 SeriesStyle::Line => {
-                    shape.runs = polylines(x, y, x_range, self.size.width as usize, |_| true);
+                    let runs = polylines(x, y, x_range, self.size.width as usize, |_| true);
+                    shape.runs = match series.period {
+                        Some(period) => break_at_wraps(runs, period),
+                        None => runs,
+                    };
                     drawn += shape.runs.iter().map(Vec::len).sum::<usize>();
                 }
                 SeriesStyle::Points => {
@@ -580,7 +598,14 @@ fn draw_lines<DB: DrawingBackend>(
             axis_tick(*v, plot.log_x, x_range)
         }
     };
-    let y_tick = |v: &f64| axis_tick(*v, plot.log_y, y_range);
+    let fixed_y_ticks = !plot.y_ticks.is_empty() && !plot.log_y;
+    let y_tick = |v: &f64| {
+        if fixed_y_ticks {
+            String::new()
+        } else {
+            axis_tick(*v, plot.log_y, y_range)
+        }
+    };
     let x_count = if small { 5 } else { 9 };
     let y_count = if plot.size.height < 250 { 4 } else { 7 };
     let mut mesh = chart.configure_mesh();
@@ -591,7 +616,11 @@ fn draw_lines<DB: DrawingBackend>(
         } else {
             label_count(x_range, plot.log_x, x_count)
         })
-        .y_labels(label_count(y_range, plot.log_y, y_count))
+        .y_labels(if fixed_y_ticks {
+            0
+        } else {
+            label_count(y_range, plot.log_y, y_count)
+        })
         .x_label_formatter(&x_tick)
         .y_label_formatter(&y_tick)
         .label_style((FONT, label_font).into_font().color(&MUTED))
@@ -602,9 +631,15 @@ fn draw_lines<DB: DrawingBackend>(
     if fixed_ticks {
         mesh.disable_x_mesh();
     }
+    if fixed_y_ticks {
+        mesh.disable_y_mesh();
+    }
     mesh.draw().map_err(|e| e.to_string())?;
     if fixed_ticks {
         draw_x_ticks(root, &chart, x_range, y_range, plot)?;
+    }
+    if fixed_y_ticks {
+        draw_y_ticks(root, &chart, x_range, y_range, plot)?;
     }
     draw_spans(root, &chart, x_range, y_range, plot)?;
     for shape in lines {
@@ -681,6 +716,47 @@ fn draw_x_ticks<DB: DrawingBackend>(
             .map_err(|e| e.to_string())?;
     }
     Ok(())
+}
+
+/// Grid lines and labels at the plot's own y ticks (those inside the range).
+fn draw_y_ticks<DB: DrawingBackend>(
+    root: &DrawingArea<DB, plotters::coord::Shift>,
+    chart: &Chart<DB>,
+    (x0, x1): (f64, f64),
+    y_range: (f64, f64),
+    plot: &LinePlot,
+) -> Result<(), String> {
+    let area = chart.plotting_area();
+    let (label_font, _) = plot.size.fonts();
+    let inside = |tick: &&(f64, String)| (y_range.0..=y_range.1).contains(&tick.0);
+    for (tick, label) in plot.y_ticks.iter().filter(inside) {
+        area.draw(&PathElement::new([(x0, *tick), (x1, *tick)], GRID))
+            .map_err(|e| e.to_string())?;
+        let (px, py) = area.map_coordinate(&(x0, *tick));
+        let style = TextStyle::from((FONT, label_font).into_font())
+            .color(&MUTED)
+            .pos(Pos::new(HPos::Right, VPos::Center));
+        root.draw(&Text::new(label.clone(), (px - 6, py), style))
+            .map_err(|e| e.to_string())?;
+    }
+    Ok(())
+}
+
+/// Splits each run where consecutive points differ by more than half a `period`: an angle
+/// that wraps (359° to 0°) is two strokes, not one across the plot.
+fn break_at_wraps(runs: Vec<Vec<(f64, f64)>>, period: f64) -> Vec<Vec<(f64, f64)>> {
+    let mut out = Vec::with_capacity(runs.len());
+    for run in runs {
+        let mut piece: Vec<(f64, f64)> = Vec::with_capacity(run.len());
+        for point in run {
+            if piece.last().is_some_and(|last| (point.1 - last.1).abs() > period / 2.0) {
+                out.push(std::mem::take(&mut piece));
+            }
+            piece.push(point);
+        }
+        out.push(piece);
+    }
+    out
 }
 
 type Chart<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
@@ -1185,6 +1261,35 @@ mod tests {
         for automatic in ["50", "100", "200", "300"] {
             assert!(!labels.iter().any(|l| l == automatic), "{automatic}");
         }
+    }
+
+    #[test]
+    fn an_angle_that_wraps_is_two_strokes() {
+        let runs = vec![vec![(0.0, 350.0), (1.0, 359.0), (2.0, 1.0), (3.0, 4.0)]];
+        let broken = break_at_wraps(runs.clone(), 360.0);
+        assert_eq!(
+            broken,
+            vec![
+                vec![(0.0, 350.0), (1.0, 359.0)],
+                vec![(2.0, 1.0), (3.0, 4.0)]
+            ]
+        );
+        // A turn of 170° between two points is a turn, not a wrap.
+        let turn = vec![vec![(0.0, 10.0), (1.0, 180.0)]];
+        assert_eq!(break_at_wraps(turn.clone(), 360.0), turn);
+    }
+
+    #[test]
+    fn fixed_y_ticks_carry_their_own_labels() {
+        let plot = LinePlot {
+            series: vec![Series::new("yaw", vec![0.0, 1.0], vec![100.0, 300.0]).circular(360.0)],
+            y_range: Some((45.0, 405.0)),
+            y_ticks: vec![(90.0, "E".into()), (360.0, "N".into()), (500.0, "out".into())],
+            ..LinePlot::default()
+        };
+        let labels = texts(&plot.to_svg().unwrap().svg);
+        assert!(labels.iter().any(|l| l == "E") && labels.iter().any(|l| l == "N"));
+        assert!(!labels.iter().any(|l| l == "out" || l == "100"), "{labels:?}");
     }
 
     #[test]

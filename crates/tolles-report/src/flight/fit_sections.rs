@@ -3,8 +3,9 @@
 
 use super::*;
 
-/// Coefficients with standard errors, the aircraft's field they describe and the patent's terms.
-pub(super) fn model(report: Report, model: &ScalarModel) -> Report {
+/// Coefficients with standard errors, the aircraft's field they describe and the patent's terms,
+/// after `from`: which flight the model was fitted on.
+pub(super) fn model(report: Report, model: &ScalarModel, from: &str) -> Report {
     let fit = &model.fit;
     let rows: Vec<Vec<String>> = fit
         .columns
@@ -28,6 +29,7 @@ pub(super) fn model(report: Report, model: &ScalarModel) -> Report {
     };
     let report = report
         .section("Model")
+        .paragraph(from)
         .paragraph(format!(
             "Fit of {} against {fluxgates} {} with terms {} and the {} magnitude; sample rate {:.3} Hz. \
              Each column is dimensionless (B̂ = B/|B| for the permanent terms, B̂ᵢ·Bⱼ/Bt_scale \
@@ -110,8 +112,9 @@ pub(super) fn patent(report: Report, model: &ScalarModel) -> Report {
         .table(&["term", "value", "unit"], &rows)
 }
 
-/// The fit's diagnostics, its cross-validation and the term sets it compared.
-pub(super) fn diagnostics(mut report: Report, model: &ScalarModel) -> Report {
+/// The fit's diagnostics, its cross-validation and the term sets it compared, after `from`:
+/// which flight the model was fitted on.
+pub(super) fn diagnostics(mut report: Report, model: &ScalarModel, from: &str) -> Report {
     let d = &model.fit.diagnostics;
     let band = model.fit.settings.target == Target::Band;
     let mut items = vec![
@@ -182,6 +185,7 @@ pub(super) fn diagnostics(mut report: Report, model: &ScalarModel) -> Report {
     }
     report = report
         .section("Fit diagnostics")
+        .paragraph(from)
         .key_values(&borrowed(&items))
         .paragraph(fit_definitions(model));
     if let Some(cv) = &d.cross_validation {

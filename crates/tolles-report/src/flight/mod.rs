@@ -295,9 +295,10 @@ fn page_with(data: &ReportData, maps: &[Map]) -> Report {
     report = heading_error(report, data);
     report = level_against_heading(report, data);
     if let Some(fit) = &data.fit {
+        // Said first in both sections: whether what follows is independent of this flight.
         let from = fitted_on(fit, &request.flight);
-        report = model(report, fit).paragraph(from.clone());
-        report = diagnostics(report, fit).paragraph(from);
+        report = model(report, fit, &from);
+        report = diagnostics(report, fit, &from);
     }
     report
 }
@@ -715,17 +716,60 @@ fn signals(mut report: Report, data: &ReportData) -> Report {
     }
     // Yaw on its own axis: 0–360° would flatten a ±10° roll beside it.
     if let Some(yaw) = data.attitude.yaw_deg.as_deref() {
+        let cut = heading_cut(yaw);
+        let shown: Vec<f64> = yaw.iter().map(|v| cut + (v - cut).rem_euclid(360.0)).collect();
+        let caption = if cut == 0.0 {
+            "Yaw: the heading, clockwise from north (0–360°).".to_string()
+        } else {
+            format!(
+                "Yaw: the heading, clockwise from north. The axis runs from {cut:.0}° round \
+                 to {cut:.0}° again, a heading this flight seldom flies, so that no straight \
+                 leg is drawn across the wrap from 360° to 0°."
+            )
+        };
         report = report.line_plot(LinePlot {
-            y_range: Some((0.0, 360.0)),
+            y_range: Some((cut, cut + 360.0)),
+            y_ticks: (0..=8)
+                .map(|k| f64::from(k) * 90.0)
+                .filter(|t| (cut..=cut + 360.0).contains(t))
+                .map(|t| (t, format!("{:.0}", t.rem_euclid(360.0))))
+                .collect(),
+            // The zoomable chart would join the wraps; the drawing breaks them.
+            live: None,
             ..over_time(
                 "Heading".into(),
                 "yaw (°)",
-                vec![series("yaw", yaw, Colour::CYCLE[2])],
-                Some("Yaw: the heading, clockwise from north (0–360°).".into()),
+                vec![series("yaw", &shown, Colour::CYCLE[2]).circular(360.0)],
+                Some(caption),
             )
         });
     }
     report
+}
+
+/// Where the heading chart's axis starts (deg, a multiple of 45°): a heading with next to no
+/// samples within 15° of it (no more than 1 % of the flight above the fewest), 0° first and
+/// then the diagonals, whose axis ends are not themselves tick labels. A survey flown
+/// north–south would otherwise wrap between 359° and 0° on every northbound line.
+fn heading_cut(yaw_deg: &[f64]) -> f64 {
+    const CANDIDATES: [f64; 8] = [0.0, 45.0, 135.0, 225.0, 315.0, 90.0, 180.0, 270.0];
+    let near = |cut: f64| {
+        yaw_deg
+            .iter()
+            .filter(|v| {
+                let d = (*v - cut).rem_euclid(360.0);
+                d.min(360.0 - d) < 15.0
+            })
+            .count()
+    };
+    let counts = CANDIDATES.map(near);
+    let fewest = counts.iter().copied().min().unwrap_or(0);
+    let enough = fewest + yaw_deg.len() / 100;
+    CANDIDATES
+        .into_iter()
+        .zip(counts)
+        .find(|&(_, n)| n <= enough)
+        .map_or(0.0, |(cut, _)| cut)
 }
 
 /// A chart over the flight's time: title, y label, series and caption.
@@ -1092,8 +1136,9 @@ mod tests {
             let panels = svgs.iter().filter(|svg| svg.contains(axis)).count();
             assert_eq!(panels, 4, "{axis}");
         }
-        // The time series are live charts, with the maneuvers as their windows.
-        assert_eq!(html.matches("data-live=").count(), 6);
+        // The time series are live charts, with the maneuvers as their windows; the heading
+        // is drawn only, its wraps broken.
+        assert_eq!(html.matches("data-live=").count(), 5);
         let data = std::fs::read_to_string(dir.path().join("report/data/05-attitude.js")).unwrap();
         assert_eq!(data.matches("\"label\":\"roll ").count(), 4);
         assert_eq!(svgs.len(), 8 + 3 * 12 + 1 + 2);
@@ -1144,6 +1189,25 @@ mod tests {
         };
         assert_eq!(maneuver_window(&m, 10.0, 1000), 0..250);
         assert_eq!(maneuver_window(&m, 2.0, 205), 20..205);
+    }
+
+    #[test]
+    fn the_heading_axis_starts_where_the_flight_seldom_heads() {
+        // North–south lines (noise about 0° and 180°) and their turns through 90°.
+        let mut yaw: Vec<f64> = (0..400).map(|k| if k % 2 == 0 { 359.5 } else { 0.5 }).collect();
+        yaw.extend((0..400).map(|k| 180.0 + if k % 2 == 0 { 0.5 } else { -0.5 }));
+        yaw.extend((0..180).map(f64::from));
+        // The turns pass 45° and 135°: 225° is the first heading nobody flies.
+        assert_eq!(heading_cut(&yaw), 225.0);
+        // Turns through every heading: a diagonal, where few samples lie, not 0° or 180°.
+        yaw.extend((180..360).map(f64::from));
+        assert_eq!(heading_cut(&yaw), 45.0);
+        // A box flies all four; its headings' diagonals are free, the first of them chosen.
+        let boxed: Vec<f64> = [0.0, 90.0, 180.0, 270.0].repeat(100);
+        assert_eq!(heading_cut(&boxed), 45.0);
+        // East–west lines keep the plain 0–360° axis.
+        let east_west: Vec<f64> = [90.0, 270.0].repeat(100);
+        assert_eq!(heading_cut(&east_west), 0.0);
     }
 
     #[test]
