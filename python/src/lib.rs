@@ -577,7 +577,7 @@ fn convert(
 /// as `tolles report` does, and prints it to `pdf` if given; returns (index.html's path,
 /// warnings).
 #[pyfunction]
-#[pyo3(signature = (flight, out, model, scalars, lines, time, renames, band, order, fs, pdf, legs, noise_tolerance, reference))]
+#[pyo3(signature = (flight, out, model, scalars, lines, time, renames, band, order, fs, pdf, legs, noise_tolerance, reference, fom_spec, heading_error_spec, paper))]
 #[allow(clippy::too_many_arguments)]
 fn report(
     py: Python<'_>,
@@ -595,6 +595,9 @@ fn report(
     legs: Legs,
     noise_tolerance: f64,
     reference: Option<String>,
+    fom_spec: f64,
+    heading_error_spec: f64,
+    paper: String,
 ) -> PyResult<(PathBuf, Vec<String>)> {
     let (headings, heading, level, cardinal) = legs;
     let request = tolles::report::ReportRequest {
@@ -609,6 +612,11 @@ fn report(
         selection: selection(lines, time)?,
         renames: renames.unwrap_or_default(),
         noise_tolerance_nt: noise_tolerance,
+        fom_spec_nt: fom_spec,
+        heading_error_spec_nt: heading_error_spec,
+        paper: paper
+            .parse()
+            .map_err(|e: String| failed(format!("paper: {e}")))?,
         reference,
         ..tolles::report::ReportRequest::new(flight, "")
     }

@@ -96,3 +96,21 @@ def test_the_fluxgate_offset_is_taken_out_unless_turned_off():
 
     print(f"survey error: offset taken out {error(on):.3f} nT, left in {error(off):.3f} nT")
     assert error(on) < error(off)
+
+
+def test_compensate_says_where_time_steps_back_in_rows_out_of_order(flights):
+    """Hostile round 4: rows sorted by something other than time are filtered stretch by
+    stretch, and the warning says where, as the CLI does; every row still comes back."""
+    survey = tolles.read(flights / "survey.csv")
+    shuffled = _pd_concat_halves_swapped(survey)
+    with pytest.warns(tolles.TollesWarning, match="time steps back or repeats at 1 place"):
+        out = tolles.compensate(shuffled, model=flights / "model.json")
+    assert len(out) == len(survey)
+    assert list(out.index) == list(shuffled.index)
+
+
+def _pd_concat_halves_swapped(df):
+    import pandas as pd
+
+    half = len(df) // 2
+    return pd.concat([df.iloc[half:], df.iloc[:half]])

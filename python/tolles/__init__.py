@@ -703,6 +703,9 @@ def report(
     cardinal_tolerance: float = 20.0,
     noise_tolerance: float = 0.1,
     reference: Optional[str] = None,
+    fom_spec: float = 1.5,
+    heading_error_spec: float = 1.0,
+    paper: str = "a4",
 ) -> _pathlib.Path:
     """Write the HTML report of a flight into the directory ``out``, as ``tolles report``.
 
@@ -718,7 +721,11 @@ def report(
     :func:`fom`. ``noise_tolerance`` (nT): the survey specification's fourth-difference
     tolerance, drawn under the fourth difference; each line passes when all of it lies within.
     ``reference``: a column (nT) to judge the compensated scalar against instead of the
-    simulator's ``truth_earth``, e.g. SGL's ``mag_1_c``.
+    simulator's ``truth_earth``, e.g. SGL's ``mag_1_c``. ``fom_spec`` (nT): the largest
+    compensated figure of merit of a box that passes; ``heading_error_spec`` (nT): the largest
+    heading error after compensation that passes, judged against the truth or ``reference``;
+    with ``noise_tolerance`` they make the specification the first screen passes or fails.
+    ``paper``: ``"a4"`` or ``"letter"``, the size of the ``pdf``'s pages.
     Returns the path of ``index.html``; what was noticed is warned about.
     """
     scalars = [] if scalar is None else _names(scalar, "scalar")
@@ -744,6 +751,9 @@ def report(
             _legs(headings, heading_tolerance, level_tolerance, cardinal_tolerance),
             float(noise_tolerance),
             reference,
+            float(fom_spec),
+            float(heading_error_spec),
+            str(paper),
         )
     _warn(notes)
     return _pathlib.Path(index)

@@ -91,6 +91,9 @@ def report(
     legs: Legs,
     noise_tolerance: float,
     reference: Optional[str],
+    fom_spec: float,
+    heading_error_spec: float,
+    paper: str,
 ) -> Tuple[str, List[str]]: ...
 def load_model(path: str) -> str: ...
 def check_model(json: str) -> str: ...

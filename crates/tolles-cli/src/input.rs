@@ -8,6 +8,34 @@ pub fn out_path(out: Option<PathBuf>) -> Option<PathBuf> {
     out.filter(|path| path.as_os_str() != "-")
 }
 
+/// An `--out` path for a file meant for a program (`what`, e.g. "the model (JSON)"), which
+/// goes to standard output when the flag is left out, but not to a terminal: there it would
+/// scroll away unsaved, so the command stops before its work and says `-o example`. `-o -`
+/// still writes to a terminal when asked to. `None`: standard output.
+pub fn out_for_programs(
+    out: Option<PathBuf>,
+    what: &str,
+    example: &str,
+) -> Result<Option<PathBuf>> {
+    use std::io::IsTerminal;
+    out_unless_terminal(out, std::io::stdout().is_terminal(), what, example)
+}
+
+fn out_unless_terminal(
+    out: Option<PathBuf>,
+    terminal: bool,
+    what: &str,
+    example: &str,
+) -> Result<Option<PathBuf>> {
+    if out.is_none() && terminal {
+        bail!(
+            "{what} is not written to a terminal: add `-o {example}`, pipe it, or give `-o -` \
+             to see it here"
+        );
+    }
+    Ok(out_path(out))
+}
+
 /// `mag_3_uc,mag_4_uc` → the names, each once; `what` names the option in errors.
 pub fn name_list(list: &str, what: &str) -> Result<Vec<String>> {
     let names: Vec<String> = list
@@ -99,5 +127,28 @@ impl Legs {
             self.level_tolerance,
             self.cardinal_tolerance,
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_file_for_programs_is_not_dumped_on_a_terminal() {
+        let refused = out_unless_terminal(None, true, "the model (JSON)", "model.json");
+        let said = refused.unwrap_err().to_string();
+        assert!(said.contains("not written to a terminal") && said.contains("-o model.json"));
+        // Piped, or asked for with `-o -`, it goes to standard output; a path is a path.
+        assert_eq!(out_unless_terminal(None, false, "m", "m").unwrap(), None);
+        assert_eq!(
+            out_unless_terminal(Some("-".into()), true, "m", "m").unwrap(),
+            None
+        );
+        let path = Some(PathBuf::from("m.json"));
+        assert_eq!(
+            out_unless_terminal(path.clone(), true, "m", "m").unwrap(),
+            path
+        );
     }
 }

@@ -124,6 +124,7 @@ pub struct Report {
     summary: Vec<(String, String)>,
     summary_notes: Vec<String>,
     blocks: Vec<Block>,
+    paper: tolles::report::Paper,
 }
 
 fn owned_pairs(pairs: &[(&str, &str)]) -> Vec<(String, String)> {
@@ -143,7 +144,14 @@ impl Report {
             summary: Vec::new(),
             summary_notes: Vec::new(),
             blocks: Vec::new(),
+            paper: tolles::report::Paper::A4,
         }
+    }
+
+    /// The printed page's size (A4 unless changed).
+    pub fn paper(mut self, paper: tolles::report::Paper) -> Self {
+        self.paper = paper;
+        self
     }
 
     /// A line of prose under the title.
@@ -327,7 +335,7 @@ impl Report {
              <header class=\"masthead\"><div class=\"wrap\">\n<p class=\"kicker\">tolles report</p>\n\
              <h1>{title}</h1>\n",
             html::STYLE,
-            running_header(&self.title),
+            running_header(&self.title, self.paper),
             html::ERROR_CAPTURE,
             if live_scripts.is_empty() {
                 String::new()
@@ -745,8 +753,9 @@ fn civil_from_days(days: i64) -> (i64, i64, i64) {
     (yoe + era * 400 + i64::from(m <= 2), m, d)
 }
 
-/// The printed page's running header: the report's title, top left, on every page.
-fn running_header(title: &str) -> String {
+/// The printed page's running header: the report's title, top left, on every page; and its
+/// size when it is not the style sheet's A4.
+fn running_header(title: &str, paper: tolles::report::Paper) -> String {
     let quoted: String = title
         .chars()
         .filter(|c| !c.is_control())
@@ -756,7 +765,13 @@ fn running_header(title: &str) -> String {
             _ => vec![c],
         })
         .collect();
-    format!("@page {{ @top-left {{ content: \"{quoted}\"; font-size: 8pt; color: #555; }} }}\n")
+    let size = match paper {
+        tolles::report::Paper::A4 => "",
+        tolles::report::Paper::Letter => "size: letter; ",
+    };
+    format!(
+        "@page {{ {size}@top-left {{ content: \"{quoted}\"; font-size: 8pt; color: #555; }} }}\n"
+    )
 }
 
 #[cfg(test)]
@@ -837,11 +852,16 @@ mod tests {
         assert!(page.contains("size: A4"));
         assert!(page.contains("counter(page) \" of \" counter(pages)"));
         // The title in the running header cannot end the style sheet or the CSS string.
-        let header = running_header("a \"b\" </style>\\");
+        let header = running_header("a \"b\" </style>\\", tolles::report::Paper::A4);
         assert_eq!(
             header,
             "@page { @top-left { content: \"a \\\"b\\\" \\3c /style>\\\\\"; font-size: 8pt; \
              color: #555; } }\n"
+        );
+        let letter = running_header("t", tolles::report::Paper::Letter);
+        assert!(
+            letter.starts_with("@page { size: letter; @top-left"),
+            "{letter}"
         );
     }
 

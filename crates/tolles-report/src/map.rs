@@ -1,7 +1,7 @@
 //! A map of a flight's track as an SVG scatter, each point coloured by a value (nT) less its
 //! median on a blue–white–red scale centred on zero (white is the median), out to the larger
-//! of the 2nd and 98th percentiles' distances from it, with a colour bar, a km grid and a
-//! scale bar.
+//! of the 2nd and 98th percentiles' distances from it, with a colour bar, a km grid, a
+//! scale bar, and each flight line's id at its start and an arrowhead at its end.
 
 use crate::html::escape;
 use std::fmt::Write as _;
@@ -25,6 +25,20 @@ pub struct ScatterMap<'a> {
     pub value: &'a [f64],
     /// What the value is, for the colour bar.
     pub value_label: &'a str,
+    /// The flight lines to name on the track (empty: none).
+    pub labels: &'a [TrackLabel],
+}
+
+/// A flight line named on a map: its id at its start and an arrowhead at its end, pointing
+/// the way it was flown.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrackLabel {
+    /// The line id, as the file writes it.
+    pub text: String,
+    /// Where the line starts, east and north of the origin (km).
+    pub from_km: (f64, f64),
+    /// Where the line ends, east and north of the origin (km).
+    pub to_km: (f64, f64),
 }
 
 impl ScatterMap<'_> {
@@ -56,6 +70,9 @@ impl ScatterMap<'_> {
                 "<circle cx=\"{x:.1}\" cy=\"{y:.1}\" r=\"1.6\" fill=\"{}\"/>",
                 colour(scale(*v, lo, hi))
             );
+        }
+        for label in self.labels {
+            frame.label(&mut svg, label);
         }
         frame.axes(&mut svg);
         colour_bar(
@@ -175,6 +192,33 @@ impl Frame {
             bx + length / 2.0,
             by - 6.0,
             format_step(step)
+        );
+    }
+
+    /// `label`'s arrowhead (8 px, along the line from its start to its end) at its end, and its
+    /// id just beyond its start, haloed in white so the track does not cross it unreadably.
+    fn label(&self, svg: &mut String, label: &TrackLabel) {
+        let (x0, y0) = self.xy(label.from_km.0, label.from_km.1);
+        let (x1, y1) = self.xy(label.to_km.0, label.to_km.1);
+        let length = (x1 - x0).hypot(y1 - y0);
+        let finite = [x0, y0, x1, y1].iter().all(|v| v.is_finite());
+        if !finite || length < 1.0 {
+            return;
+        }
+        let (ux, uy) = ((x1 - x0) / length, (y1 - y0) / length);
+        let (bx, by) = (x1 - 8.0 * ux, y1 - 8.0 * uy);
+        let _ = write!(
+            svg,
+            "<path d=\"M{x1:.1} {y1:.1}L{:.1} {:.1}L{:.1} {:.1}Z\" fill=\"#222\"/>\
+             <text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"middle\" dominant-baseline=\"middle\" \
+             font-size=\"10\" stroke=\"white\" stroke-width=\"3\" paint-order=\"stroke\">{}</text>",
+            bx - 4.0 * uy,
+            by + 4.0 * ux,
+            bx + 4.0 * uy,
+            by - 4.0 * ux,
+            x0 - 10.0 * ux,
+            y0 - 10.0 * uy,
+            escape(&label.text)
         );
     }
 
@@ -312,6 +356,7 @@ mod tests {
             north_km: &north,
             value: &value,
             value_label: "nT",
+            labels: &[],
         }
         .to_svg()
         .unwrap();
@@ -335,6 +380,7 @@ mod tests {
             north_km: &north,
             value: &value,
             value_label: "nT",
+            labels: &[],
         }
         .to_svg()
         .unwrap();
@@ -352,6 +398,66 @@ mod tests {
     }
 
     #[test]
+    fn each_line_is_named_at_its_start_with_an_arrow_at_its_end() {
+        // A line flown north, then one flown south 1 km east of it.
+        let east: Vec<f64> = (0..40).map(|k| if k < 20 { 0.0 } else { 1.0 }).collect();
+        let north: Vec<f64> = (0..40)
+            .map(|k| {
+                if k < 20 {
+                    k as f64 * 0.5
+                } else {
+                    (39 - k) as f64 * 0.5
+                }
+            })
+            .collect();
+        let labels = [
+            TrackLabel {
+                text: "1001".into(),
+                from_km: (0.0, 0.0),
+                to_km: (0.0, 9.5),
+            },
+            TrackLabel {
+                text: "<b>1002".into(),
+                from_km: (1.0, 9.5),
+                to_km: (1.0, 0.0),
+            },
+        ];
+        let svg = ScatterMap {
+            title: "t",
+            east_km: &east,
+            north_km: &north,
+            value: &vec![1.0; 40],
+            value_label: "nT",
+            labels: &labels,
+        }
+        .to_svg()
+        .unwrap();
+        assert_eq!(svg.matches("fill=\"#222\"/>").count(), 2);
+        assert!(svg.contains(">1001</text>") && svg.contains(">&lt;b&gt;1002</text>"));
+        // 1001 flew north: its id sits below its start, its arrow's tip at the top.
+        let y_of = |text: &str| -> f64 {
+            let at = svg.find(&format!(">{text}</text>")).unwrap();
+            let tag = &svg[svg[..at].rfind("<text").unwrap()..at];
+            tag.split("y=\"")
+                .nth(1)
+                .unwrap()
+                .split('"')
+                .next()
+                .unwrap()
+                .parse()
+                .unwrap()
+        };
+        let tips: Vec<f64> = svg
+            .split("<path d=\"M")
+            .skip(1)
+            .filter(|p| p[..p.find('>').unwrap()].contains("Z\""))
+            .map(|p| p.split(['L', ' ']).nth(1).unwrap().parse().unwrap())
+            .collect();
+        assert!(y_of("1001") > tips[0], "{} {}", y_of("1001"), tips[0]);
+        assert!(y_of("&lt;b&gt;1002") < tips[1]);
+    }
+
+    #[test]
     fn no_finite_point_gives_no_map() {
         let map = ScatterMap {
             title: "t",
@@ -359,6 +465,7 @@ mod tests {
             north_km: &[0.0],
             value: &[1.0],
             value_label: "nT",
+            labels: &[],
         };
         assert!(map.to_svg().is_none());
     }

@@ -478,7 +478,15 @@ pub fn fit_flights(
         ..request.clone()
     };
     let mut noticed = Vec::new();
-    let model = fit(&stacked, &request, progress, &mut noticed);
+    let model = fit(&stacked, &request, progress, &mut noticed).map(|mut model| {
+        // The rows between two flights are the stacking's, not missing data of a flight.
+        for scalar in &mut model.fits {
+            let d = &mut scalar.fit.diagnostics;
+            d.samples_total = d.samples_total.saturating_sub(rest.len());
+            d.samples_nonfinite = d.samples_nonfinite.saturating_sub(rest.len());
+        }
+        model
+    });
     // Time that starts again in the next flight is no step back: each flight says its own.
     noticed.retain(|w| !matches!(w, Warning::TimeStepsBack { .. }));
     warnings.extend(steps_back);
@@ -731,6 +739,17 @@ mod tests {
         );
         assert!(differ(&whole, &apart) < 1e-9);
         assert!(differ(&joined, &apart) > 1e-6);
+    }
+
+    #[test]
+    fn the_rows_between_flights_are_not_counted_as_samples() {
+        let table = flight(PlanKind::Box, 1);
+        let (n, k) = (table.len(), table.len() / 2);
+        let request = FitRequest::new(names(&["mag_1_uc"]), names(&["flux_a"]));
+        let flights = [part(&table, 0..k, &[], true), part(&table, k..n, &[], true)];
+        let model = fit_flights(&flights, &request, &crate::Silent, &mut Vec::new()).unwrap();
+        let d = &model.fits[0].fit.diagnostics;
+        assert_eq!((d.samples_total, d.samples_nonfinite), (n, 0));
     }
 
     #[test]

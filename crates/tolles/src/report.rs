@@ -53,6 +53,15 @@ pub struct ReportRequest {
     /// every fourth difference of its (compensated) scalar lies within ±this; default
     /// [`NOISE_TOLERANCE_NT`].
     pub noise_tolerance_nt: f64,
+    /// The survey specification's largest figure of merit (nT) of a calibration box: the
+    /// compensated FOM passes at or below it; default [`FOM_SPEC_NT`].
+    pub fom_spec_nt: f64,
+    /// The survey specification's largest heading error (nT) after compensation, judged
+    /// against the truth or the reference (legs over different ground cannot judge it);
+    /// default [`HEADING_ERROR_SPEC_NT`].
+    pub heading_error_spec_nt: f64,
+    /// The printed page of `report --pdf`; default A4.
+    pub paper: Paper,
     /// A column to judge the compensated scalar against instead of the simulator's truth
     /// (`truth_earth`): a reference magnetometer, or a compensation made elsewhere such as
     /// SGL's `mag_1_c` (nT).
@@ -62,6 +71,36 @@ pub struct ReportRequest {
 /// The default fourth-difference tolerance (nT), ±0.1 nT: a common total-field survey
 /// specification for the normalised fourth difference (x₋₂ − 4x₋₁ + 6x₀ − 4x₊₁ + x₊₂)/16.
 pub const NOISE_TOLERANCE_NT: f64 = 0.1;
+
+/// The default largest figure of merit (nT) of a compensated calibration box, 1.5 nT: a common
+/// fixed-wing survey specification (the sum of the 12 maneuvers' peak-to-peak, 0.05–1 Hz).
+pub const FOM_SPEC_NT: f64 = 1.5;
+
+/// The default largest heading error (nT) after compensation, 1 nT: a common survey
+/// specification (the spread of the levels of the four headings).
+pub const HEADING_ERROR_SPEC_NT: f64 = 1.0;
+
+/// The printed page's size.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Paper {
+    /// ISO A4, 210 × 297 mm, as survey contracts outside North America are written.
+    #[default]
+    A4,
+    /// US Letter, 8.5 × 11 in.
+    Letter,
+}
+
+impl std::str::FromStr for Paper {
+    type Err = String;
+
+    fn from_str(text: &str) -> std::result::Result<Self, Self::Err> {
+        match text.to_ascii_lowercase().as_str() {
+            "a4" => Ok(Paper::A4),
+            "letter" => Ok(Paper::Letter),
+            _ => Err(format!("expected a4 or letter, got {text:?}")),
+        }
+    }
+}
 
 impl ReportRequest {
     /// A report on `scalar` of `flight` without a model, in the FOM's default band.
@@ -79,6 +118,9 @@ impl ReportRequest {
             headings: fom.headings,
             cardinal_tolerance_deg: fom.cardinal_tolerance_deg,
             noise_tolerance_nt: NOISE_TOLERANCE_NT,
+            fom_spec_nt: FOM_SPEC_NT,
+            heading_error_spec_nt: HEADING_ERROR_SPEC_NT,
+            paper: Paper::A4,
             reference: None,
         }
     }
@@ -321,18 +363,31 @@ pub fn build_each(
     Ok(all)
 }
 
-/// The model file of `request`, read, with its path.
-/// A fourth-difference tolerance that is not a positive number of nT is refused.
+/// A specification figure that is not a positive number of nT is refused, naming its flag.
 fn check_tolerance(request: &ReportRequest) -> Result<()> {
-    let tolerance = request.noise_tolerance_nt;
-    match tolerance.is_finite() && tolerance > 0.0 {
-        true => Ok(()),
-        false => Err(Error::Invalid(format!(
-            "the fourth-difference tolerance must be a positive number of nT, not {tolerance}"
+    let figures = [
+        (
+            request.noise_tolerance_nt,
+            "fourth-difference tolerance (--noise-tolerance; noise_tolerance= in Python)",
+        ),
+        (
+            request.fom_spec_nt,
+            "FOM specification (--fom-spec; fom_spec= in Python)",
+        ),
+        (
+            request.heading_error_spec_nt,
+            "heading-error specification (--heading-error-spec; heading_error_spec= in Python)",
+        ),
+    ];
+    match figures.iter().find(|(v, _)| !(v.is_finite() && *v > 0.0)) {
+        None => Ok(()),
+        Some((value, what)) => Err(Error::Invalid(format!(
+            "the {what} must be a positive number of nT, not {value}"
         ))),
     }
 }
 
+/// The model file of `request`, read, with its path.
 fn read_model(request: &ReportRequest) -> Result<Option<(ModelFile, &std::path::Path)>> {
     request
         .model

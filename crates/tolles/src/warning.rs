@@ -299,6 +299,15 @@ impl fmt::Display for Warning {
                 linear_rms_nt,
                 network_rms_nt,
                 held_out,
+            } if !network_rms_nt.is_finite() => write!(
+                f,
+                "the network for {scalar} was not kept: no held-out row ({held_out}) has a value of every network input, so it could not be judged against the linear model's {linear_rms_nt:.4} nT; give --inputs the flight records throughout"
+            ),
+            Warning::NetworkNotKept {
+                scalar,
+                linear_rms_nt,
+                network_rms_nt,
+                held_out,
             } => write!(
                 f,
                 "the network for {scalar} was not kept: on held-out {held_out} it leaves {network_rms_nt:.4} nT against the linear model's {linear_rms_nt:.4} nT (it must leave at least {:.0} % less)",

@@ -29,8 +29,9 @@ pub struct Args {
     #[arg(long)]
     pub model: PathBuf,
     /// Output file, in the format its extension names (.csv, .h5/.hdf5, .parquet/.pq; any
-    /// other extension is an error); CSV on standard output if omitted or `-`
-    #[arg(long)]
+    /// other extension is an error); `-` for CSV on standard output, also where it goes when
+    /// this is left out, unless that is a terminal
+    #[arg(short, long)]
     pub out: Option<PathBuf>,
     /// Sample rate of the survey in Hz, if it has no `tt` column (default: the model's)
     #[arg(long, allow_negative_numbers = true)]
@@ -64,7 +65,11 @@ pub fn run(args: Args) -> Result<()> {
     let model = tolles::model::load_model(&args.model).or_render()?;
     let request = FileRequest {
         survey: args.survey,
-        out: crate::input::out_path(args.out),
+        out: crate::input::out_for_programs(
+            args.out,
+            "the compensated flight (CSV)",
+            "compensated.csv",
+        )?,
         compensate: CompensateRequest {
             fs_hz: args.fs,
             level: args.level,

@@ -27,7 +27,7 @@ use tolles_io::simulation::{SCALAR, VECTOR};
 )]
 pub struct Args {
     /// Directory for the simulated flights, the model, the compensated survey and the reports
-    #[arg(long, default_value = "tolles-demo")]
+    #[arg(short, long, default_value = "tolles-demo")]
     pub out: PathBuf,
     /// Seed of the simulation
     #[arg(long, default_value_t = 1)]

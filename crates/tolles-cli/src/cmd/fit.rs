@@ -55,8 +55,9 @@ pub struct Args {
     /// may also repeat)
     #[arg(long, required = true)]
     pub vector: Vec<String>,
-    /// Where to write the model (JSON); standard output if omitted or `-`
-    #[arg(long)]
+    /// Where to write the model (JSON); `-` for standard output, which is also where it goes
+    /// when this is left out, unless that is a terminal
+    #[arg(short, long)]
     pub out: Option<PathBuf>,
     /// Terms: `auto`, or a list of patent, permanent|p, induced|i, it, i5, i3, eddy|e, et, e8,
     /// e3, bias|b. `auto` fits the patent's 16 traceless terms (`patent` = permanent,it,et) and
@@ -183,11 +184,11 @@ fn parse_on_off(text: &str) -> Result<bool, String> {
 }
 
 pub fn run(args: Args) -> Result<()> {
+    let out = crate::input::out_for_programs(args.out.clone(), "the model (JSON)", "model.json")?;
     let request = request(&args)?;
     let flights = (args.cal.iter())
         .map(|path| (args.select).read_parsing(path, Use::Fit, &request.columns()))
         .collect::<Result<Vec<Table>>>()?;
-    let out = crate::input::out_path(args.out);
     fit_and_save(&flights, &request, out.as_deref())
 }
 

@@ -62,7 +62,7 @@ pub struct Args {
     pub declination: f64,
     /// Write the terms and the step-by-step report as JSON here (`-`: standard output, in
     /// place of the text report)
-    #[arg(long)]
+    #[arg(short, long)]
     pub out: Option<PathBuf>,
     /// Print the JSON on stdout instead of the text report
     #[arg(long)]

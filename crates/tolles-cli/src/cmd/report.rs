@@ -35,7 +35,7 @@ pub struct Args {
     #[arg(long)]
     pub model: Option<PathBuf>,
     /// Directory for index.html and its plots
-    #[arg(long)]
+    #[arg(short, long)]
     pub out: PathBuf,
     /// Also print the page to this PDF with headless Chromium (found as $TOLLES_CHROMIUM, or
     /// chromium, chromium-browser or google-chrome on PATH)
@@ -52,6 +52,17 @@ pub struct Args {
     /// within it
     #[arg(long, value_name = "NT", default_value_t = tolles::report::NOISE_TOLERANCE_NT)]
     pub noise_tolerance: f64,
+    /// The survey specification's largest figure of merit of a box (nT): the compensated FOM
+    /// passes at or below it
+    #[arg(long, value_name = "NT", default_value_t = tolles::report::FOM_SPEC_NT)]
+    pub fom_spec: f64,
+    /// The survey specification's largest heading error after compensation (nT), judged
+    /// against the truth or --reference (legs over different ground cannot judge it)
+    #[arg(long, value_name = "NT", default_value_t = tolles::report::HEADING_ERROR_SPEC_NT)]
+    pub heading_error_spec: f64,
+    /// Page size of --pdf: a4 or letter
+    #[arg(long, default_value = "a4")]
+    pub paper: tolles::report::Paper,
     /// Sample rate (Hz), if the file has no tt column
     #[arg(long, allow_negative_numbers = true)]
     pub fs: Option<f64>,
@@ -76,6 +87,9 @@ pub fn run(args: Args) -> Result<()> {
         selection: args.select.rows(),
         renames: args.select.renames.clone(),
         noise_tolerance_nt: args.noise_tolerance,
+        fom_spec_nt: args.fom_spec,
+        heading_error_spec_nt: args.heading_error_spec,
+        paper: args.paper,
         reference: args.reference,
         ..ReportRequest::new(args.flight, "")
     });

@@ -59,7 +59,7 @@ pub struct Args {
     pub seed: u64,
     /// Output file: .csv, .h5/.hdf5 or .parquet/.pq by extension (the sidecar goes next to it,
     /// with extension .json)
-    #[arg(long)]
+    #[arg(short, long)]
     pub out: PathBuf,
     /// Installation: sets the aircraft field and its extras
     #[arg(long, value_enum, default_value = "cabin")]

@@ -273,6 +273,51 @@ fn renamed(dir: &Path, name: &str, renames: &[(&str, &str)]) {
     std::fs::write(dir.join(name), header.join(",") + "\n" + rest).unwrap();
 }
 
+/// Hostile round 4: `-o` is `--out`, and a model or compensated flight is never dumped on a
+/// terminal (a pseudo-terminal from util-linux's `script`): the command stops before its work
+/// and names `-o`. Piped, it goes to standard output as before.
+#[test]
+fn the_model_goes_to_o_and_never_to_a_terminal() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    damaged(d, "same.csv", "mag_1_uc", 1, "0");
+    let base = [
+        "fit", "box.csv", "--scalar", "mag_1_uc", "--vector", "flux_a",
+    ];
+    let (ok, _, err) = run(d, &[&base[..], &["-o", "short.json"]].concat());
+    assert!(ok && d.join("short.json").exists(), "{err}");
+    let (ok, piped, _) = run(d, &base);
+    assert!(
+        ok && piped.starts_with('{'),
+        "{}",
+        &piped[..piped.len().min(80)]
+    );
+    let binary = assert_cmd::cargo::cargo_bin("tolles");
+    for (command, fix) in [
+        (
+            format!("{} {}", binary.display(), base.join(" ")),
+            "-o model.json",
+        ),
+        (
+            format!("{} compensate box.csv --model m.json", binary.display()),
+            "-o compensated.csv",
+        ),
+    ] {
+        let out = std::process::Command::new("script")
+            .current_dir(d)
+            .args(["-qec", &command, "/dev/null"])
+            .output()
+            .expect("util-linux's script, for a pseudo-terminal");
+        let said = String::from_utf8_lossy(&out.stdout);
+        assert!(!out.status.success(), "{command}: {said}");
+        assert!(
+            said.contains("not written to a terminal") && said.contains(fix),
+            "{said}"
+        );
+        assert!(said.lines().count() <= 2, "{said}");
+    }
+}
+
 #[test]
 fn hostile_round_4_messages_say_the_fix() {
     let dir = TempDir::new().unwrap();

@@ -150,3 +150,60 @@ fn a_reference_column_takes_the_place_of_the_truth() {
         "{stderr}"
     );
 }
+
+/// Issue 58: the specification is the user's (`--fom-spec`, `--heading-error-spec`), each test
+/// passed or failed on the first screen, and a limit that is no positive number is refused
+/// naming its flag.
+#[test]
+fn the_specification_is_the_users_and_passes_or_fails_on_the_first_screen() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let run = |args: &[&str]| common::run_in(d, args);
+    run(&["simulate", "--reference", "--out", "box.csv"]);
+    run(&[
+        "fit", "box.csv", "--scalar", "mag_1_uc", "--vector", "flux_a", "-o", "m.json",
+    ]);
+    let report = [
+        "report",
+        "box.csv",
+        "--model",
+        "m.json",
+        "--reference",
+        "mag_ref",
+        "-o",
+    ];
+    let first_screen = |dir: &str, flags: &[&str]| {
+        run(&[&report[..], &[dir], flags].concat());
+        let page = std::fs::read_to_string(d.join(dir).join("index.html")).unwrap();
+        page[..page.find("<h2").unwrap()].to_string()
+    };
+    let row = |page: &str, test: &str| {
+        let at = page
+            .find(&format!("<td>{test}</td>"))
+            .unwrap_or_else(|| panic!("{test}"));
+        page[at..at + page[at..].find("</tr>").unwrap()].to_string()
+    };
+    let lenient = first_screen("lenient", &[]);
+    assert!(row(&lenient, "figure of merit (box)").ends_with("<td>pass</td>"));
+    assert!(row(&lenient, "heading error, compensated").contains("vs mag_ref"));
+    let strict = first_screen(
+        "strict",
+        &["--fom-spec", "0.001", "--heading-error-spec", "1e-6"],
+    );
+    for test in ["figure of merit (box)", "heading error, compensated"] {
+        let row = row(&strict, test);
+        assert!(row.ends_with("<td>FAIL</td>"), "{row}");
+    }
+    assert!(row(&strict, "figure of merit (box)").contains("at most 0.001 nT"));
+    let refused = tolles()
+        .current_dir(d)
+        .args([&report[..], &["x", "--fom-spec", "0"]].concat())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        !refused.status.success() && stderr.contains("--fom-spec"),
+        "{stderr}"
+    );
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+}

@@ -349,6 +349,50 @@ fn listen(dir: &std::path::Path, args: &[&str]) -> (std::process::Child, String)
 }
 
 /// Runs `tolles stream ARGS` on `input`; returns stdout.
+/// Hostile round 4: a row whose extra channel is missing has no value, and the status says
+/// which channel; no row with a value says a column is missing.
+#[test]
+fn a_row_missing_an_extra_channel_has_no_value_and_says_which() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    let sim = [
+        "simulate",
+        "--plan",
+        "box",
+        "--seed",
+        "3",
+        "--effects",
+        "all",
+        "--out",
+        "cal.csv",
+    ];
+    run(d, &sim);
+    let fit = [
+        "fit", "cal.csv", "--scalar", "mag_1_uc", "--vector", "flux_a", "--extra", "cur_load",
+        "-o", "m.json",
+    ];
+    run(d, &fit);
+    let text = std::fs::read_to_string(d.join("cal.csv")).unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    let k = lines[0].split(',').position(|h| h == "cur_load").unwrap();
+    for row in 2000..2003 {
+        let mut cells: Vec<&str> = lines[row].split(',').collect();
+        cells[k] = "";
+        lines[row] = cells.join(",");
+    }
+    let out = stream_out(d, &["--model", "m.json"], &(lines.join("\n") + "\n"));
+    let rows: Vec<Vec<String>> = out.lines().skip(1).map(|l| last_fields(l, 2)).collect();
+    assert_eq!(rows.len(), lines.len() - 1);
+    for row in 2000..2003 {
+        assert_eq!(rows[row - 1], ["", "missing cur_load"], "row {row}");
+    }
+    let valued_but_missing = rows
+        .iter()
+        .filter(|r| !r[0].is_empty() && r[1].contains("missing"))
+        .count();
+    assert_eq!(valued_but_missing, 0, "{:?}", &rows[1990..2010]);
+}
+
 fn stream_out(dir: &Path, args: &[&str], input: &str) -> String {
     let out = tolles()
         .current_dir(dir)

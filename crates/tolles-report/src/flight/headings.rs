@@ -22,6 +22,13 @@ pub(super) fn heading_error(mut report: Report, data: &ReportData) -> Report {
         text += &format!(", {} after", heading_error_text(after));
     }
     text += ". Geology and diurnal variation between the legs stay in both.";
+    if let Some(spread) = correction_spread(&data.headings) {
+        text += &format!(
+            " The correction per heading (before − after), which geology does not change, \
+             spreads {} nT: the aircraft's own heading effect, which compensation took out.",
+            format_value(spread)
+        );
+    }
     report = report.paragraph(text);
     if data.headings.is_empty() {
         return report;
@@ -34,6 +41,7 @@ pub(super) fn heading_error(mut report: Report, data: &ReportData) -> Report {
             "time (s)",
             "before (nT)",
             "after (nT)",
+            "correction (nT)",
         ],
         &cells,
     );
@@ -67,7 +75,23 @@ pub(super) fn heading_cells(row: &HeadingRow) -> Vec<String> {
         format!("{:.1}–{:.1}", row.span_tt.0, row.span_tt.1),
         level(row.before_nt),
         row.after_nt.map_or("—".into(), level),
+        correction(row).map_or("—".into(), |c| format!("{c:.3}")),
     ]
+}
+
+/// A heading's mean correction (nT): its level before compensation minus after, the same
+/// samples, so the ground under them cancels.
+fn correction(row: &HeadingRow) -> Option<f64> {
+    row.after_nt.map(|(after, _)| row.before_nt.0 - after)
+}
+
+/// The largest heading's correction minus the smallest (nT); `None` with fewer than two.
+fn correction_spread(rows: &[HeadingRow]) -> Option<f64> {
+    let corrections: Vec<f64> = rows.iter().filter_map(correction).collect();
+    let (lo, hi) = corrections
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(lo, hi), c| (lo.min(*c), hi.max(*c)));
+    (corrections.len() >= 2).then_some(hi - lo)
 }
 
 /// Where the x axis of a level-against-heading plot is labelled (deg).
@@ -92,13 +116,16 @@ pub(super) fn level_against_heading(report: Report, data: &ReportData) -> Report
 
 pub(super) const HEADING_LEVELS: &str = "Level against heading: each heading's mean scalar over \
     its straight and level samples minus the mean of the headings' levels (nT), with ± one \
-    standard error of the mean; before and after compensation on one axis. The spread is the \
-    heading error.";
+    standard error of the mean; before and after compensation, and the correction (before − \
+    after, which geology does not change), on one axis. The spread is the heading error.";
 
 pub(super) const LINE_LEVELS: &str = "Level against heading: each straight line's mean scalar \
     minus the mean of the lines' means (nT), at the line's circular mean heading (the Lines \
-    table's heading); before and after compensation on one axis. Turns are left out: a turn \
-    has no heading.";
+    table's heading); before and after compensation, and the correction (before − after, \
+    which geology does not change), on one axis. Turns are left out: a turn has no heading.";
+
+/// The correction's colour on a level-against-heading plot.
+const CORRECTION: Colour = Colour::CYCLE[3];
 
 /// The points of one level-against-heading plot (deg, nT, nT); error bars may be empty.
 pub(super) struct LevelPoints {
@@ -145,6 +172,11 @@ pub(super) fn heading_levels(rows: &[HeadingRow]) -> Vec<LevelPoints> {
             .filter_map(|r| r.after_nt.map(|(l, se)| (r.heading_deg, l, se)))
             .collect();
         points.push(LevelPoints::new("After", Colour::COMPENSATED, after));
+        let corrections = rows
+            .iter()
+            .filter_map(|r| Some((r.heading_deg, correction(r)?, f64::NAN)))
+            .collect();
+        points.push(LevelPoints::new("Correction", CORRECTION, corrections));
     }
     points
 }
@@ -173,6 +205,8 @@ pub(super) fn line_levels(data: &ReportData) -> Vec<LevelPoints> {
             Colour::COMPENSATED,
             of(|r| r.level_nt),
         ));
+        let correction = |r: &LineRow| Some(r.level_before_nt? - r.level_nt?);
+        points.push(LevelPoints::new("Correction", CORRECTION, of(correction)));
     }
     points
 }
@@ -188,7 +222,7 @@ pub(super) fn heading_plot(points: &[LevelPoints]) -> LinePlot {
         })
         .collect();
     LinePlot {
-        title: "Level against heading, before and after compensation".into(),
+        title: "Level against heading: before, after and the correction".into(),
         x_label: "heading (°)".into(),
         y_label: "level − mean (nT)".into(),
         series,

@@ -6,15 +6,17 @@ mod fit_sections;
 mod headings;
 mod lines;
 mod maneuvers;
+mod spec;
 
 use crate::live::Live;
-use crate::map::ScatterMap;
+use crate::map::{ScatterMap, TrackLabel};
 use crate::plot::{format_value, BarChart, BarSeries, Colour, LinePlot, PlotSize, Series, Span};
 use crate::{GridCell, Report, ReportError};
 use fit_sections::*;
 use headings::*;
 use lines::*;
 use maneuvers::*;
+use spec::specification;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use tolles::fom::RateSource;
@@ -125,7 +127,8 @@ fn several_header(data: &[ReportData]) -> Report {
                 d.request.band.pass1_hz,
                 d.request.band.pass2_hz
             ))
-            .provenance(provenance(d));
+            .provenance(provenance(d))
+            .paper(d.request.paper);
     }
     let rows: Vec<Vec<String>> = data.iter().map(comparison_cells).collect();
     let vs = first.map_or_else(|| "truth".to_string(), |d| against(d).short);
@@ -210,6 +213,7 @@ fn maps(data: &ReportData, tag: &str) -> Vec<Map> {
         ],
         None => vec![("uncompensated", "field as read (nT)", before.clone())],
     };
+    let labels = track_labels(data, &track.east_km, &track.north_km);
     colourings
         .into_iter()
         .filter_map(|(name, label, value)| {
@@ -219,12 +223,47 @@ fn maps(data: &ReportData, tag: &str) -> Vec<Map> {
                 north_km: &track.north_km,
                 value: &value,
                 value_label: "nT",
+                labels: &labels,
             }
             .to_svg()?;
             Some(Map {
                 src: format!("plots/map-{tag}{name}.svg"),
                 alt: format!("Map of the track coloured by the {label}"),
                 svg,
+            })
+        })
+        .collect()
+}
+
+/// The most lines named on a map; beyond, every second (third, …) line is, so that the ids
+/// stay legible. Every line keeps its arrowhead.
+const MAX_MAP_LABELS: usize = 30;
+
+/// Each straight survey line's id and arrow for the map, from its first to its last row with a
+/// position (km).
+fn track_labels(data: &ReportData, east_km: &[f64], north_km: &[f64]) -> Vec<TrackLabel> {
+    let Some(lines) = &data.lines else {
+        return Vec::new();
+    };
+    let straight: Vec<&LineRow> = (lines.rows.iter())
+        .filter(|r| r.kind == LineKind::Line)
+        .collect();
+    let every = straight.len().div_ceil(MAX_MAP_LABELS).max(1);
+    let at = |k: usize| Some((*east_km.get(k)?, *north_km.get(k)?));
+    let placed = |k: &usize| at(*k).is_some_and(|(e, n)| e.is_finite() && n.is_finite());
+    (straight.iter().enumerate())
+        .filter_map(|(k, row)| {
+            let mut rows = row.runs.iter().flat_map(|r| r.clone());
+            let first = rows.clone().find(placed)?;
+            let last = rows.rfind(placed)?;
+            Some(TrackLabel {
+                text: if k % every == 0 {
+                    row.line.clone()
+                } else {
+                    String::new()
+                },
+                from_km: at(first)?,
+                to_km: at(last)?,
             })
         })
         .collect()
@@ -242,7 +281,9 @@ fn map_section(mut report: Report, data: &ReportData, maps: &[Map]) -> Report {
     report = report.section("Map").paragraph(format!(
         "The track east and north (km) of its start, from {from}, on a km grid with a scale \
          bar; colours run blue–white–red with white at the value's median, out to the farther \
-         of its 2nd and 98th percentiles on both sides (values beyond take the end colours)."
+         of its 2nd and 98th percentiles on both sides (values beyond take the end colours). \
+         Each survey line's id is at its start and an arrowhead at its end, the way it was \
+         flown."
     ));
     for map in maps {
         report = report.image(&map.src, &map.alt);
@@ -253,6 +294,7 @@ fn map_section(mut report: Report, data: &ReportData, maps: &[Map]) -> Report {
 fn page_with(data: &ReportData, maps: &[Map]) -> Report {
     let request = &data.request;
     let mut report = Report::new(format!("Compensation report: {}", request.flight.display()))
+        .paper(request.paper)
         .subtitle(format!(
             "Scalar {} at {:.3} Hz{}, {} samples; figure-of-merit band {}–{} Hz.",
             request.scalar.as_deref().unwrap_or_default(),
@@ -271,6 +313,7 @@ fn page_with(data: &ReportData, maps: &[Map]) -> Report {
     if let Some(fit) = &data.fit {
         report = model_banner(report, fit, request.model.as_deref());
     }
+    report = specification(report, data);
     if !has_box(data) {
         report = report.paragraph(match data.attitude.all() {
             Some(_) => NO_BOX,
@@ -717,7 +760,10 @@ fn signals(mut report: Report, data: &ReportData) -> Report {
     // Yaw on its own axis: 0–360° would flatten a ±10° roll beside it.
     if let Some(yaw) = data.attitude.yaw_deg.as_deref() {
         let cut = heading_cut(yaw);
-        let shown: Vec<f64> = yaw.iter().map(|v| cut + (v - cut).rem_euclid(360.0)).collect();
+        let shown: Vec<f64> = yaw
+            .iter()
+            .map(|v| cut + (v - cut).rem_euclid(360.0))
+            .collect();
         let caption = if cut == 0.0 {
             "Yaw: the heading, clockwise from north (0–360°).".to_string()
         } else {
@@ -1194,7 +1240,9 @@ mod tests {
     #[test]
     fn the_heading_axis_starts_where_the_flight_seldom_heads() {
         // North–south lines (noise about 0° and 180°) and their turns through 90°.
-        let mut yaw: Vec<f64> = (0..400).map(|k| if k % 2 == 0 { 359.5 } else { 0.5 }).collect();
+        let mut yaw: Vec<f64> = (0..400)
+            .map(|k| if k % 2 == 0 { 359.5 } else { 0.5 })
+            .collect();
         yaw.extend((0..400).map(|k| 180.0 + if k % 2 == 0 { 0.5 } else { -0.5 }));
         yaw.extend((0..180).map(f64::from));
         // The turns pass 45° and 135°: 225° is the first heading nobody flies.
@@ -1261,6 +1309,22 @@ mod tests {
         let mean: f64 = points[0].level_nt.iter().sum();
         assert!(mean.abs() < 1e-9, "levels relative to their mean");
         assert_eq!(points[1].error_nt.len(), 4);
+        // The correction per heading, on the same axis: before − after, the ground cancelled;
+        // its spread is said, and each heading's is in the table.
+        assert_eq!(markers(svg, Colour::CYCLE[3]), 4);
+        let expected: Vec<f64> = (points[0].level_nt.iter().zip(&points[1].level_nt))
+            .map(|(b, a)| b - a)
+            .collect();
+        assert!((points[2].level_nt.iter().zip(&expected)).all(|(c, e)| (c - e).abs() < 1e-9));
+        let text = section(&html, "Heading error");
+        assert!(
+            text.contains("<th class=\"num\">correction (nT)</th>")
+                || text.contains("correction (nT)</th>")
+        );
+        assert!(
+            text.contains("which geology does not change, spreads "),
+            "{text}"
+        );
     }
 
     /// The report page of a simulated four-line survey compensated by a box model.
@@ -1343,6 +1407,40 @@ mod tests {
     }
 
     #[test]
+    fn a_box_passes_or_fails_the_fom_the_user_specifies() {
+        let dir = tempfile::tempdir().unwrap();
+        let fom_row = |fom_spec_nt: f64| {
+            let request = ReportRequest {
+                model: Some(box_model(dir.path())),
+                fom_spec_nt,
+                ..ReportRequest::new(dir.path().join("box.csv"), "mag_1_uc")
+            };
+            let data = build(&request, &Silent, &mut Vec::new()).unwrap();
+            let html = std::fs::read_to_string(write(&data, &dir.path().join("r")).unwrap());
+            let html = html.unwrap();
+            let after = data.fom.after.as_ref().unwrap().fom_nt;
+            let start = html.find("<td>figure of merit (box)</td>").unwrap();
+            let row = &html[start..start + html[start..].find("</tr>").unwrap()];
+            (after, row.to_string())
+        };
+        let (after, row) = fom_row(1.5);
+        assert!(
+            after < 1.5 && row.ends_with("<td>pass</td>"),
+            "{after} {row}"
+        );
+        let (_, row) = fom_row(after / 2.0);
+        assert!(row.ends_with("<td>FAIL</td>"), "{row}");
+        // A box has no survey lines; a compensated box without a truth column has no judge
+        // of its heading error.
+        let request = ReportRequest::new(dir.path().join("box.csv"), "mag_1_uc");
+        let data = build(&request, &Silent, &mut Vec::new()).unwrap();
+        let html = std::fs::read_to_string(write(&data, &dir.path().join("r2")).unwrap());
+        assert!(html
+            .unwrap()
+            .contains("<td>no survey lines</td><td>not judged</td>"));
+    }
+
+    #[test]
     fn a_survey_report_names_every_line_with_finite_statistics() {
         let dir = tempfile::tempdir().unwrap();
         let (data, html) = survey_report(dir.path());
@@ -1357,7 +1455,17 @@ mod tests {
         assert!(
             html.contains("Not in the table: turns and transits (heading not steady): 2, 4, 6.")
         );
-        assert_eq!(html.matches("<td>pass</td>").count(), 4);
+        assert_eq!(section(&html, "Lines").matches("<td>pass</td>").count(), 4);
+        // The specification's table, before the first section: every test passed, failed or
+        // said why it is not judged.
+        let first_screen = &html[..html.find("<h2").unwrap()];
+        for row in [
+            "<td>4 of 4 lines within</td><td>pass</td>",
+            "<td>figure of merit (box)</td><td>at most 1.5 nT</td><td>no box maneuvers</td><td>not judged</td>",
+            "vs truth</td><td>pass</td>",
+        ] {
+            assert!(first_screen.contains(row), "{row}");
+        }
         // What `compensate` would warn of heads the page, once.
         assert_eq!(html.matches("Warning: ").count(), 1);
         assert!(html.contains("the model extrapolates there"));

@@ -184,6 +184,15 @@ impl Inputs {
         let flight = flight.keeping_extras(&model.fit.settings.design.extras);
         let inputs = flight.lagged_inputs(model.fit.lag_s, model.fit.flux_offset_nt, fs_hz);
         let channels = flight.columns(request.channels.iter().map(String::as_str))?;
+        if let Some((name, _)) = (request.channels.iter().zip(&channels))
+            .find(|(_, values)| !values.iter().any(|v| v.is_finite()))
+        {
+            return Err(Error::Invalid(format!(
+                "--inputs {name} (inputs= in Python): {} has no number in column {name:?}, so \
+                 the network could learn from no row; give a channel the flight records",
+                flight.table.path().display()
+            )));
+        }
         let channels: Vec<&[f64]> = channels.iter().map(Vec::as_slice).collect();
         let extras: Vec<&[f64]> = inputs.extras.iter().map(Vec::as_slice).collect();
         let design = &model.fit.settings.design;
@@ -212,7 +221,21 @@ impl Inputs {
         let stopping: Vec<bool> = roles.iter().map(|role| *role == Role::Stop).collect();
         let columns = self.slices();
         train(&self.names, &columns, &target, &stopping, &request.settings)
-            .map_err(|e| Error::Invalid(format!("fit of {scalar} --network: {e}")))
+            .map_err(|e| Error::Invalid(format!("fit of {scalar} --network: {e}{}", self.gaps())))
+    }
+
+    /// `; rows without a value: name count, …` for the inputs that lack values, the likely
+    /// cause when too few rows are left to train on; empty when none lacks one.
+    fn gaps(&self) -> String {
+        let gaps: Vec<String> = (self.names.iter().zip(&self.columns))
+            .map(|(name, values)| (name, values.iter().filter(|v| !v.is_finite()).count()))
+            .filter(|&(_, missing)| missing > 0)
+            .map(|(name, missing)| format!("{name} {missing}"))
+            .collect();
+        match gaps.is_empty() {
+            true => String::new(),
+            false => format!(" (rows without a value, by input: {})", gaps.join(", ")),
+        }
     }
 }
 
@@ -387,6 +410,36 @@ mod tests {
         });
         println!("noise alone: {said:?} (linear, network)");
         assert!(said.is_some(), "{warnings:?}");
+    }
+
+    #[test]
+    fn an_input_without_values_is_named_and_so_is_a_network_that_could_not_be_judged() {
+        let table = box_with(true);
+        let mut headers = table.headers().to_vec();
+        let mut columns = table.columns().to_vec();
+        headers.push("cur_dead".into());
+        columns.push(Column::Numbers(vec![f64::NAN; table.len()]));
+        let table = Table::from_columns("box.csv", headers, columns, None).unwrap();
+        let mut request = request();
+        request.network.as_mut().unwrap().channels = vec!["cur_dead".into()];
+        let error = fit(&table, &request, &crate::Silent, &mut Vec::new()).unwrap_err();
+        let said = error.to_string();
+        assert!(
+            said.contains("--inputs cur_dead") && said.contains("no number"),
+            "{said}"
+        );
+        // Judged on no row: the warning says why, not "leaves NaN nT".
+        let unjudged = Warning::NetworkNotKept {
+            scalar: "mag_1_uc".into(),
+            linear_rms_nt: 0.2,
+            network_rms_nt: f64::NAN,
+            held_out: crate::model::HeldOut::default(),
+        };
+        let said = unjudged.to_string();
+        assert!(
+            said.contains("could not be judged") && !said.contains("NaN"),
+            "{said}"
+        );
     }
 
     #[test]
