@@ -34,16 +34,6 @@ pub fn warnings(warnings: &mut Vec<Warning>, purpose: Use) {
     }
 }
 
-/// `value` to four significant digits: a comparison of two small residuals stays readable
-/// (0.0001 nT against 0.0001 nT hid which was smaller).
-pub fn significant(value: f64) -> String {
-    if value == 0.0 || !value.is_finite() {
-        return format!("{value}");
-    }
-    let decimals = (3 - value.abs().log10().floor() as i32).max(0) as usize;
-    format!("{value:.decimals$}")
-}
-
 /// One warning as the command line says it.
 pub fn warning_text(warning: &Warning, purpose: Use) -> String {
     match warning {
@@ -248,8 +238,8 @@ pub fn fit_summary(model: &ScalarModel, cal: &Path) -> std::io::Result<()> {
             learned.network.activation,
             learned.seed,
             learned.held_out,
-            significant(learned.judged_network_rms_nt),
-            significant(learned.judged_linear_rms_nt),
+            tolles::warning::significant(learned.judged_network_rms_nt),
+            tolles::warning::significant(learned.judged_linear_rms_nt),
             100.0 * (1.0 - learned.judged_network_rms_nt / learned.judged_linear_rms_nt),
             learned.best_epoch,
             learned.epochs
@@ -399,16 +389,5 @@ fn short_number(x: f64) -> String {
         format!("{x}")
     } else {
         format!("{x:e}")
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    #[test]
-    fn significant_keeps_four_digits_of_small_and_large_values() {
-        assert_eq!(super::significant(0.000_123_46), "0.0001235");
-        assert_eq!(super::significant(0.000_1), "0.0001000");
-        assert_eq!(super::significant(12.345_6), "12.35");
-        assert_eq!(super::significant(123_456.0), "123456");
     }
 }

@@ -71,9 +71,7 @@ impl ScatterMap<'_> {
                 colour(scale(*v, lo, hi))
             );
         }
-        for label in self.labels {
-            frame.label(&mut svg, label);
-        }
+        frame.labels(&mut svg, self.labels);
         frame.axes(&mut svg);
         colour_bar(
             &mut svg,
@@ -195,31 +193,48 @@ impl Frame {
         );
     }
 
-    /// `label`'s arrowhead (8 px, along the line from its start to its end) at its end, and its
-    /// id just beyond its start, haloed in white so the track does not cross it unreadably.
-    fn label(&self, svg: &mut String, label: &TrackLabel) {
-        let (x0, y0) = self.xy(label.from_km.0, label.from_km.1);
-        let (x1, y1) = self.xy(label.to_km.0, label.to_km.1);
-        let length = (x1 - x0).hypot(y1 - y0);
-        let finite = [x0, y0, x1, y1].iter().all(|v| v.is_finite());
-        if !finite || length < 1.0 {
-            return;
+    /// Each label's arrowhead (8 px, along its line from start to end) at the line's end, and
+    /// its id just beyond the line's start, haloed in white so that the track does not cross it
+    /// unreadably. Ids that would sit within 12 px of one another (a line flown again) share
+    /// one text, joined by commas.
+    fn labels(&self, svg: &mut String, labels: &[TrackLabel]) {
+        let mut ids: Vec<((f64, f64), Vec<&str>)> = Vec::new();
+        for label in labels {
+            let (x0, y0) = self.xy(label.from_km.0, label.from_km.1);
+            let (x1, y1) = self.xy(label.to_km.0, label.to_km.1);
+            let length = (x1 - x0).hypot(y1 - y0);
+            if !(length.is_finite() && length >= 1.0) {
+                continue;
+            }
+            let (ux, uy) = ((x1 - x0) / length, (y1 - y0) / length);
+            let (bx, by) = (x1 - 8.0 * ux, y1 - 8.0 * uy);
+            let _ = write!(
+                svg,
+                "<path d=\"M{x1:.1} {y1:.1}L{:.1} {:.1}L{:.1} {:.1}Z\" fill=\"#222\"/>",
+                bx - 4.0 * uy,
+                by + 4.0 * ux,
+                bx + 4.0 * uy,
+                by - 4.0 * ux,
+            );
+            if label.text.is_empty() {
+                continue;
+            }
+            let at = (x0 - 10.0 * ux, y0 - 10.0 * uy);
+            let near = |p: &(f64, f64)| (p.0 - at.0).hypot(p.1 - at.1) < 12.0;
+            match ids.iter_mut().find(|(p, _)| near(p)) {
+                Some((_, texts)) => texts.push(&label.text),
+                None => ids.push((at, vec![&label.text])),
+            }
         }
-        let (ux, uy) = ((x1 - x0) / length, (y1 - y0) / length);
-        let (bx, by) = (x1 - 8.0 * ux, y1 - 8.0 * uy);
-        let _ = write!(
-            svg,
-            "<path d=\"M{x1:.1} {y1:.1}L{:.1} {:.1}L{:.1} {:.1}Z\" fill=\"#222\"/>\
-             <text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"middle\" dominant-baseline=\"middle\" \
-             font-size=\"10\" stroke=\"white\" stroke-width=\"3\" paint-order=\"stroke\">{}</text>",
-            bx - 4.0 * uy,
-            by + 4.0 * ux,
-            bx + 4.0 * uy,
-            by - 4.0 * ux,
-            x0 - 10.0 * ux,
-            y0 - 10.0 * uy,
-            escape(&label.text)
-        );
+        for ((x, y), texts) in ids {
+            let _ = write!(
+                svg,
+                "<text class=\"line-id\" x=\"{x:.1}\" y=\"{y:.1}\" text-anchor=\"middle\" \
+                 dominant-baseline=\"middle\" font-size=\"10\" stroke=\"white\" \
+                 stroke-width=\"3\" paint-order=\"stroke\">{}</text>",
+                escape(&texts.join(", "))
+            );
+        }
     }
 
     fn axes(&self, svg: &mut String) {
@@ -455,6 +470,27 @@ mod tests {
             .collect();
         assert!(y_of("1001") > tips[0], "{} {}", y_of("1001"), tips[0]);
         assert!(y_of("&lt;b&gt;1002") < tips[1]);
+        // The same line flown again: one text names both, and each keeps its arrow.
+        let again = [
+            labels[0].clone(),
+            TrackLabel {
+                text: "1003".into(),
+                ..labels[0].clone()
+            },
+        ];
+        let ones = vec![1.0; 40];
+        let svg = ScatterMap {
+            title: "t",
+            east_km: &east,
+            north_km: &north,
+            value: &ones,
+            value_label: "nT",
+            labels: &again,
+        }
+        .to_svg()
+        .unwrap();
+        assert!(svg.contains(">1001, 1003</text>"), "{svg}");
+        assert_eq!(svg.matches("fill=\"#222\"/>").count(), 2);
     }
 
     #[test]

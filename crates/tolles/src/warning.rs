@@ -2,7 +2,7 @@
 //! show (the CLI prints them on standard error, Python raises `UserWarning`s).
 
 // Errors write rates the same way; `tolles::warning::hz` stays the public path.
-pub use crate::numbers::hz;
+pub use crate::numbers::{hz, significant};
 use std::fmt;
 use std::path::{Path, PathBuf};
 use tolles_io::schema::TIME_COLUMN;
@@ -301,7 +301,8 @@ impl fmt::Display for Warning {
                 held_out,
             } if !network_rms_nt.is_finite() => write!(
                 f,
-                "the network for {scalar} was not kept: no held-out row ({held_out}) has a value of every network input, so it could not be judged against the linear model's {linear_rms_nt:.4} nT; give --inputs the flight records throughout"
+                "the network for {scalar} was not kept: no held-out row ({held_out}) has a value of every network input, so it could not be judged against the linear model's {} nT; give --inputs the flight records throughout",
+                significant(*linear_rms_nt)
             ),
             Warning::NetworkNotKept {
                 scalar,
@@ -310,7 +311,9 @@ impl fmt::Display for Warning {
                 held_out,
             } => write!(
                 f,
-                "the network for {scalar} was not kept: on held-out {held_out} it leaves {network_rms_nt:.4} nT against the linear model's {linear_rms_nt:.4} nT (it must leave at least {:.0} % less)",
+                "the network for {scalar} was not kept: on held-out {held_out} it leaves {} nT against the linear model's {} nT (it must leave at least {:.0} % less)",
+                significant(*network_rms_nt),
+                significant(*linear_rms_nt),
                 100.0 * crate::model::KEEP_MARGIN
             ),
             Warning::ExtrasDropped { scalar, channels } => write!(

@@ -182,8 +182,9 @@ fn line_cells(row: &LineRow, compensated: bool, with_error: bool, tolerance: f64
 const MAX_PROFILES: usize = 12;
 
 /// Each straight line's profile (up to [`MAX_PROFILES`]): the scalar before and after
-/// compensation, each less its mean over the line, against the time since the line began.
-pub(super) fn line_profiles(mut report: Report, data: &ReportData) -> Report {
+/// compensation, each less its mean over the line, against the time since the line began; and
+/// beneath it the line's fourth difference between the ± tolerance lines, with its verdict.
+pub(super) fn line_profiles(report: Report, data: &ReportData) -> Report {
     let Some(lines) = data.lines.as_ref().filter(|l| has_lines(l)) else {
         return report;
     };
@@ -191,15 +192,21 @@ pub(super) fn line_profiles(mut report: Report, data: &ReportData) -> Report {
         .filter(|r| r.kind == LineKind::Line)
         .collect();
     let shown = straight.len().min(MAX_PROFILES);
-    report = report.section("Line profiles").paragraph(format!(
+    let tolerance = data.request.noise_tolerance_nt;
+    let intro =
+        format!(
         "Each straight line's scalar{} less its mean over the line, against the time since the \
          line began (s): the anomalies a survey delivers, and what compensation took out of \
-         them. {} of {} lines{}.",
+         them. Beneath it, the line's fourth difference (x₋₂ − 4x₋₁ + 6x₀ − 4x₊₁ + x₊₂)/16 of \
+         the {} scalar between the specification's ±{} nT (report --noise-tolerance). {} of {} \
+         lines{}.",
         if data.compensated.is_some() {
             " before and after compensation"
         } else {
             ""
         },
+        if data.compensated.is_some() { "compensated" } else { "as read" },
+        format_value(tolerance),
         shown,
         straight.len(),
         if shown < straight.len() {
@@ -207,38 +214,80 @@ pub(super) fn line_profiles(mut report: Report, data: &ReportData) -> Report {
         } else {
             ""
         }
-    ));
-    for row in &straight[..shown] {
-        let rows: Vec<usize> = row.runs.iter().flat_map(Range::clone).collect();
-        let Some(&first) = rows.first() else {
-            continue;
-        };
-        let t0 = data.fom.tt[first];
-        let x: Vec<f64> = rows.iter().map(|&k| data.fom.tt[k] - t0).collect();
-        let profile = |trace: &tolles::report::Trace| {
-            let values: Vec<f64> = rows.iter().map(|&k| trace.centred[k]).collect();
-            let finite: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
-            let mean = finite.iter().sum::<f64>() / finite.len().max(1) as f64;
-            values.iter().map(|v| v - mean).collect::<Vec<f64>>()
-        };
-        let mut series =
-            vec![
-                Series::new("uncompensated", x.clone(), profile(&data.uncompensated))
-                    .colour(Colour::UNCOMPENSATED),
-            ];
-        if let Some(after) = &data.compensated {
-            series.push(
-                Series::new("compensated", x.clone(), profile(after)).colour(Colour::COMPENSATED),
-            );
-        }
-        report = report.line_plot(LinePlot {
-            title: format!("Line {}", row.line),
-            x_label: "time since the line began (s)".into(),
-            y_label: "field − line mean (nT)".into(),
-            series,
-            size: PlotSize::SMALL,
-            ..LinePlot::default()
-        });
+    );
+    let cells = (straight[..shown].iter())
+        .filter_map(|row| line_cell(row, data, tolerance))
+        .collect();
+    report.section("Line profiles").paragraph(intro).grid(cells)
+}
+
+/// One line's profile and fourth difference, small, with its peak fourth difference and
+/// verdict; `None` for a line without rows.
+fn line_cell(row: &LineRow, data: &ReportData, tolerance: f64) -> Option<GridCell> {
+    let rows: Vec<usize> = row.runs.iter().flat_map(Range::clone).collect();
+    let t0 = data.fom.tt[*rows.first()?];
+    let x: Vec<f64> = rows.iter().map(|&k| data.fom.tt[k] - t0).collect();
+    let on_line = |values: &[f64]| rows.iter().map(|&k| values[k]).collect::<Vec<f64>>();
+    let profile = |trace: &tolles::report::Trace| {
+        let values = on_line(&trace.centred);
+        let finite: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
+        let mean = finite.iter().sum::<f64>() / finite.len().max(1) as f64;
+        values.iter().map(|v| v - mean).collect::<Vec<f64>>()
+    };
+    let mut series = vec![
+        Series::new("uncompensated", x.clone(), profile(&data.uncompensated))
+            .colour(Colour::UNCOMPENSATED),
+    ];
+    if let Some(after) = &data.compensated {
+        series.push(
+            Series::new("compensated", x.clone(), profile(after)).colour(Colour::COMPENSATED),
+        );
     }
-    report
+    let judged = data.compensated.as_ref().unwrap_or(&data.uncompensated);
+    let level = |v: f64, name: String| {
+        Series::new(name, x.clone(), vec![v; x.len()]).colour(Colour::REFERENCE)
+    };
+    let small = |title: String, y_label: &str, series| LinePlot {
+        title,
+        x_label: "time since the line began (s)".into(),
+        y_label: y_label.into(),
+        series,
+        size: PlotSize::SMALL,
+        ..LinePlot::default()
+    };
+    let plots = vec![
+        small(
+            format!("Line {}", row.line),
+            "field − line mean (nT)",
+            series,
+        ),
+        small(
+            format!("Line {} fourth difference", row.line),
+            "fourth difference (nT)",
+            vec![
+                Series::new(
+                    "fourth difference",
+                    x.clone(),
+                    on_line(&judged.fourth_difference),
+                )
+                .colour(Colour::COMPENSATED),
+                level(tolerance, format!("+{} nT", format_value(tolerance))),
+                level(-tolerance, format!("−{} nT", format_value(tolerance))),
+            ],
+        ),
+    ];
+    let caption = match row.peak_fourth_difference_nt {
+        Some(peak) => format!(
+            "Peak |fourth difference| {} nT: {} (±{} nT).",
+            format_value(peak),
+            if peak <= tolerance { "pass" } else { "FAIL" },
+            format_value(tolerance)
+        ),
+        None => "Too few samples for a fourth difference.".into(),
+    };
+    Some(GridCell {
+        title: format!("Line {}", row.line),
+        plots,
+        caption: Some(caption),
+    })
 }

@@ -328,9 +328,10 @@ fn page_with(data: &ReportData, maps: &[Map]) -> Report {
         report = per_line(report, lines, data.compensated.is_some(), tolerance, &vs);
     }
     report = map_section(report, data, maps);
+    // The spectrum is a figure of the Signals section; the line profiles are their own.
     report = signals(report, data);
-    report = line_profiles(report, data);
     report = spectra(report, data);
+    report = line_profiles(report, data);
     if has_box(data) {
         report = figure_of_merit(report, data);
     }
@@ -1456,6 +1457,17 @@ mod tests {
             html.contains("Not in the table: turns and transits (heading not steady): 2, 4, 6.")
         );
         assert_eq!(section(&html, "Lines").matches("<td>pass</td>").count(), 4);
+        // Each line's profile and, beneath it, its fourth difference between the ± tolerance
+        // lines, with its verdict.
+        let profiles = section(&html, "Line profiles");
+        assert_eq!(profiles.matches("<figure class=\"cell\">").count(), 4);
+        assert_eq!(profiles.matches("<img ").count(), 8);
+        assert_eq!(profiles.matches(": pass (±0.1 nT).").count(), 4);
+        let fourth = shown_svgs(dir.path(), profiles)
+            .into_iter()
+            .filter(|svg| svg.contains("fourth difference (nT)"))
+            .count();
+        assert_eq!(fourth, 4);
         // The specification's table, before the first section: every test passed, failed or
         // said why it is not judged.
         let first_screen = &html[..html.find("<h2").unwrap()];
