@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use tolles::model::ScalarModel;
 use tolles::report::ReportRequest;
 use tolles::{Error, Warning};
-use tolles_io::error::IoError;
+use tolles_io::error::{IoError, Near};
 use tolles_io::select::SelectError;
 
 /// What a command does with the rows a selection kept, for the message that says so.
@@ -79,8 +79,8 @@ pub fn error(e: Error) -> anyhow::Error {
             path,
             by,
             column,
-            hint,
-        }) => anyhow::anyhow!("{}: --{by} needs a column {column:?}{hint}", path.display()),
+            near,
+        }) => anyhow::anyhow!("{}: --{by} needs a column {column:?}{near}", path.display()),
         Error::Select(SelectError::UnknownLine {
             path,
             line,
@@ -110,23 +110,22 @@ pub fn error(e: Error) -> anyhow::Error {
             available.len(),
             available.join("|")
         ),
-        Error::Io(IoError::MissingColumn { path, column, hint }) => {
+        Error::Io(IoError::MissingColumn { path, column, near }) => {
             anyhow::anyhow!(
-                "{}: no column {column:?}{hint}{}",
+                "{}: no column {column:?}{near}{}",
                 path.display(),
-                rename_hint(&column, &hint)
+                rename_hint(&column, &near)
             )
         }
         other => anyhow::Error::new(other),
     }
 }
 
-/// ` (if it is, --rename NEAR=COLUMN)` when `hint` suggests one column near `column`: the
-/// flag that lets any command read a file whose names differ from the model's or the schema's.
-fn rename_hint(column: &str, hint: &str) -> String {
-    let near = hint
-        .strip_prefix("; did you mean ")
-        .and_then(|h| h.strip_suffix('?'))
+/// ` (if it is, --rename NEAR=COLUMN)` when one column is near `column`: the flag that lets
+/// any command read a file whose names differ from the model's or the schema's.
+fn rename_hint(column: &str, near: &Near) -> String {
+    let near = near
+        .only()
         .filter(|near| !near.contains([',', ':', ' ']))
         // A fluxgate's component suggests a fluxgate's prefix: --vector names it.
         .filter(|_| {
@@ -389,5 +388,35 @@ fn short_number(x: f64) -> String {
         format!("{x}")
     } else {
         format!("{x:e}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn one_near_name_suggests_the_rename_that_reads_it() {
+        let one = Near::Names(vec!["MAG".into()]);
+        assert_eq!(
+            rename_hint("mag_1_uc", &one),
+            " (if it is, --rename MAG=mag_1_uc)"
+        );
+        // Several names, a fluxgate's spelling, the header itself: nothing to rename to.
+        for near in [
+            Near::Names(vec!["A".into(), "B".into()]),
+            Near::Names(vec!["FX:FY:FZ".into()]),
+            Near::Header {
+                first: vec!["MAG".into()],
+                more: 0,
+            },
+        ] {
+            assert_eq!(rename_hint("mag_1_uc", &near), "", "{near}");
+        }
+        // A fluxgate's component: --vector names the fluxgate, not --rename.
+        assert_eq!(
+            rename_hint("flux_a_x", &Near::Names(vec!["FLUXA".into()])),
+            ""
+        );
     }
 }

@@ -35,14 +35,14 @@ pub enum IoError {
         path: PathBuf,
     },
     /// A column asked for is not in the file.
-    #[error("{path}: no column {column:?}{hint}")]
+    #[error("{path}: no column {column:?}{near}")]
     MissingColumn {
         /// The file the error is about.
         path: PathBuf,
         /// The column asked for.
         column: String,
-        /// A suggestion appended to the message (such as a close name); may be empty.
-        hint: String,
+        /// The names near it, or the header's first names.
+        near: Near,
     },
     /// A column name appears more than once in the header.
     #[error("{path}: column {column:?} appears more than once in the header")]
@@ -118,4 +118,46 @@ pub enum IoError {
         /// Why the file is not a model file.
         message: String,
     },
+}
+
+/// What a name missing from a header is near: names like it, or, none being near, the header's
+/// first names. As text it ends an error's sentence: `; did you mean A, B?` or `; the header
+/// has: …`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Near {
+    /// Columns like the name asked for, or fluxgate prefixes, or a fluxgate's three columns
+    /// spelled `X:Y:Z`.
+    Names(Vec<String>),
+    /// No name is near: the header's first names, and how many more it has.
+    Header {
+        /// The first names, in the header's order.
+        first: Vec<String>,
+        /// How many more names the header has.
+        more: usize,
+    },
+}
+
+impl Near {
+    /// The one name near, when there is exactly one: a spelling the user may have meant.
+    pub fn only(&self) -> Option<&str> {
+        match self {
+            Near::Names(names) if names.len() == 1 => Some(&names[0]),
+            _ => None,
+        }
+    }
+}
+
+impl std::fmt::Display for Near {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Near::Names(names) => write!(f, "; did you mean {}?", names.join(", ")),
+            Near::Header { first, more } => {
+                write!(f, "; the header has: {}", first.join(", "))?;
+                match more {
+                    0 => Ok(()),
+                    n => write!(f, " and {n} more (tolles info lists them)"),
+                }
+            }
+        }
+    }
 }

@@ -4,7 +4,7 @@
 //! ([`parse_cell`]: a number, or missing when empty or NaN). Only the error type is needed here,
 //! so the table, the raw CSV reader and the schema can all build on it.
 
-use crate::error::IoError;
+use crate::error::{IoError, Near};
 use std::path::Path;
 
 /// The longest header line a CSV file may have (bytes); far beyond any real flight's.
@@ -57,18 +57,18 @@ pub fn find_column(path: &Path, headers: &[String], name: &str) -> Result<usize,
         .ok_or_else(|| IoError::MissingColumn {
             path: path.to_path_buf(),
             column: name.to_string(),
-            hint: suggest(headers, name),
+            near: suggest(headers, name),
         })
 }
 
-/// `; did you mean A, B?` with the headers near `name` (case-insensitively), or the header's
-/// first names when none is near.
-pub(crate) fn suggest(headers: &[String], name: &str) -> String {
+/// The headers near `name` (case-insensitively), or the header's first names when none is
+/// near.
+pub(crate) fn suggest(headers: &[String], name: &str) -> Near {
     let n = name.to_ascii_lowercase();
     let stem = n.trim_end_matches(['x', 'y', 'z']).trim_end_matches('_');
     // Spelled without its separators (mag1uc, MAG-1-UC) a name is still near.
     let bare = |s: &str| s.replace(['_', '-', ' ', '.'], "");
-    let near: Vec<&str> = headers
+    let near: Vec<String> = headers
         .iter()
         .filter(|h| {
             let h = h.to_ascii_lowercase();
@@ -77,25 +77,22 @@ pub(crate) fn suggest(headers: &[String], name: &str) -> String {
                 || (!stem.is_empty() && h.starts_with(stem))
                 || (!h.is_empty() && bare(&h) == bare(&n))
         })
-        .map(String::as_str)
         .take(6)
+        .cloned()
         .collect();
     if near.is_empty() {
-        let shown: Vec<&str> = headers.iter().map(String::as_str).take(12).collect();
-        let more = match headers.len().saturating_sub(shown.len()) {
-            0 => String::new(),
-            n => format!(" and {n} more (tolles info lists them)"),
-        };
-        format!("; the header has: {}{more}", shown.join(", "))
+        let first: Vec<String> = headers.iter().take(12).cloned().collect();
+        let more = headers.len().saturating_sub(first.len());
+        Near::Header { first, more }
     } else {
-        format!("; did you mean {}?", near.join(", "))
+        Near::Names(near)
     }
 }
 
-/// `; did you mean FLUXA?` with the fluxgate prefixes in `headers` (names `P_x`, `P_y`, `P_z`
-/// in any case) near `prefix`, case-insensitively, and the three columns `PX:PY:PZ` of a
-/// fluxgate whose names have no separator (which no prefix reads); `None` when none is near.
-pub(crate) fn suggest_vector(headers: &[String], prefix: &str) -> Option<String> {
+/// The fluxgate prefixes in `headers` (names `P_x`, `P_y`, `P_z` in any case) near `prefix`,
+/// case-insensitively, and the three columns `PX:PY:PZ` of a fluxgate whose names have no
+/// separator (which no prefix reads); `None` when none is near.
+pub(crate) fn suggest_vector(headers: &[String], prefix: &str) -> Option<Near> {
     let lower: Vec<String> = headers.iter().map(|h| h.to_ascii_lowercase()).collect();
     let wanted = prefix.to_ascii_lowercase();
     let near: Vec<String> = headers
@@ -122,7 +119,7 @@ pub(crate) fn suggest_vector(headers: &[String], prefix: &str) -> Option<String>
         })
         .take(6)
         .collect();
-    (!near.is_empty()).then(|| format!("; did you mean {}?", near.join(", ")))
+    (!near.is_empty()).then_some(Near::Names(near))
 }
 
 /// Parses one cell: empty or NaN is missing (NaN); otherwise a number or `None`.
@@ -163,13 +160,13 @@ mod tests {
     #[test]
     fn a_long_header_is_listed_in_part_with_the_rest_counted() {
         let headers: Vec<String> = (0..20).map(|k| format!("col{k}")).collect();
-        let said = suggest(&headers, "mag_1_uc");
+        let said = suggest(&headers, "mag_1_uc").to_string();
         assert!(said.starts_with("; the header has: col0, col1,"), "{said}");
         assert!(
             said.ends_with("col11 and 8 more (tolles info lists them)"),
             "{said}"
         );
-        let few = suggest(&headers[..3], "mag_1_uc");
+        let few = suggest(&headers[..3], "mag_1_uc").to_string();
         assert_eq!(few, "; the header has: col0, col1, col2");
     }
 }

@@ -47,7 +47,7 @@ pub enum SelectError {
         why: String,
     },
     /// Selecting by `line` or `time` needs a column the file lacks.
-    #[error("{path}: selecting by {by} needs a column {column:?}{hint}")]
+    #[error("{path}: selecting by {by} needs a column {column:?}{near}")]
     NoColumn {
         /// The file the error is about.
         path: PathBuf,
@@ -55,8 +55,8 @@ pub enum SelectError {
         by: &'static str,
         /// The column needed.
         column: &'static str,
-        /// A suggestion appended to the message (a close column name); may be empty.
-        hint: String,
+        /// The names near it, or the header's first names.
+        near: crate::error::Near,
     },
     /// A line id no row is on.
     #[error("{path}: line {line}: no row is on that line; the file's lines are {present}")]
@@ -360,7 +360,7 @@ fn column_for(table: &Table, name: &'static str, by: &'static str) -> Result<usi
         path: table.path().to_path_buf(),
         by,
         column: name,
-        hint: crate::header::suggest(table.headers(), name),
+        near: crate::header::suggest(table.headers(), name),
     })
 }
 

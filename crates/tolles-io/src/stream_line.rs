@@ -145,8 +145,8 @@ impl Layout {
         };
         let find = |name: &str| {
             index(name).map(|k| (k, name.to_string())).ok_or_else(|| {
-                let hint = crate::header::suggest(&names, name);
-                format!("header has no column {name:?}{hint}")
+                let near = crate::header::suggest(&names, name);
+                format!("header has no column {name:?}{near}")
             })
         };
         let scalars = scalars.iter().map(|s| find(s)).collect::<Result<_, _>>()?;

@@ -866,9 +866,9 @@ impl Parsed<'_> {
         let headers = self.table.headers();
         let mut column = |name: &str| {
             self.numeric(name).map_err(|e| match e {
-                IoError::MissingColumn { path, column, hint } if !spec.contains(':') => {
-                    let hint = suggest_vector(headers, spec).unwrap_or(hint);
-                    IoError::MissingColumn { path, column, hint }
+                IoError::MissingColumn { path, column, near } if !spec.contains(':') => {
+                    let near = suggest_vector(headers, spec).unwrap_or(near);
+                    IoError::MissingColumn { path, column, near }
                 }
                 other => other,
             })

@@ -315,10 +315,10 @@ pub(super) fn clone_error(e: &IoError) -> IoError {
             column: column.clone(),
             value: value.clone(),
         },
-        IoError::MissingColumn { path, column, hint } => IoError::MissingColumn {
+        IoError::MissingColumn { path, column, near } => IoError::MissingColumn {
             path: path.clone(),
             column: column.clone(),
-            hint: hint.clone(),
+            near: near.clone(),
         },
         other => IoError::Invalid {
             path: std::path::PathBuf::new(),
