@@ -88,6 +88,7 @@ pub fn group_thousands(n: usize) -> String {
     }
     out
 }
+
 /// `value ± error` to the error's two significant digits (53544.7 ± 6.3, not 53544.701 ±
 /// 6.312): digits beyond what the error allows are noise. Three decimals when the error is not
 /// a positive finite number.
@@ -97,4 +98,17 @@ pub fn with_error(value: f64, error: f64) -> String {
         false => 3,
     };
     format!("{value:.decimals$} ± {error:.decimals$}")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_value_keeps_the_digits_its_error_allows() {
+        assert_eq!(with_error(53544.701, 6.312), "53544.7 ± 6.3");
+        assert_eq!(with_error(0.123456, 0.0123), "0.123 ± 0.012");
+        assert_eq!(with_error(12.5, 0.0), "12.500 ± 0.000");
+        assert_eq!(with_error(12.5, f64::NAN), "12.500 ± NaN");
+    }
 }

@@ -574,6 +574,38 @@ fn axis_tick(v: f64, log: bool, (lo, hi): (f64, f64)) -> String {
     }
 }
 
+/// The y-label area's width (px) that keeps the axis title clear of the widest tick label:
+/// the title's line, a gap, the widest label at 0.62 em a character, and the tick.
+fn y_label_area(plot: &LinePlot, y_range: (f64, f64)) -> u32 {
+    let (label_font, desc_font) = plot.size.fonts();
+    let count = if plot.size.height < 250 { 4 } else { 7 };
+    let widest = match (plot.y_ticks.is_empty(), plot.log_y) {
+        (false, false) => plot.y_ticks.iter().map(|(_, l)| l.chars().count()).max(),
+        (_, true) => Some(4),
+        (true, false) => widest_tick(y_range, count),
+    };
+    let label_px = 0.62 * f64::from(label_font) * widest.unwrap_or(1) as f64;
+    (f64::from(desc_font) + 12.0 + label_px + 10.0).ceil() as u32
+}
+
+/// The characters of the widest label among the round ticks (1, 2 or 5 × 10ⁿ apart, about
+/// `count` of them) that a linear axis over `lo..hi` shows.
+fn widest_tick((lo, hi): (f64, f64), count: usize) -> Option<usize> {
+    let rough = (hi - lo) / count.max(1) as f64;
+    if !(rough.is_finite() && rough > 0.0) {
+        return None;
+    }
+    let power = 10f64.powf(rough.log10().floor());
+    let step = [1.0, 2.0, 5.0, 10.0]
+        .into_iter()
+        .map(|m| m * power)
+        .find(|s| *s >= rough)?;
+    let (first, last) = ((lo / step).ceil() as i64, (hi / step).floor() as i64);
+    (first..=last.min(first + 50))
+        .map(|k| axis_tick(k as f64 * step, false, (lo, hi)).chars().count())
+        .max()
+}
+
 fn draw_lines<DB: DrawingBackend>(
     root: &DrawingArea<DB, plotters::coord::Shift>,
     x_range: (f64, f64),
@@ -583,6 +615,7 @@ fn draw_lines<DB: DrawingBackend>(
 ) -> Result<(), String> {
     let (label_font, desc_font) = plot.size.fonts();
     let (x_area, y_area) = plot.size.label_areas();
+    let y_area = y_area.max(y_label_area(plot, y_range));
     let small = plot.size.is_small();
     let mut chart = ChartBuilder::on(root)
         .margin_top(if small { 8 } else { 14 })
@@ -644,10 +677,11 @@ fn draw_lines<DB: DrawingBackend>(
     if fixed_y_ticks {
         draw_y_ticks(root, &chart, x_range, y_range, plot)?;
     }
-    draw_spans(root, &chart, x_range, y_range, plot)?;
+    draw_spans(&chart, x_range, y_range, plot)?;
     for shape in lines {
         draw_shape(root, &mut chart, shape, small)?;
     }
+    draw_span_labels(root, &chart, x_range, y_range, plot)?;
     Ok(())
 }
 
@@ -767,38 +801,59 @@ fn break_at_wraps(runs: Vec<Vec<(f64, f64)>>, period: f64) -> Vec<Vec<(f64, f64)
 
 type Chart<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
 
-/// Shades each span (clipped to the x range) and writes its label at the top, one line lower
-/// per span so that overlapping spans keep readable labels.
+/// Each span clipped to the x range, in plot units; spans wholly outside are left out.
+fn visible_spans<'a>(plot: &'a LinePlot, x_range: (f64, f64)) -> Vec<(&'a Span, f64, f64)> {
+    (plot.spans.iter())
+        .filter_map(|span| {
+            let (from, to) = range_on_axis((span.from, span.to), plot.log_x)?;
+            let (from, to) = (from.max(x_range.0), to.min(x_range.1));
+            (from < to).then_some((span, from, to))
+        })
+        .collect()
+}
+
+/// Shades each span (clipped to the x range), under the lines.
 fn draw_spans<DB: DrawingBackend>(
-    root: &DrawingArea<DB, plotters::coord::Shift>,
     chart: &Chart<DB>,
     x_range: (f64, f64),
     (y0, y1): (f64, f64),
     plot: &LinePlot,
 ) -> Result<(), String> {
-    let mut row = 0;
-    for span in &plot.spans {
-        let Some((from, to)) = range_on_axis((span.from, span.to), plot.log_x) else {
-            continue;
-        };
-        let (from, to) = (from.max(x_range.0), to.min(x_range.1));
-        if from >= to {
-            continue;
-        }
+    for (span, from, to) in visible_spans(plot, x_range) {
         let fill = span.colour.rgb().mix(0.13).filled();
-        let area = chart.plotting_area();
-        area.draw(&Rectangle::new([(from, y0), (to, y1)], fill))
+        (chart.plotting_area())
+            .draw(&Rectangle::new([(from, y0), (to, y1)], fill))
             .map_err(|e| e.to_string())?;
-        let (px, py) = area.map_coordinate(&(from, y1));
-        let ink = span.colour.rgb();
-        let style = TextStyle::from((FONT, 15).into_font()).color(&ink);
-        root.draw(&Text::new(
-            span.label.clone(),
-            (px + 5, py + 5 + 19 * row),
-            style,
+    }
+    Ok(())
+}
+
+/// Writes each span's label at its top left, one line lower per span so that overlapping
+/// spans keep readable labels, over the lines on a white patch: a trace never crosses a label.
+fn draw_span_labels<DB: DrawingBackend>(
+    root: &DrawingArea<DB, plotters::coord::Shift>,
+    chart: &Chart<DB>,
+    x_range: (f64, f64),
+    (_, y1): (f64, f64),
+    plot: &LinePlot,
+) -> Result<(), String> {
+    let labelled =
+        (visible_spans(plot, x_range).into_iter()).filter(|(s, _, _)| !s.label.is_empty());
+    for (row, (span, from, _)) in labelled.enumerate() {
+        let (px, py) = chart.plotting_area().map_coordinate(&(from, y1));
+        let (x, y) = (px + 5, py + 5 + 19 * row as i32);
+        // Wide enough for the font's widest digits and letters at 15 px.
+        let width = (8.5 * span.label.chars().count() as f64).ceil() as i32;
+        let patch = WHITE.mix(0.85).filled();
+        root.draw(&Rectangle::new(
+            [(x - 2, y - 1), (x + width, y + 17)],
+            patch,
         ))
         .map_err(|e| e.to_string())?;
-        row += 1;
+        let ink = span.colour.rgb();
+        let style = TextStyle::from((FONT, 15).into_font()).color(&ink);
+        root.draw(&Text::new(span.label.clone(), (x, y), style))
+            .map_err(|e| e.to_string())?;
     }
     Ok(())
 }
@@ -1024,6 +1079,38 @@ mod tests {
         for automatic in ["50", "100", "200", "300"] {
             assert!(!labels.iter().any(|l| l == automatic), "{automatic}");
         }
+    }
+
+    #[test]
+    fn a_span_label_is_written_over_the_lines_on_a_white_patch() {
+        let x: Vec<f64> = (0..100).map(f64::from).collect();
+        let plot = LinePlot {
+            series: vec![Series::new("s", x.clone(), vec![1.0; 100])],
+            spans: vec![Span {
+                label: "FOM band".into(),
+                from: 10.0,
+                to: 50.0,
+                colour: Colour::UNCOMPENSATED,
+            }],
+            ..LinePlot::default()
+        };
+        let svg = plot.to_svg().unwrap().svg;
+        let line = svg
+            .find("<polyline fill=\"none\" opacity=\"1\" stroke=\"#0072B2\"")
+            .unwrap();
+        let label = svg.find("FOM band").unwrap();
+        assert!(line < label, "the label is under the line");
+        let patch = svg[..label].rfind("<rect").unwrap();
+        assert!(patch > line && svg[patch..label].contains("fill=\"#FFFFFF\""));
+    }
+
+    #[test]
+    fn the_y_axis_title_clears_its_widest_tick_label() {
+        let plot = LinePlot::default();
+        // ±30 nT: "-30", the fixed area suffices; ±0.0012 nT: "-0.0012" needs more.
+        assert!(y_label_area(&plot, (-30.0, 30.0)) <= plot.size.label_areas().1);
+        assert_eq!(widest_tick((-0.0012, 0.0012), 7), Some(7));
+        assert!(y_label_area(&plot, (-0.0012, 0.0012)) > plot.size.label_areas().1);
     }
 
     #[test]

@@ -35,6 +35,20 @@ fn a_motor_current_as_an_extra_channel_is_compensated() {
         "{summary}"
     );
     assert!(with < 0.05 && without > 100.0 * with, "{without} -> {with}");
+    // The report's coefficient table says the same unit, and the compared models name the
+    // extra channel.
+    run_in(
+        dir.path(),
+        &["report", "box.csv", "--model", "m.json", "-o", "rep"],
+    );
+    let page = std::fs::read_to_string(dir.path().join("rep/index.html")).unwrap();
+    assert!(page.contains("<td>cur_1_x</td>"), "no cur_1_x row");
+    let row = page.split("<td>cur_1_x</td>").nth(1).unwrap();
+    assert!(
+        row[..row.find("</tr>").unwrap()].ends_with("<td>nT/A</td>"),
+        "{row:.200}"
+    );
+    assert!(page.contains("+cur_1</td>"));
     let model = std::fs::read_to_string(dir.path().join("m.json")).unwrap();
     assert!(
         model.contains(r#""extras": ["#) && model.contains("cur_1_x"),

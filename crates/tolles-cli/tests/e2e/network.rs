@@ -150,6 +150,9 @@ fn the_report_shows_the_network_s_share(d: &Path) {
     );
     let html = std::fs::read_to_string(d.join("rep/index.html")).unwrap();
     assert!(html.contains("A network (8 hidden units, swish, 5 inputs)"));
+    // The fit's diagnostics quote what the model as applied leaves, beside the linear model's.
+    assert!(html.contains("expected held-out residual, linear model alone"));
+    assert!(html.contains("held-out residual with the network"));
     // On the first screen, among the summary's tiles, before any section.
     let tile = html
         .find("network share of the correction")

@@ -169,3 +169,30 @@ fn an_unknown_scalar_is_a_one_line_error_naming_it() {
         assert!(!dir.path().join("rep/index.html").exists());
     }
 }
+
+/// Issue 58: a warning about the file, not a scalar (time stepping back), is printed once for
+/// a page of two scalars, not once per scalar.
+#[test]
+fn a_file_s_warning_is_printed_once_for_two_scalars() {
+    let dir = tempfile::tempdir().unwrap();
+    let (flight, model) = box_with_two_scalars(dir.path());
+    let text = std::fs::read_to_string(&flight).unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    let (a, b) = (lines[51].clone(), lines[101].clone());
+    let time = |line: &str| line.split(',').next().unwrap().to_string();
+    lines[101] = b.replacen(&time(&b), &time(&a), 1);
+    let back = dir.path().join("back.csv");
+    std::fs::write(&back, lines.join("\n") + "\n").unwrap();
+    let done = tolles()
+        .arg("report")
+        .arg(&back)
+        .arg("--model")
+        .arg(&model)
+        .args(["--scalar", "mag_1_uc,mag_2_uc", "-o"])
+        .arg(dir.path().join("rep"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&done.stderr);
+    assert!(done.status.success(), "{stderr}");
+    assert_eq!(stderr.matches("time steps back").count(), 1, "{stderr}");
+}

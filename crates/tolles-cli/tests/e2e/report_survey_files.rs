@@ -207,3 +207,68 @@ fn the_specification_is_the_users_and_passes_or_fails_on_the_first_screen() {
     );
     assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
 }
+
+/// Issue 58 (item 5): a survey flight that starts with its calibration box keeps its Lines
+/// table on the page: every survey line listed with its verdict, the box's legs and the turns
+/// named under it.
+#[test]
+fn a_box_then_lines_flight_lists_every_line_on_the_page() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let run = |args: &[&str]| common::run_in(d, args);
+    run(&["simulate", "--plan", "box", "--out", "box.csv"]);
+    run(&[
+        "simulate",
+        "--plan",
+        "survey",
+        "--lines",
+        "3",
+        "--out",
+        "lines.csv",
+    ]);
+    let flight_box = std::fs::read_to_string(d.join("box.csv")).unwrap();
+    let survey = std::fs::read_to_string(d.join("lines.csv")).unwrap();
+    let header: Vec<&str> = survey.lines().next().unwrap().split(',').collect();
+    let at = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (tt, line) = (at("tt"), at("line"));
+    let last = flight_box
+        .lines()
+        .last()
+        .unwrap()
+        .split(',')
+        .nth(tt)
+        .unwrap();
+    let offset: f64 = last.parse::<f64>().unwrap() + 0.1;
+    let mut joined = flight_box.clone();
+    for row in survey.lines().skip(1) {
+        let cells: Vec<String> = (row.split(',').enumerate())
+            .map(|(k, c)| match k {
+                k if k == tt => (c.parse::<f64>().unwrap() + offset).to_string(),
+                k if k == line => (c.parse::<f64>().unwrap() + 100.0).to_string(),
+                _ => c.to_string(),
+            })
+            .collect();
+        joined += &(cells.join(",") + "\n");
+    }
+    std::fs::write(d.join("flight.csv"), joined).unwrap();
+    run(&[
+        "fit", "box.csv", "--scalar", "mag_1_uc", "--vector", "flux_a", "-o", "m.json",
+    ]);
+    run(&["report", "flight.csv", "--model", "m.json", "-o", "rep"]);
+    let page = std::fs::read_to_string(d.join("rep/index.html")).unwrap();
+    let lines = &page[page.find(">Lines</h2>").expect("a Lines section")..];
+    let lines = &lines[..lines[5..].find("<h2").unwrap() + 5];
+    for id in ["1101", "1102", "1103"] {
+        let row = lines
+            .split("<tr>")
+            .find(|r| r.contains(&format!(">{id}</td>")))
+            .unwrap_or_else(|| panic!("line {id} is not listed"));
+        assert!(
+            row.contains("<td>pass</td>") || row.contains("<td>FAIL</td>"),
+            "{row}"
+        );
+    }
+    assert!(lines.contains("Not in the table"), "{lines}");
+    // The box keeps its own sections.
+    assert!(page.contains(">Maneuvers</h2>") && page.contains(">Figure of merit</h2>"));
+}

@@ -313,6 +313,15 @@ fn a_report_takes_the_rate_of_its_model_when_the_flight_states_none() {
         "r",
     ];
     run(dir.path(), &args);
+    // The page says the rate is assumed, and whose it is; given, it says so.
+    let page =
+        |name: &str| std::fs::read_to_string(dir.path().join(name).join("index.html")).unwrap();
+    assert!(page("r").contains("(assumed: the model&#39;s rate; the file states none)"));
+    run(
+        dir.path(),
+        &[&args[..6], &["--out", "given", "--fs", "10"]].concat(),
+    );
+    assert!(page("given").contains("10.000 Hz (given with --fs)"));
 }
 
 #[test]

@@ -155,8 +155,21 @@ pub(super) fn diagnostics(mut report: Report, model: &ScalarModel, from: &str) -
             format!("{:e}", cv.chosen_lambda_rel),
         ));
         items.push((
-            "expected held-out residual",
+            match model.network {
+                Some(_) => "expected held-out residual, linear model alone",
+                None => "expected held-out residual",
+            },
             format!("{:.4} nT", cv.expected_heldout_rms_nt),
+        ));
+    }
+    if let Some(network) = &model.network {
+        // What the model as applied leaves: the linear model's figures above are without it.
+        items.push((
+            "held-out residual with the network",
+            format!(
+                "{:.4} nT (the linear model alone: {:.4} nT, on the same held-out {})",
+                network.judged_network_rms_nt, network.judged_linear_rms_nt, network.held_out
+            ),
         ));
     }
     if d.exact_iterations > 0 {
@@ -290,4 +303,26 @@ pub(super) fn term_choice(report: Report, model: &ScalarModel) -> Report {
             ],
             &rows,
         )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tolles::tolles_core::fit::TermScore;
+
+    #[test]
+    fn a_compared_model_with_extras_is_named_with_them() {
+        let mut score = TermScore {
+            terms: "permanent,i5,e8".parse().unwrap(),
+            extras: Vec::new(),
+            magnitude: Default::default(),
+            lambda_rel: Some(1e-9),
+            heldout_rms_nt: Some(0.01),
+            heldout_low_rms_nt: None,
+            chosen: true,
+        };
+        assert_eq!(with_extras(&score), "permanent,i5,e8");
+        score.extras = vec!["cur_1".parse().unwrap(), "cur_2".parse().unwrap()];
+        assert_eq!(with_extras(&score), "permanent,i5,e8+cur_1+cur_2");
+    }
 }

@@ -1408,6 +1408,63 @@ mod tests {
     }
 
     #[test]
+    fn fit_diagnostics_say_what_each_figure_is_and_which_row_was_chosen() {
+        let dir = tempfile::tempdir().unwrap();
+        let (data, html) = box_report(dir.path(), true);
+        let d = section(&html, "Fit diagnostics");
+        // Labels that cannot be mistaken: the band's scalar, the fit's ratio (not the FOM's).
+        assert!(
+            d.contains("scalar in the fit&#39;s band, before")
+                || d.contains("scalar in the fit's band, before")
+        );
+        assert!(
+            d.contains("not the FOM&#39;s") || d.contains("not the FOM's"),
+            "{d}"
+        );
+        // The cross-validation sweeps the physical prior's multiplier: its column, and one
+        // chosen row in it and one among the compared models.
+        assert!(d.contains("× the physical prior</th>"), "{d}");
+        assert_eq!(d.matches("<td>chosen</td>").count(), 2);
+        let cv = data
+            .fit
+            .as_ref()
+            .unwrap()
+            .fit
+            .diagnostics
+            .cross_validation
+            .as_ref()
+            .unwrap();
+        let multipliers: std::collections::BTreeSet<String> = (cv.grid.iter())
+            .filter_map(|p| p.prior_multiplier.map(|m| format!("{m:e}")))
+            .collect();
+        assert!(multipliers.len() > 3, "{multipliers:?}");
+        // The spectrum ends at Nyquist (5 Hz on 10 Hz data), not the decade above.
+        let psd = shown_svgs(dir.path(), &html)
+            .into_iter()
+            .find(|svg| svg.contains("frequency (Hz)"))
+            .unwrap();
+        let x_labels: Vec<&str> = (psd.split("<text ").skip(1))
+            .filter(|t| {
+                let y = t.split("y=\"").nth(1).and_then(|v| v.split('"').next());
+                y.and_then(|v| v.parse::<f64>().ok())
+                    .is_some_and(|y| y > 330.0)
+            })
+            .filter_map(|t| t.split('>').nth(1)?.split('<').next().map(str::trim))
+            .collect();
+        assert!(
+            x_labels.contains(&"10⁰") && !x_labels.contains(&"10¹"),
+            "{x_labels:?}"
+        );
+        // Yaw is drawn, on its own axis of one turn.
+        assert!(shown_svgs(dir.path(), &html)
+            .iter()
+            .any(|svg| svg.contains("yaw (°)")));
+        for m in &multipliers {
+            assert!(d.contains(&format!("<td class=\"num\">{m}</td>")), "{m}");
+        }
+    }
+
+    #[test]
     fn a_box_passes_or_fails_the_fom_the_user_specifies() {
         let dir = tempfile::tempdir().unwrap();
         let fom_row = |fom_spec_nt: f64| {
