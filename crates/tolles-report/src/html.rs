@@ -161,7 +161,6 @@ figure.is-live > img, figure.is-live > .svg-note, figure.is-live > ul.legend { d
   /* A short table prints whole, and the sentence that introduces it stays on its page. */
   .table-wrap.short { break-inside: avoid; }
   p:has(+ .table-wrap), p:has(+ .grid), p:has(+ figure) { break-after: avoid; }
-  .table-wrap + p { break-before: avoid; }
   .grid.many { break-inside: auto; }
   p { orphans: 3; widows: 3; }
   footer { break-before: avoid; }

@@ -197,13 +197,18 @@ pub(super) fn line_profiles(report: Report, data: &ReportData) -> Report {
         format!(
         "Each straight line's scalar{} less its mean over the line, against the time since the \
          line began (s): the anomalies a survey delivers, and what compensation took out of \
-         them. Beneath it, the line's fourth difference (x₋₂ − 4x₋₁ + 6x₀ − 4x₊₁ + x₊₂)/16 of \
-         the {} scalar between the specification's ±{} nT (report --noise-tolerance). {} of {} \
-         lines{}.",
+         them{}. Beneath it, the line's fourth difference (x₋₂ − 4x₋₁ + 6x₀ − 4x₊₁ + x₊₂)/16 \
+         of the {} scalar (blue) between the specification's ±{} nT (green; report \
+         --noise-tolerance). {} of {} lines{}.",
         if data.compensated.is_some() {
             " before and after compensation"
         } else {
             ""
+        },
+        if data.compensated.is_some() {
+            " (uncompensated orange, compensated blue)"
+        } else {
+            " (orange)"
         },
         if data.compensated.is_some() { "compensated" } else { "as read" },
         format_value(tolerance),
