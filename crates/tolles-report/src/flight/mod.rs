@@ -1367,6 +1367,8 @@ mod tests {
         let data = build(&request, &Silent, &mut warnings).unwrap();
         let html = std::fs::read_to_string(write(&data, &dir.path().join("r")).unwrap()).unwrap();
         assert!(html.contains(NO_ATTITUDE) && !html.contains(NO_BOX));
+        // The specification says why its FOM is not judged: no attitude, not "no box".
+        assert!(html.contains("<td>no attitude, so no maneuvers</td><td>not judged</td>"));
     }
 
     #[test]

@@ -64,6 +64,9 @@ fn fourth_difference(data: &ReportData) -> Test {
 fn fom(data: &ReportData) -> Test {
     let limit = data.request.fom_spec_nt;
     let (measured, result) = match (has_box(data), &data.fom.after) {
+        (false, _) if data.attitude.all().is_none() => {
+            ("no attitude, so no maneuvers".into(), "not judged".into())
+        }
         (false, _) => ("no box maneuvers".into(), "not judged".into()),
         (true, Some(after)) => (nt(after.fom_nt, 3), verdict(after.fom_nt <= limit)),
         (true, None) => (
@@ -88,6 +91,9 @@ fn heading_error(data: &ReportData) -> Test {
     let (measured, result) = match (error, &data.compensated, &data.truth) {
         (Some(e), _, _) => (format!("{} vs {vs}", nt(e, 3)), verdict(e <= limit)),
         (None, None, _) => ("no model on this page".into(), "not judged".into()),
+        (None, Some(_), _) if data.attitude.all().is_none() => {
+            ("no attitude, so no straight legs".into(), "not judged".into())
+        }
         (None, Some(_), None) => (
             "legs over different ground".into(),
             "not judged (fly the headings over one point, or give --reference)".into(),
