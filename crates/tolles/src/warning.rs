@@ -339,7 +339,7 @@ impl fmt::Display for Warning {
             ),
             Warning::Uncomputable { path, rows, of, column } => write!(
                 f,
-                "{}: {rows} of {of} rows have no {column} (missing scalar or fluxgate values); their cells are empty",
+                "{}: {rows} of {of} rows have no {column} (a value their correction reads is missing: the scalar, a fluxgate, or an extra or network input channel, through its lag); their cells are empty",
                 path.display()
             ),
             Warning::OutputRenamed { path, wanted, renamed } => write!(
@@ -349,7 +349,7 @@ impl fmt::Display for Warning {
             ),
             Warning::NotCompensated { path, rows, of } => write!(
                 f,
-                "{}: {rows} of {of} rows cannot be compensated (missing scalar or fluxgate values)",
+                "{}: {rows} of {of} rows cannot be compensated (a value their correction reads is missing: the scalar, a fluxgate, or an extra or network input channel, through its lag)",
                 path.display()
             ),
             Warning::NoSpectrum {

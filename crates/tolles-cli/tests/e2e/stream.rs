@@ -391,6 +391,24 @@ fn a_row_missing_an_extra_channel_has_no_value_and_says_which() {
         .filter(|r| !r[0].is_empty() && r[1].contains("missing"))
         .count();
     assert_eq!(valued_but_missing, 0, "{:?}", &rows[1990..2010]);
+    // Read 0.2 s late (two samples), the first two missing cells do not stop their own rows'
+    // values: their status says the cell was not read there, not that it was missing for it.
+    let lagged = [&fit[..6], &["--extra", "cur_load:lag=0.2", "-o", "m.json"]].concat();
+    run(d, &lagged);
+    let out = stream_out(d, &["--model", "m.json"], &(lines.join("\n") + "\n"));
+    let rows: Vec<Vec<String>> = out.lines().skip(1).map(|l| last_fields(l, 2)).collect();
+    for row in 2000..2002 {
+        let [value, status] = &rows[row - 1][..] else {
+            unreachable!()
+        };
+        assert!(!value.is_empty(), "row {row}: {status}");
+        assert!(
+            status.contains("which this row's value does not read"),
+            "row {row}: {status}"
+        );
+    }
+    let plainly_missing = (rows.iter()).filter(|r| !r[0].is_empty() && r[1] == "missing cur_load");
+    assert_eq!(plainly_missing.count(), 0, "{:?}", &rows[1995..2010]);
 }
 
 fn stream_out(dir: &Path, args: &[&str], input: &str) -> String {

@@ -395,12 +395,22 @@ impl<T> Output<'_, T> {
         self.flags.is_empty()
     }
 
-    /// `ok`, or the flags joined by `; `.
+    /// `ok`, or the flags joined by `; `. A row with every value computed can only be flagged
+    /// for a cell its value did not read (an extra channel read later through its lag): such
+    /// a missing cell says so, rather than reading as the reason for a value it did not stop.
     pub fn status(&self) -> String {
         if self.flags.is_empty() {
             return "ok".to_string();
         }
-        let text: Vec<String> = self.flags.iter().map(Flag::to_string).collect();
+        let valued = !self.compensated.is_empty() && self.compensated.iter().all(|v| v.is_finite());
+        let text: Vec<String> = (self.flags.iter())
+            .map(|flag| match flag {
+                Flag::Missing { column } if valued => {
+                    format!("missing {column}, which this row's value does not read (its lag reads it later)")
+                }
+                other => other.to_string(),
+            })
+            .collect();
         text.join("; ")
     }
 }

@@ -91,9 +91,10 @@ fn heading_error(data: &ReportData) -> Test {
     let (measured, result) = match (error, &data.compensated, &data.truth) {
         (Some(e), _, _) => (format!("{} vs {vs}", nt(e, 3)), verdict(e <= limit)),
         (None, None, _) => ("no model on this page".into(), "not judged".into()),
-        (None, Some(_), _) if data.attitude.all().is_none() => {
-            ("no attitude, so no straight legs".into(), "not judged".into())
-        }
+        (None, Some(_), _) if data.attitude.all().is_none() => (
+            "no attitude, so no straight legs".into(),
+            "not judged".into(),
+        ),
         (None, Some(_), None) => (
             "legs over different ground".into(),
             "not judged (fly the headings over one point, or give --reference)".into(),
