@@ -93,11 +93,29 @@ pub fn group_thousands(n: usize) -> String {
 /// 6.312): digits beyond what the error allows are noise. Three decimals when the error is not
 /// a positive finite number.
 pub fn with_error(value: f64, error: f64) -> String {
+    let (value, error) = to_error(value, error);
+    format!("{value} ± {error}")
+}
+
+/// `value` and `error` as [`with_error`] writes them, apart (for a table's two columns); a
+/// value smaller than the error's last digit keeps two significant digits of its own, so a
+/// small coefficient never reads as 0.
+pub fn to_error(value: f64, error: f64) -> (String, String) {
     let decimals = match error.is_finite() && error > 0.0 {
         true => (1 - error.log10().floor() as i32).clamp(0, 9) as usize,
         false => 3,
     };
-    format!("{value:.decimals$} ± {error:.decimals$}")
+    let shown = format!("{value:.decimals$}");
+    let vanishes = value != 0.0
+        && shown
+            .trim_start_matches('-')
+            .trim_matches(['0', '.'])
+            .is_empty();
+    let shown = match vanishes {
+        true => format!("{value:.1e}"),
+        false => shown,
+    };
+    (shown, format!("{error:.decimals$}"))
 }
 
 #[cfg(test)]
@@ -110,5 +128,9 @@ mod tests {
         assert_eq!(with_error(0.123456, 0.0123), "0.123 ± 0.012");
         assert_eq!(with_error(12.5, 0.0), "12.500 ± 0.000");
         assert_eq!(with_error(12.5, f64::NAN), "12.500 ± NaN");
+        // Apart, for a coefficient table; a value below the error's last digit keeps its own.
+        assert_eq!(to_error(-512.143684, 68.58), ("-512".into(), "69".into()));
+        assert_eq!(to_error(12.856756, 32.3301), ("13".into(), "32".into()));
+        assert_eq!(to_error(0.0004, 3.2), ("4.0e-4".into(), "3.2".into()));
     }
 }

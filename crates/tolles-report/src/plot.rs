@@ -802,7 +802,7 @@ fn break_at_wraps(runs: Vec<Vec<(f64, f64)>>, period: f64) -> Vec<Vec<(f64, f64)
 type Chart<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
 
 /// Each span clipped to the x range, in plot units; spans wholly outside are left out.
-fn visible_spans<'a>(plot: &'a LinePlot, x_range: (f64, f64)) -> Vec<(&'a Span, f64, f64)> {
+fn visible_spans(plot: &LinePlot, x_range: (f64, f64)) -> Vec<(&Span, f64, f64)> {
     (plot.spans.iter())
         .filter_map(|span| {
             let (from, to) = range_on_axis((span.from, span.to), plot.log_x)?;

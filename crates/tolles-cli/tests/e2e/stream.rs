@@ -375,10 +375,10 @@ fn a_row_missing_an_extra_channel_has_no_value_and_says_which() {
     let text = std::fs::read_to_string(d.join("cal.csv")).unwrap();
     let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
     let k = lines[0].split(',').position(|h| h == "cur_load").unwrap();
-    for row in 2000..2003 {
-        let mut cells: Vec<&str> = lines[row].split(',').collect();
+    for line in &mut lines[2000..2003] {
+        let mut cells: Vec<&str> = line.split(',').collect();
         cells[k] = "";
-        lines[row] = cells.join(",");
+        *line = cells.join(",");
     }
     let out = stream_out(d, &["--model", "m.json"], &(lines.join("\n") + "\n"));
     let rows: Vec<Vec<String>> = out.lines().skip(1).map(|l| last_fields(l, 2)).collect();

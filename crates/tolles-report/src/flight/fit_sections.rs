@@ -14,12 +14,9 @@ pub(super) fn model(report: Report, model: &ScalarModel, from: &str) -> Report {
         .zip(&fit.diagnostics.std_errors)
         .enumerate()
         .map(|(k, ((name, beta), se))| {
-            vec![
-                name.clone(),
-                format!("{beta:.6}"),
-                format!("{se:.4}"),
-                model.coefficient_unit(k),
-            ]
+            // To the standard error's digits: the rest is noise (the model file keeps them).
+            let (beta, se) = crate::numbers::to_error(*beta, *se);
+            vec![name.clone(), beta, se, model.coefficient_unit(k)]
         })
         .collect();
     let fluxgates = if model.vectors.len() > 1 {
@@ -34,7 +31,8 @@ pub(super) fn model(report: Report, model: &ScalarModel, from: &str) -> Report {
             "Fit of {} against {fluxgates} {} with terms {} and the {} magnitude; sample rate {:.3} Hz. \
              Each column is dimensionless (B̂ = B/|B| for the permanent terms, B̂ᵢ·Bⱼ/Bt_scale \
              for the induced and B̂ᵢ·Ḃⱼ/Bt_scale, Ḃ per sample, for the eddy terms), so every \
-             coefficient is in nT.",
+             coefficient is in nT (an extra channel's in nT per its unit). Each is shown to its \
+             standard error's two significant digits; the model file keeps every digit.",
             model.scalar,
             model.vectors.join(", "),
             fit.settings.design.terms,
