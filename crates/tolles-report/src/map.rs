@@ -4,6 +4,7 @@
 //! scale bar, and each flight line's id at its start and an arrowhead at its end.
 
 use crate::html::escape;
+use crate::numbers::nice_step;
 use std::fmt::Write as _;
 
 /// Width and height of a map (px).
@@ -146,7 +147,8 @@ impl Frame {
     /// Grid lines every `step` km with their labels inside the frame, and a scale bar of one
     /// step at the bottom left.
     fn grid(&self, svg: &mut String) {
-        let step = nice_step(self.span_km.0.max(self.span_km.1) / 5.0);
+        // A millimetre at least: a track of one point still gets a grid.
+        let step = nice_step((self.span_km.0.max(self.span_km.1) / 5.0).max(1e-6));
         let (x0, y0) = self.xy(self.east0, self.north0);
         let (x1, y1) = self.xy(self.east0 + self.span_km.0, self.north0 + self.span_km.1);
         let ticks = |from: f64, span: f64| {
@@ -267,16 +269,6 @@ impl Frame {
             (y0 + y1) / 2.0,
         );
     }
-}
-
-/// 1, 2 or 5 times a power of ten, the nearest at or above `rough` (km).
-fn nice_step(rough: f64) -> f64 {
-    let power = 10f64.powf(rough.max(1e-6).log10().floor());
-    [1.0, 2.0, 5.0, 10.0]
-        .into_iter()
-        .map(|m| m * power)
-        .find(|step| *step >= rough)
-        .unwrap_or(10.0 * power)
 }
 
 /// A grid step (km) without trailing zeros.

@@ -89,6 +89,17 @@ pub fn group_thousands(n: usize) -> String {
     out
 }
 
+/// 1, 2 or 5 times a power of ten: the nearest at or above `rough` (> 0), a round step
+/// between an axis's ticks or a map's grid lines (units of `rough`).
+pub fn nice_step(rough: f64) -> f64 {
+    let power = 10f64.powf(rough.log10().floor());
+    [1.0, 2.0, 5.0, 10.0]
+        .into_iter()
+        .map(|m| m * power)
+        .find(|step| *step >= rough)
+        .unwrap_or(10.0 * power)
+}
+
 /// `value ± error` to the error's two significant digits (53544.7 ± 6.3, not 53544.701 ±
 /// 6.312): digits beyond what the error allows are noise. Three decimals when the error is not
 /// a positive finite number.

@@ -72,6 +72,15 @@ impl PlotSize {
         }
     }
 
+    /// About how many labels the y axis gets: fewer on a short plot.
+    fn y_label_count(self) -> usize {
+        if self.height < 250 {
+            4
+        } else {
+            7
+        }
+    }
+
     /// Heights of the x-label area and widths of the y-label area (pixels).
     fn label_areas(self) -> (u32, u32) {
         if self.is_small() {
@@ -578,11 +587,10 @@ fn axis_tick(v: f64, log: bool, (lo, hi): (f64, f64)) -> String {
 /// the title's line, a gap, the widest label at 0.62 em a character, and the tick.
 fn y_label_area(plot: &LinePlot, y_range: (f64, f64)) -> u32 {
     let (label_font, desc_font) = plot.size.fonts();
-    let count = if plot.size.height < 250 { 4 } else { 7 };
     let widest = match (plot.y_ticks.is_empty(), plot.log_y) {
         (false, false) => plot.y_ticks.iter().map(|(_, l)| l.chars().count()).max(),
         (_, true) => Some(4),
-        (true, false) => widest_tick(y_range, count),
+        (true, false) => widest_tick(y_range, plot.size.y_label_count()),
     };
     let label_px = 0.62 * f64::from(label_font) * widest.unwrap_or(1) as f64;
     (f64::from(desc_font) + 12.0 + label_px + 10.0).ceil() as u32
@@ -595,11 +603,7 @@ fn widest_tick((lo, hi): (f64, f64), count: usize) -> Option<usize> {
     if !(rough.is_finite() && rough > 0.0) {
         return None;
     }
-    let power = 10f64.powf(rough.log10().floor());
-    let step = [1.0, 2.0, 5.0, 10.0]
-        .into_iter()
-        .map(|m| m * power)
-        .find(|s| *s >= rough)?;
+    let step = crate::numbers::nice_step(rough);
     let (first, last) = ((lo / step).ceil() as i64, (hi / step).floor() as i64);
     (first..=last.min(first + 50))
         .map(|k| axis_tick(k as f64 * step, false, (lo, hi)).chars().count())
@@ -643,7 +647,6 @@ fn draw_lines<DB: DrawingBackend>(
         }
     };
     let x_count = if small { 5 } else { 9 };
-    let y_count = if plot.size.height < 250 { 4 } else { 7 };
     let mut mesh = chart.configure_mesh();
     mesh.x_desc(plot.x_label.as_str())
         .y_desc(plot.y_label.as_str())
@@ -655,7 +658,7 @@ fn draw_lines<DB: DrawingBackend>(
         .y_labels(if fixed_y_ticks {
             0
         } else {
-            label_count(y_range, plot.log_y, y_count)
+            label_count(y_range, plot.log_y, plot.size.y_label_count())
         })
         .x_label_formatter(&x_tick)
         .y_label_formatter(&y_tick)

@@ -2,6 +2,7 @@
 //! scalar against heading, per cardinal heading or per survey line.
 
 use super::*;
+use tolles::tolles_core::maneuvers::fom::peak_to_peak;
 
 /// The heading levels before and after, and what the heading error is.
 pub(super) fn heading_error(mut report: Report, data: &ReportData) -> Report {
@@ -88,10 +89,7 @@ fn correction(row: &HeadingRow) -> Option<f64> {
 /// The largest heading's correction minus the smallest (nT); `None` with fewer than two.
 fn correction_spread(rows: &[HeadingRow]) -> Option<f64> {
     let corrections: Vec<f64> = rows.iter().filter_map(correction).collect();
-    let (lo, hi) = corrections
-        .iter()
-        .fold((f64::MAX, f64::MIN), |(lo, hi), c| (lo.min(*c), hi.max(*c)));
-    (corrections.len() >= 2).then_some(hi - lo)
+    (corrections.len() >= 2).then(|| peak_to_peak(&corrections))
 }
 
 /// Where the x axis of a level-against-heading plot is labelled (deg).

@@ -171,8 +171,7 @@ fn line_cells(row: &LineRow, compensated: bool, with_error: bool, tolerance: f64
     }
     cells.push(cell(row.peak_fourth_difference_nt, 3));
     cells.push(match row.peak_fourth_difference_nt {
-        Some(peak) if peak <= tolerance => "pass".into(),
-        Some(_) => "FAIL".into(),
+        Some(peak) => verdict(peak <= tolerance),
         None => "—".into(),
     });
     cells
@@ -249,9 +248,6 @@ fn line_cell(row: &LineRow, data: &ReportData, tolerance: f64) -> Option<GridCel
         );
     }
     let judged = data.compensated.as_ref().unwrap_or(&data.uncompensated);
-    let level = |v: f64, name: String| {
-        Series::new(name, x.clone(), vec![v; x.len()]).colour(Colour::REFERENCE)
-    };
     let small = |title: String, y_label: &str, series| LinePlot {
         title,
         x_label: "time since the line began (s)".into(),
@@ -269,23 +265,22 @@ fn line_cell(row: &LineRow, data: &ReportData, tolerance: f64) -> Option<GridCel
         small(
             format!("Line {} fourth difference", row.line),
             "fourth difference (nT)",
-            vec![
-                Series::new(
-                    "fourth difference",
-                    x.clone(),
-                    on_line(&judged.fourth_difference),
-                )
-                .colour(Colour::COMPENSATED),
-                level(tolerance, format!("+{} nT", format_value(tolerance))),
-                level(-tolerance, format!("−{} nT", format_value(tolerance))),
-            ],
+            vec![Series::new(
+                "fourth difference",
+                x.clone(),
+                on_line(&judged.fourth_difference),
+            )
+            .colour(Colour::COMPENSATED)]
+            .into_iter()
+            .chain(tolerance_lines(&x, tolerance))
+            .collect(),
         ),
     ];
     let caption = match row.peak_fourth_difference_nt {
         Some(peak) => format!(
             "Peak |fourth difference| {} nT: {} (±{} nT).",
             format_value(peak),
-            if peak <= tolerance { "pass" } else { "FAIL" },
+            verdict(peak <= tolerance),
             format_value(tolerance)
         ),
         None => "Too few samples for a fourth difference.".into(),

@@ -729,24 +729,40 @@ fn fourth_difference_plot(data: &ReportData, plot: &OverTime<'_>) -> LinePlot {
         None => (&data.uncompensated, "as read"),
     };
     let tolerance = data.request.noise_tolerance_nt;
-    let level = |v: f64, name: &str| {
-        Series::new(name, t.clone(), vec![v; t.len()]).colour(Colour::REFERENCE)
-    };
     plot(
         format!("Fourth difference ({name}) against ±{tolerance} nT"),
         "fourth difference (nT)",
         vec![
             Series::new(name, t.clone(), trace.fourth_difference.clone())
                 .colour(Colour::COMPENSATED),
-            level(tolerance, &format!("+{tolerance} nT")),
-            level(-tolerance, &format!("−{tolerance} nT")),
-        ],
+        ]
+        .into_iter()
+        .chain(tolerance_lines(t, tolerance))
+        .collect(),
         Some(format!(
             "(x₋₂ − 4x₋₁ + 6x₀ − 4x₊₁ + x₊₂)/16 of the {name} scalar, sample by sample; the \
              survey specification's tolerance ±{tolerance} nT (report --noise-tolerance). A \
              line passes when all of it lies within (the lines' table)."
         )),
     )
+}
+
+/// The specification's ± `tolerance` (nT) as two level lines over `x`.
+fn tolerance_lines(x: &[f64], tolerance: f64) -> [Series; 2] {
+    let level = |v: f64, sign: &str| {
+        Series::new(
+            format!("{sign}{tolerance} nT"),
+            x.to_vec(),
+            vec![v; x.len()],
+        )
+        .colour(Colour::REFERENCE)
+    };
+    [level(tolerance, "+"), level(-tolerance, "−")]
+}
+
+/// `pass` or `FAIL`, as a specification's test ends.
+fn verdict(pass: bool) -> String {
+    if pass { "pass" } else { "FAIL" }.into()
 }
 
 /// The network's share of the correction, in words.

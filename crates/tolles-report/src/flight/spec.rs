@@ -27,10 +27,6 @@ pub(super) fn specification(report: Report, data: &ReportData) -> Report {
         .table(&["test", "specification", "this flight", "result"], &rows)
 }
 
-fn verdict(pass: bool) -> String {
-    if pass { "pass" } else { "FAIL" }.into()
-}
-
 /// Every survey line's peak fourth difference within ± the tolerance.
 fn fourth_difference(data: &ReportData) -> Test {
     let tolerance = data.request.noise_tolerance_nt;
